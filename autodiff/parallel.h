@@ -1,0 +1,42 @@
+// The one threading wrapper: every parallel loop in gradraster goes through
+// here, and this is the only header that knows TBB exists.
+//
+// Results never depend on the thread count: parallel_for bodies write disjoint
+// outputs, and deterministic_sum splits work into fixed blocks whose partial
+// sums are added in block order.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <vector>
+
+namespace gr {
+
+// Default minimum chunk for cheap elementwise loops.
+constexpr std::int64_t kElementwiseGrain = 16384;
+
+// Runs body(lo, hi) over disjoint sub-ranges covering [begin, end). Ranges of
+// at most `grain` elements run inline on the calling thread.
+void parallel_for(std::int64_t begin, std::int64_t end, std::int64_t grain,
+                  const std::function<void(std::int64_t, std::int64_t)>& body);
+
+// Limits the threads used by parallel_for (0 = all hardware threads).
+void set_num_threads(int n);
+int num_threads();
+
+// Sum over [0, n) of block_sum(lo, hi), with blocks of `block` elements fixed
+// by n alone, so the result is bit-identical for any thread count.
+template <class Acc, class BlockSum>
+Acc deterministic_sum(std::int64_t n, std::int64_t block, BlockSum block_sum) {
+  const std::int64_t blocks = (n + block - 1) / block;
+  std::vector<Acc> partial(static_cast<std::size_t>(blocks), Acc(0));
+  parallel_for(0, blocks, 1, [&](std::int64_t b0, std::int64_t b1) {
+    for (std::int64_t b = b0; b < b1; ++b)
+      partial[b] = block_sum(b * block, b * block + block < n ? b * block + block : n);
+  });
+  Acc total(0);
+  for (const Acc& p : partial) total += p;
+  return total;
+}
+
+}  // namespace gr

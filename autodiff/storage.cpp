@@ -1,0 +1,90 @@
+#include "autodiff/storage.h"
+
+#include <cstdlib>
+#include <map>
+#include <mutex>
+#include <new>
+#include <vector>
+
+namespace gr {
+namespace {
+
+constexpr std::size_t kAlignment = 64;
+// Buffers larger than this are not cached: holding on to them would pin memory
+// that the rest of the program may need.
+constexpr std::size_t kMaxCachedBuffer = std::size_t(1) << 31;
+constexpr std::size_t kMaxCachedTotal = std::size_t(4) << 30;
+
+// Rounds a request up to a bucket: the next multiple of 64 below 4 KiB, else the
+// next power-of-two quarter step (so at most 25% of a buffer is wasted).
+std::size_t bucket_size(std::size_t bytes) {
+  if (bytes <= 4096) return (bytes + kAlignment - 1) / kAlignment * kAlignment + (bytes == 0 ? kAlignment : 0);
+  std::size_t p = 4096;
+  while (p * 2 < bytes) p *= 2;
+  std::size_t step = p / 4;
+  return (bytes + step - 1) / step * step;
+}
+
+struct Cache {
+  std::mutex mutex;
+  std::multimap<std::size_t, void*> free_buffers;
+  StorageStats stats;
+};
+
+Cache& cache() {
+  static Cache* c = new Cache();  // never destroyed: tensors may outlive static destructors
+  return *c;
+}
+
+}  // namespace
+
+Storage::Storage(std::size_t bytes) : bytes_(bucket_size(bytes)) {
+  Cache& c = cache();
+  {
+    std::lock_guard<std::mutex> lock(c.mutex);
+    auto it = c.free_buffers.find(bytes_);
+    if (it != c.free_buffers.end()) {
+      ptr_ = it->second;
+      c.free_buffers.erase(it);
+      c.stats.reused++;
+      c.stats.cached_bytes -= static_cast<std::int64_t>(bytes_);
+      return;
+    }
+    c.stats.fresh_allocations++;
+  }
+  ptr_ = std::aligned_alloc(kAlignment, bytes_);
+  if (!ptr_) throw std::bad_alloc();
+}
+
+Storage::~Storage() {
+  Cache& c = cache();
+  if (bytes_ <= kMaxCachedBuffer) {
+    std::lock_guard<std::mutex> lock(c.mutex);
+    if (c.stats.cached_bytes + static_cast<std::int64_t>(bytes_) <= static_cast<std::int64_t>(kMaxCachedTotal)) {
+      c.free_buffers.emplace(bytes_, ptr_);
+      c.stats.cached_bytes += static_cast<std::int64_t>(bytes_);
+      return;
+    }
+  }
+  std::free(ptr_);
+}
+
+StorageStats storage_stats() {
+  Cache& c = cache();
+  std::lock_guard<std::mutex> lock(c.mutex);
+  return c.stats;
+}
+
+void release_cached_storage() {
+  Cache& c = cache();
+  std::vector<void*> to_free;
+  {
+    std::lock_guard<std::mutex> lock(c.mutex);
+    for (auto& kv : c.free_buffers) to_free.push_back(kv.second);
+    c.free_buffers.clear();
+    c.stats.cached_bytes = 0;
+  }
+  for (void* p : to_free) std::free(p);
+}
+
+}  // namespace gr

@@ -1,0 +1,156 @@
+#include "autodiff/tape.h"
+
+#include <cstring>
+
+#include "autodiff/accumulate.h"
+
+namespace gr {
+namespace {
+thread_local bool g_grad_mode = true;
+}
+
+NoGradGuard::NoGradGuard() : previous_(g_grad_mode) { g_grad_mode = false; }
+NoGradGuard::~NoGradGuard() { g_grad_mode = previous_; }
+bool grad_mode_enabled() { return g_grad_mode; }
+
+Tape& Tape::current() {
+  thread_local Tape tape;
+  return tape;
+}
+
+void Tape::clear() {
+  nodes_.clear();
+  node_of_slot_.clear();
+  slot_grads_.clear();
+  ++generation_;
+}
+
+bool should_record(const std::vector<Tensor>& inputs) {
+  if (!g_grad_mode) return false;
+  for (const Tensor& t : inputs)
+    if (t.defined() && t.requires_grad()) return true;
+  return false;
+}
+
+bool should_record(std::initializer_list<Tensor> inputs) {
+  if (!g_grad_mode) return false;
+  for (const Tensor& t : inputs)
+    if (t.defined() && t.requires_grad()) return true;
+  return false;
+}
+
+void Tape::append(const char* name, std::vector<Tensor> inputs, const std::vector<Tensor*>& outputs, Adjoint adjoint) {
+  for (std::size_t i = 0; i < inputs.size(); ++i) {
+    const TensorImpl* in = inputs[i].impl();
+    if (in && in->recorded && in->requires_grad && in->tape_generation != generation_)
+      throw TapeError(std::string(name) + ": input " + std::to_string(i) +
+                      " was computed on a tape that has since been cleared or swept by backward(); "
+                      "recompute it, or detach() it to use it as a constant");
+  }
+  Node node;
+  node.name = name;
+  node.inputs = std::move(inputs);
+  node.adjoint = std::move(adjoint);
+  for (Tensor* out : outputs) {
+    TensorImpl* o = out->impl();
+    o->requires_grad = true;
+    o->recorded = true;
+    o->tape_generation = generation_;
+    o->grad_slot = static_cast<std::int64_t>(node_of_slot_.size());
+    node_of_slot_.push_back(static_cast<std::int64_t>(nodes_.size()));
+    node.output_slots.push_back(o->grad_slot);
+  }
+  nodes_.push_back(std::move(node));
+}
+
+void record(const char* name, std::vector<Tensor> inputs, const std::vector<Tensor*>& outputs, Adjoint adjoint) {
+  Tape::current().append(name, std::move(inputs), outputs, std::move(adjoint));
+}
+
+void record(const char* name, std::vector<Tensor> inputs, std::initializer_list<Tensor*> outputs, Adjoint adjoint) {
+  record(name, std::move(inputs), std::vector<Tensor*>(outputs), std::move(adjoint));
+}
+
+const Tensor& AdjointContext::grad_output(std::size_t i) const {
+  return tape_.slot_grads_[static_cast<std::size_t>(node_.output_slots.at(i))];
+}
+
+bool AdjointContext::needs_grad(std::size_t input) const {
+  const Tensor& t = node_.inputs.at(input);
+  return t.defined() && t.requires_grad();
+}
+
+void AdjointContext::accumulate(std::size_t input, const Tensor& grad) {
+  const Tensor& in = node_.inputs.at(input);
+  if (!in.defined() || !in.requires_grad()) return;
+  if (grad.shape() != in.shape() || grad.dtype() != in.dtype())
+    throw TapeError(std::string(node_.name) + " adjoint: gradient " + grad.describe() +
+                    " does not match input " + std::to_string(input) + " " + in.describe());
+  TensorImpl* impl = in.impl();
+  if (impl->recorded)
+    accumulate_into(tape_.slot_grads_[static_cast<std::size_t>(impl->grad_slot)], grad);
+  else {
+    Tensor g(std::move(impl->grad));
+    accumulate_into(g, grad);
+    impl->grad = g.impl_ptr();
+  }
+}
+
+void Tape::run_backward(const Tensor& output, const Tensor& upstream) {
+  if (!output.defined()) throw TapeError("backward: the output tensor is undefined");
+  if (!output.requires_grad())
+    throw TapeError("backward: the output " + output.describe() +
+                    " does not require a gradient (no input of the computation requires grad, or it ran under NoGradGuard)");
+  if (upstream.shape() != output.shape() || upstream.dtype() != output.dtype())
+    throw TapeError("backward: upstream gradient " + upstream.describe() + " does not match output " + output.describe());
+  TensorImpl* out = output.impl();
+  if (!out->recorded) {  // a leaf: its gradient is the upstream itself
+    Tensor g(std::move(out->grad));
+    accumulate_into(g, upstream);
+    out->grad = g.impl_ptr();
+    return;
+  }
+  if (out->tape_generation != generation_ || !nodes_[node_of_slot_[out->grad_slot]].adjoint)
+    throw TapeError("backward: the tape holding this tensor's history has been freed (by an earlier backward() or "
+                    "Tape::clear()); run the forward computation again before calling backward()");
+
+  NoGradGuard no_grad;  // adjoints compute with ops but record nothing
+  slot_grads_.assign(node_of_slot_.size(), Tensor());
+  slot_grads_[out->grad_slot] = upstream;
+  const std::int64_t start = node_of_slot_[out->grad_slot];
+  for (std::int64_t i = start; i >= 0; --i) {
+    Node& node = nodes_[i];
+    bool has_grad = false;
+    for (std::int64_t s : node.output_slots) has_grad |= slot_grads_[s].defined();
+    if (has_grad) {
+      if (!node.adjoint)
+        throw TapeError(std::string("backward: reached '") + node.name +
+                        "', whose saved values were freed by an earlier backward(); run the forward computation again");
+      AdjointContext ctx(*this, node);
+      node.adjoint(ctx);
+    }
+    // Release what the sweep has passed: saved values, inputs, output grads.
+    node.adjoint = nullptr;
+    node.inputs.clear();
+    for (std::int64_t s : node.output_slots) slot_grads_[s] = Tensor();
+  }
+  // Every node swept: reset for the next iteration (capacity is kept).
+  bool all_swept = true;
+  for (std::size_t i = start + 1; i < nodes_.size() && all_swept; ++i) all_swept = !nodes_[i].adjoint;
+  if (all_swept) clear();
+}
+
+void backward(const Tensor& output, const Tensor& upstream_grad) {
+  Tape::current().run_backward(output, upstream_grad);
+}
+
+void backward(const Tensor& loss) {
+  if (!loss.defined()) throw TapeError("backward: the loss tensor is undefined");
+  if (loss.numel() != 1)
+    throw TapeError("backward: the loss has shape " + loss.shape().str() +
+                    "; a loss must have one element (or pass an upstream gradient of that shape)");
+  Tensor seed = Tensor::ones(loss.shape(), loss.dtype());
+  backward(loss, seed);
+}
+
+}  // namespace gr

@@ -1,0 +1,111 @@
+// The gradient tape: a Wengert list of recorded operations, one per thread.
+//
+// Every op in ops/ that has an input requiring a gradient appends one Node
+// holding its inputs, the values its adjoint needs (captured by the closure)
+// and the adjoint itself. backward() walks the list once in reverse: no
+// recursion, no topological sort. Each node's closure and saved inputs are
+// released as soon as the sweep has passed it; once every node has been
+// swept, the tape empties itself for the next iteration (keeping its capacity,
+// so a loop that builds the same graph stops allocating).
+//
+// Writing an op:
+//   Tensor out = ...forward kernel...;
+//   if (should_record({a, b}))
+//     record("mul", {a, b}, {out}, [a, b](AdjointContext& ctx) {
+//       const Tensor& g = ctx.grad_output(0);
+//       if (ctx.needs_grad(0)) ctx.accumulate(0, g * b);   // dL/da = g b
+//       if (ctx.needs_grad(1)) ctx.accumulate(1, g * a);   // dL/db = g a
+//     });
+// Adjoints run with recording switched off.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <initializer_list>
+#include <string>
+#include <vector>
+
+#include "autodiff/tensor.h"
+
+namespace gr {
+
+class AdjointContext;
+using Adjoint = std::function<void(AdjointContext&)>;
+
+class Tape {
+ public:
+  // The calling thread's tape.
+  static Tape& current();
+
+  // Number of nodes recorded and not yet cleared.
+  std::size_t size() const { return nodes_.size(); }
+  // Drops every node and its saved values. Tensors recorded before can no
+  // longer be differentiated (backward on them, or using them as inputs of a
+  // new recorded op, throws TapeError).
+  void clear();
+  std::uint64_t generation() const { return generation_; }
+
+  // Internal: used by record() and backward().
+  void append(const char* name, std::vector<Tensor> inputs, const std::vector<Tensor*>& outputs, Adjoint adjoint);
+  void run_backward(const Tensor& output, const Tensor& upstream);
+
+ private:
+  struct Node {
+    const char* name = "";
+    std::vector<Tensor> inputs;
+    std::vector<std::int64_t> output_slots;
+    Adjoint adjoint;  // empty once swept
+  };
+  friend class AdjointContext;
+  std::vector<Node> nodes_;
+  std::vector<std::int64_t> node_of_slot_;
+  std::vector<Tensor> slot_grads_;
+  std::uint64_t generation_ = 1;
+};
+
+// Passed to an adjoint: gradients of the node's outputs, and where to put the
+// gradients of its inputs.
+class AdjointContext {
+ public:
+  // dL/d(output i); undefined if no gradient reached that output.
+  const Tensor& grad_output(std::size_t i = 0) const;
+  // True if input i requires a gradient (skip computing the others).
+  bool needs_grad(std::size_t input) const;
+  // Adds `grad` (same shape and dtype as input i) into dL/d(input i).
+  void accumulate(std::size_t input, const Tensor& grad);
+  const Tensor& input(std::size_t i) const { return node_.inputs.at(i); }
+
+ private:
+  friend class Tape;
+  AdjointContext(Tape& tape, Tape::Node& node) : tape_(tape), node_(node) {}
+  Tape& tape_;
+  Tape::Node& node_;
+};
+
+// True if gradient mode is on and any defined tensor in `inputs` requires grad.
+bool should_record(std::initializer_list<Tensor> inputs);
+bool should_record(const std::vector<Tensor>& inputs);
+// Records an op on the current tape; marks `outputs` as requiring grad.
+void record(const char* name, std::vector<Tensor> inputs, std::initializer_list<Tensor*> outputs, Adjoint adjoint);
+void record(const char* name, std::vector<Tensor> inputs, const std::vector<Tensor*>& outputs, Adjoint adjoint);
+
+// Reverse sweep from a scalar (one-element) loss, seeding dL/dL = 1.
+void backward(const Tensor& loss);
+// Reverse sweep from any output with an explicit upstream gradient of its shape.
+void backward(const Tensor& output, const Tensor& upstream_grad);
+
+// Turns recording off for its lifetime (nested scopes are fine).
+class NoGradGuard {
+ public:
+  NoGradGuard();
+  ~NoGradGuard();
+  NoGradGuard(const NoGradGuard&) = delete;
+  NoGradGuard& operator=(const NoGradGuard&) = delete;
+
+ private:
+  bool previous_;
+};
+
+bool grad_mode_enabled();
+
+}  // namespace gr

@@ -1,0 +1,147 @@
+#include "autodiff/tensor.h"
+
+#include <cstring>
+#include <random>
+
+namespace gr {
+
+Tensor Tensor::empty(const Shape& shape, DType dtype) {
+  auto impl = std::make_shared<TensorImpl>();
+  impl->shape = shape;
+  impl->dtype = dtype;
+  impl->storage = std::make_shared<Storage>(static_cast<std::size_t>(shape.numel()) * dtype_size(dtype));
+  return Tensor(std::move(impl));
+}
+
+Tensor Tensor::zeros(const Shape& shape, DType dtype) {
+  Tensor t = empty(shape, dtype);
+  std::memset(t.impl_->storage->data(), 0, static_cast<std::size_t>(shape.numel()) * dtype_size(dtype));
+  return t;
+}
+
+Tensor Tensor::full(const Shape& shape, double value, DType dtype) {
+  Tensor t = empty(shape, dtype);
+  const std::int64_t n = shape.numel();
+  switch (dtype) {
+    case DType::Float32: { float* d = t.data<float>(); for (std::int64_t i = 0; i < n; ++i) d[i] = float(value); break; }
+    case DType::Float64: { double* d = t.data<double>(); for (std::int64_t i = 0; i < n; ++i) d[i] = value; break; }
+    case DType::Int32: { std::int32_t* d = t.data<std::int32_t>(); for (std::int64_t i = 0; i < n; ++i) d[i] = std::int32_t(value); break; }
+  }
+  return t;
+}
+
+Tensor Tensor::ones(const Shape& shape, DType dtype) { return full(shape, 1.0, dtype); }
+Tensor Tensor::scalar(double value, DType dtype) { return full(Shape{}, value, dtype); }
+
+Tensor Tensor::from_values(const std::vector<double>& values, const Shape& shape, DType dtype) {
+  if (static_cast<std::int64_t>(values.size()) != shape.numel())
+    throw ShapeError("Tensor::from_values: " + std::to_string(values.size()) +
+                     " values do not fill shape " + shape.str());
+  Tensor t = empty(shape, dtype);
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    switch (dtype) {
+      case DType::Float32: t.data<float>()[i] = float(values[i]); break;
+      case DType::Float64: t.data<double>()[i] = values[i]; break;
+      case DType::Int32: t.data<std::int32_t>()[i] = std::int32_t(values[i]); break;
+    }
+  }
+  return t;
+}
+
+Tensor Tensor::uniform(const Shape& shape, double lo, double hi, std::uint64_t seed, DType dtype) {
+  std::mt19937_64 rng(seed);
+  std::vector<double> v(static_cast<std::size_t>(shape.numel()));
+  // Map 53 random bits to [0, 1) ourselves: std::uniform_real_distribution's
+  // output is implementation-defined, and results must not depend on the library.
+  for (double& x : v) x = lo + (hi - lo) * (double(rng() >> 11) * 0x1.0p-53);
+  return from_values(v, shape, dtype);
+}
+
+const TensorImpl& Tensor::checked() const {
+  if (!impl_) throw ValueError("use of an undefined Tensor");
+  return *impl_;
+}
+
+const Shape& Tensor::shape() const { return checked().shape; }
+DType Tensor::dtype() const { return checked().dtype; }
+
+void Tensor::check_dtype(DType expected) const {
+  if (checked().dtype != expected)
+    throw DTypeError(std::string("Tensor::data: tensor is ") + dtype_name(impl_->dtype) +
+                     ", requested " + dtype_name(expected));
+}
+
+static double element_as_double(const TensorImpl& t, std::int64_t i) {
+  switch (t.dtype) {
+    case DType::Float32: return static_cast<const float*>(t.storage->data())[i];
+    case DType::Float64: return static_cast<const double*>(t.storage->data())[i];
+    case DType::Int32: return static_cast<const std::int32_t*>(t.storage->data())[i];
+  }
+  return 0;
+}
+
+double Tensor::item() const {
+  if (numel() != 1) throw ShapeError("Tensor::item: tensor of shape " + shape().str() + " has " + std::to_string(numel()) + " elements, expected 1");
+  return element_as_double(*impl_, 0);
+}
+
+double Tensor::at(std::initializer_list<std::int64_t> index) const {
+  const Shape& s = shape();
+  if (static_cast<int>(index.size()) != s.rank())
+    throw IndexError("Tensor::at: " + std::to_string(index.size()) + " indices for a tensor of shape " + s.str());
+  auto strides = s.strides();
+  std::int64_t off = 0;
+  int axis = 0;
+  for (std::int64_t i : index) {
+    if (i < 0 || i >= s[axis])
+      throw IndexError("Tensor::at: index " + std::to_string(i) + " out of range on axis " + std::to_string(axis) + " of shape " + s.str());
+    off += i * strides[axis++];
+  }
+  return element_as_double(*impl_, off);
+}
+
+std::vector<double> Tensor::to_vector() const {
+  std::vector<double> v(static_cast<std::size_t>(numel()));
+  for (std::int64_t i = 0; i < numel(); ++i) v[i] = element_as_double(*impl_, i);
+  return v;
+}
+
+bool Tensor::requires_grad() const { return checked().requires_grad; }
+
+Tensor& Tensor::set_requires_grad(bool on) {
+  const TensorImpl& t = checked();
+  if (t.recorded)
+    throw TapeError("set_requires_grad: only leaf tensors can be marked; this one was produced by an op (use detach() first)");
+  if (on && !is_floating(t.dtype))
+    throw DTypeError(std::string("set_requires_grad: ") + dtype_name(t.dtype) + " tensors cannot require gradients");
+  impl_->requires_grad = on;
+  return *this;
+}
+
+bool Tensor::is_leaf() const { return !checked().recorded; }
+
+Tensor Tensor::grad() const { return Tensor(checked().grad); }
+
+void Tensor::zero_grad() { checked(); impl_->grad.reset(); }
+
+Tensor Tensor::detach() const {
+  const TensorImpl& t = checked();
+  auto impl = std::make_shared<TensorImpl>();
+  impl->shape = t.shape;
+  impl->dtype = t.dtype;
+  impl->storage = t.storage;
+  return Tensor(std::move(impl));
+}
+
+Tensor Tensor::copy() const {
+  Tensor out = empty(shape(), dtype());
+  std::memcpy(out.impl_->storage->data(), impl_->storage->data(), static_cast<std::size_t>(numel()) * dtype_size(dtype()));
+  return out;
+}
+
+std::string Tensor::describe() const {
+  if (!impl_) return "undefined";
+  return std::string(dtype_name(impl_->dtype)) + impl_->shape.str();
+}
+
+}  // namespace gr

@@ -1,0 +1,124 @@
+// Tensor: a shaped, contiguous, row-major array of float32, float64 or int32
+// values that can take part in reverse-mode differentiation.
+//
+// A Tensor is a cheap handle (shared ownership of its storage). Operations on
+// tensors live in ops/; each records itself on the thread's gradient tape
+// (autodiff/tape.h) when one of its inputs requires a gradient.
+//
+//   Tensor x = Tensor::from_vector<double>({1, 2, 3}, {3}).set_requires_grad();
+//   Tensor loss = sum(x * x);
+//   backward(loss);          // x.grad() == [2, 4, 6]
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "autodiff/dtype.h"
+#include "autodiff/shape.h"
+#include "autodiff/storage.h"
+
+namespace gr {
+
+struct TensorImpl {
+  Shape shape;
+  DType dtype = DType::Float32;
+  std::shared_ptr<Storage> storage;
+  bool requires_grad = false;
+  // Produced by a recorded op (false for user-created tensors: leaves).
+  bool recorded = false;
+  // For recorded tensors: which tape generation and gradient slot they belong to.
+  std::uint64_t tape_generation = 0;
+  std::int64_t grad_slot = -1;
+  // Accumulated gradient of a leaf that requires grad.
+  std::shared_ptr<TensorImpl> grad;
+};
+
+class Tensor {
+ public:
+  Tensor() = default;  // an undefined tensor (defined() == false)
+  explicit Tensor(std::shared_ptr<TensorImpl> impl) : impl_(std::move(impl)) {}
+
+  // Factories. Contents of empty() are unspecified.
+  static Tensor empty(const Shape& shape, DType dtype = DType::Float32);
+  static Tensor zeros(const Shape& shape, DType dtype = DType::Float32);
+  static Tensor ones(const Shape& shape, DType dtype = DType::Float32);
+  static Tensor full(const Shape& shape, double value, DType dtype = DType::Float32);
+  static Tensor scalar(double value, DType dtype = DType::Float32);
+  // Copies `values` (converted to `dtype`); values.size() must equal shape.numel().
+  static Tensor from_values(const std::vector<double>& values, const Shape& shape,
+                            DType dtype = DType::Float32);
+  template <class T>
+  static Tensor from_vector(const std::vector<T>& values, const Shape& shape);
+  // Uniform random values in [lo, hi) from a fixed-seed generator (reproducible).
+  static Tensor uniform(const Shape& shape, double lo, double hi, std::uint64_t seed,
+                        DType dtype = DType::Float32);
+
+  bool defined() const { return impl_ != nullptr; }
+  const Shape& shape() const;
+  int rank() const { return shape().rank(); }
+  std::int64_t numel() const { return shape().numel(); }
+  std::int64_t size(int axis) const { return shape()[axis]; }
+  DType dtype() const;
+
+  // Typed access to the contiguous elements; throws DTypeError if T does not match.
+  template <class T> T* data();
+  template <class T> const T* data() const;
+  // The single element of a one-element tensor, converted to double.
+  double item() const;
+  // Element at a multi-index (slow; for tests and small tensors), converted to double.
+  double at(std::initializer_list<std::int64_t> index) const;
+  // All elements converted to double, in row-major order.
+  std::vector<double> to_vector() const;
+
+  // Gradient tracking.
+  bool requires_grad() const;
+  // Marks a leaf as a parameter whose gradient backward() accumulates.
+  Tensor& set_requires_grad(bool on = true);
+  // True if the tensor was not produced by a recorded op.
+  bool is_leaf() const;
+  // Accumulated gradient of a leaf (undefined until a backward pass reaches it).
+  Tensor grad() const;
+  void zero_grad();
+  // Same storage, cut from the tape: no gradient flows through the result.
+  Tensor detach() const;
+  // A new tensor with its own copy of the storage, not recorded on the tape.
+  Tensor copy() const;
+
+  // True if both handles refer to the same tensor.
+  bool same(const Tensor& other) const { return impl_ == other.impl_; }
+  std::string describe() const;  // e.g. "float32[4, 3]"
+  TensorImpl* impl() const { return impl_.get(); }
+  const std::shared_ptr<TensorImpl>& impl_ptr() const { return impl_; }
+
+ private:
+  const TensorImpl& checked() const;
+  void check_dtype(DType expected) const;
+  std::shared_ptr<TensorImpl> impl_;
+};
+
+template <class T>
+T* Tensor::data() {
+  check_dtype(dtype_of<T>::value);
+  return static_cast<T*>(impl_->storage->data());
+}
+
+template <class T>
+const T* Tensor::data() const {
+  check_dtype(dtype_of<T>::value);
+  return static_cast<const T*>(impl_->storage->data());
+}
+
+template <class T>
+Tensor Tensor::from_vector(const std::vector<T>& values, const Shape& shape) {
+  if (static_cast<std::int64_t>(values.size()) != shape.numel())
+    throw ShapeError("Tensor::from_vector: " + std::to_string(values.size()) +
+                     " values do not fill shape " + shape.str());
+  Tensor t = empty(shape, dtype_of<T>::value);
+  T* d = t.data<T>();
+  for (std::size_t i = 0; i < values.size(); ++i) d[i] = values[i];
+  return t;
+}
+
+}  // namespace gr
