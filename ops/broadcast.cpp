@@ -1,0 +1,145 @@
+#include "ops/broadcast.h"
+
+#include <array>
+#include <cstring>
+
+#include "autodiff/parallel.h"
+
+namespace gr::detail {
+namespace {
+
+using Dims = std::array<std::int64_t, 4>;
+
+// Shape left-padded with 1s to rank 4.
+Dims padded(const Shape& s) {
+  Dims d{1, 1, 1, 1};
+  for (int i = 0; i < s.rank(); ++i) d[4 - s.rank() + i] = s[i];
+  return d;
+}
+
+Dims row_major_strides(const Dims& d) {
+  return {d[1] * d[2] * d[3], d[2] * d[3], d[3], 1};
+}
+
+// Offset into a tensor of dims `src` (broadcast to `dst`) of the element at
+// row-major position `flat` of `dst`.
+std::int64_t source_offset(std::int64_t flat, const Dims& dst, const Dims& src_strides) {
+  std::int64_t off = 0;
+  for (int d = 3; d >= 0; --d) {
+    const std::int64_t i = flat % dst[d];
+    flat /= dst[d];
+    off += i * src_strides[d];
+  }
+  return off;
+}
+
+template <class T>
+void expand_kernel(const T* src, const Dims& src_dims, T* out, const Dims& out_dims) {
+  Dims s = row_major_strides(src_dims);
+  for (int d = 0; d < 4; ++d)
+    if (src_dims[d] == 1) s[d] = 0;
+  const std::int64_t n = out_dims[0] * out_dims[1] * out_dims[2] * out_dims[3];
+  parallel_for(0, n, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
+    for (std::int64_t i = lo; i < hi; ++i) out[i] = src[source_offset(i, out_dims, s)];
+  });
+}
+
+// out[t] = sum of g over the reduced axes, for each target element t. The
+// summation order depends on shapes only.
+template <class T>
+void reduce_kernel(const T* g, const Dims& g_dims, T* out, const Dims& t_dims) {
+  const Dims gs = row_major_strides(g_dims);
+  Dims kept_strides = gs, reduced_dims = g_dims;
+  for (int d = 0; d < 4; ++d) {
+    if (t_dims[d] == 1) kept_strides[d] = 0;  // reduced axis: target index is 0
+    else reduced_dims[d] = 1;                  // kept axis: not iterated when reducing
+  }
+  Dims reduced_strides = gs;
+  for (int d = 0; d < 4; ++d)
+    if (reduced_dims[d] == 1) reduced_strides[d] = 0;
+  const std::int64_t nt = t_dims[0] * t_dims[1] * t_dims[2] * t_dims[3];
+  const std::int64_t nr = reduced_dims[0] * reduced_dims[1] * reduced_dims[2] * reduced_dims[3];
+
+  auto sum_range = [&](std::int64_t base, std::int64_t lo, std::int64_t hi) {
+    double acc = 0;
+    for (std::int64_t k = lo; k < hi; ++k) acc += g[base + source_offset(k, reduced_dims, reduced_strides)];
+    return acc;
+  };
+  if (nt >= 64) {  // many outputs: one thread per output, sequential sum
+    parallel_for(0, nt, 16, [&](std::int64_t lo, std::int64_t hi) {
+      for (std::int64_t t = lo; t < hi; ++t)
+        out[t] = T(sum_range(source_offset(t, t_dims, kept_strides), 0, nr));
+    });
+  } else {  // few outputs: split each sum into fixed blocks
+    for (std::int64_t t = 0; t < nt; ++t) {
+      const std::int64_t base = source_offset(t, t_dims, kept_strides);
+      if (nt == 1) {  // nothing kept: the whole of g, contiguous
+        // Full reduction of contiguous data: plain blocked sum.
+        out[t] = T(deterministic_sum<double>(nr, 4096, [&](std::int64_t lo, std::int64_t hi) {
+          double acc = 0;
+          for (std::int64_t k = lo; k < hi; ++k) acc += g[k];
+          return acc;
+        }));
+      } else {
+        out[t] = T(deterministic_sum<double>(nr, 4096, [&](std::int64_t lo, std::int64_t hi) { return sum_range(base, lo, hi); }));
+      }
+    }
+  }
+}
+
+}  // namespace
+
+Shape broadcast_shapes(const Shape& a, const Shape& b, const std::string& op) {
+  const int rank = a.rank() > b.rank() ? a.rank() : b.rank();
+  std::vector<std::int64_t> out(static_cast<std::size_t>(rank));
+  for (int i = 0; i < rank; ++i) {
+    const int ia = a.rank() - rank + i, ib = b.rank() - rank + i;
+    const std::int64_t da = ia >= 0 ? a[ia] : 1, db = ib >= 0 ? b[ib] : 1;
+    if (da != db && da != 1 && db != 1)
+      throw ShapeError(op + ": shapes " + a.str() + " and " + b.str() + " cannot be broadcast together");
+    out[i] = da == 1 ? db : da;
+  }
+  return Shape(out);
+}
+
+Tensor expand_raw(const Tensor& t, const Shape& out) {
+  if (t.numel() == 1) return t;
+  return expand_raw_full(t, out);
+}
+
+Tensor expand_raw_full(const Tensor& t, const Shape& out) {
+  if (t.shape() == out) return t;
+  Tensor r = Tensor::empty(out, t.dtype());
+  switch (t.dtype()) {
+    case DType::Float32: expand_kernel(t.data<float>(), padded(t.shape()), r.data<float>(), padded(out)); break;
+    case DType::Float64: expand_kernel(t.data<double>(), padded(t.shape()), r.data<double>(), padded(out)); break;
+    case DType::Int32: expand_kernel(t.data<std::int32_t>(), padded(t.shape()), r.data<std::int32_t>(), padded(out)); break;
+  }
+  return r;
+}
+
+Tensor reduce_raw(const Tensor& g, const Shape& target) {
+  if (g.shape() == target) return g;
+  Tensor r = Tensor::empty(target, g.dtype());
+  dispatch_float(g.dtype(), "sum", [&](auto tag) {
+    using T = decltype(tag);
+    reduce_kernel(g.data<T>(), padded(g.shape()), r.data<T>(), padded(target));
+  });
+  return r;
+}
+
+void check_float(const Tensor& t, const std::string& op, const char* name) {
+  if (!t.defined()) throw ValueError(op + ": argument '" + name + "' is an undefined tensor");
+  if (!is_floating(t.dtype()))
+    throw DTypeError(op + ": argument '" + name + "' must be float32 or float64, got " + t.describe());
+}
+
+void check_same_float(const Tensor& a, const Tensor& b, const std::string& op) {
+  check_float(a, op, "a");
+  check_float(b, op, "b");
+  if (a.dtype() != b.dtype())
+    throw DTypeError(op + ": operands have different dtypes " + a.describe() + " and " + b.describe() +
+                     " (use cast() to convert)");
+}
+
+}  // namespace gr::detail

@@ -1,0 +1,428 @@
+// Elementwise ops: forward kernels and their adjoints side by side.
+//
+// Every op here is one of two shapes, written once: a unary map y = f(x) with
+// dL/dx = df(g, x, y), or a broadcasting binary map y = f(a, b) with
+// dL/da = da(g, a, b, y) and dL/db = db(g, a, b, y). Operands are either full
+// (same shape as the output) or one-element scalars, after expand_raw; the
+// loops specialize on that so they stay contiguous and vectorizable.
+#include "ops/elementwise.h"
+
+#include <cmath>
+
+#include "autodiff/parallel.h"
+#include "autodiff/tape.h"
+#include "ops/broadcast.h"
+
+namespace gr {
+namespace {
+
+using detail::check_float;
+using detail::check_same_float;
+using detail::expand_raw;
+using detail::reduce_raw;
+
+// out[i] = f(a[i]); a is full or scalar.
+template <class T, class F>
+void map1(const T* a, bool a_full, T* out, std::int64_t n, F f) {
+  parallel_for(0, n, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
+    if (a_full) {
+      for (std::int64_t i = lo; i < hi; ++i) out[i] = f(a[i]);
+    } else {
+      const T av = a[0];
+      for (std::int64_t i = lo; i < hi; ++i) out[i] = f(av);
+    }
+  });
+}
+
+// out[i] = f(a[i], b[i]) with either operand possibly a scalar.
+template <class T, class F>
+void map2(const T* a, bool a_full, const T* b, bool b_full, T* out, std::int64_t n, F f) {
+  parallel_for(0, n, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
+    if (a_full && b_full) {
+      for (std::int64_t i = lo; i < hi; ++i) out[i] = f(a[i], b[i]);
+    } else if (a_full) {
+      const T bv = b[0];
+      for (std::int64_t i = lo; i < hi; ++i) out[i] = f(a[i], bv);
+    } else if (b_full) {
+      const T av = a[0];
+      for (std::int64_t i = lo; i < hi; ++i) out[i] = f(av, b[i]);
+    } else {
+      for (std::int64_t i = lo; i < hi; ++i) out[i] = f(a[0], b[0]);
+    }
+  });
+}
+
+// out[i] = f(g[i], a[i], b[i], y[i]) for adjoints; g and y are full.
+template <class T, class F>
+void map_adjoint(const T* g, const T* a, bool a_full, const T* b, bool b_full, const T* y, T* out,
+                 std::int64_t n, F f) {
+  parallel_for(0, n, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
+    if (a_full && b_full) {
+      for (std::int64_t i = lo; i < hi; ++i) out[i] = f(g[i], a[i], b[i], y[i]);
+    } else if (a_full) {
+      const T bv = b[0];
+      for (std::int64_t i = lo; i < hi; ++i) out[i] = f(g[i], a[i], bv, y[i]);
+    } else if (b_full) {
+      const T av = a[0];
+      for (std::int64_t i = lo; i < hi; ++i) out[i] = f(g[i], av, b[i], y[i]);
+    } else {
+      for (std::int64_t i = lo; i < hi; ++i) out[i] = f(g[i], a[0], b[0], y[i]);
+    }
+  });
+}
+
+bool is_full(const Tensor& t, std::int64_t n) { return t.numel() == n; }
+
+// y = f(x); dL/dx = df(g, x, y).
+template <class Fwd, class Bwd>
+Tensor unary(const char* name, const Tensor& a, Fwd fwd, Bwd df) {
+  check_float(a, name, "a");
+  Tensor out = Tensor::empty(a.shape(), a.dtype());
+  dispatch_float(a.dtype(), name, [&](auto tag) {
+    using T = decltype(tag);
+    map1(a.data<T>(), true, out.data<T>(), a.numel(), [&](T x) { return T(fwd(x)); });
+  });
+  if (should_record({a})) {
+    Tensor y = out.detach();
+    record(name, {a}, {&out}, [a, y, df, name](AdjointContext& ctx) {
+      const Tensor& g = ctx.grad_output();
+      Tensor ga = Tensor::empty(a.shape(), a.dtype());
+      dispatch_float(a.dtype(), name, [&](auto tag) {
+        using T = decltype(tag);
+        map_adjoint(g.data<T>(), a.data<T>(), true, y.data<T>(), true, y.data<T>(), ga.data<T>(), a.numel(),
+                    [&](T gi, T x, T, T yi) { return T(df(gi, x, yi)); });
+      });
+      ctx.accumulate(0, ga);
+    });
+  }
+  return out;
+}
+
+// A per-operand adjoint that is the upstream gradient itself (times +-1).
+enum class Pass { Plus, Minus };
+
+// y = f(a, b) with broadcasting; dL/da = da(g, a, b, y), dL/db = db(g, a, b, y).
+template <class Fwd, class DA, class DB>
+Tensor binary(const char* name, const Tensor& a, const Tensor& b, Fwd fwd, DA da, DB db) {
+  check_same_float(a, b, name);
+  const Shape shape = detail::broadcast_shapes(a.shape(), b.shape(), name);
+  const std::int64_t n = shape.numel();
+  const Tensor ea = expand_raw(a, shape), eb = expand_raw(b, shape);
+  Tensor out = Tensor::empty(shape, a.dtype());
+  dispatch_float(a.dtype(), name, [&](auto tag) {
+    using T = decltype(tag);
+    map2(ea.data<T>(), is_full(ea, n), eb.data<T>(), is_full(eb, n), out.data<T>(), n,
+         [&](T x, T z) { return T(fwd(x, z)); });
+  });
+  if (should_record({a, b})) {
+    Tensor y = out.detach();
+    record(name, {a, b}, {&out}, [ea, eb, y, da, db, name](AdjointContext& ctx) {
+      const Tensor& g = ctx.grad_output();
+      const std::int64_t n = g.numel();
+      dispatch_float(g.dtype(), name, [&](auto tag) {
+        using T = decltype(tag);
+        auto one_side = [&](std::size_t input, auto f) {
+          if (!ctx.needs_grad(input)) return;
+          Tensor full = Tensor::empty(g.shape(), g.dtype());
+          map_adjoint(g.data<T>(), ea.data<T>(), is_full(ea, n), eb.data<T>(), is_full(eb, n), y.data<T>(),
+                      full.data<T>(), n, [&](T gi, T x, T z, T yi) { return T(f(gi, x, z, yi)); });
+          ctx.accumulate(input, reduce_raw(full, ctx.input(input).shape()));
+        };
+        one_side(0, da);
+        one_side(1, db);
+      });
+    });
+  }
+  return out;
+}
+
+// add/sub: the adjoint is +-g summed back to each operand's shape (no map needed).
+Tensor add_or_sub(const char* name, const Tensor& a, const Tensor& b, bool subtract) {
+  auto fwd_add = [](auto x, auto z) { return x + z; };
+  auto fwd_sub = [](auto x, auto z) { return x - z; };
+  check_same_float(a, b, name);
+  const Shape shape = detail::broadcast_shapes(a.shape(), b.shape(), name);
+  const std::int64_t n = shape.numel();
+  const Tensor ea = expand_raw(a, shape), eb = expand_raw(b, shape);
+  Tensor out = Tensor::empty(shape, a.dtype());
+  dispatch_float(a.dtype(), name, [&](auto tag) {
+    using T = decltype(tag);
+    if (subtract) map2(ea.data<T>(), is_full(ea, n), eb.data<T>(), is_full(eb, n), out.data<T>(), n, fwd_sub);
+    else map2(ea.data<T>(), is_full(ea, n), eb.data<T>(), is_full(eb, n), out.data<T>(), n, fwd_add);
+  });
+  if (should_record({a, b})) {
+    record(name, {a, b}, {&out}, [subtract](AdjointContext& ctx) {
+      const Tensor& g = ctx.grad_output();
+      if (ctx.needs_grad(0)) ctx.accumulate(0, reduce_raw(g, ctx.input(0).shape()));
+      if (ctx.needs_grad(1)) {
+        Tensor gb = reduce_raw(g, ctx.input(1).shape());
+        ctx.accumulate(1, subtract ? neg(gb) : gb);
+      }
+    });
+  }
+  return out;
+}
+
+// A comparison mask: 1 where rel(a, b), else 0. No gradient.
+template <class Rel>
+Tensor compare(const char* name, const Tensor& a, const Tensor& b, Rel rel) {
+  check_same_float(a, b, name);
+  const Shape shape = detail::broadcast_shapes(a.shape(), b.shape(), name);
+  const std::int64_t n = shape.numel();
+  const Tensor ea = expand_raw(a, shape), eb = expand_raw(b, shape);
+  Tensor out = Tensor::empty(shape, a.dtype());
+  dispatch_float(a.dtype(), name, [&](auto tag) {
+    using T = decltype(tag);
+    map2(ea.data<T>(), is_full(ea, n), eb.data<T>(), is_full(eb, n), out.data<T>(), n,
+         [&](T x, T z) { return rel(x, z) ? T(1) : T(0); });
+  });
+  return out;
+}
+
+// x^n for an integer n >= 0 by repeated squaring, one bit of n at a time over a
+// block of elements so that each step is a plain vectorizable loop.
+template <class T>
+void integer_power(const T* x, T* out, std::int64_t count, long long n) {
+  constexpr std::int64_t kBlock = 256;
+  T base[kBlock];
+  for (std::int64_t i0 = 0; i0 < count; i0 += kBlock) {
+    const std::int64_t m = count - i0 < kBlock ? count - i0 : kBlock;
+    for (std::int64_t i = 0; i < m; ++i) { out[i0 + i] = T(1); base[i] = x[i0 + i]; }
+    for (long long e = n; e > 0; e >>= 1) {
+      if (e & 1)
+        for (std::int64_t i = 0; i < m; ++i) out[i0 + i] *= base[i];
+      if (e > 1)
+        for (std::int64_t i = 0; i < m; ++i) base[i] *= base[i];
+    }
+  }
+}
+
+// x^p elementwise: repeated squaring for integer |p| <= 64, std::pow otherwise.
+template <class T>
+void power(const T* x, T* out, std::int64_t n, double p) {
+  const bool small_integer = p == std::floor(p) && std::fabs(p) <= 64;
+  parallel_for(0, n, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
+    if (small_integer) {
+      integer_power(x + lo, out + lo, hi - lo, static_cast<long long>(std::fabs(p)));
+      if (p < 0)
+        for (std::int64_t i = lo; i < hi; ++i) out[i] = T(1) / out[i];
+    } else {
+      for (std::int64_t i = lo; i < hi; ++i) out[i] = T(std::pow(x[i], T(p)));
+    }
+  });
+}
+
+}  // namespace
+
+Tensor scalar_like(const Tensor& a, double value) {
+  check_float(a, "scalar_like", "a");
+  return Tensor::scalar(value, a.dtype());
+}
+
+Tensor add(const Tensor& a, const Tensor& b) { return add_or_sub("add", a, b, false); }
+Tensor sub(const Tensor& a, const Tensor& b) { return add_or_sub("sub", a, b, true); }
+
+Tensor mul(const Tensor& a, const Tensor& b) {
+  return binary("mul", a, b, [](auto x, auto z) { return x * z; },
+                [](auto g, auto, auto z, auto) { return g * z; },
+                [](auto g, auto x, auto, auto) { return g * x; });
+}
+
+Tensor div(const Tensor& a, const Tensor& b) {
+  return binary("div", a, b, [](auto x, auto z) { return x / z; },
+                [](auto g, auto, auto z, auto) { return g / z; },
+                [](auto g, auto, auto z, auto y) { return -(g * y) / z; });
+}
+
+Tensor pow(const Tensor& a, const Tensor& b) {
+  return binary("pow", a, b, [](auto x, auto z) { return std::pow(x, z); },
+                [](auto g, auto x, auto z, auto) {
+                  using T = decltype(g);
+                  if (x == T(0) && z < T(1)) return T(0);
+                  return T(g * z * std::pow(x, z - T(1)));
+                },
+                [](auto g, auto x, auto, auto y) {
+                  using T = decltype(g);
+                  return x > T(0) ? T(g * y * std::log(x)) : T(0);
+                });
+}
+
+Tensor pow(const Tensor& a, double p) {
+  check_float(a, "pow", "a");
+  Tensor out = Tensor::empty(a.shape(), a.dtype());
+  dispatch_float(a.dtype(), "pow", [&](auto tag) {
+    using T = decltype(tag);
+    power(a.data<T>(), out.data<T>(), a.numel(), p);
+  });
+  if (should_record({a})) {
+    record("pow", {a}, {&out}, [a, p](AdjointContext& ctx) {
+      const Tensor& g = ctx.grad_output();
+      Tensor ga = Tensor::empty(a.shape(), a.dtype());
+      dispatch_float(a.dtype(), "pow", [&](auto tag) {
+        using T = decltype(tag);
+        // dL/da = g p a^(p-1); 0 where a == 0 and p < 1 (the derivative diverges).
+        T* d = ga.data<T>();
+        const T* x = a.data<T>();
+        const T* gp = g.data<T>();
+        power(x, d, a.numel(), p - 1);
+        const T pt = T(p);
+        parallel_for(0, a.numel(), kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
+          for (std::int64_t i = lo; i < hi; ++i)
+            d[i] = (x[i] == T(0) && p < 1) ? T(0) : gp[i] * pt * d[i];
+        });
+      });
+      ctx.accumulate(0, ga);
+    });
+  }
+  return out;
+}
+
+Tensor minimum(const Tensor& a, const Tensor& b) {
+  return binary("minimum", a, b, [](auto x, auto z) { return z < x ? z : x; },
+                [](auto g, auto x, auto z, auto) { return x < z ? g : x == z ? g / 2 : decltype(g)(0); },
+                [](auto g, auto x, auto z, auto) { return z < x ? g : x == z ? g / 2 : decltype(g)(0); });
+}
+
+Tensor maximum(const Tensor& a, const Tensor& b) {
+  return binary("maximum", a, b, [](auto x, auto z) { return z > x ? z : x; },
+                [](auto g, auto x, auto z, auto) { return x > z ? g : x == z ? g / 2 : decltype(g)(0); },
+                [](auto g, auto x, auto z, auto) { return z > x ? g : x == z ? g / 2 : decltype(g)(0); });
+}
+
+Tensor neg(const Tensor& a) {
+  return unary("neg", a, [](auto x) { return -x; }, [](auto g, auto, auto) { return -g; });
+}
+
+Tensor exp(const Tensor& a) {
+  return unary("exp", a, [](auto x) { return std::exp(x); }, [](auto g, auto, auto y) { return g * y; });
+}
+
+Tensor log(const Tensor& a) {
+  return unary("log", a, [](auto x) { return std::log(x); }, [](auto g, auto x, auto) { return g / x; });
+}
+
+Tensor sqrt(const Tensor& a) {
+  return unary("sqrt", a, [](auto x) { return std::sqrt(x); },
+               [](auto g, auto, auto y) { return y == 0 ? decltype(g)(0) : g / (2 * y); });
+}
+
+Tensor rsqrt(const Tensor& a) {
+  return unary("rsqrt", a, [](auto x) { return 1 / std::sqrt(x); },
+               [](auto g, auto, auto y) { return -g * y * y * y / 2; });
+}
+
+Tensor sin(const Tensor& a) {
+  return unary("sin", a, [](auto x) { return std::sin(x); }, [](auto g, auto x, auto) { return g * std::cos(x); });
+}
+
+Tensor cos(const Tensor& a) {
+  return unary("cos", a, [](auto x) { return std::cos(x); }, [](auto g, auto x, auto) { return -g * std::sin(x); });
+}
+
+Tensor abs(const Tensor& a) {
+  return unary("abs", a, [](auto x) { return std::fabs(x); },
+               [](auto g, auto x, auto) { return x > 0 ? g : x < 0 ? -g : decltype(g)(0); });
+}
+
+Tensor clamp(const Tensor& a, double lo, double hi) {
+  if (!(lo <= hi)) throw ValueError("clamp: lower bound " + std::to_string(lo) + " exceeds upper bound " + std::to_string(hi));
+  return unary("clamp", a,
+               [lo, hi](auto x) {
+                 using T = decltype(x);
+                 return x < T(lo) ? T(lo) : x > T(hi) ? T(hi) : x;
+               },
+               [lo, hi](auto g, auto x, auto) {
+                 using T = decltype(g);
+                 return (x >= T(lo) && x <= T(hi)) ? g : T(0);
+               });
+}
+
+Tensor less(const Tensor& a, const Tensor& b) { return compare("less", a, b, [](auto x, auto z) { return x < z; }); }
+Tensor less_equal(const Tensor& a, const Tensor& b) { return compare("less_equal", a, b, [](auto x, auto z) { return x <= z; }); }
+Tensor greater(const Tensor& a, const Tensor& b) { return compare("greater", a, b, [](auto x, auto z) { return x > z; }); }
+Tensor greater_equal(const Tensor& a, const Tensor& b) { return compare("greater_equal", a, b, [](auto x, auto z) { return x >= z; }); }
+Tensor equal(const Tensor& a, const Tensor& b) { return compare("equal", a, b, [](auto x, auto z) { return x == z; }); }
+Tensor not_equal(const Tensor& a, const Tensor& b) { return compare("not_equal", a, b, [](auto x, auto z) { return x != z; }); }
+
+Tensor where(const Tensor& mask, const Tensor& a, const Tensor& b) {
+  check_float(mask, "where", "mask");
+  check_same_float(a, b, "where");
+  if (mask.dtype() != a.dtype())
+    throw DTypeError("where: mask " + mask.describe() + " must have the dtype of the operands " + a.describe());
+  const Shape shape = detail::broadcast_shapes(mask.shape(), detail::broadcast_shapes(a.shape(), b.shape(), "where"), "where");
+  const std::int64_t n = shape.numel();
+  const Tensor em = expand_raw(mask, shape), ea = expand_raw(a, shape), eb = expand_raw(b, shape);
+  Tensor out = Tensor::empty(shape, a.dtype());
+  dispatch_float(a.dtype(), "where", [&](auto tag) {
+    using T = decltype(tag);
+    const T* m = em.data<T>();
+    const bool m_full = is_full(em, n);
+    const T* pa = ea.data<T>();
+    const T* pb = eb.data<T>();
+    const bool a_full = is_full(ea, n), b_full = is_full(eb, n);
+    T* o = out.data<T>();
+    parallel_for(0, n, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
+      for (std::int64_t i = lo; i < hi; ++i)
+        o[i] = m[m_full ? i : 0] != T(0) ? pa[a_full ? i : 0] : pb[b_full ? i : 0];
+    });
+  });
+  if (should_record({a, b})) {
+    record("where", {a, b}, {&out}, [em, m_full = is_full(em, n)](AdjointContext& ctx) {
+      const Tensor& g = ctx.grad_output();
+      for (std::size_t input = 0; input < 2; ++input) {
+        if (!ctx.needs_grad(input)) continue;
+        // dL/da = g where mask, dL/db = g where !mask.
+        Tensor full = Tensor::empty(g.shape(), g.dtype());
+        dispatch_float(g.dtype(), "where", [&](auto tag) {
+          using T = decltype(tag);
+          const T* m = em.data<T>();
+          const T* gp = g.data<T>();
+          T* d = full.data<T>();
+          const bool take_when_set = input == 0;
+          parallel_for(0, g.numel(), kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
+            for (std::int64_t i = lo; i < hi; ++i)
+              d[i] = ((m[m_full ? i : 0] != T(0)) == take_when_set) ? gp[i] : T(0);
+          });
+        });
+        ctx.accumulate(input, reduce_raw(full, ctx.input(input).shape()));
+      }
+    });
+  }
+  return out;
+}
+
+Tensor cast(const Tensor& a, DType dtype) {
+  if (!a.defined()) throw ValueError("cast: argument 'a' is an undefined tensor");
+  if (a.dtype() == dtype) return a;
+  Tensor out = Tensor::empty(a.shape(), dtype);
+  const std::int64_t n = a.numel();
+  auto convert = [&](auto src_tag, auto dst_tag) {
+    using S = decltype(src_tag);
+    using D = decltype(dst_tag);
+    const S* s = a.data<S>();
+    D* d = out.data<D>();
+    parallel_for(0, n, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
+      for (std::int64_t i = lo; i < hi; ++i) d[i] = static_cast<D>(s[i]);
+    });
+  };
+  auto with_dst = [&](auto src_tag) {
+    switch (dtype) {
+      case DType::Float32: convert(src_tag, float{}); break;
+      case DType::Float64: convert(src_tag, double{}); break;
+      case DType::Int32: convert(src_tag, std::int32_t{}); break;
+    }
+  };
+  switch (a.dtype()) {
+    case DType::Float32: with_dst(float{}); break;
+    case DType::Float64: with_dst(double{}); break;
+    case DType::Int32: with_dst(std::int32_t{}); break;
+  }
+  // Gradients flow between float dtypes only; an int32 result is a constant.
+  if (is_floating(a.dtype()) && is_floating(dtype) && should_record({a})) {
+    const DType back = a.dtype();
+    record("cast", {a}, {&out}, [back](AdjointContext& ctx) { ctx.accumulate(0, cast(ctx.grad_output(), back)); });
+  }
+  return out;
+}
+
+}  // namespace gr

@@ -1,0 +1,12 @@
+// Everything a user needs: tensors, the tape, gradcheck and all ops.
+#pragma once
+
+#include "autodiff/gradcheck.h"
+#include "autodiff/parallel.h"
+#include "autodiff/tape.h"
+#include "autodiff/tensor.h"
+#include "ops/elementwise.h"
+#include "ops/linalg.h"
+#include "ops/reduce.h"
+#include "ops/shape_ops.h"
+#include "ops/vector.h"

@@ -1,0 +1,199 @@
+#include <catch2/catch.hpp>
+
+#include <cmath>
+
+#include "ops/ops.h"
+#include "test_support.h"
+
+using namespace gr;
+using gr::testing::all_finite;
+using gr::testing::random_input;
+using gr::testing::require_gradcheck;
+
+namespace {
+using Inputs = std::vector<Tensor>;
+
+Tensor grad_of(const std::function<Tensor(const Tensor&)>& f, const std::vector<double>& x) {
+  Tensor t = Tensor::from_values(x, {static_cast<std::int64_t>(x.size())}, DType::Float64).set_requires_grad();
+  backward(sum(f(t)));
+  return t.grad();
+}
+}  // namespace
+
+TEST_CASE("add, sub, mul, div: gradients match finite differences with broadcasting", "[ops][elementwise][gradcheck]") {
+  Tensor a = random_input({4, 3}, -2, 2, 1);
+  Tensor b = random_input({3}, 0.5, 2, 2);      // broadcast along rows
+  Tensor c = random_input({4, 1}, 0.5, 2, 3);   // broadcast along columns
+  require_gradcheck("add", [](const Inputs& in) { return in[0] + in[1]; }, {a, b});
+  require_gradcheck("sub", [](const Inputs& in) { return in[0] - in[1]; }, {a, c});
+  require_gradcheck("mul", [](const Inputs& in) { return in[0] * in[1]; }, {a, b});
+  require_gradcheck("div", [](const Inputs& in) { return in[0] / in[1]; }, {a, c});
+  require_gradcheck("div scalar", [](const Inputs& in) { return 2.0 / in[0]; }, {c});
+  Tensor s = random_input({}, 0.5, 1.5, 4);  // rank-0 operand
+  require_gradcheck("mul rank-0", [](const Inputs& in) { return in[0] * in[1]; }, {a, s});
+}
+
+TEST_CASE("add and mul: forward values follow NumPy broadcasting", "[ops][elementwise]") {
+  Tensor a = Tensor::from_values({1, 2, 3, 4, 5, 6}, {2, 3});
+  Tensor col = Tensor::from_values({10, 20}, {2, 1});
+  CHECK((a + col).to_vector() == std::vector<double>{11, 12, 13, 24, 25, 26});
+  Tensor row = Tensor::from_values({1, 0, -1}, {1, 3});
+  CHECK((a * row).to_vector() == std::vector<double>{1, 0, -3, 4, 0, -6});
+  CHECK((col + row).shape() == Shape{2, 3});
+}
+
+TEST_CASE("unary math ops: gradients match finite differences", "[ops][elementwise][gradcheck]") {
+  Tensor x = random_input({2, 5}, 0.2, 2.0, 5);
+  Tensor y = random_input({2, 5}, -3, 3, 6);
+  require_gradcheck("neg", [](const Inputs& in) { return neg(in[0]); }, {y});
+  require_gradcheck("exp", [](const Inputs& in) { return exp(in[0]); }, {y});
+  require_gradcheck("log", [](const Inputs& in) { return log(in[0]); }, {x});
+  require_gradcheck("sqrt", [](const Inputs& in) { return sqrt(in[0]); }, {x});
+  require_gradcheck("rsqrt", [](const Inputs& in) { return rsqrt(in[0]); }, {x});
+  require_gradcheck("sin", [](const Inputs& in) { return sin(in[0]); }, {y});
+  require_gradcheck("cos", [](const Inputs& in) { return cos(in[0]); }, {y});
+  require_gradcheck("abs", [](const Inputs& in) { return abs(in[0]); }, {y});
+  require_gradcheck("clamp", [](const Inputs& in) { return clamp(in[0], -1.0, 1.5); }, {y});
+}
+
+TEST_CASE("pow: gradients match finite differences for scalar and tensor exponents", "[ops][elementwise][gradcheck]") {
+  Tensor x = random_input({6}, 0.3, 1.5, 7);
+  Tensor p = random_input({6}, -1.5, 2.5, 8);
+  require_gradcheck("pow integer", [](const Inputs& in) { return pow(in[0], 32.0); }, {x});
+  require_gradcheck("pow negative integer", [](const Inputs& in) { return pow(in[0], -3.0); }, {x});
+  require_gradcheck("pow fractional", [](const Inputs& in) { return pow(in[0], 0.37); }, {x});
+  require_gradcheck("pow tensor", [](const Inputs& in) { return pow(in[0], in[1]); }, {x, p});
+  Tensor neg_base = random_input({4}, -2, -0.5, 9);
+  require_gradcheck("pow integer on negative base", [](const Inputs& in) { return pow(in[0], 3.0); }, {neg_base});
+}
+
+TEST_CASE("pow: integer exponents agree with std::pow", "[ops][elementwise]") {
+  Tensor x = Tensor::uniform({100}, -2, 2, 10, DType::Float64);
+  for (double p : {0.0, 1.0, 2.0, 5.0, 32.0, -2.0}) {
+    std::vector<double> got = pow(x, p).to_vector(), in = x.to_vector();
+    for (std::size_t i = 0; i < in.size(); ++i) CHECK(got[i] == Approx(std::pow(in[i], p)).epsilon(1e-13));
+  }
+}
+
+TEST_CASE("minimum, maximum: gradients match finite differences away from ties", "[ops][elementwise][gradcheck]") {
+  Tensor a = random_input({3, 4}, -1, 1, 11);
+  Tensor b = random_input({4}, -1, 1, 12);
+  require_gradcheck("minimum", [](const Inputs& in) { return minimum(in[0], in[1]); }, {a, b});
+  require_gradcheck("maximum", [](const Inputs& in) { return maximum(in[0], in[1]); }, {a, b});
+}
+
+TEST_CASE("where: gradients go to the selected operand only", "[ops][elementwise][gradcheck]") {
+  Tensor a = random_input({2, 3}, -1, 1, 13);
+  Tensor b = random_input({3}, -1, 1, 14);
+  Tensor mask = Tensor::from_values({1, 0, 1, 0, 0, 1}, {2, 3}, DType::Float64);
+  require_gradcheck("where", [&](const Inputs& in) { return where(mask, in[0], in[1]); }, {a, b});
+  Tensor x = Tensor::from_values({1, 2, 3}, {3}, DType::Float64);
+  Tensor m = greater(x, Tensor::scalar(1.5, DType::Float64));
+  CHECK(m.to_vector() == std::vector<double>{0, 1, 1});
+  CHECK(where(m, x, -x).to_vector() == std::vector<double>{-1, 2, 3});
+}
+
+TEST_CASE("comparison masks are 0/1 in the operands' dtype", "[ops][elementwise]") {
+  Tensor a = Tensor::from_values({1, 2, 3}, {3});
+  Tensor b = Tensor::from_values({2, 2, 2}, {3});
+  CHECK(less(a, b).to_vector() == std::vector<double>{1, 0, 0});
+  CHECK(less_equal(a, b).to_vector() == std::vector<double>{1, 1, 0});
+  CHECK(greater(a, b).to_vector() == std::vector<double>{0, 0, 1});
+  CHECK(greater_equal(a, b).to_vector() == std::vector<double>{0, 1, 1});
+  CHECK(equal(a, b).to_vector() == std::vector<double>{0, 1, 0});
+  CHECK(not_equal(a, b).to_vector() == std::vector<double>{1, 0, 1});
+}
+
+TEST_CASE("cast: gradients flow between float32 and float64", "[ops][elementwise][gradcheck]") {
+  Tensor x = random_input({5}, -1, 1, 15);
+  require_gradcheck("cast", [](const Inputs& in) { return cast(cast(in[0], DType::Float32) * 3.0, DType::Float64); }, {x},
+                    GradcheckOptions{1e-3, 1e-4, 1e-4});
+  Tensor i = cast(Tensor::from_values({1.7, -2.2}, {2}), DType::Int32);
+  CHECK(i.to_vector() == std::vector<double>{1, -2});
+}
+
+TEST_CASE("hard cases: sqrt and fractional pow at exactly zero have a zero, finite gradient", "[ops][elementwise][hard]") {
+  CHECK(grad_of([](const Tensor& t) { return sqrt(t); }, {0.0, 4.0}).to_vector() == std::vector<double>{0.0, 0.25});
+  CHECK(grad_of([](const Tensor& t) { return pow(t, 0.5); }, {0.0}).to_vector() == std::vector<double>{0.0});
+  CHECK(grad_of([](const Tensor& t) { return pow(t, 0.25); }, {0.0}).to_vector() == std::vector<double>{0.0});
+  // p >= 1 keeps its true derivative at 0.
+  CHECK(grad_of([](const Tensor& t) { return pow(t, 1.0); }, {0.0}).to_vector() == std::vector<double>{1.0});
+  CHECK(grad_of([](const Tensor& t) { return pow(t, 2.0); }, {0.0}).to_vector() == std::vector<double>{0.0});
+  // Tensor exponent: base 0 -> dL/d(exponent) = 0 instead of 0 * -inf.
+  Tensor base = Tensor::from_values({0.0}, {1}, DType::Float64).set_requires_grad();
+  Tensor e = Tensor::from_values({0.5}, {1}, DType::Float64).set_requires_grad();
+  backward(sum(pow(base, e)));
+  CHECK(base.grad().item() == 0.0);
+  CHECK(e.grad().item() == 0.0);
+  // Near zero, the smooth derivative is still checked.
+  Tensor x = random_input({4}, 1e-4, 1e-3, 16);
+  require_gradcheck("sqrt near zero", [](const Inputs& in) { return sqrt(in[0]); }, {x}, GradcheckOptions{1e-9, 1e-7, 1e-5});
+}
+
+TEST_CASE("hard cases: division by tiny numbers gives finite, exact gradients", "[ops][elementwise][hard]") {
+  // In float32 b^2 = 1e-40 underflows; computing -(g a/b)/b keeps the result representable.
+  Tensor a = Tensor::from_values({1e-10}, {1}).set_requires_grad();
+  Tensor b = Tensor::from_values({1e-20}, {1}).set_requires_grad();
+  backward(sum(a / b));
+  CHECK(all_finite(b.grad()));
+  CHECK(b.grad().item() == Approx(-1e30).epsilon(1e-5));
+  CHECK(a.grad().item() == Approx(1e20).epsilon(1e-5));
+  // One finite-difference step cannot suit operands of size 1e-8 and 1, so
+  // each operand is checked with a step matched to its size.
+  Tensor x = random_input({3}, 1e-8, 2e-8, 17);
+  Tensor y = Tensor::uniform({3}, 1, 2, 18, DType::Float64);
+  require_gradcheck("div by tiny (divisor)", [&](const Inputs& in) { return y / in[0]; }, {x},
+                    GradcheckOptions{1e-15, 1e-7, 1e-6});
+  require_gradcheck("div by tiny (dividend)", [&](const Inputs& in) { return in[0] / x.detach(); }, {y.copy().set_requires_grad()});
+}
+
+TEST_CASE("hard cases: min, max and clamp at ties split or pass the gradient as documented", "[ops][elementwise][hard]") {
+  Tensor a = Tensor::from_values({1, 2}, {2}, DType::Float64).set_requires_grad();
+  Tensor b = Tensor::from_values({1, 3}, {2}, DType::Float64).set_requires_grad();
+  backward(sum(maximum(a, b)));
+  CHECK(a.grad().to_vector() == std::vector<double>{0.5, 0});
+  CHECK(b.grad().to_vector() == std::vector<double>{0.5, 1});
+  a.zero_grad();
+  b.zero_grad();
+  backward(sum(minimum(a, b)));
+  CHECK(a.grad().to_vector() == std::vector<double>{0.5, 1});
+  CHECK(b.grad().to_vector() == std::vector<double>{0.5, 0});
+  // clamp: bounds are inclusive for the gradient.
+  CHECK(grad_of([](const Tensor& t) { return clamp(t, 0.0, 1.0); }, {0.0, 1.0, 1.5, -0.1}).to_vector() ==
+        std::vector<double>{1, 1, 0, 0});
+  // abs: zero gradient at zero.
+  CHECK(grad_of([](const Tensor& t) { return abs(t); }, {0.0, -2.0}).to_vector() == std::vector<double>{0, -1});
+}
+
+TEST_CASE("elementwise errors name both shapes, the dtype or the bad argument", "[ops][elementwise][errors]") {
+  Tensor a = Tensor::ones({2, 3});
+  Tensor b = Tensor::ones({4});
+  CHECK_THROWS_AS(a + b, ShapeError);
+  CHECK_THROWS_WITH(a * b, Catch::Contains("[2, 3]") && Catch::Contains("[4]") && Catch::Contains("mul"));
+  Tensor d = Tensor::ones({2, 3}, DType::Float64);
+  CHECK_THROWS_AS(a + d, DTypeError);
+  Tensor i = Tensor::ones({2, 3}, DType::Int32);
+  CHECK_THROWS_AS(exp(i), DTypeError);
+  CHECK_THROWS_AS(a - i, DTypeError);
+  CHECK_THROWS_AS(clamp(a, 1.0, 0.0), ValueError);
+  CHECK_THROWS_AS(exp(Tensor()), ValueError);
+}
+
+TEST_CASE("elementwise results are bit-identical for 1 and 2 threads", "[ops][elementwise][determinism]") {
+  Tensor a = Tensor::uniform({300000}, 0.1, 2, 19).set_requires_grad();
+  Tensor b = Tensor::uniform({3}, 0.1, 2, 20).set_requires_grad();
+  auto eval = [&](int threads) {
+    set_num_threads(threads);
+    a.zero_grad();
+    b.zero_grad();
+    Tensor loss = sum(pow(a, 3.0) * exp(-a) + sqrt(a) / sum(b));
+    backward(loss);
+    std::vector<double> r = {loss.item()};
+    for (double g : a.grad().to_vector()) r.push_back(g);
+    for (double g : b.grad().to_vector()) r.push_back(g);
+    return r;
+  };
+  const auto one = eval(1), two = eval(2);
+  set_num_threads(0);
+  CHECK(one == two);
+}
