@@ -1,0 +1,178 @@
+// Transformation matrices as compositions of differentiable ops: each builds
+// its 16 entries as rank-0 tensors and stacks them, so no hand-written adjoint
+// is needed here.
+#include "ops/transforms.h"
+
+#include <cmath>
+
+#include "ops/elementwise.h"
+#include "ops/linalg.h"
+#include "ops/shape_ops.h"
+#include "ops/vector.h"
+#include "ops/broadcast.h"
+
+namespace gr {
+namespace {
+
+// Row-major 4 x 4 matrix from 16 rank-0 tensors.
+Tensor matrix4(const std::vector<Tensor>& entries) { return reshape(stack(entries, 0), {4, 4}); }
+
+// Element i of a vector as a rank-0 tensor (differentiable).
+Tensor component(const Tensor& v, std::int64_t i) { return reshape(slice(v, -1, i, i + 1), {}); }
+
+// A one-element tensor as rank 0; throws naming the argument otherwise.
+Tensor scalar_arg(const Tensor& t, const char* op, const char* name) {
+  detail::check_float(t, op, name);
+  if (t.numel() != 1)
+    throw ShapeError(std::string(op) + ": argument '" + name + "' must have one element, got " + t.describe());
+  return reshape(t, {});
+}
+
+void check_vector(const Tensor& t, std::int64_t n, const char* op, const char* name) {
+  detail::check_float(t, op, name);
+  if (t.rank() != 1 || t.size(0) != n)
+    throw ShapeError(std::string(op) + ": argument '" + name + "' must have shape [" + std::to_string(n) +
+                     "], got " + t.describe());
+}
+
+Tensor constant(double v, DType dtype) { return Tensor::scalar(v, dtype); }
+
+// 3 x 3 rotation block r (rows) and translation t (3 x 1) -> 4 x 4.
+Tensor affine(const Tensor& r, const Tensor& t) {
+  const DType dt = r.dtype();
+  Tensor bottom = Tensor::from_values({0, 0, 0, 1}, {1, 4}, dt);
+  return concat({concat({r, t}, 1), bottom}, 0);
+}
+
+}  // namespace
+
+Tensor identity4(DType dtype) {
+  return Tensor::from_values({1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1}, {4, 4}, dtype);
+}
+
+Tensor scale(const Tensor& s) {
+  check_vector(s, 3, "scale", "s");
+  const DType dt = s.dtype();
+  Tensor o = constant(0, dt), i = constant(1, dt);
+  return matrix4({component(s, 0), o, o, o,  //
+                  o, component(s, 1), o, o,  //
+                  o, o, component(s, 2), o,  //
+                  o, o, o, i});
+}
+
+Tensor translate(const Tensor& t) {
+  check_vector(t, 3, "translate", "t");
+  const DType dt = t.dtype();
+  Tensor o = constant(0, dt), i = constant(1, dt);
+  return matrix4({i, o, o, component(t, 0),  //
+                  o, i, o, component(t, 1),  //
+                  o, o, i, component(t, 2),  //
+                  o, o, o, i});
+}
+
+Tensor rotate_x(const Tensor& angle) {
+  Tensor a = scalar_arg(angle, "rotate_x", "angle");
+  Tensor c = cos(a), s = sin(a), o = constant(0, a.dtype()), i = constant(1, a.dtype());
+  return matrix4({i, o, o, o, o, c, -s, o, o, s, c, o, o, o, o, i});
+}
+
+Tensor rotate_y(const Tensor& angle) {
+  Tensor a = scalar_arg(angle, "rotate_y", "angle");
+  Tensor c = cos(a), s = sin(a), o = constant(0, a.dtype()), i = constant(1, a.dtype());
+  return matrix4({c, o, s, o, o, i, o, o, -s, o, c, o, o, o, o, i});
+}
+
+Tensor rotate_z(const Tensor& angle) {
+  Tensor a = scalar_arg(angle, "rotate_z", "angle");
+  Tensor c = cos(a), s = sin(a), o = constant(0, a.dtype()), i = constant(1, a.dtype());
+  return matrix4({c, -s, o, o, s, c, o, o, o, o, i, o, o, o, o, i});
+}
+
+Tensor rotation_axis_angle(const Tensor& axis, const Tensor& angle) {
+  check_vector(axis, 3, "rotation_axis_angle", "axis");
+  Tensor a = scalar_arg(angle, "rotation_axis_angle", "angle");
+  if (axis.dtype() != a.dtype()) throw DTypeError("rotation_axis_angle: axis and angle have different dtypes");
+  Tensor k = normalize(axis);
+  Tensor x = component(k, 0), y = component(k, 1), z = component(k, 2);
+  Tensor c = cos(a), s = sin(a), t = 1.0 - c;
+  Tensor o = constant(0, a.dtype()), i = constant(1, a.dtype());
+  return matrix4({c + t * x * x, t * x * y - s * z, t * x * z + s * y, o,  //
+                  t * x * y + s * z, c + t * y * y, t * y * z - s * x, o,  //
+                  t * x * z - s * y, t * y * z + s * x, c + t * z * z, o,  //
+                  o, o, o, i});
+}
+
+Tensor rotation_quaternion(const Tensor& q) {
+  check_vector(q, 4, "rotation_quaternion", "q");
+  Tensor u = normalize(q);
+  Tensor w = component(u, 0), x = component(u, 1), y = component(u, 2), z = component(u, 3);
+  Tensor o = constant(0, q.dtype()), i = constant(1, q.dtype());
+  return matrix4({1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - w * z), 2.0 * (x * z + w * y), o,  //
+                  2.0 * (x * y + w * z), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - w * x), o,  //
+                  2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y), o,  //
+                  o, o, o, i});
+}
+
+Tensor look_at(const Tensor& eye, const Tensor& target, const Tensor& up) {
+  check_vector(eye, 3, "look_at", "eye");
+  check_vector(target, 3, "look_at", "target");
+  check_vector(up, 3, "look_at", "up");
+  Tensor f = normalize(target - eye);
+  Tensor s = normalize(cross(f, up));
+  Tensor u = cross(s, f);
+  Tensor r = stack({s, u, -f}, 0);                    // rows: camera axes in world space
+  Tensor t = -matmul(r, reshape(eye, {3, 1}));        // -R eye
+  return affine(r, t);
+}
+
+Tensor look_at_lh(const Tensor& eye, const Tensor& target, const Tensor& up) {
+  check_vector(eye, 3, "look_at_lh", "eye");
+  check_vector(target, 3, "look_at_lh", "target");
+  check_vector(up, 3, "look_at_lh", "up");
+  Tensor z = normalize(target - eye);
+  Tensor x = normalize(cross(up, z));
+  Tensor y = cross(z, x);
+  Tensor r = stack({x, y, z}, 0);
+  Tensor t = -matmul(r, reshape(eye, {3, 1}));
+  return affine(r, t);
+}
+
+Tensor perspective(const Tensor& fov_y, double aspect, double near, double far, ClipSpace convention) {
+  Tensor fov = scalar_arg(fov_y, "perspective", "fov_y");
+  if (!(aspect > 0) || !std::isfinite(aspect)) throw ValueError("perspective: aspect must be positive, got " + std::to_string(aspect));
+  if (!(near > 0) || !(far > near) || !std::isfinite(far))
+    throw ValueError("perspective: need 0 < near < far, got near " + std::to_string(near) + ", far " + std::to_string(far));
+  const double fv = fov.item();
+  if (!(fv > 0 && fv < M_PI)) throw ValueError("perspective: fov_y must lie in (0, pi) radians, got " + std::to_string(fv));
+  const DType dt = fov.dtype();
+  Tensor f = cos(fov * 0.5) / sin(fov * 0.5);  // cot(fov / 2)
+  Tensor o = constant(0, dt);
+  if (convention == ClipSpace::OpenGL) {
+    return matrix4({f / aspect, o, o, o,  //
+                    o, f, o, o,           //
+                    o, o, constant((far + near) / (near - far), dt), constant(2 * far * near / (near - far), dt),  //
+                    o, o, constant(-1, dt), o});
+  }
+  return matrix4({f / aspect, o, o, o,  //
+                  o, f, o, o,           //
+                  o, o, constant(far / (far - near), dt), constant(-far * near / (far - near), dt),  //
+                  o, o, constant(1, dt), o});
+}
+
+Tensor perspective(double fov_y, double aspect, double near, double far, ClipSpace convention, DType dtype) {
+  return perspective(Tensor::scalar(fov_y, dtype), aspect, near, far, convention);
+}
+
+Tensor orthographic(double left, double right, double bottom, double top, double near, double far,
+                    ClipSpace convention, DType dtype) {
+  if (!(right != left) || !(top != bottom) || !(far != near))
+    throw ValueError("orthographic: the box must have non-zero extent in x, y and z");
+  const double sx = 2 / (right - left), tx = -(right + left) / (right - left);
+  const double sy = 2 / (top - bottom), ty = -(top + bottom) / (top - bottom);
+  // OpenGL maps view z = -near -> -1 and -far -> 1; Direct3D maps z = near -> 0, far -> 1.
+  const double sz = convention == ClipSpace::OpenGL ? -2 / (far - near) : 1 / (far - near);
+  const double tz = convention == ClipSpace::OpenGL ? -(far + near) / (far - near) : -near / (far - near);
+  return Tensor::from_values({sx, 0, 0, tx, 0, sy, 0, ty, 0, 0, sz, tz, 0, 0, 0, 1}, {4, 4}, dtype);
+}
+
+}  // namespace gr
