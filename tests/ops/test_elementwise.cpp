@@ -106,8 +106,10 @@ TEST_CASE("comparison masks are 0/1 in the operands' dtype", "[ops][elementwise]
 
 TEST_CASE("cast: gradients flow between float32 and float64", "[ops][elementwise][gradcheck]") {
   Tensor x = random_input({5}, -1, 1, 15);
-  require_gradcheck("cast", [](const Inputs& in) { return cast(cast(in[0], DType::Float32) * 3.0, DType::Float64); }, {x},
-                    GradcheckOptions{1e-3, 1e-4, 1e-4});
+  require_gradcheck("cast", [](const Inputs& in) { return cast(in[0] * 3.0, DType::Float64); }, {x});
+  // Through float32 and back, the gradient is cast back exactly: 3 per element.
+  backward(sum(cast(cast(x, DType::Float32) * 3.0, DType::Float64)));
+  CHECK(x.grad().to_vector() == std::vector<double>(5, 3.0));
   Tensor i = cast(Tensor::from_values({1.7, -2.2}, {2}), DType::Int32);
   CHECK(i.to_vector() == std::vector<double>{1, -2});
 }

@@ -1,0 +1,412 @@
+// Ops that move elements without arithmetic (reshape, slice, concat, stack,
+// gather, scatter_add), forward kernels and adjoints side by side.
+//
+// All of them work on float32, float64 and int32 tensors; only float inputs
+// get gradients. Every kernel writes each output element from one thread.
+// scatter_add (and gather's adjoint, which is a scatter_add) sums duplicate
+// indices in ascending source order through a CSR table built serially, so
+// the result is bit-identical for any thread count.
+#include "ops/shape_ops.h"
+
+#include <algorithm>
+#include <cstring>
+#include <string>
+
+#include "autodiff/parallel.h"
+#include "autodiff/tape.h"
+
+namespace gr {
+namespace {
+
+// Calls f(T{}) for the element type of `t`.
+template <class F>
+void dispatch_any(DType t, F&& f) {
+  switch (t) {
+    case DType::Float32: f(float{}); break;
+    case DType::Float64: f(double{}); break;
+    case DType::Int32: f(std::int32_t{}); break;
+  }
+}
+
+void check_defined(const Tensor& t, const std::string& op, const std::string& name) {
+  if (!t.defined()) throw ValueError(op + ": argument '" + name + "' is an undefined tensor");
+}
+
+// Rows per parallel chunk when each row moves `inner` elements.
+std::int64_t copy_grain(std::int64_t inner) {
+  return std::max<std::int64_t>(1, kElementwiseGrain / std::max<std::int64_t>(1, inner));
+}
+
+// A tensor sharing t's storage under another shape (not recorded).
+Tensor view_as(const Tensor& t, const Shape& shape) {
+  auto impl = std::make_shared<TensorImpl>();
+  impl->shape = shape;
+  impl->dtype = t.dtype();
+  impl->storage = t.impl()->storage;
+  return Tensor(std::move(impl));
+}
+
+std::string vec_str(const std::vector<std::int64_t>& v) {
+  std::string s = "[";
+  for (std::size_t i = 0; i < v.size(); ++i) s += (i ? ", " : "") + std::to_string(v[i]);
+  return s + "]";
+}
+
+// Product of dims [from, to).
+std::int64_t prod(const Shape& s, int from, int to) {
+  std::int64_t p = 1;
+  for (int i = from; i < to; ++i) p *= s[i];
+  return p;
+}
+
+// --- join / split: the kernels of concat and stack -------------------------
+// The output is viewed as [outer, total] and input i as [outer, chunk_i],
+// placed at column offset_i.
+
+void join_raw(const std::vector<Tensor>& parts, const std::vector<std::int64_t>& chunk, std::int64_t outer,
+              Tensor& out) {
+  const std::int64_t total = out.numel() / std::max<std::int64_t>(1, outer);
+  dispatch_any(out.dtype(), [&](auto tag) {
+    using T = decltype(tag);
+    T* o = out.data<T>();
+    std::int64_t offset = 0;
+    for (std::size_t i = 0; i < parts.size(); ++i) {
+      const T* src = parts[i].data<T>();
+      const std::int64_t c = chunk[i];
+      // out[r, offset : offset + c] = part_i[r, :].
+      parallel_for(0, c == 0 ? 0 : outer, copy_grain(c), [&](std::int64_t lo, std::int64_t hi) {
+        for (std::int64_t r = lo; r < hi; ++r) std::copy(src + r * c, src + (r + 1) * c, o + r * total + offset);
+      });
+      offset += c;
+    }
+  });
+}
+
+// Part [outer, c] of g at column `offset`, with shape `shape`.
+Tensor split_raw(const Tensor& g, std::int64_t outer, std::int64_t offset, std::int64_t c, const Shape& shape) {
+  Tensor part = Tensor::empty(shape, g.dtype());
+  const std::int64_t total = g.numel() / std::max<std::int64_t>(1, outer);
+  dispatch_any(g.dtype(), [&](auto tag) {
+    using T = decltype(tag);
+    const T* src = g.data<T>();
+    T* o = part.data<T>();
+    parallel_for(0, c == 0 ? 0 : outer, copy_grain(c), [&](std::int64_t lo, std::int64_t hi) {
+      for (std::int64_t r = lo; r < hi; ++r)
+        std::copy(src + r * total + offset, src + r * total + offset + c, o + r * c);
+    });
+  });
+  return part;
+}
+
+// Shared by concat and stack: joins `parts` (already validated) into `out_shape`
+// and records the split adjoint.
+Tensor join(const char* name, const std::vector<Tensor>& parts, const std::vector<std::int64_t>& chunk,
+            std::int64_t outer, const Shape& out_shape) {
+  Tensor out = Tensor::empty(out_shape, parts[0].dtype());
+  join_raw(parts, chunk, outer, out);
+  if (is_floating(out.dtype()) && should_record(parts)) {
+    record(name, parts, {&out}, [chunk, outer](AdjointContext& ctx) {
+      const Tensor& g = ctx.grad_output();
+      if (!g.defined()) return;
+      // dL/d part_i = the columns of g that part_i filled.
+      std::int64_t offset = 0;
+      for (std::size_t i = 0; i < chunk.size(); ++i) {
+        if (ctx.needs_grad(i)) ctx.accumulate(i, split_raw(g, outer, offset, chunk[i], ctx.input(i).shape()));
+        offset += chunk[i];
+      }
+    });
+  }
+  return out;
+}
+
+// --- gather / scatter -------------------------------------------------------
+
+// Throws unless `index` is int32 with every value in [0, rows).
+void check_index(const Tensor& index, std::int64_t rows, const std::string& op, const std::string& range_what) {
+  check_defined(index, op, "index");
+  if (index.dtype() != DType::Int32)
+    throw DTypeError(op + ": argument 'index' must be int32, got " + index.describe());
+  const std::int32_t* idx = index.data<std::int32_t>();
+  const std::int64_t n = index.numel();
+  for (std::int64_t i = 0; i < n; ++i)
+    if (idx[i] < 0 || idx[i] >= rows)
+      throw IndexError(op + ": index element " + std::to_string(i) + " is " + std::to_string(idx[i]) +
+                       ", outside [0, " + std::to_string(rows) + ") (" + range_what + ")");
+}
+
+// out[i, :] = src[idx[i], :] for n rows of `inner` elements.
+template <class T>
+void gather_rows(const T* src, const std::int32_t* idx, T* out, std::int64_t n, std::int64_t inner) {
+  parallel_for(0, n, copy_grain(inner), [&](std::int64_t lo, std::int64_t hi) {
+    for (std::int64_t i = lo; i < hi; ++i) std::copy(src + idx[i] * inner, src + (idx[i] + 1) * inner, out + i * inner);
+  });
+}
+
+// out[r, :] = sum of src[i, :] over i with idx[i] == r, in ascending i, for
+// `rows` rows of `inner` elements (out is overwritten).
+template <class T>
+void scatter_rows(const T* src, const std::int32_t* idx, T* out, std::int64_t n, std::int64_t rows, std::int64_t inner) {
+  std::fill(out, out + rows * inner, T(0));
+  if (n * inner <= kElementwiseGrain) {
+    // Small: one serial pass in ascending source order.
+    for (std::int64_t i = 0; i < n; ++i) {
+      T* o = out + idx[i] * inner;
+      const T* s = src + i * inner;
+      for (std::int64_t j = 0; j < inner; ++j) o[j] += s[j];
+    }
+    return;
+  }
+  // CSR of target row -> source rows, each list in ascending source order.
+  std::vector<std::int64_t> start(static_cast<std::size_t>(rows + 1), 0);
+  for (std::int64_t i = 0; i < n; ++i) ++start[static_cast<std::size_t>(idx[i] + 1)];
+  for (std::int64_t r = 0; r < rows; ++r) start[r + 1] += start[r];
+  std::vector<std::int64_t> fill(start.begin(), start.end() - 1);
+  std::vector<std::int64_t> order(static_cast<std::size_t>(n));
+  for (std::int64_t i = 0; i < n; ++i) order[static_cast<std::size_t>(fill[idx[i]]++)] = i;
+  // Each target row sums its sources in list order: same result for any thread count.
+  const std::int64_t per_row = (n + rows - 1) / std::max<std::int64_t>(1, rows) + 1;
+  parallel_for(0, rows, copy_grain(per_row * inner), [&](std::int64_t lo, std::int64_t hi) {
+    for (std::int64_t r = lo; r < hi; ++r) {
+      T* o = out + r * inner;
+      for (std::int64_t e = start[r]; e < start[r + 1]; ++e) {
+        const T* s = src + order[static_cast<std::size_t>(e)] * inner;
+        for (std::int64_t j = 0; j < inner; ++j) o[j] += s[j];
+      }
+    }
+  });
+}
+
+// Gathers rows of `src` (viewed as [rows, inner]) into a tensor of `shape`.
+Tensor gather_raw(const Tensor& src, const Tensor& index, std::int64_t inner, const Shape& shape) {
+  Tensor out = Tensor::empty(shape, src.dtype());
+  dispatch_any(src.dtype(), [&](auto tag) {
+    using T = decltype(tag);
+    gather_rows(src.data<T>(), index.data<std::int32_t>(), out.data<T>(), index.numel(), inner);
+  });
+  return out;
+}
+
+// Scatter-adds rows of `src` (viewed as [index.numel, inner]) into a zero tensor of `shape`.
+Tensor scatter_raw(const Tensor& src, const Tensor& index, std::int64_t rows, std::int64_t inner, const Shape& shape) {
+  Tensor out = Tensor::empty(shape, src.dtype());
+  dispatch_any(src.dtype(), [&](auto tag) {
+    using T = decltype(tag);
+    scatter_rows(src.data<T>(), index.data<std::int32_t>(), out.data<T>(), index.numel(), rows, inner);
+  });
+  return out;
+}
+
+}  // namespace
+
+Tensor reshape(const Tensor& a, const std::vector<std::int64_t>& shape) {
+  check_defined(a, "reshape", "a");
+  if (shape.size() > static_cast<std::size_t>(Shape::kMaxRank))
+    throw ShapeError("reshape: target shape " + vec_str(shape) + " has rank " + std::to_string(shape.size()) +
+                     " (at most 4 supported)");
+  // Resolve the one -1 extent from the element count.
+  std::vector<std::int64_t> dims = shape;
+  int infer = -1;
+  std::int64_t known = 1;
+  for (std::size_t i = 0; i < dims.size(); ++i) {
+    if (dims[i] == -1) {
+      if (infer >= 0)
+        throw ShapeError("reshape: target shape " + vec_str(shape) + " has more than one -1 extent");
+      infer = static_cast<int>(i);
+    } else if (dims[i] < 0) {
+      throw ShapeError("reshape: target shape " + vec_str(shape) + " has a negative extent");
+    } else {
+      known *= dims[i];
+    }
+  }
+  if (infer >= 0) {
+    if (known == 0 || a.numel() % known != 0)
+      throw ShapeError("reshape: cannot reshape " + a.describe() + " (" + std::to_string(a.numel()) +
+                       " elements) into " + vec_str(shape));
+    dims[static_cast<std::size_t>(infer)] = a.numel() / known;
+  } else if (known != a.numel()) {
+    throw ShapeError("reshape: cannot reshape " + a.describe() + " (" + std::to_string(a.numel()) +
+                     " elements) into " + vec_str(shape) + " (" + std::to_string(known) + " elements)");
+  }
+  // Same storage, new shape.
+  Tensor out = view_as(a, Shape(dims));
+  if (is_floating(a.dtype()) && should_record({a})) {
+    record("reshape", {a}, {&out}, [](AdjointContext& ctx) {
+      const Tensor& g = ctx.grad_output();
+      if (!g.defined()) return;
+      // dL/da = g viewed in a's shape.
+      ctx.accumulate(0, view_as(g, ctx.input(0).shape()));
+    });
+  }
+  return out;
+}
+
+Tensor slice(const Tensor& a, int axis, std::int64_t start, std::int64_t stop, std::int64_t step) {
+  check_defined(a, "slice", "a");
+  if (a.rank() < 1) throw ShapeError("slice: argument 'a' must have at least one axis, got " + a.describe());
+  const int ax = a.shape().normalize_axis(axis, "slice: axis");
+  if (step == 0) throw ValueError("slice: step must not be 0");
+  // Python slice semantics: negative bounds count from the end, then clamp.
+  const std::int64_t n = a.size(ax);
+  const std::int64_t lower = step > 0 ? 0 : -1, upper = step > 0 ? n : n - 1;
+  auto clamp_bound = [&](std::int64_t v) {
+    if (v < 0) {
+      v = v < -n ? lower : v + n;
+      return std::max(v, lower);
+    }
+    return std::min(v, upper);
+  };
+  const std::int64_t first = clamp_bound(start), last = clamp_bound(stop);
+  std::int64_t count = 0;
+  if (step > 0 && last > first) count = (last - first + step - 1) / step;
+  if (step < 0 && first > last) count = (first - last - step - 1) / (-step);
+  std::vector<std::int64_t> d = a.shape().dims();
+  d[static_cast<std::size_t>(ax)] = count;
+  const Shape out_shape(d);
+  const std::int64_t outer = prod(a.shape(), 0, ax), inner = prod(a.shape(), ax + 1, a.rank());
+  Tensor out = Tensor::empty(out_shape, a.dtype());
+  dispatch_any(a.dtype(), [&](auto tag) {
+    using T = decltype(tag);
+    const T* src = a.data<T>();
+    T* o = out.data<T>();
+    // out[o, j, :] = a[o, first + j step, :], one (o, j) row at a time.
+    parallel_for(0, outer * count, copy_grain(inner), [&](std::int64_t lo, std::int64_t hi) {
+      for (std::int64_t row = lo; row < hi; ++row) {
+        const std::int64_t q = row / count, j = row % count;
+        const T* s = src + (q * n + first + j * step) * inner;
+        std::copy(s, s + inner, o + row * inner);
+      }
+    });
+  });
+  if (is_floating(a.dtype()) && should_record({a})) {
+    record("slice", {a}, {&out}, [first, step, count, n, outer, inner](AdjointContext& ctx) {
+      const Tensor& g = ctx.grad_output();
+      if (!g.defined()) return;
+      Tensor ga = Tensor::zeros(ctx.input(0).shape(), g.dtype());
+      dispatch_float(g.dtype(), "slice", [&](auto tag) {
+        using T = decltype(tag);
+        const T* pg = g.data<T>();
+        T* o = ga.data<T>();
+        // dL/da[o, first + j step, :] = g[o, j, :]; the picked rows are distinct.
+        parallel_for(0, outer * count, copy_grain(inner), [&](std::int64_t lo, std::int64_t hi) {
+          for (std::int64_t row = lo; row < hi; ++row) {
+            const std::int64_t q = row / count, j = row % count;
+            std::copy(pg + row * inner, pg + (row + 1) * inner, o + (q * n + first + j * step) * inner);
+          }
+        });
+      });
+      ctx.accumulate(0, ga);
+    });
+  }
+  return out;
+}
+
+Tensor concat(const std::vector<Tensor>& tensors, int axis) {
+  if (tensors.empty()) throw ValueError("concat: needs at least one tensor, got an empty list");
+  for (std::size_t i = 0; i < tensors.size(); ++i) check_defined(tensors[i], "concat", "tensors[" + std::to_string(i) + "]");
+  const Tensor& t0 = tensors[0];
+  if (t0.rank() < 1) throw ShapeError("concat: tensors must have at least one axis, got tensors[0] " + t0.describe());
+  const int ax = t0.shape().normalize_axis(axis, "concat: axis");
+  // Same dtype and rank; equal extents except along `axis`.
+  std::vector<std::int64_t> dims = t0.shape().dims();
+  dims[static_cast<std::size_t>(ax)] = 0;
+  for (std::size_t i = 0; i < tensors.size(); ++i) {
+    const Tensor& t = tensors[i];
+    if (t.dtype() != t0.dtype())
+      throw DTypeError("concat: tensors[" + std::to_string(i) + "] " + t.describe() + " has a different dtype than tensors[0] " +
+                       t0.describe());
+    bool ok = t.rank() == t0.rank();
+    for (int d = 0; ok && d < t.rank(); ++d) ok = d == ax || t.size(d) == t0.size(d);
+    if (!ok)
+      throw ShapeError("concat: tensors[" + std::to_string(i) + "] has shape " + t.shape().str() +
+                       ", incompatible with tensors[0] " + t0.shape().str() + " (all extents must match except axis " +
+                       std::to_string(ax) + ")");
+    dims[static_cast<std::size_t>(ax)] += t.size(ax);
+  }
+  const std::int64_t outer = prod(t0.shape(), 0, ax);
+  std::vector<std::int64_t> chunk;
+  for (const Tensor& t : tensors) chunk.push_back(outer == 0 ? 0 : t.numel() / outer);
+  return join("concat", tensors, chunk, outer, Shape(dims));
+}
+
+Tensor stack(const std::vector<Tensor>& tensors, int axis) {
+  if (tensors.empty()) throw ValueError("stack: needs at least one tensor, got an empty list");
+  for (std::size_t i = 0; i < tensors.size(); ++i) check_defined(tensors[i], "stack", "tensors[" + std::to_string(i) + "]");
+  const Tensor& t0 = tensors[0];
+  const int rank = t0.rank();
+  if (rank + 1 > Shape::kMaxRank)
+    throw ShapeError("stack: tensors of shape " + t0.shape().str() + " would give a rank-" + std::to_string(rank + 1) +
+                     " result (at most 4 supported)");
+  if (axis < -(rank + 1) || axis > rank)
+    throw IndexError("stack: axis " + std::to_string(axis) + " is out of range for a new axis of a rank-" +
+                     std::to_string(rank + 1) + " result");
+  const int ax = axis < 0 ? axis + rank + 1 : axis;
+  // Equal shapes and dtypes.
+  for (std::size_t i = 0; i < tensors.size(); ++i) {
+    const Tensor& t = tensors[i];
+    if (t.dtype() != t0.dtype())
+      throw DTypeError("stack: tensors[" + std::to_string(i) + "] " + t.describe() + " has a different dtype than tensors[0] " +
+                       t0.describe());
+    if (t.shape() != t0.shape())
+      throw ShapeError("stack: tensors[" + std::to_string(i) + "] has shape " + t.shape().str() +
+                       ", expected the shape of tensors[0] " + t0.shape().str());
+  }
+  std::vector<std::int64_t> dims = t0.shape().dims();
+  dims.insert(dims.begin() + ax, static_cast<std::int64_t>(tensors.size()));
+  // Stacking is concatenation of [outer, 1, inner] views along the new axis.
+  const std::int64_t outer = prod(t0.shape(), 0, ax);
+  const std::vector<std::int64_t> chunk(tensors.size(), outer == 0 ? 0 : t0.numel() / outer);
+  return join("stack", tensors, chunk, outer, Shape(dims));
+}
+
+Tensor gather(const Tensor& a, const Tensor& index) {
+  check_defined(a, "gather", "a");
+  if (a.rank() < 1) throw ShapeError("gather: argument 'a' must have at least one axis, got " + a.describe());
+  check_index(index, a.size(0), "gather", "a has shape " + a.shape().str());
+  // Result shape: index.shape + a.shape[1:].
+  std::vector<std::int64_t> dims = index.shape().dims();
+  for (int d = 1; d < a.rank(); ++d) dims.push_back(a.size(d));
+  if (dims.size() > static_cast<std::size_t>(Shape::kMaxRank))
+    throw ShapeError("gather: index " + index.shape().str() + " on a " + a.shape().str() + " gives a rank-" +
+                     std::to_string(dims.size()) + " result (at most 4 supported)");
+  const std::int64_t inner = prod(a.shape(), 1, a.rank()), rows = a.size(0);
+  Tensor out = gather_raw(a, index, inner, Shape(dims));
+  if (is_floating(a.dtype()) && should_record({a})) {
+    record("gather", {a}, {&out}, [index, inner, rows](AdjointContext& ctx) {
+      const Tensor& g = ctx.grad_output();
+      if (!g.defined()) return;
+      // dL/da = scatter_add of g's rows into the picked rows (fixed order).
+      ctx.accumulate(0, scatter_raw(g, index, rows, inner, ctx.input(0).shape()));
+    });
+  }
+  return out;
+}
+
+Tensor scatter_add(const Tensor& src, const Tensor& index, std::int64_t rows) {
+  check_defined(src, "scatter_add", "src");
+  check_defined(index, "scatter_add", "index");
+  if (rows < 0) throw ValueError("scatter_add: rows must be >= 0, got " + std::to_string(rows));
+  // index.shape must be a prefix of src.shape.
+  bool prefix = index.rank() <= src.rank();
+  for (int d = 0; prefix && d < index.rank(); ++d) prefix = index.size(d) == src.size(d);
+  if (!prefix)
+    throw ShapeError("scatter_add: index shape " + index.shape().str() + " must be a prefix of src shape " +
+                     src.shape().str());
+  std::vector<std::int64_t> dims{rows};
+  for (int d = index.rank(); d < src.rank(); ++d) dims.push_back(src.size(d));
+  if (dims.size() > static_cast<std::size_t>(Shape::kMaxRank))
+    throw ShapeError("scatter_add: result would have rank " + std::to_string(dims.size()) + " (at most 4 supported)");
+  check_index(index, rows, "scatter_add", "rows = " + std::to_string(rows));
+  const std::int64_t inner = prod(src.shape(), index.rank(), src.rank());
+  Tensor out = scatter_raw(src, index, rows, inner, Shape(dims));
+  if (is_floating(src.dtype()) && should_record({src})) {
+    record("scatter_add", {src}, {&out}, [index, inner](AdjointContext& ctx) {
+      const Tensor& g = ctx.grad_output();
+      if (!g.defined()) return;
+      // dL/dsrc = gather(g, index).
+      ctx.accumulate(0, gather_raw(g, index, inner, ctx.input(0).shape()));
+    });
+  }
+  return out;
+}
+
+}  // namespace gr

@@ -1,0 +1,260 @@
+// Vector ops on the last axis (dot, cross, length, normalize, reflect): forward
+// kernels and their adjoints side by side.
+//
+// Operands are broadcast over their leading axes to one full shape (the last
+// axes must agree), so each kernel walks contiguous rows of K elements. Every
+// output row is computed by exactly one thread in a fixed order, so results do
+// not depend on the thread count; adjoints of broadcast operands are summed
+// back with detail::reduce_raw, which is deterministic as well.
+#include "ops/vector.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include "autodiff/parallel.h"
+#include "autodiff/tape.h"
+#include "ops/broadcast.h"
+#include "ops/elementwise.h"
+
+namespace gr {
+namespace {
+
+using detail::expand_raw_full;
+using detail::reduce_raw;
+
+// Accumulator type of per-row sums: double for float32 too (cheap, and it keeps
+// tiny float32 vectors from underflowing to length 0).
+using Acc = double;
+
+// Rows per parallel chunk for rows of k elements.
+std::int64_t row_grain(std::int64_t k) { return std::max<std::int64_t>(1, kElementwiseGrain / std::max<std::int64_t>(1, k)); }
+
+// Checks that `v` is a float tensor with at least one axis (and, if
+// `required` > 0, last-axis extent `required`).
+void check_vector(const Tensor& v, const std::string& op, const char* name, std::int64_t required = -1) {
+  detail::check_float(v, op, name);
+  if (v.rank() < 1)
+    throw ShapeError(op + ": argument '" + name + "' must have at least one axis (vectors on the last axis), got " +
+                     v.describe());
+  if (required > 0 && v.size(-1) != required)
+    throw ShapeError(op + ": argument '" + name + "' must have last axis of extent " + std::to_string(required) +
+                     ", got " + v.describe());
+}
+
+// Validates two vector operands and returns their broadcast (full) shape.
+Shape vector_pair(const Tensor& a, const Tensor& b, const std::string& op, const char* na, const char* nb,
+                  std::int64_t required = -1) {
+  check_vector(a, op, na, required);
+  check_vector(b, op, nb, required);
+  if (a.dtype() != b.dtype())
+    throw DTypeError(op + ": arguments '" + na + "' and '" + nb + "' have different dtypes " + a.describe() +
+                     " and " + b.describe() + " (use cast() to convert)");
+  if (a.size(-1) != b.size(-1))
+    throw ShapeError(op + ": last axes of '" + na + "' " + a.shape().str() + " and '" + nb + "' " +
+                     b.shape().str() + " differ (expected equal vector lengths)");
+  return detail::broadcast_shapes(a.shape(), b.shape(), op);
+}
+
+// Shape `s` with its last axis set to extent 1.
+Shape last_to_one(const Shape& s) {
+  std::vector<std::int64_t> d = s.dims();
+  d.back() = 1;
+  return Shape(d);
+}
+
+// Euclidean length of one row of k elements, accumulated in double.
+template <class T>
+Acc row_length(const T* v, std::int64_t k) {
+  Acc s = 0;
+  for (std::int64_t j = 0; j < k; ++j) s += Acc(v[j]) * Acc(v[j]);
+  return std::sqrt(s);
+}
+
+}  // namespace
+
+Tensor dot(const Tensor& a, const Tensor& b) {
+  const Shape full = vector_pair(a, b, "dot", "a", "b");
+  const std::int64_t k = full[-1];
+  const Tensor ea = expand_raw_full(a, full), eb = expand_raw_full(b, full);
+  Tensor out = Tensor::empty(last_to_one(full), a.dtype());
+  dispatch_float(a.dtype(), "dot", [&](auto tag) {
+    using T = decltype(tag);
+    const T *pa = ea.data<T>(), *pb = eb.data<T>();
+    T* po = out.data<T>();
+    // out[r] = sum_j a[r, j] b[r, j], one row per output element.
+    parallel_for(0, out.numel(), row_grain(k), [&](std::int64_t lo, std::int64_t hi) {
+      for (std::int64_t r = lo; r < hi; ++r) {
+        Acc s = 0;
+        for (std::int64_t j = 0; j < k; ++j) s += Acc(pa[r * k + j]) * Acc(pb[r * k + j]);
+        po[r] = T(s);
+      }
+    });
+  });
+  if (should_record({a, b})) {
+    record("dot", {a, b}, {&out}, [ea, eb, k](AdjointContext& ctx) {
+      const Tensor& g = ctx.grad_output();
+      if (!g.defined()) return;
+      dispatch_float(g.dtype(), "dot", [&](auto tag) {
+        using T = decltype(tag);
+        // dL/dx[r, j] = g[r] y[r, j] for (x, y) = (a, b) and (b, a).
+        auto side = [&](std::size_t input, const Tensor& other) {
+          if (!ctx.needs_grad(input)) return;
+          Tensor full = Tensor::empty(other.shape(), other.dtype());
+          const T* pg = g.data<T>();
+          const T* py = other.data<T>();
+          T* pf = full.data<T>();
+          parallel_for(0, g.numel(), row_grain(k), [&](std::int64_t lo, std::int64_t hi) {
+            for (std::int64_t r = lo; r < hi; ++r) {
+              const T gr = pg[r];
+              for (std::int64_t j = 0; j < k; ++j) pf[r * k + j] = gr * py[r * k + j];
+            }
+          });
+          ctx.accumulate(input, reduce_raw(full, ctx.input(input).shape()));
+        };
+        side(0, eb);
+        side(1, ea);
+      });
+    });
+  }
+  return out;
+}
+
+Tensor cross(const Tensor& a, const Tensor& b) {
+  const Shape full = vector_pair(a, b, "cross", "a", "b", 3);
+  const Tensor ea = expand_raw_full(a, full), eb = expand_raw_full(b, full);
+  Tensor out = Tensor::empty(full, a.dtype());
+  // c = x X y for rows of 3, written as a kernel shared by forward and adjoint.
+  auto cross_rows = [](auto tag, const Tensor& x, const Tensor& y, Tensor& c) {
+    using T = decltype(tag);
+    const T *px = x.data<T>(), *py = y.data<T>();
+    T* pc = c.data<T>();
+    parallel_for(0, c.numel() / 3, row_grain(3), [&](std::int64_t lo, std::int64_t hi) {
+      for (std::int64_t r = lo; r < hi; ++r) {
+        const T* u = px + 3 * r;
+        const T* v = py + 3 * r;
+        T* w = pc + 3 * r;
+        w[0] = u[1] * v[2] - u[2] * v[1];
+        w[1] = u[2] * v[0] - u[0] * v[2];
+        w[2] = u[0] * v[1] - u[1] * v[0];
+      }
+    });
+  };
+  dispatch_float(a.dtype(), "cross", [&](auto tag) { cross_rows(tag, ea, eb, out); });
+  if (should_record({a, b})) {
+    record("cross", {a, b}, {&out}, [ea, eb, cross_rows](AdjointContext& ctx) {
+      const Tensor& g = ctx.grad_output();
+      if (!g.defined()) return;
+      dispatch_float(g.dtype(), "cross", [&](auto tag) {
+        // g . (a x b) = a . (b x g) = b . (g x a): dL/da = b x g, dL/db = g x a.
+        if (ctx.needs_grad(0)) {
+          Tensor full = Tensor::empty(g.shape(), g.dtype());
+          cross_rows(tag, eb, g, full);
+          ctx.accumulate(0, reduce_raw(full, ctx.input(0).shape()));
+        }
+        if (ctx.needs_grad(1)) {
+          Tensor full = Tensor::empty(g.shape(), g.dtype());
+          cross_rows(tag, g, ea, full);
+          ctx.accumulate(1, reduce_raw(full, ctx.input(1).shape()));
+        }
+      });
+    });
+  }
+  return out;
+}
+
+Tensor length(const Tensor& v, double eps) {
+  check_vector(v, "length", "v");
+  if (!(eps > 0)) throw ValueError("length: eps must be positive, got " + std::to_string(eps));
+  const std::int64_t k = v.size(-1);
+  Tensor out = Tensor::empty(last_to_one(v.shape()), v.dtype());
+  dispatch_float(v.dtype(), "length", [&](auto tag) {
+    using T = decltype(tag);
+    const T* pv = v.data<T>();
+    T* po = out.data<T>();
+    // out[r] = sqrt(sum_j v[r, j]^2).
+    parallel_for(0, out.numel(), row_grain(k), [&](std::int64_t lo, std::int64_t hi) {
+      for (std::int64_t r = lo; r < hi; ++r) po[r] = T(row_length(pv + r * k, k));
+    });
+  });
+  if (should_record({v})) {
+    Tensor len = out.detach();
+    record("length", {v}, {&out}, [v, len, k, eps](AdjointContext& ctx) {
+      const Tensor& g = ctx.grad_output();
+      if (!g.defined()) return;
+      Tensor gv = Tensor::empty(v.shape(), v.dtype());
+      dispatch_float(v.dtype(), "length", [&](auto tag) {
+        using T = decltype(tag);
+        const T *pv = v.data<T>(), *pl = len.data<T>(), *pg = g.data<T>();
+        T* po = gv.data<T>();
+        // dL/dv[r, j] = g[r] v[r, j] / max(|v[r]|, eps)  (0 at v == 0).
+        parallel_for(0, len.numel(), row_grain(k), [&](std::int64_t lo, std::int64_t hi) {
+          for (std::int64_t r = lo; r < hi; ++r) {
+            const T s = T(pg[r] / std::max<T>(pl[r], T(eps)));
+            for (std::int64_t j = 0; j < k; ++j) po[r * k + j] = s * pv[r * k + j];
+          }
+        });
+      });
+      ctx.accumulate(0, gv);
+    });
+  }
+  return out;
+}
+
+Tensor normalize(const Tensor& v, double eps) {
+  check_vector(v, "normalize", "v");
+  if (!(eps > 0)) throw ValueError("normalize: eps must be positive, got " + std::to_string(eps));
+  const std::int64_t k = v.size(-1);
+  const std::int64_t rows = k == 0 ? 0 : v.numel() / k;
+  Tensor out = Tensor::empty(v.shape(), v.dtype());
+  dispatch_float(v.dtype(), "normalize", [&](auto tag) {
+    using T = decltype(tag);
+    const T* pv = v.data<T>();
+    T* po = out.data<T>();
+    // out[r, :] = v[r, :] / max(|v[r]|, eps).
+    parallel_for(0, rows, row_grain(k), [&](std::int64_t lo, std::int64_t hi) {
+      for (std::int64_t r = lo; r < hi; ++r) {
+        const Acc d = std::max<Acc>(row_length(pv + r * k, k), eps);
+        for (std::int64_t j = 0; j < k; ++j) po[r * k + j] = T(Acc(pv[r * k + j]) / d);
+      }
+    });
+  });
+  if (should_record({v})) {
+    Tensor n = out.detach();
+    record("normalize", {v}, {&out}, [v, n, k, rows, eps](AdjointContext& ctx) {
+      const Tensor& g = ctx.grad_output();
+      if (!g.defined()) return;
+      Tensor gv = Tensor::empty(v.shape(), v.dtype());
+      dispatch_float(v.dtype(), "normalize", [&](auto tag) {
+        using T = decltype(tag);
+        const T *pv = v.data<T>(), *pn = n.data<T>(), *pg = g.data<T>();
+        T* po = gv.data<T>();
+        parallel_for(0, rows, row_grain(k), [&](std::int64_t lo, std::int64_t hi) {
+          for (std::int64_t r = lo; r < hi; ++r) {
+            const Acc len = row_length(pv + r * k, k);
+            if (len > eps) {
+              // Unit-sphere projection: dL/dv = (g - n (n.g)) / |v|.
+              Acc ng = 0;
+              for (std::int64_t j = 0; j < k; ++j) ng += Acc(pn[r * k + j]) * Acc(pg[r * k + j]);
+              for (std::int64_t j = 0; j < k; ++j)
+                po[r * k + j] = T((Acc(pg[r * k + j]) - Acc(pn[r * k + j]) * ng) / len);
+            } else {
+              // Below eps the op is v / eps: dL/dv = g / eps.
+              for (std::int64_t j = 0; j < k; ++j) po[r * k + j] = T(Acc(pg[r * k + j]) / eps);
+            }
+          }
+        });
+      });
+      ctx.accumulate(0, gv);
+    });
+  }
+  return out;
+}
+
+Tensor reflect(const Tensor& i, const Tensor& n) {
+  vector_pair(i, n, "reflect", "i", "n");
+  // Composite: i - 2 (n.i) n; the tape differentiates the pieces.
+  return i - (2.0 * dot(n, i)) * n;
+}
+
+}  // namespace gr
