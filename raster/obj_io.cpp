@@ -1,0 +1,486 @@
+// OBJ loading and saving. tinyobjloader does the parsing, but it is lenient in
+// ways that would hand garbage to a renderer (a bad number reads as 0, a
+// missing coordinate reads as 0, an out-of-range face index is only a warning
+// and is returned as is), so load_obj first checks every v/vt/vn/f line itself
+// and fails with the line number. tinyobjloader runs without triangulation;
+// this file triangulates (fan for convex polygons, ear clipping otherwise) so
+// triangle ids are predictable, then welds (v, vt, vn) index triples into a
+// single-indexed Mesh.
+#include "raster/obj_io.h"
+
+#include <tiny_obj_loader.h>
+
+#include <algorithm>
+#include <array>
+#include <charconv>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <numeric>
+#include <sstream>
+#include <string_view>
+#include <vector>
+
+#include "autodiff/error.h"
+#include "raster/image_io.h"
+
+namespace gr::raster {
+namespace fs = std::filesystem;
+namespace {
+
+// ---------------------------------------------------------------------------
+// Strict line check.
+
+[[noreturn]] void fail(const std::string& path, std::size_t line, const std::string& msg) {
+  throw IOError("load_obj('" + path + "'): line " + std::to_string(line) + ": " + msg);
+}
+
+// Splits a line (comment removed) into tokens separated by spaces and tabs.
+void split_tokens(std::string_view line, std::vector<std::string_view>& out) {
+  out.clear();
+  line = line.substr(0, std::min(line.find('#'), line.size()));
+  std::size_t i = 0;
+  while (i < line.size()) {
+    while (i < line.size() && (line[i] == ' ' || line[i] == '\t')) ++i;
+    std::size_t j = i;
+    while (j < line.size() && line[j] != ' ' && line[j] != '\t') ++j;
+    if (j > i) out.push_back(line.substr(i, j - i));
+    i = j;
+  }
+}
+
+// A whole token as a finite number, or false.
+bool parse_number(std::string_view s) {
+  if (s.size() > 1 && s[0] == '+' && s[1] != '-') s.remove_prefix(1);
+  double x = 0;
+  const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), x);
+  return ec == std::errc() && end == s.data() + s.size() && std::isfinite(x);
+}
+
+// A whole (possibly signed) decimal integer that fits in int, or false.
+bool parse_index(std::string_view s, long* out) {
+  if (s.size() > 1 && s[0] == '+' && s[1] != '-') s.remove_prefix(1);
+  int x = 0;
+  const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), x);
+  *out = x;
+  return !s.empty() && ec == std::errc() && end == s.data() + s.size();
+}
+
+struct LineCheck {
+  long num_v = 0, num_vt = 0, num_vn = 0;
+  long faces = 0;
+  // Largest positive index per attribute and the line that used it; checked at
+  // the end because tinyobjloader (and some exporters) allow forward references.
+  std::array<long, 3> max_index{0, 0, 0};
+  std::array<std::size_t, 3> max_line{0, 0, 0};
+};
+
+// Checks one face corner "v", "v/t", "v//n" or "v/t/n".
+void check_corner(const std::string& path, std::size_t line, std::string_view tok,
+                  LineCheck& c) {
+  std::array<std::string_view, 3> parts;
+  int nparts = 0;
+  std::size_t start = 0;
+  for (;;) {
+    const std::size_t slash = tok.find('/', start);
+    if (nparts == 3) fail(path, line, "face corner '" + std::string(tok) + "' has more than 3 indices");
+    parts[nparts++] = tok.substr(start, slash == std::string::npos ? slash : slash - start);
+    if (slash == std::string::npos) break;
+    start = slash + 1;
+  }
+  const long counts[3] = {c.num_v, c.num_vt, c.num_vn};
+  const char* names[3] = {"vertex", "texcoord", "normal"};
+  for (int k = 0; k < nparts; ++k) {
+    if (k == 1 && parts[k].empty() && nparts == 3) continue;  // v//n
+    long idx = 0;
+    if (!parse_index(parts[k], &idx))
+      fail(path, line, "face corner '" + std::string(tok) + "' has a malformed " + names[k] + " index");
+    if (idx == 0) fail(path, line, "face corner '" + std::string(tok) + "' uses index 0 (OBJ is 1-based)");
+    if (idx < 0 && counts[k] + idx < 0)
+      fail(path, line, "face corner '" + std::string(tok) + "' refers to " + names[k] + " " +
+                           std::to_string(idx) + " but only " + std::to_string(counts[k]) +
+                           " precede it");
+    if (idx > c.max_index[k]) {
+      c.max_index[k] = idx;
+      c.max_line[k] = line;
+    }
+  }
+}
+
+// Checks every v/vt/vn/f line of an OBJ text; throws IOError at the first problem.
+LineCheck check_lines(const std::string& path, const std::string& text) {
+  LineCheck c;
+  std::size_t line_no = 0, pos = 0;
+  std::vector<std::string_view> tok;
+  while (pos < text.size()) {
+    // Lines end in \n, \r\n or \r (as tinyobjloader reads them).
+    std::size_t end = pos;
+    while (end < text.size() && text[end] != '\n' && text[end] != '\r') ++end;
+    const std::string_view line = std::string_view(text).substr(pos, end - pos);
+    pos = end + ((end + 1 < text.size() && text[end] == '\r' && text[end + 1] == '\n') ? 2 : 1);
+    ++line_no;
+
+    split_tokens(line, tok);
+    if (tok.empty()) continue;
+    const std::string key(tok[0]);
+    const std::size_t n = tok.size() - 1;
+    if (key == "v" || key == "vt" || key == "vn") {
+      const std::size_t lo = key == "v" ? 3 : key == "vn" ? 3 : 1;
+      const std::size_t hi = key == "v" ? 7 : 3;
+      if (n < lo || n > hi)
+        fail(path, line_no, "'" + key + "' needs " + std::to_string(lo) +
+                                (lo == hi ? "" : " to " + std::to_string(hi)) + " numbers, got " +
+                                std::to_string(n) + " (truncated line?)");
+      for (std::size_t i = 1; i <= n; ++i)
+        if (!parse_number(tok[i]))
+          fail(path, line_no, "'" + key + "' has a bad or non-finite number '" +
+                                  std::string(tok[i]) + "'");
+      (key == "v" ? c.num_v : key == "vt" ? c.num_vt : c.num_vn) += 1;
+    } else if (key == "f") {
+      if (n < 3)
+        fail(path, line_no, "face has " + std::to_string(n) + " corners, needs at least 3");
+      for (std::size_t i = 1; i <= n; ++i) check_corner(path, line_no, tok[i], c);
+      ++c.faces;
+    }
+  }
+  const long counts[3] = {c.num_v, c.num_vt, c.num_vn};
+  const char* names[3] = {"vertex", "texcoord", "normal"};
+  for (int k = 0; k < 3; ++k)
+    if (c.max_index[k] > counts[k])
+      fail(path, c.max_line[k], "face refers to " + std::string(names[k]) + " " +
+                                    std::to_string(c.max_index[k]) + " but the file has only " +
+                                    std::to_string(counts[k]));
+  return c;
+}
+
+// ---------------------------------------------------------------------------
+// Triangulation of one polygon (corner positions given), emitting corner
+// numbers 0..n-1 as triples that keep the polygon's winding.
+
+using P3 = std::array<double, 3>;
+
+void triangulate(const std::vector<P3>& p, std::vector<std::array<int, 3>>& out) {
+  const int n = static_cast<int>(p.size());
+  auto fan = [&](const std::vector<int>& idx) {
+    for (std::size_t i = 1; i + 1 < idx.size(); ++i) out.push_back({idx[0], idx[i], idx[i + 1]});
+  };
+  std::vector<int> ring(n);
+  std::iota(ring.begin(), ring.end(), 0);
+  if (n == 3) return fan(ring);
+
+  // Newell normal; project onto the plane of its largest component so that the
+  // polygon runs counter-clockwise in 2D.
+  P3 nrm{0, 0, 0};
+  for (int i = 0; i < n; ++i) {
+    const P3& a = p[i];
+    const P3& b = p[(i + 1) % n];
+    nrm[0] += (a[1] - b[1]) * (a[2] + b[2]);
+    nrm[1] += (a[2] - b[2]) * (a[0] + b[0]);
+    nrm[2] += (a[0] - b[0]) * (a[1] + b[1]);
+  }
+  int drop = 0;
+  for (int k = 1; k < 3; ++k)
+    if (std::fabs(nrm[k]) > std::fabs(nrm[drop])) drop = k;
+  if (nrm[drop] == 0) return fan(ring);  // degenerate polygon
+  const int ax = (drop + 1) % 3, ay = (drop + 2) % 3;
+  const double flip = nrm[drop] > 0 ? 1.0 : -1.0;
+  std::vector<std::array<double, 2>> q(n);
+  for (int i = 0; i < n; ++i) q[i] = {p[i][ax], flip * p[i][ay]};
+  auto cross = [&](int a, int b, int c) {
+    return (q[b][0] - q[a][0]) * (q[c][1] - q[a][1]) - (q[b][1] - q[a][1]) * (q[c][0] - q[a][0]);
+  };
+
+  // Convex (no reflex corner): a fan from the first corner.
+  bool convex = true;
+  for (int i = 0; i < n && convex; ++i) convex = cross(i, (i + 1) % n, (i + 2) % n) >= 0;
+  if (convex) return fan(ring);
+
+  // Ear clipping: cut the first convex corner whose triangle holds no other corner.
+  while (ring.size() > 3) {
+    const int m = static_cast<int>(ring.size());
+    bool cut = false;
+    for (int i = 0; i < m && !cut; ++i) {
+      const int a = ring[(i + m - 1) % m], b = ring[i], c = ring[(i + 1) % m];
+      if (cross(a, b, c) <= 0) continue;
+      bool empty = true;
+      for (int j = 0; j < m && empty; ++j) {
+        const int d = ring[j];
+        if (d == a || d == b || d == c) continue;
+        empty = !(cross(a, b, d) >= 0 && cross(b, c, d) >= 0 && cross(c, a, d) >= 0);
+      }
+      if (!empty) continue;
+      out.push_back({a, b, c});
+      ring.erase(ring.begin() + i);
+      cut = true;
+    }
+    if (!cut) break;  // self-intersecting or degenerate: fan the rest
+  }
+  fan(ring);
+}
+
+// ---------------------------------------------------------------------------
+
+std::string read_text(const std::string& path) {
+  std::error_code ec;
+  if (fs::is_directory(path, ec)) throw IOError("load_obj('" + path + "'): is a directory");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw IOError("load_obj('" + path + "'): cannot open file (missing or unreadable)");
+  in.seekg(0, std::ios::end);
+  std::string text(static_cast<std::size_t>(in.tellg()), '\0');
+  in.seekg(0, std::ios::beg);
+  in.read(text.data(), static_cast<std::streamsize>(text.size()));
+  if (!in) throw IOError("load_obj('" + path + "'): read error");
+  return text;
+}
+
+void add_warnings(const std::string& path, const std::string& text, std::vector<std::string>& out) {
+  std::istringstream in(text);
+  std::string line;
+  while (std::getline(in, line))
+    if (!line.empty() && line != ".") out.push_back("load_obj('" + path + "'): " + line);
+}
+
+// Resolves a texture name from an MTL file relative to `dir`; empty if absent.
+std::string resolve_texture(const fs::path& dir, std::string name) {
+  std::error_code ec;
+  for (int attempt = 0; attempt < 2; ++attempt) {
+    const fs::path p = dir / name;
+    if (fs::is_regular_file(p, ec)) return p.lexically_normal().string();
+    std::replace(name.begin(), name.end(), '\\', '/');  // files written on Windows
+  }
+  return {};
+}
+
+using Key = std::array<int, 3>;  // (position, texcoord, normal), -1 = none
+
+}  // namespace
+
+Mesh load_obj(const std::string& path) {
+  const std::string text = read_text(path);
+  const LineCheck lines = check_lines(path, text);
+
+  // Parse with tinyobjloader (no triangulation, no vertex colours).
+  const fs::path dir = fs::path(path).parent_path();
+  std::string base = dir.string();
+  if (!base.empty() && base.back() != '/') base += '/';
+  tinyobj::attrib_t attrib;
+  std::vector<tinyobj::shape_t> shapes;
+  std::vector<tinyobj::material_t> materials;
+  std::string warn, err;
+  std::istringstream stream(text);
+  tinyobj::MaterialFileReader mtl_reader(base);
+  const bool ok = tinyobj::LoadObj(&attrib, &shapes, &materials, &warn, &err, &stream,
+                                   &mtl_reader, /*triangulate=*/false,
+                                   /*default_vcols_fallback=*/false);
+  if (!ok) throw IOError("load_obj('" + path + "'): " + (err.empty() ? "parse error" : err));
+  Mesh mesh;
+  add_warnings(path, warn, mesh.warnings);
+  add_warnings(path, err, mesh.warnings);  // only MTL problems reach here when ok
+
+  // Triangulate every face in file order, collecting corner keys.
+  std::vector<Key> corners;
+  std::vector<int> material_of;  // per output triangle
+  long faces = 0;
+  std::vector<P3> poly;
+  std::vector<std::array<int, 3>> tris;
+  for (const tinyobj::shape_t& shape : shapes) {
+    std::size_t offset = 0;
+    for (std::size_t f = 0; f < shape.mesh.num_face_vertices.size(); ++f, ++faces) {
+      const int nv = shape.mesh.num_face_vertices[f];
+      poly.resize(nv);
+      for (int i = 0; i < nv; ++i) {
+        const int vi = shape.mesh.indices[offset + i].vertex_index;
+        for (int k = 0; k < 3; ++k) poly[i][k] = attrib.vertices[3 * vi + k];
+      }
+      tris.clear();
+      triangulate(poly, tris);
+      for (const auto& t : tris) {
+        for (int c : t) {
+          const tinyobj::index_t& ix = shape.mesh.indices[offset + c];
+          corners.push_back({ix.vertex_index, ix.texcoord_index, ix.normal_index});
+        }
+        material_of.push_back(shape.mesh.material_ids.empty() ? -1 : shape.mesh.material_ids[f]);
+      }
+      offset += nv;
+    }
+  }
+  if (faces != lines.faces)
+    throw IOError("load_obj('" + path + "'): tinyobjloader returned " + std::to_string(faces) +
+                  " faces, the file has " + std::to_string(lines.faces));
+  if (corners.empty()) throw IOError("load_obj('" + path + "'): no triangles (empty mesh)");
+
+  // Normals / uvs only if every corner has one.
+  bool all_uv = true, any_uv = false, all_n = true, any_n = false;
+  for (const Key& k : corners) {
+    all_uv &= k[1] >= 0, any_uv |= k[1] >= 0;
+    all_n &= k[2] >= 0, any_n |= k[2] >= 0;
+  }
+  if (any_uv && !all_uv)
+    mesh.warnings.push_back("load_obj('" + path + "'): some face corners lack texture "
+                            "coordinates; uvs dropped");
+  if (any_n && !all_n)
+    mesh.warnings.push_back("load_obj('" + path + "'): some face corners lack normals; "
+                            "normals dropped");
+  for (Key& k : corners) {
+    if (!all_uv) k[1] = -1;
+    if (!all_n) k[2] = -1;
+  }
+
+  // Weld: one vertex per distinct key, in key order. Corners are bucketed by
+  // position index (counting sort), then each small bucket is sorted by key.
+  const std::size_t num_positions = attrib.vertices.size() / 3;
+  std::vector<std::uint32_t> start(num_positions + 1, 0);
+  for (const Key& k : corners) ++start[k[0] + 1];
+  std::partial_sum(start.begin(), start.end(), start.begin());
+  std::vector<std::uint32_t> order(corners.size());
+  {
+    std::vector<std::uint32_t> fill(start.begin(), start.end() - 1);
+    for (std::uint32_t c = 0; c < corners.size(); ++c) order[fill[corners[c][0]]++] = c;
+  }
+  for (std::size_t v = 0; v < num_positions; ++v)
+    if (start[v + 1] - start[v] > 1)
+      std::sort(order.begin() + start[v], order.begin() + start[v + 1],
+                [&](std::uint32_t a, std::uint32_t b) { return corners[a] < corners[b]; });
+  std::vector<std::int32_t> vertex_of(corners.size());
+  std::vector<std::uint32_t> first_corner;  // one representative corner per vertex
+  for (std::size_t i = 0; i < order.size(); ++i) {
+    if (i == 0 || corners[order[i]] != corners[order[i - 1]]) first_corner.push_back(order[i]);
+    vertex_of[order[i]] = static_cast<std::int32_t>(first_corner.size() - 1);
+  }
+
+  // Fill the tensors.
+  const auto nverts = static_cast<std::int64_t>(first_corner.size());
+  const auto ntris = static_cast<std::int64_t>(corners.size() / 3);
+  mesh.positions = Tensor::empty({nverts, 3});
+  mesh.triangles = Tensor::empty({ntris, 3}, DType::Int32);
+  if (all_uv) mesh.uvs = Tensor::empty({nverts, 2});
+  if (all_n) mesh.normals = Tensor::empty({nverts, 3});
+  std::int64_t used_positions = 0;
+  for (std::int64_t v = 0; v < nverts; ++v) {
+    const Key& k = corners[first_corner[v]];
+    if (v == 0 || k[0] != corners[first_corner[v - 1]][0]) ++used_positions;
+    for (int c = 0; c < 3; ++c) mesh.positions.data<float>()[3 * v + c] = attrib.vertices[3 * k[0] + c];
+    if (all_uv)
+      for (int c = 0; c < 2; ++c) mesh.uvs.data<float>()[2 * v + c] = attrib.texcoords[2 * k[1] + c];
+    if (all_n)
+      for (int c = 0; c < 3; ++c) mesh.normals.data<float>()[3 * v + c] = attrib.normals[3 * k[2] + c];
+  }
+  std::copy(vertex_of.begin(), vertex_of.end(), mesh.triangles.data<std::int32_t>());
+  const auto total_positions = static_cast<std::int64_t>(attrib.vertices.size() / 3);
+  if (used_positions < total_positions)
+    mesh.warnings.push_back("load_obj('" + path + "'): " +
+                            std::to_string(total_positions - used_positions) +
+                            " vertices are used by no face and were dropped");
+
+  // Diffuse texture: the first material (in face order) that names one.
+  std::string texname;
+  std::vector<std::string> others;
+  for (int m : material_of) {
+    if (m < 0 || m >= static_cast<int>(materials.size())) continue;
+    const std::string& t = materials[m].diffuse_texname;
+    if (t.empty()) continue;
+    if (texname.empty()) texname = t;
+    else if (t != texname && std::find(others.begin(), others.end(), t) == others.end())
+      others.push_back(t);
+  }
+  if (!texname.empty()) {
+    mesh.texture_path = resolve_texture(dir, texname);
+    if (mesh.texture_path.empty())
+      mesh.warnings.push_back("load_obj('" + path + "'): texture '" + texname +
+                              "' named by the MTL file not found");
+  }
+  if (!others.empty())
+    mesh.warnings.push_back("load_obj('" + path + "'): faces use " +
+                            std::to_string(others.size() + 1) +
+                            " diffuse textures; only the first, '" + texname + "', is kept");
+  mesh.validate("load_obj('" + path + "')");
+  return mesh;
+}
+
+// ---------------------------------------------------------------------------
+
+namespace {
+
+// Appends "<key> x y [z]\n" with the shortest decimal form that reads back as
+// the same float.
+void append_floats(std::string& out, const char* key, const float* x, int n) {
+  char buf[128];
+  char* p = buf;
+  for (const char* k = key; *k; ++k) *p++ = *k;
+  for (int i = 0; i < n; ++i) {
+    *p++ = ' ';
+    p = std::to_chars(p, buf + sizeof buf, x[i]).ptr;
+  }
+  *p++ = '\n';
+  out.append(buf, p);
+}
+
+// Appends " i", " i/i", " i//i" or " i/i/i" for one face corner.
+void append_corner(std::string& out, long i, bool uv, bool normal) {
+  char buf[64];
+  char* p = buf;
+  *p++ = ' ';
+  char num[24];
+  char* num_end = std::to_chars(num, num + sizeof num, i).ptr;
+  auto put = [&] { for (char* q = num; q < num_end; ++q) *p++ = *q; };
+  put();
+  if (uv || normal) {
+    *p++ = '/';
+    if (uv) put();
+    if (normal) {
+      *p++ = '/';
+      put();
+    }
+  }
+  out.append(buf, p);
+}
+
+}  // namespace
+
+void save_obj(const std::string& path, const Mesh& mesh) {
+  mesh.validate("save_obj('" + path + "')");
+  std::string out = "# written by gradraster\n";
+
+  // Material file for the texture, next to the OBJ.
+  if (!mesh.texture_path.empty()) {
+    const fs::path obj(path);
+    const fs::path mtl = fs::path(path).replace_extension(".mtl");
+    std::error_code ec;
+    fs::path tex = fs::proximate(mesh.texture_path, obj.parent_path().empty() ? fs::path(".") :
+                                                                                 obj.parent_path(),
+                                 ec);
+    if (ec) tex = fs::absolute(mesh.texture_path);
+    const std::string m = "# written by gradraster\nnewmtl material0\nKd 1 1 1\nmap_Kd " +
+                          tex.generic_string() + "\n";
+    write_raw(mtl.string(), m.data(), m.size());
+    out += "mtllib " + mtl.filename().string() + "\nusemtl material0\n";
+  }
+
+  const std::int64_t n = mesh.num_vertices();
+  out.reserve(static_cast<std::size_t>(n * 90 + mesh.num_triangles() * 40));
+  const float* p = mesh.positions.data<float>();
+  for (std::int64_t i = 0; i < n; ++i) append_floats(out, "v", p + 3 * i, 3);
+  if (mesh.has_uvs()) {
+    const float* t = mesh.uvs.data<float>();
+    for (std::int64_t i = 0; i < n; ++i) append_floats(out, "vt", t + 2 * i, 2);
+  }
+  if (mesh.has_normals()) {
+    const float* nn = mesh.normals.data<float>();
+    for (std::int64_t i = 0; i < n; ++i) append_floats(out, "vn", nn + 3 * i, 3);
+  }
+  // Faces: one index per vertex, written as v, v/t, v//n or v/t/n.
+  const std::int32_t* tri = mesh.triangles.data<std::int32_t>();
+  for (std::int64_t f = 0; f < mesh.num_triangles(); ++f) {
+    out += 'f';
+    for (int c = 0; c < 3; ++c)
+      append_corner(out, tri[3 * f + c] + 1L, mesh.has_uvs(), mesh.has_normals());
+    out += '\n';
+  }
+  write_raw(path, out.data(), out.size());
+}
+
+}  // namespace gr::raster

@@ -1,0 +1,42 @@
+// Wavefront OBJ files: load_obj reads positions, normals and texture
+// coordinates (through tinyobjloader, after a strict line check of our own) and
+// returns a single-indexed Mesh; save_obj writes one back. Polygons are
+// triangulated by gradraster itself (see load_obj), so triangle ids are stable
+// and documented: tools that map rendered triangle ids back to OBJ faces rely
+// on it.
+#pragma once
+
+#include <string>
+
+#include "raster/mesh.h"
+
+namespace gr::raster {
+
+// Loads an OBJ file.
+//  - Triangles: faces in file order; an n-gon becomes n-2 triangles in place
+//    (a fan from its first corner if convex, ear clipping otherwise), keeping the
+//    file's winding. Triangle k is the k-th triangle in that order.
+//  - Vertices: one per distinct (position, texcoord, normal) index triple used
+//    by a face, ordered by position index (the order of `v` lines), then
+//    texcoord, then normal index. Positions no face uses are dropped (counted in
+//    a warning). A file written with one index per vertex (as save_obj writes)
+//    therefore loads back in the same vertex order.
+//  - Normals / uvs are present only if every face corner names one; otherwise
+//    they are dropped with a warning.
+//  - texture_path: the map_Kd of the first material (in face order) that has
+//    one, resolved relative to the OBJ's folder; set only if the file exists.
+//    A missing MTL file or texture is a warning in Mesh::warnings, not an error.
+// Throws IOError naming the path (and line) for a missing/unreadable file,
+// malformed `v`/`vt`/`vn`/`f` lines (bad or missing numbers, non-finite
+// values, faces with fewer than 3 corners, indices that are 0, malformed or
+// refer to missing vertices), and for a file without any triangle.
+Mesh load_obj(const std::string& path);
+
+// Writes `mesh` as v / vt / vn / f lines (float values printed to round-trip
+// exactly). If mesh.texture_path is set, also writes "<stem>.mtl" next to the
+// OBJ with one material whose map_Kd points at the texture. Files are written
+// through a temporary and renamed, so an error leaves no partial file.
+// Validates the mesh first (ShapeError/DTypeError/ValueError/IndexError).
+void save_obj(const std::string& path, const Mesh& mesh);
+
+}  // namespace gr::raster
