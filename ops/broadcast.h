@@ -30,4 +30,7 @@ void check_float(const Tensor& t, const std::string& op, const char* name);
 // Throws unless a and b are float tensors of the same dtype.
 void check_same_float(const Tensor& a, const Tensor& b, const std::string& op);
 
+// Throws unless clip is a float [N, 4] tensor and triangles an int32 [M, 3] one.
+void check_clip_and_triangles(const Tensor& clip, const Tensor& triangles, const std::string& op);
+
 }  // namespace gr::detail

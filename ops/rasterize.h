@@ -1,0 +1,41 @@
+// Rasterization as an op: clip-space triangles -> G-buffer, differentiable
+// with respect to the clip-space positions through the barycentrics and depth.
+//
+// The op takes clip-space positions (not screen positions) because clipping
+// against the near plane must happen before the w-divide; internally it runs
+// the same w-divide and viewport kernels as wdivide()/viewport(), and its
+// adjoint chains through their adjoints (docs/decisions.md).
+#pragma once
+
+#include "autodiff/tensor.h"
+#include "raster/rasterize.h"
+
+namespace gr {
+
+using raster::Cull;
+
+struct RasterizeOptions {
+  int width = 0;
+  int height = 0;
+  Cull cull = Cull::None;  // front face = counter-clockwise in NDC
+};
+
+// Per-pixel results, row 0 at the top.
+struct GBuffer {
+  Tensor tri_id;  // [H, W] int32: 1-based triangle index, 0 = background (no gradient)
+  Tensor uv;      // [H, W, 2]: screen-space barycentrics (u, v) of vertices 1 and 2
+  Tensor depth;   // [H, W]: z_ndc (raster::kBackgroundDepth on background)
+  raster::RasterStats stats;
+  int width() const { return static_cast<int>(tri_id.size(1)); }
+  int height() const { return static_cast<int>(tri_id.size(0)); }
+};
+
+// clip [N, 4] float32/float64, triangles [M, 3] int32. uv and depth are
+// differentiable w.r.t. clip for a fixed coverage: for u = E_20/2A, v = E_01/2A
+// the adjoint is the quotient rule on the edge functions, then the viewport
+// and w-divide adjoints (raster/rasterize.h states the formulas). Coverage
+// itself (which pixel belongs to which triangle) gets no gradient here; the
+// antialias op supplies silhouette gradients.
+GBuffer rasterize(const Tensor& clip, const Tensor& triangles, const RasterizeOptions& options);
+
+}  // namespace gr

@@ -1,0 +1,48 @@
+// Attribute interpolation over a G-buffer, and its adjoint (no tape).
+//
+// Each covered pixel carries (tri_id, u, v) from rasterize_forward; its
+// screen-space barycentrics are lambda = (1 - u - v, u, v) over the vertices
+// (k0, k1, k2) of triangle tri_id - 1, and w_k is the clip w of vertex k
+// (column 3 of clip), so gradients to w flow back into clip.
+#pragma once
+
+#include <cstdint>
+
+#include "raster/rasterize.h"  // detail::NoDeduce
+
+namespace gr::raster {
+
+// out (H*W*C): per pixel,
+//   perspective: A = sum_k (lambda_k / w_k) A_k / s,  s = sum_k lambda_k / w_k;
+//   linear:      A = sum_k lambda_k A_k.
+// Background pixels (tri_id 0) get `background` (C values; null = zeros).
+// attr: N x C; clip: N x 4 (only w is read); tris: M x 3; uv: H*W*2.
+template <class T>
+void interpolate_forward(const T* attr, std::int64_t num_vertices, std::int64_t channels,
+                         const T* clip, const std::int32_t* tris, std::int64_t num_tris,
+                         const std::int32_t* tri_id, const T* uv, int width, int height,
+                         bool perspective, const typename detail::NoDeduce<T>::type* background,
+                         T* out);
+
+// Adjoint of interpolate_forward, ACCUMULATED (+=). With g = dL/dA (C values)
+// at a covered pixel and q_k = lambda_k / w_k:
+//   perspective: dL/dA_k += g q_k / s,
+//                G_k = g . (A_k - A) / s,  dL/dlambda_k = G_k / w_k,
+//                dL/dw_k -= G_k q_k / w_k;
+//   linear:      dL/dA_k += g lambda_k,  dL/dlambda_k = g . A_k;
+//   dL/du += dL/dlambda_1 - dL/dlambda_0,  dL/dv += dL/dlambda_2 - dL/dlambda_0.
+// grad_attr (N x C), grad_clip (N x 4, only column 3 touched), grad_uv
+// (H*W*2): any may be null (not needed). Background pixels and pixels whose
+// incoming gradient is zero contribute nothing. Per-vertex sums are added in
+// pixel order, so results are bit-identical for any thread count. Divisions
+// by s and w_k are guarded so the result stays finite.
+template <class T>
+void interpolate_backward(const T* attr, std::int64_t num_vertices, std::int64_t channels,
+                          const T* clip, const std::int32_t* tris, std::int64_t num_tris,
+                          const std::int32_t* tri_id, const T* uv, int width, int height,
+                          bool perspective, const T* grad_out,
+                          typename detail::NoDeduce<T>::type* grad_attr,
+                          typename detail::NoDeduce<T>::type* grad_clip,
+                          typename detail::NoDeduce<T>::type* grad_uv);
+
+}  // namespace gr::raster

@@ -1,0 +1,78 @@
+// Rasterization into a G-buffer and its adjoint, on plain arrays (no tape).
+//
+// Forward: clip-space triangles -> per pixel (tri_id, u, v, depth), where
+// tri_id is 1-based (0 = background), (u, v) are the screen-space barycentrics
+// of the pixel centre w.r.t. vertices 1 and 2 of the ORIGINAL triangle
+// (u = E_20 / 2A, v = E_01 / 2A, b0 = 1 - u - v), and depth is z_ndc.
+// Conventions, the tie rule, near/far clipping and the determinism scheme are
+// described in docs/rasterizer.md.
+#pragma once
+
+#include <cstdint>
+
+namespace gr::raster {
+
+namespace detail {
+// Keeps nullable pointer arguments out of template deduction (so nullptr works).
+template <class T>
+struct NoDeduce {
+  using type = T;
+};
+}  // namespace detail
+
+// Which faces to drop. Front face = counter-clockwise in NDC (OpenGL default),
+// i.e. 2A > 0 in screen coordinates (y down).
+enum class Cull { None, Back, Front };
+
+struct RasterSettings {
+  int width = 0;   // pixels, 1..16384
+  int height = 0;  // pixels, 1..16384, width * height <= 2^28
+  Cull cull = Cull::None;
+};
+
+// Triangle counts from one rasterize_forward call (each triangle lands in
+// exactly one of the last six fields).
+struct RasterStats {
+  std::int64_t triangles_in = 0;      // triangles given
+  std::int64_t culled_outside = 0;    // entirely outside one frustum plane (or w <= 0)
+  std::int64_t culled_zero_area = 0;  // zero (homogeneous) area
+  std::int64_t culled_face = 0;       // removed by the Cull setting
+  std::int64_t culled_no_pixel = 0;   // bounding box contains no pixel centre
+  std::int64_t rasterized = 0;        // binned and scanned, all vertices in front of the near plane
+  std::int64_t clipped_near = 0;      // binned and scanned, crossing the near plane / w = 0
+};
+
+// Depth written to background pixels (the far plane).
+constexpr double kBackgroundDepth = 1.0;
+
+// clip: N x 4 row-major (x, y, z, w); tris: M x 3 int32 vertex indices.
+// Writes tri_id (H*W), uv (H*W*2, interleaved u, v), depth (H*W); row-major,
+// row 0 at the top. Background: tri_id 0, uv (0, 0), depth kBackgroundDepth.
+// Throws ValueError (bad size, NaN/Inf position), IndexError (bad index).
+template <class T>
+void rasterize_forward(const T* clip, std::int64_t num_vertices, const std::int32_t* tris,
+                       std::int64_t num_tris, const RasterSettings& settings,
+                       std::int32_t* tri_id, T* uv, T* depth, RasterStats* stats = nullptr);
+
+// Adjoint of rasterize_forward for a fixed coverage (tri_id), ACCUMULATED
+// (+=) into grad_clip (N x 4). grad_uv: H*W*2; grad_depth: H*W or null.
+// Per covered pixel p of triangle (P0, P1, P2) (screen positions, z_k = z_ndc):
+//   u = E_20(p)/2A, v = E_01(p)/2A, depth = (1-u-v) z0 + u z1 + v z2,
+//   g_u' = g_u + g_d (z1 - z0), g_v' = g_v + g_d (z2 - z0),
+//   dL/dE_20 = g_u'/2A, dL/dE_01 = g_v'/2A, dL/d2A = -(g_u' u + g_v' v)/2A,
+//   dL/dz_k = g_d b_k,
+// then through the partials of E(q; a, b) = (qx-ax)(by-ay) - (qy-ay)(bx-ax):
+//   dE/dax = qy-by, dE/day = bx-qx, dE/dbx = ay-qy, dE/dby = qx-ax,
+// and per vertex through viewport_backward and wdivide_backward.
+// Triangles crossing the near plane use the homogeneous form of the same
+// function (u = w1 F1/D, v = w2 F2/D, depth = sum z_k F_k / D with
+// F_k = det[s, V_k+1, V_k+2], D = det[V0, V1, V2]); see docs/rasterizer.md.
+// Contributions are added in pixel order, so the result is bit-identical for
+// any thread count and any triangle order.
+template <class T>
+void rasterize_backward(const T* clip, std::int64_t num_vertices, const std::int32_t* tris,
+                        std::int64_t num_tris, const RasterSettings& settings,
+                        const std::int32_t* tri_id, const T* grad_uv,
+                        const typename detail::NoDeduce<T>::type* grad_depth, T* grad_clip);
+
+}  // namespace gr::raster

@@ -1,0 +1,299 @@
+// Validation, vertex projection, triangle classification and watertight edge
+// setup for the rasterizer (see rasterize_setup.h for the edge scheme).
+#include "raster/rasterize_setup.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include "autodiff/error.h"
+#include "autodiff/parallel.h"
+
+namespace gr::raster::detail {
+
+void check_image_size(int width, int height, const char* op) {
+  if (width < 1 || height < 1 || width > 16384 || height > 16384 ||
+      static_cast<std::int64_t>(width) * height > (std::int64_t(1) << 28))
+    throw ValueError(std::string(op) + ": width/height must be in 1..16384 with width*height <= 2^28, got " +
+                     std::to_string(width) + "x" + std::to_string(height));
+}
+
+void check_triangles(const std::int32_t* tris, std::int64_t num_tris, std::int64_t num_vertices,
+                     const char* op) {
+  if (num_tris < 0 || num_vertices < 0)
+    throw ValueError(std::string(op) + ": negative vertex or triangle count");
+  if (num_tris > INT32_MAX - 1)
+    throw ValueError(std::string(op) + ": too many triangles for int32 tri_id");
+  for (std::int64_t t = 0; t < num_tris; ++t)
+    for (int k = 0; k < 3; ++k) {
+      const std::int32_t i = tris[3 * t + k];
+      if (i < 0 || i >= num_vertices)
+        throw IndexError(std::string(op) + ": tris[" + std::to_string(t) + "][" + std::to_string(k) +
+                         "] = " + std::to_string(i) + " is outside [0, " +
+                         std::to_string(num_vertices) + ")");
+    }
+}
+
+void check_tri_ids(const std::int32_t* tri_id, std::int64_t pixels, std::int64_t num_tris,
+                   const char* op) {
+  for (std::int64_t p = 0; p < pixels; ++p)
+    if (tri_id[p] < 0 || tri_id[p] > num_tris)
+      throw IndexError(std::string(op) + ": tri_id[" + std::to_string(p) + "] = " +
+                       std::to_string(tri_id[p]) + " is outside [0, " + std::to_string(num_tris) + "]");
+}
+
+template <class T>
+void check_finite(const T* values, std::int64_t count, const char* what, const char* op) {
+  for (std::int64_t i = 0; i < count; ++i)
+    if (!std::isfinite(values[i]))
+      throw ValueError(std::string(op) + ": " + what + "[" + std::to_string(i) + "] is NaN or Inf");
+}
+
+template <class T>
+Vertices project_vertices(const T* clip, std::int64_t n, int width, int height) {
+  Vertices v;
+  v.clip.resize(4 * n);
+  v.screen.resize(3 * n);
+  v.front.resize(n);
+  const double hw = 0.5 * width, hh = 0.5 * height;
+  parallel_for(0, n, 8192, [&](std::int64_t lo, std::int64_t hi) {
+    for (std::int64_t i = lo; i < hi; ++i) {
+      double* c = &v.clip[4 * i];
+      for (int k = 0; k < 4; ++k) c[k] = static_cast<double>(clip[4 * i + k]);
+      // Project only what is in front of the near plane; the rest is clipped.
+      const bool in_front = c[3] > 0.0 && c[2] >= -c[3];
+      const double sx = hw * (1.0 + c[0] / c[3]), sy = hh * (1.0 - c[1] / c[3]), zn = c[2] / c[3];
+      const bool ok = in_front && std::isfinite(sx) && std::isfinite(sy) && std::isfinite(zn);
+      v.screen[3 * i + 0] = ok ? sx : 0.0;
+      v.screen[3 * i + 1] = ok ? sy : 0.0;
+      v.screen[3 * i + 2] = ok ? zn : 0.0;
+      v.front[i] = ok;
+    }
+  });
+  return v;
+}
+
+namespace {
+
+// Clips a convex polygon (clip coords, 4 doubles each) against dist(v) >= 0.
+template <class Dist>
+int clip_polygon(const double (*in)[4], int n, double (*out)[4], Dist dist) {
+  int m = 0;
+  for (int i = 0; i < n; ++i) {
+    const double* a = in[i];
+    const double* b = in[(i + 1) % n];
+    const double da = dist(a), db = dist(b);
+    // Keep a if inside; add the crossing point if the edge crosses the plane.
+    if (da >= 0.0) {
+      std::copy(a, a + 4, out[m++]);
+    }
+    if ((da >= 0.0) != (db >= 0.0)) {
+      const double t = da / (da - db);
+      for (int k = 0; k < 4; ++k) out[m][k] = a[k] + t * (b[k] - a[k]);
+      ++m;
+    }
+  }
+  return m;
+}
+
+// Pixel-centre index range [lo, hi] of the interval [a, b], clamped to [0, n-1].
+void pixel_range(double a, double b, int n, std::int32_t* lo, std::int32_t* hi) {
+  a = std::clamp(a, -2.0, n + 2.0);
+  b = std::clamp(b, -2.0, n + 2.0);
+  *lo = std::max(0, static_cast<int>(std::ceil(a - 0.5)));
+  *hi = std::min(n - 1, static_cast<int>(std::floor(b - 0.5)));
+}
+
+// Canonical order of two vertices: by position, then by index.
+bool screen_less(const Vertices& v, std::int32_t a, std::int32_t b) {
+  const double* pa = &v.screen[3 * static_cast<std::size_t>(a)];
+  const double* pb = &v.screen[3 * static_cast<std::size_t>(b)];
+  if (pa[0] != pb[0]) return pa[0] < pb[0];
+  if (pa[1] != pb[1]) return pa[1] < pb[1];
+  return a < b;
+}
+bool clip_less(const Vertices& v, std::int32_t a, std::int32_t b) {
+  const double* pa = &v.clip[4 * static_cast<std::size_t>(a)];
+  const double* pb = &v.clip[4 * static_cast<std::size_t>(b)];
+  for (int k : {0, 1, 3})
+    if (pa[k] != pb[k]) return pa[k] < pb[k];
+  return a < b;
+}
+
+// Top-left rule: on e == 0 the pixel is inside if the inside lies towards +x,
+// or (horizontal edge) towards +y, i.e. the gradient (dy, -dx) points there.
+bool tie_rule(double dx, double dy) { return dy > 0.0 || (dy == 0.0 && dx < 0.0); }
+
+// Screen-space edge a->b times sign: e = sign * E_ab(p).
+Edge screen_edge(const Vertices& v, std::int32_t a, std::int32_t b, double sign) {
+  if (screen_less(v, b, a)) {
+    std::swap(a, b);
+    sign = -sign;
+  }
+  const double* pa = &v.screen[3 * static_cast<std::size_t>(a)];
+  const double* pb = &v.screen[3 * static_cast<std::size_t>(b)];
+  Edge e{};
+  e.ax = pa[0];
+  e.ay = pa[1];
+  e.dx = sign * (pb[0] - pa[0]);
+  e.dy = sign * (pb[1] - pa[1]);
+  e.c = 0.0;
+  e.tie = tie_rule(e.dx, e.dy);
+  return e;
+}
+
+// Homogeneous edge a->b times sign: e = sign * det[s, V_a, V_b], s = (px, py, 1).
+Edge homogeneous_edge(const Vertices& v, std::int32_t a, std::int32_t b, double sign, int width,
+                      int height) {
+  if (clip_less(v, b, a)) {
+    std::swap(a, b);
+    sign = -sign;
+  }
+  const HVec n = cross(homogeneous(v, a, width, height), homogeneous(v, b, width, height));
+  Edge e{};
+  e.ax = 0.0;
+  e.ay = 0.0;
+  e.dy = sign * n.x;
+  e.dx = -(sign * n.y);
+  e.c = sign * n.w;
+  e.tie = tie_rule(e.dx, e.dy);
+  return e;
+}
+
+// Twice the signed screen area, 2A = E_12(p0).
+double twice_area(const Vertices& v, const std::int32_t* tri) {
+  const double* p0 = &v.screen[3 * static_cast<std::size_t>(tri[0])];
+  const double* p1 = &v.screen[3 * static_cast<std::size_t>(tri[1])];
+  const double* p2 = &v.screen[3 * static_cast<std::size_t>(tri[2])];
+  return (p0[0] - p1[0]) * (p2[1] - p1[1]) - (p0[1] - p1[1]) * (p2[0] - p1[0]);
+}
+
+double homogeneous_det(const Vertices& v, const std::int32_t* tri, int width, int height) {
+  return dot(homogeneous(v, tri[0], width, height),
+             cross(homogeneous(v, tri[1], width, height), homogeneous(v, tri[2], width, height)));
+}
+
+}  // namespace
+
+TriClass classify_triangle(const Vertices& v, const std::int32_t* tri, int width, int height,
+                           int cull, PixelBox* box) {
+  const double* c[3] = {&v.clip[4 * static_cast<std::size_t>(tri[0])],
+                        &v.clip[4 * static_cast<std::size_t>(tri[1])],
+                        &v.clip[4 * static_cast<std::size_t>(tri[2])]};
+  // Entirely outside one frustum plane (including behind the camera).
+  auto all = [&](auto outside) { return outside(c[0]) && outside(c[1]) && outside(c[2]); };
+  if (all([](const double* p) { return p[3] <= 0.0; }) ||
+      all([](const double* p) { return p[0] > p[3]; }) ||
+      all([](const double* p) { return p[0] < -p[3]; }) ||
+      all([](const double* p) { return p[1] > p[3]; }) ||
+      all([](const double* p) { return p[1] < -p[3]; }) ||
+      all([](const double* p) { return p[2] < -p[3]; }) ||
+      all([](const double* p) { return p[2] > p[3]; }))
+    return TriClass::Outside;
+
+  // Orientation: 2A > 0 (screen) or D < 0 (homogeneous) is a front face.
+  const bool clipped = needs_clipping(v, tri);
+  bool front;
+  if (!clipped) {
+    const double a2 = twice_area(v, tri);
+    if (a2 == 0.0) return TriClass::ZeroArea;
+    front = a2 > 0.0;
+  } else {
+    const double d = homogeneous_det(v, tri, width, height);
+    if (d == 0.0 || !std::isfinite(d)) return TriClass::ZeroArea;
+    front = d < 0.0;
+  }
+  if ((cull > 0 && !front) || (cull < 0 && front)) return TriClass::Face;
+
+  // Screen bounding box: of the vertices, or of the near-clipped polygon.
+  double minx, maxx, miny, maxy;
+  if (!clipped) {
+    const double* p[3] = {&v.screen[3 * static_cast<std::size_t>(tri[0])],
+                          &v.screen[3 * static_cast<std::size_t>(tri[1])],
+                          &v.screen[3 * static_cast<std::size_t>(tri[2])]};
+    minx = std::min({p[0][0], p[1][0], p[2][0]});
+    maxx = std::max({p[0][0], p[1][0], p[2][0]});
+    miny = std::min({p[0][1], p[1][1], p[2][1]});
+    maxy = std::max({p[0][1], p[1][1], p[2][1]});
+  } else {
+    double poly[3][4], near[4][4], pos[5][4];
+    for (int k = 0; k < 3; ++k) std::copy(c[k], c[k] + 4, poly[k]);
+    // Sutherland-Hodgman against the near plane z >= -w ...
+    const int n1 = clip_polygon(poly, 3, near, [](const double* p) { return p[2] + p[3]; });
+    // ... and against w >= eps so every remaining vertex projects.
+    double wmax = 0.0;
+    for (int k = 0; k < n1; ++k) wmax = std::max(wmax, std::abs(near[k][3]));
+    const double eps = 1e-12 * wmax;
+    const int n2 = clip_polygon(near, n1, pos, [eps](const double* p) { return p[3] - eps; });
+    if (n2 == 0) return TriClass::Outside;
+    minx = miny = INFINITY;
+    maxx = maxy = -INFINITY;
+    for (int k = 0; k < n2; ++k) {
+      const double sx = 0.5 * width * (1.0 + pos[k][0] / pos[k][3]);
+      const double sy = 0.5 * height * (1.0 - pos[k][1] / pos[k][3]);
+      minx = std::min(minx, sx);
+      maxx = std::max(maxx, sx);
+      miny = std::min(miny, sy);
+      maxy = std::max(maxy, sy);
+    }
+    // One pixel of margin for the rounding of the clipped vertices.
+    minx -= 1.0;
+    miny -= 1.0;
+    maxx += 1.0;
+    maxy += 1.0;
+  }
+  pixel_range(minx, maxx, width, &box->x0, &box->x1);
+  pixel_range(miny, maxy, height, &box->y0, &box->y1);
+  if (box->x0 > box->x1 || box->y0 > box->y1) return TriClass::NoPixel;
+  return clipped ? TriClass::Clipped : TriClass::Raster;
+}
+
+void setup_edges(const Vertices& v, const std::int32_t* tri, int width, int height, TriSetup* out) {
+  if (!needs_clipping(v, tri)) {
+    // Screen form: e_k = sign(2A) E_ab, lambda_k = e_k / |2A|, depth = sum lambda_k z_k.
+    const double a2 = twice_area(v, tri);
+    const double sign = a2 > 0.0 ? 1.0 : -1.0;
+    const double inv = 1.0 / std::abs(a2);
+    bool z_test = false;
+    for (int k = 0; k < 3; ++k) {
+      Edge& e = out->e[k];
+      e = screen_edge(v, tri[(k + 1) % 3], tri[(k + 2) % 3], sign);
+      const double z = v.screen[3 * static_cast<std::size_t>(tri[k]) + 2];
+      e.mu = inv;
+      e.mz = z * inv;
+      z_test |= z > 1.0;
+    }
+    out->z_test = z_test;
+    return;
+  }
+  // Homogeneous form: inside iff F_k / D > 0, with F_k = det[s, V_a, V_b].
+  // Edges whose two vertices are in front use the screen form instead
+  // (F_k = -w_a w_b E_ab), so they match the neighbouring triangle bit for bit.
+  const double d = homogeneous_det(v, tri, width, height);
+  const double sign = d > 0.0 ? 1.0 : -1.0;
+  const double inv = 1.0 / std::abs(d);
+  for (int k = 0; k < 3; ++k) {
+    const std::int32_t a = tri[(k + 1) % 3], b = tri[(k + 2) % 3];
+    const double* ck = &v.clip[4 * static_cast<std::size_t>(tri[k])];
+    Edge& e = out->e[k];
+    double base;
+    if (v.front[a] && v.front[b]) {
+      e = screen_edge(v, a, b, -sign);
+      base = v.clip[4 * static_cast<std::size_t>(a) + 3] * v.clip[4 * static_cast<std::size_t>(b) + 3];
+    } else {
+      e = homogeneous_edge(v, a, b, sign, width, height);
+      base = 1.0;
+    }
+    // F_k / D = e * base / |D|; lambda_k = w_k F_k / D; depth = sum z_k F_k / D.
+    e.mu = base * ck[3] * inv;
+    e.mz = base * ck[2] * inv;
+  }
+  out->z_test = true;
+}
+
+template void check_finite<float>(const float*, std::int64_t, const char*, const char*);
+template void check_finite<double>(const double*, std::int64_t, const char*, const char*);
+template Vertices project_vertices<float>(const float*, std::int64_t, int, int);
+template Vertices project_vertices<double>(const double*, std::int64_t, int, int);
+
+}  // namespace gr::raster::detail

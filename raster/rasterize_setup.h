@@ -1,0 +1,90 @@
+// Internal to the raster kernels: input validation, per-vertex projection,
+// per-triangle classification (frustum / area / facing / pixel bounding box)
+// and the watertight edge setup shared by the rasterizer's tiles.
+//
+// Edge values are evaluated as e(p) = ((px - ax) dy - (py - ay) dx) + c from
+// data that depend only on the edge's two vertices taken in a canonical order,
+// with the sign flipped afterwards, so an edge shared by two triangles gives
+// bit-identical |e| in both; e == 0 is settled by a top-left rule on (dy, -dx).
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+namespace gr::raster::detail {
+
+// Throws ValueError unless 1 <= width, height <= 16384 and width*height <= 2^28.
+void check_image_size(int width, int height, const char* op);
+// Throws IndexError naming the triangle if an index is < 0 or >= num_vertices.
+void check_triangles(const std::int32_t* tris, std::int64_t num_tris, std::int64_t num_vertices,
+                     const char* op);
+// Throws IndexError if some tri_id is < 0 or > num_tris.
+void check_tri_ids(const std::int32_t* tri_id, std::int64_t pixels, std::int64_t num_tris,
+                   const char* op);
+// Throws ValueError naming the element if some value is NaN or Inf.
+template <class T>
+void check_finite(const T* values, std::int64_t count, const char* what, const char* op);
+
+// Per-vertex data in double: clip (x, y, z, w), screen (sx, sy), z_ndc, and
+// whether the vertex is strictly in front of the near plane (w > 0, z >= -w).
+struct Vertices {
+  std::vector<double> clip;    // N x 4
+  std::vector<double> screen;  // N x 3: sx, sy, z_ndc (valid when front[i])
+  std::vector<std::uint8_t> front;
+};
+template <class T>
+Vertices project_vertices(const T* clip, std::int64_t num_vertices, int width, int height);
+
+// A triangle uses homogeneous (clipped) setup when a vertex is not in front.
+inline bool needs_clipping(const Vertices& v, const std::int32_t* tri) {
+  return !(v.front[tri[0]] && v.front[tri[1]] && v.front[tri[2]]);
+}
+
+// One edge, normalized so that e > 0 is the inside; tie: e == 0 counts inside.
+// mu: lambda_k = e * mu (screen barycentric of the opposite vertex);
+// mz: depth contribution e * mz.
+struct Edge {
+  double ax, ay, dx, dy, c;
+  double mu, mz;
+  bool tie;
+  double row(double py) const { return (py - ay) * dx; }
+  double eval(double px, double rowterm) const { return ((px - ax) * dy - rowterm) + c; }
+  bool inside(double e) const { return e > 0.0 || (e == 0.0 && tie); }
+};
+
+struct TriSetup {
+  Edge e[3];     // e[k] is opposite vertex k
+  bool z_test;   // depth must be tested against [-1, 1] per pixel
+};
+
+// Outcome of classify_triangle.
+enum class TriClass : std::uint8_t { Raster, Clipped, Outside, ZeroArea, Face, NoPixel };
+
+// Inclusive pixel ranges of the triangle's pixel centres, clamped to the image.
+struct PixelBox {
+  std::int32_t x0, y0, x1, y1;
+};
+
+// Frustum rejection, area, culling and the pixel bounding box of triangle t.
+// cull: 0 none, +1 drop back faces, -1 drop front faces.
+TriClass classify_triangle(const Vertices& v, const std::int32_t* tri, int width, int height,
+                           int cull, PixelBox* box);
+
+// Edge functions of a triangle that classify_triangle accepted.
+void setup_edges(const Vertices& v, const std::int32_t* tri, int width, int height,
+                 TriSetup* out);
+
+// Homogeneous screen vertex V = (W/2 (x + w), H/2 (w - y), w).
+struct HVec {
+  double x, y, w;
+};
+inline HVec homogeneous(const Vertices& v, std::int32_t i, int width, int height) {
+  const double* c = &v.clip[4 * static_cast<std::size_t>(i)];
+  return {0.5 * width * (c[0] + c[3]), 0.5 * height * (c[3] - c[1]), c[3]};
+}
+inline HVec cross(const HVec& a, const HVec& b) {
+  return {a.y * b.w - a.w * b.y, a.w * b.x - a.x * b.w, a.x * b.y - a.y * b.x};
+}
+inline double dot(const HVec& a, const HVec& b) { return a.x * b.x + a.y * b.y + a.w * b.w; }
+
+}  // namespace gr::raster::detail

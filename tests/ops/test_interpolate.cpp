@@ -1,0 +1,69 @@
+#include <catch2/catch.hpp>
+
+#include "ops/ops.h"
+#include "test_support.h"
+
+using namespace gr;
+using gr::testing::random_input;
+using gr::testing::require_gradcheck;
+using Inputs = std::vector<Tensor>;
+
+namespace {
+Tensor clip_of_two_triangles() {
+  return Tensor::from_values({-0.9, -0.8, 0.1, 1.0, 0.9, -0.7, 0.2, 2.0, -0.2, 0.9, 0.3, 0.7,  //
+                              0.2, 0.1, -0.1, 1.5, 0.95, 0.9, 0.0, 1.1, -0.6, 0.5, 0.2, 0.8},
+                             {6, 4}, DType::Float64);
+}
+}  // namespace
+
+TEST_CASE("interpolate op: gradients w.r.t. attributes, w and barycentrics match finite differences", "[ops][interpolate][gradcheck]") {
+  Tensor tris = Tensor::from_vector<std::int32_t>({0, 1, 2, 3, 4, 5}, {2, 3});
+  Tensor attr = random_input({6, 3}, -1, 1, 41);
+  for (bool perspective : {true, false}) {
+    INFO("perspective " << perspective);
+    Tensor clip = clip_of_two_triangles().set_requires_grad();
+    GBuffer gb = rasterize(clip.detach(), tris, {20, 16});
+    gb.uv = gb.uv.copy().set_requires_grad();  // check dL/du, dL/dv as a leaf
+    InterpolateOptions opt;
+    opt.perspective = perspective;
+    require_gradcheck(perspective ? "interpolate perspective" : "interpolate linear",
+                      [&](const Inputs& in) {
+                        GBuffer g = gb;
+                        g.uv = in[2];
+                        return interpolate(in[0], in[1], g, tris, opt);
+                      },
+                      {attr, clip, gb.uv});
+  }
+}
+
+TEST_CASE("interpolate op: constant attributes stay constant and background gets the chosen value", "[ops][interpolate]") {
+  Tensor clip = clip_of_two_triangles();
+  Tensor tris = Tensor::from_vector<std::int32_t>({0, 1, 2, 3, 4, 5}, {2, 3});
+  GBuffer gb = rasterize(clip, tris, {16, 16});
+  Tensor attr = Tensor::full({6, 2}, 0.375, DType::Float64);  // barycentrics sum to one in both modes
+  InterpolateOptions opt;
+  opt.background = Tensor::from_values({-7, 9}, {2}, DType::Float64);
+  for (bool perspective : {true, false}) {
+    opt.perspective = perspective;
+    Tensor out = interpolate(attr, clip, gb, tris, opt);
+    for (std::int64_t j = 0; j < 16; ++j)
+      for (std::int64_t i = 0; i < 16; ++i) {
+        const bool covered = gb.tri_id.at({j, i}) != 0;
+        CHECK(out.at({j, i, 0}) == (covered ? Approx(0.375).epsilon(1e-14) : Approx(-7)));
+        CHECK(out.at({j, i, 1}) == (covered ? Approx(0.375).epsilon(1e-14) : Approx(9)));
+      }
+  }
+}
+
+TEST_CASE("interpolate op: mismatched shapes and dtypes throw with clear messages", "[ops][interpolate][errors]") {
+  Tensor clip = clip_of_two_triangles();
+  Tensor tris = Tensor::from_vector<std::int32_t>({0, 1, 2, 3, 4, 5}, {2, 3});
+  GBuffer gb = rasterize(clip, tris, {8, 8});
+  CHECK_THROWS_WITH(interpolate(Tensor::ones({5, 3}, DType::Float64), clip, gb, tris),
+                    Catch::Contains("attributes") && Catch::Contains("N = 6"));
+  CHECK_THROWS_AS(interpolate(Tensor::ones({6, 3}), clip, gb, tris), DTypeError);
+  InterpolateOptions opt;
+  opt.background = Tensor::ones({2}, DType::Float64);
+  CHECK_THROWS_AS(interpolate(Tensor::ones({6, 3}, DType::Float64), clip, gb, tris, opt), ShapeError);
+  CHECK_THROWS_AS(interpolate(Tensor::ones({6, 3}, DType::Float64), clip, GBuffer{}, tris), ShapeError);
+}

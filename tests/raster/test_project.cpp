@@ -1,0 +1,117 @@
+// Tests of the projection kernels: perspective divide and viewport, forward
+// values by hand and adjoints against central finite differences.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <functional>
+#include <random>
+#include <vector>
+
+#include "autodiff/error.h"
+#include "raster/project.h"
+
+using namespace gr;
+using namespace gr::raster;
+
+namespace {
+
+// Central difference of f at x, element by element: the gradient of a scalar f.
+std::vector<double> numeric_grad(const std::function<double(const std::vector<double>&)>& f,
+                                 std::vector<double> x, double h = 1e-6) {
+  std::vector<double> g(x.size());
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    const double x0 = x[i];
+    x[i] = x0 + h;
+    const double fp = f(x);
+    x[i] = x0 - h;
+    const double fm = f(x);
+    x[i] = x0;
+    g[i] = (fp - fm) / (2 * h);
+  }
+  return g;
+}
+
+// max |a - b| / max(1, max |b|).
+double rel_error(const std::vector<double>& a, const std::vector<double>& b) {
+  double err = 0, scale = 1;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    err = std::max(err, std::abs(a[i] - b[i]));
+    scale = std::max(scale, std::abs(b[i]));
+  }
+  return err / scale;
+}
+
+std::vector<double> random_vector(std::size_t n, double lo, double hi, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> d(lo, hi);
+  std::vector<double> v(n);
+  for (double& x : v) x = d(rng);
+  return v;
+}
+
+}  // namespace
+
+TEST_CASE("wdivide: divides x, y, z by w", "[raster][project]") {
+  const std::vector<double> clip = {2, -4, 1, 2, 3, 6, -9, -3};
+  std::vector<double> ndc(6);
+  wdivide_forward(clip.data(), 2, ndc.data());
+  CHECK(ndc == std::vector<double>{1, -2, 0.5, -1, -2, 3});
+}
+
+TEST_CASE("wdivide: w exactly 0 throws a ValueError naming the vertex", "[raster][project]") {
+  const std::vector<double> clip = {1, 1, 1, 1, 1, 1, 1, 0};
+  std::vector<double> ndc(6);
+  CHECK_THROWS_AS(wdivide_forward(clip.data(), 2, ndc.data()), ValueError);
+  CHECK_THROWS_WITH(wdivide_forward(clip.data(), 2, ndc.data()), Catch::Contains("vertex 1"));
+  // A zero gradient through w = 0 is fine; a non-zero one is not.
+  std::vector<double> g(6, 0.0), gc(8, 0.0);
+  CHECK_NOTHROW(wdivide_backward(clip.data(), 2, g.data(), gc.data()));
+  g[4] = 1;
+  CHECK_THROWS_AS(wdivide_backward(clip.data(), 2, g.data(), gc.data()), ValueError);
+}
+
+TEST_CASE("wdivide: gradient matches finite differences", "[raster][project]") {
+  const int n = 5;
+  std::vector<double> clip = random_vector(4 * n, -2, 2, 1);
+  for (int i = 0; i < n; ++i) clip[4 * i + 3] = 0.5 + std::abs(clip[4 * i + 3]);
+  clip[3] = -1.3;  // negative w is allowed (no clipping here)
+  const std::vector<double> wts = random_vector(3 * n, -1, 1, 2);
+  auto loss = [&](const std::vector<double>& c) {
+    std::vector<double> ndc(3 * n);
+    wdivide_forward(c.data(), n, ndc.data());
+    double l = 0;
+    for (int i = 0; i < 3 * n; ++i) l += wts[i] * ndc[i];
+    return l;
+  };
+  std::vector<double> grad(4 * n, 0.25);  // accumulates onto existing values
+  wdivide_backward(clip.data(), n, wts.data(), grad.data());
+  for (double& g : grad) g -= 0.25;
+  const double err = rel_error(grad, numeric_grad(loss, clip));
+  INFO("relative error " << err);
+  CHECK(err < 1e-8);
+}
+
+TEST_CASE("viewport: maps NDC corners to image corners with row 0 at the top", "[raster][project]") {
+  const std::vector<double> ndc = {-1, 1, 0, 1, -1, 0.5};
+  std::vector<double> s(4);
+  viewport_forward(ndc.data(), 2, 640, 480, s.data());
+  CHECK(s == std::vector<double>{0, 0, 640, 480});
+}
+
+TEST_CASE("viewport: gradient matches finite differences", "[raster][project]") {
+  const int n = 4, W = 37, H = 23;
+  const std::vector<double> ndc = random_vector(3 * n, -1, 1, 3);
+  const std::vector<double> wts = random_vector(2 * n, -1, 1, 4);
+  auto loss = [&](const std::vector<double>& x) {
+    std::vector<double> s(2 * n);
+    viewport_forward(x.data(), n, W, H, s.data());
+    double l = 0;
+    for (int i = 0; i < 2 * n; ++i) l += wts[i] * s[i];
+    return l;
+  };
+  std::vector<double> grad(3 * n, 0.0);
+  viewport_backward(n, W, H, wts.data(), grad.data());
+  const double err = rel_error(grad, numeric_grad(loss, ndc));
+  INFO("relative error " << err);
+  CHECK(err < 1e-8);
+}
