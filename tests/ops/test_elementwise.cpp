@@ -20,18 +20,27 @@ Tensor grad_of(const std::function<Tensor(const Tensor&)>& f, const std::vector<
 }
 }  // namespace
 
-TEST_CASE("add, sub, mul, div: gradients match finite differences with broadcasting", "[ops][elementwise][gradcheck]") {
-  Tensor a = random_input({4, 3}, -2, 2, 1);
-  Tensor b = random_input({3}, 0.5, 2, 2);      // broadcast along rows
-  Tensor c = random_input({4, 1}, 0.5, 2, 3);   // broadcast along columns
-  require_gradcheck("add", [](const Inputs& in) { return in[0] + in[1]; }, {a, b});
-  require_gradcheck("sub", [](const Inputs& in) { return in[0] - in[1]; }, {a, c});
-  require_gradcheck("mul", [](const Inputs& in) { return in[0] * in[1]; }, {a, b});
-  require_gradcheck("div", [](const Inputs& in) { return in[0] / in[1]; }, {a, c});
-  require_gradcheck("div scalar", [](const Inputs& in) { return 2.0 / in[0]; }, {c});
-  Tensor s = random_input({}, 0.5, 1.5, 4);  // rank-0 operand
-  require_gradcheck("mul rank-0", [](const Inputs& in) { return in[0] * in[1]; }, {a, s});
-}
+// One gradcheck test per binary op, with operands broadcast along rows,
+// columns and from rank 0.
+#define BINARY_GRADCHECK_TEST(op, expr, lo_b, hi_b)                                              \
+  TEST_CASE(#op ": gradient matches finite differences with broadcasting", "[ops][elementwise][gradcheck]") { \
+    Tensor a = random_input({4, 3}, -2, 2, 1);                                                   \
+    for (const Shape& shape_b : {Shape{4, 3}, Shape{3}, Shape{4, 1}, Shape{}}) {                 \
+      Tensor b = random_input(shape_b, lo_b, hi_b, 2);                                           \
+      require_gradcheck(#op " " + shape_b.str(), [](const Inputs& in) {                          \
+        const Tensor& x = in[0];                                                                 \
+        const Tensor& y = in[1];                                                                 \
+        return expr;                                                                             \
+      }, {a, b});                                                                                \
+    }                                                                                            \
+  }
+
+BINARY_GRADCHECK_TEST(add, x + y, -2, 2)
+BINARY_GRADCHECK_TEST(sub, x - y, -2, 2)
+BINARY_GRADCHECK_TEST(mul, x * y, -2, 2)
+BINARY_GRADCHECK_TEST(div, x / y, 0.5, 2)
+BINARY_GRADCHECK_TEST(minimum, minimum(x, y), -2, 2)
+BINARY_GRADCHECK_TEST(maximum, maximum(x, y), -2, 2)
 
 TEST_CASE("add and mul: forward values follow NumPy broadcasting", "[ops][elementwise]") {
   Tensor a = Tensor::from_values({1, 2, 3, 4, 5, 6}, {2, 3});
@@ -42,21 +51,24 @@ TEST_CASE("add and mul: forward values follow NumPy broadcasting", "[ops][elemen
   CHECK((col + row).shape() == Shape{2, 3});
 }
 
-TEST_CASE("unary math ops: gradients match finite differences", "[ops][elementwise][gradcheck]") {
-  Tensor x = random_input({2, 5}, 0.2, 2.0, 5);
-  Tensor y = random_input({2, 5}, -3, 3, 6);
-  require_gradcheck("neg", [](const Inputs& in) { return neg(in[0]); }, {y});
-  require_gradcheck("exp", [](const Inputs& in) { return exp(in[0]); }, {y});
-  require_gradcheck("log", [](const Inputs& in) { return log(in[0]); }, {x});
-  require_gradcheck("sqrt", [](const Inputs& in) { return sqrt(in[0]); }, {x});
-  require_gradcheck("rsqrt", [](const Inputs& in) { return rsqrt(in[0]); }, {x});
-  require_gradcheck("sin", [](const Inputs& in) { return sin(in[0]); }, {y});
-  require_gradcheck("cos", [](const Inputs& in) { return cos(in[0]); }, {y});
-  require_gradcheck("abs", [](const Inputs& in) { return abs(in[0]); }, {y});
-  require_gradcheck("clamp", [](const Inputs& in) { return clamp(in[0], -1.0, 1.5); }, {y});
-}
+// One gradcheck test per unary op, on random inputs inside its domain.
+#define UNARY_GRADCHECK_TEST(op, expr, lo, hi)                                                  \
+  TEST_CASE(#op ": gradient matches finite differences", "[ops][elementwise][gradcheck]") {    \
+    Tensor x = random_input({2, 5}, lo, hi, 5);                                                 \
+    require_gradcheck(#op, [](const Inputs& in) { const Tensor& a = in[0]; return expr; }, {x}); \
+  }
 
-TEST_CASE("pow: gradients match finite differences for scalar and tensor exponents", "[ops][elementwise][gradcheck]") {
+UNARY_GRADCHECK_TEST(neg, neg(a), -3, 3)
+UNARY_GRADCHECK_TEST(exp, exp(a), -3, 3)
+UNARY_GRADCHECK_TEST(log, log(a), 0.2, 2)
+UNARY_GRADCHECK_TEST(sqrt, sqrt(a), 0.2, 2)
+UNARY_GRADCHECK_TEST(rsqrt, rsqrt(a), 0.2, 2)
+UNARY_GRADCHECK_TEST(sin, sin(a), -3, 3)
+UNARY_GRADCHECK_TEST(cos, cos(a), -3, 3)
+UNARY_GRADCHECK_TEST(abs, abs(a), -3, 3)
+UNARY_GRADCHECK_TEST(clamp, clamp(a, -1.0, 1.5), -3, 3)
+
+TEST_CASE("pow: gradient matches finite differences for scalar and tensor exponents", "[ops][elementwise][gradcheck]") {
   Tensor x = random_input({6}, 0.3, 1.5, 7);
   Tensor p = random_input({6}, -1.5, 2.5, 8);
   require_gradcheck("pow integer", [](const Inputs& in) { return pow(in[0], 32.0); }, {x});
@@ -75,14 +87,7 @@ TEST_CASE("pow: integer exponents agree with std::pow", "[ops][elementwise]") {
   }
 }
 
-TEST_CASE("minimum, maximum: gradients match finite differences away from ties", "[ops][elementwise][gradcheck]") {
-  Tensor a = random_input({3, 4}, -1, 1, 11);
-  Tensor b = random_input({4}, -1, 1, 12);
-  require_gradcheck("minimum", [](const Inputs& in) { return minimum(in[0], in[1]); }, {a, b});
-  require_gradcheck("maximum", [](const Inputs& in) { return maximum(in[0], in[1]); }, {a, b});
-}
-
-TEST_CASE("where: gradients go to the selected operand only", "[ops][elementwise][gradcheck]") {
+TEST_CASE("where: gradient matches finite differences and goes to the selected operand only", "[ops][elementwise][gradcheck]") {
   Tensor a = random_input({2, 3}, -1, 1, 13);
   Tensor b = random_input({3}, -1, 1, 14);
   Tensor mask = Tensor::from_values({1, 0, 1, 0, 0, 1}, {2, 3}, DType::Float64);
@@ -104,7 +109,7 @@ TEST_CASE("comparison masks are 0/1 in the operands' dtype", "[ops][elementwise]
   CHECK(not_equal(a, b).to_vector() == std::vector<double>{1, 0, 1});
 }
 
-TEST_CASE("cast: gradients flow between float32 and float64", "[ops][elementwise][gradcheck]") {
+TEST_CASE("cast: gradient matches finite differences and flows between float32 and float64", "[ops][elementwise][gradcheck]") {
   Tensor x = random_input({5}, -1, 1, 15);
   require_gradcheck("cast", [](const Inputs& in) { return cast(in[0] * 3.0, DType::Float64); }, {x});
   // Through float32 and back, the gradient is cast back exactly: 3 per element.
