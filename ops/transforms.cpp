@@ -165,8 +165,16 @@ Tensor perspective(double fov_y, double aspect, double near, double far, ClipSpa
 
 Tensor orthographic(double left, double right, double bottom, double top, double near, double far,
                     ClipSpace convention, DType dtype) {
-  if (!(right != left) || !(top != bottom) || !(far != near))
-    throw ValueError("orthographic: the box must have non-zero extent in x, y and z");
+  // Each pair of bounds must be finite and distinct (a NaN fails the test too).
+  auto check_extent = [](double lo, double hi, const char* lo_name, const char* hi_name) {
+    if (!std::isfinite(lo) || !std::isfinite(hi) || lo == hi)
+      throw ValueError(std::string("orthographic: ") + lo_name + " and " + hi_name +
+                       " must be finite and differ (the box needs non-zero extent), got " + lo_name + " " +
+                       std::to_string(lo) + ", " + hi_name + " " + std::to_string(hi));
+  };
+  check_extent(left, right, "left", "right");
+  check_extent(bottom, top, "bottom", "top");
+  check_extent(near, far, "near", "far");
   const double sx = 2 / (right - left), tx = -(right + left) / (right - left);
   const double sy = 2 / (top - bottom), ty = -(top + bottom) / (top - bottom);
   // OpenGL maps view z = -near -> -1 and -far -> 1; Direct3D maps z = near -> 0, far -> 1.
