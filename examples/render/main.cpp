@@ -1,0 +1,13 @@
+// gradraster-render: renders an OBJ or builtin mesh with gradraster and writes
+// a shaded PNG and the raw G-buffer (see --help and README "Render tool").
+// All the work is in render_tool.cpp, so the tests can drive it in-process.
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include "examples/render/render_tool.h"
+
+int main(int argc, char** argv) {
+  const std::vector<std::string> args(argv + 1, argv + argc);
+  return gr::render_tool::run_render_tool(args, std::cout, std::cerr);
+}
