@@ -73,6 +73,31 @@ void map_adjoint(const T* g, const T* a, bool a_full, const T* b, bool b_full, c
 
 bool is_full(const Tensor& t, std::int64_t n) { return t.numel() == n; }
 
+// Two operands checked, broadcast to a common shape (scalars kept as scalars).
+struct Operands {
+  Shape shape;
+  std::int64_t n;
+  Tensor a, b;  // full (shape) or one-element
+};
+
+Operands broadcast_operands(const char* name, const Tensor& a, const Tensor& b) {
+  check_same_float(a, b, name);
+  const Shape shape = detail::broadcast_shapes(a.shape(), b.shape(), name);
+  return {shape, shape.numel(), expand_raw(a, shape), expand_raw(b, shape)};
+}
+
+// out = f(a, b) elementwise over broadcast operands.
+template <class F>
+Tensor map_operands(const char* name, const Operands& o, F f) {
+  Tensor out = Tensor::empty(o.shape, o.a.dtype());
+  dispatch_float(o.a.dtype(), name, [&](auto tag) {
+    using T = decltype(tag);
+    map2(o.a.data<T>(), is_full(o.a, o.n), o.b.data<T>(), is_full(o.b, o.n), out.data<T>(), o.n,
+         [&](T x, T z) { return T(f(x, z)); });
+  });
+  return out;
+}
+
 // y = f(x); dL/dx = df(g, x, y).
 template <class Fwd, class Bwd>
 Tensor unary(const char* name, const Tensor& a, Fwd fwd, Bwd df) {
@@ -98,25 +123,14 @@ Tensor unary(const char* name, const Tensor& a, Fwd fwd, Bwd df) {
   return out;
 }
 
-// A per-operand adjoint that is the upstream gradient itself (times +-1).
-enum class Pass { Plus, Minus };
-
 // y = f(a, b) with broadcasting; dL/da = da(g, a, b, y), dL/db = db(g, a, b, y).
 template <class Fwd, class DA, class DB>
 Tensor binary(const char* name, const Tensor& a, const Tensor& b, Fwd fwd, DA da, DB db) {
-  check_same_float(a, b, name);
-  const Shape shape = detail::broadcast_shapes(a.shape(), b.shape(), name);
-  const std::int64_t n = shape.numel();
-  const Tensor ea = expand_raw(a, shape), eb = expand_raw(b, shape);
-  Tensor out = Tensor::empty(shape, a.dtype());
-  dispatch_float(a.dtype(), name, [&](auto tag) {
-    using T = decltype(tag);
-    map2(ea.data<T>(), is_full(ea, n), eb.data<T>(), is_full(eb, n), out.data<T>(), n,
-         [&](T x, T z) { return T(fwd(x, z)); });
-  });
+  const Operands o = broadcast_operands(name, a, b);
+  Tensor out = map_operands(name, o, fwd);
   if (should_record({a, b})) {
     Tensor y = out.detach();
-    record(name, {a, b}, {&out}, [ea, eb, y, da, db, name](AdjointContext& ctx) {
+    record(name, {a, b}, {&out}, [ea = o.a, eb = o.b, y, da, db, name](AdjointContext& ctx) {
       const Tensor& g = ctx.grad_output();
       const std::int64_t n = g.numel();
       dispatch_float(g.dtype(), name, [&](auto tag) {
@@ -138,18 +152,9 @@ Tensor binary(const char* name, const Tensor& a, const Tensor& b, Fwd fwd, DA da
 
 // add/sub: the adjoint is +-g summed back to each operand's shape (no map needed).
 Tensor add_or_sub(const char* name, const Tensor& a, const Tensor& b, bool subtract) {
-  auto fwd_add = [](auto x, auto z) { return x + z; };
-  auto fwd_sub = [](auto x, auto z) { return x - z; };
-  check_same_float(a, b, name);
-  const Shape shape = detail::broadcast_shapes(a.shape(), b.shape(), name);
-  const std::int64_t n = shape.numel();
-  const Tensor ea = expand_raw(a, shape), eb = expand_raw(b, shape);
-  Tensor out = Tensor::empty(shape, a.dtype());
-  dispatch_float(a.dtype(), name, [&](auto tag) {
-    using T = decltype(tag);
-    if (subtract) map2(ea.data<T>(), is_full(ea, n), eb.data<T>(), is_full(eb, n), out.data<T>(), n, fwd_sub);
-    else map2(ea.data<T>(), is_full(ea, n), eb.data<T>(), is_full(eb, n), out.data<T>(), n, fwd_add);
-  });
+  const Operands o = broadcast_operands(name, a, b);
+  Tensor out = subtract ? map_operands(name, o, [](auto x, auto z) { return x - z; })
+                        : map_operands(name, o, [](auto x, auto z) { return x + z; });
   if (should_record({a, b})) {
     record(name, {a, b}, {&out}, [subtract](AdjointContext& ctx) {
       const Tensor& g = ctx.grad_output();
@@ -166,17 +171,7 @@ Tensor add_or_sub(const char* name, const Tensor& a, const Tensor& b, bool subtr
 // A comparison mask: 1 where rel(a, b), else 0. No gradient.
 template <class Rel>
 Tensor compare(const char* name, const Tensor& a, const Tensor& b, Rel rel) {
-  check_same_float(a, b, name);
-  const Shape shape = detail::broadcast_shapes(a.shape(), b.shape(), name);
-  const std::int64_t n = shape.numel();
-  const Tensor ea = expand_raw(a, shape), eb = expand_raw(b, shape);
-  Tensor out = Tensor::empty(shape, a.dtype());
-  dispatch_float(a.dtype(), name, [&](auto tag) {
-    using T = decltype(tag);
-    map2(ea.data<T>(), is_full(ea, n), eb.data<T>(), is_full(eb, n), out.data<T>(), n,
-         [&](T x, T z) { return rel(x, z) ? T(1) : T(0); });
-  });
-  return out;
+  return map_operands(name, broadcast_operands(name, a, b), [&](auto x, auto z) { return rel(x, z) ? decltype(x)(1) : decltype(x)(0); });
 }
 
 // x^n for an integer n >= 0 by repeated squaring, one bit of n at a time over a
