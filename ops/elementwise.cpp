@@ -171,7 +171,8 @@ Tensor add_or_sub(const char* name, const Tensor& a, const Tensor& b, bool subtr
 // A comparison mask: 1 where rel(a, b), else 0. No gradient.
 template <class Rel>
 Tensor compare(const char* name, const Tensor& a, const Tensor& b, Rel rel) {
-  return map_operands(name, broadcast_operands(name, a, b), [&](auto x, auto z) { return rel(x, z) ? decltype(x)(1) : decltype(x)(0); });
+  return map_operands(name, broadcast_operands(name, a, b),
+                      [&](auto x, auto z) { return rel(x, z) ? decltype(x)(1) : decltype(x)(0); });
 }
 
 // x^n for an integer n >= 0 by repeated squaring, one bit of n at a time over a
