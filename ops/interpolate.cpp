@@ -63,4 +63,23 @@ Tensor interpolate(const Tensor& attributes, const Tensor& clip, const GBuffer& 
   return out;
 }
 
+InterpolatedWithDerivatives interpolate_with_derivatives(const Tensor& attributes, const Tensor& clip,
+                                                         const GBuffer& gbuffer, const Tensor& triangles,
+                                                         const InterpolateOptions& options) {
+  InterpolatedWithDerivatives r;
+  // Validates the arguments and records the values as usual.
+  r.values = interpolate(attributes, clip, gbuffer, triangles, options);
+  const std::int64_t h = gbuffer.tri_id.size(0), w = gbuffer.tri_id.size(1), c = attributes.size(1);
+  r.d_dx = Tensor::empty({h, w, c}, attributes.dtype());
+  r.d_dy = Tensor::empty({h, w, c}, attributes.dtype());
+  dispatch_float(attributes.dtype(), "interpolate", [&](auto tag) {
+    using T = decltype(tag);
+    raster::interpolate_derivatives(attributes.data<T>(), attributes.size(0), c, clip.data<T>(),
+                                    triangles.data<std::int32_t>(), triangles.size(0),
+                                    gbuffer.tri_id.data<std::int32_t>(), gbuffer.uv.data<T>(), int(w), int(h),
+                                    options.perspective, r.d_dx.data<T>(), r.d_dy.data<T>());
+  });
+  return r;
+}
+
 }  // namespace gr

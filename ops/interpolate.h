@@ -23,4 +23,24 @@ struct InterpolateOptions {
 Tensor interpolate(const Tensor& attributes, const Tensor& clip, const GBuffer& gbuffer, const Tensor& triangles,
                    const InterpolateOptions& options = {});
 
+// Interpolated attributes together with their screen-space derivatives (like
+// nvdiffrast's diff_attrs), e.g. d(uv)/dx, d(uv)/dy for mipmapped texturing.
+struct InterpolatedWithDerivatives {
+  Tensor values;  // [H, W, C], exactly interpolate(...), differentiable as usual
+  Tensor d_dx;    // [H, W, C]: d(values)/dx, x to the right, per pixel
+  Tensor d_dy;    // [H, W, C]: d(values)/dy, y DOWN (row order), per pixel
+};
+
+// interpolate() plus analytic per-pixel derivatives of every channel (zero on
+// background pixels). The screen barycentrics are affine in screen space
+// (constant dlambda_k/dx, dlambda_k/dy per triangle, from the homogeneous
+// vertices, so triangles crossing the near plane are handled too); the
+// perspective form adds the quotient rule dA/dx = sum_k (dq_k/dx)(A_k - A)/s
+// with q_k = lambda_k / w_k (raster/interpolate.h). The derivatives are
+// constants for the tape (no gradient flows through them); they are meant for
+// uses that treat them as stop-gradient, such as a texture's level of detail.
+InterpolatedWithDerivatives interpolate_with_derivatives(const Tensor& attributes, const Tensor& clip,
+                                                         const GBuffer& gbuffer, const Tensor& triangles,
+                                                         const InterpolateOptions& options = {});
+
 }  // namespace gr

@@ -12,5 +12,6 @@
 #include "ops/rasterize.h"
 #include "ops/reduce.h"
 #include "ops/shape_ops.h"
+#include "ops/texture.h"
 #include "ops/transforms.h"
 #include "ops/vector.h"

@@ -170,13 +170,76 @@ void interpolate_backward(const T* attr, std::int64_t num_vertices, std::int64_t
   }
 }
 
+template <class T>
+void interpolate_derivatives(const T* attr, std::int64_t num_vertices, std::int64_t C, const T* clip,
+                             const std::int32_t* tris, std::int64_t num_tris, const std::int32_t* tri_id,
+                             const T* uv, int width, int height, bool perspective, T* d_dx, T* d_dy) {
+  check_args(num_vertices, C, tris, num_tris, tri_id, width, height, "interpolate derivatives");
+  const std::int64_t P = static_cast<std::int64_t>(width) * height;
+  parallel_for(0, P, 4096, [&](std::int64_t lo, std::int64_t hi) {
+    for (std::int64_t p = lo; p < hi; ++p) {
+      T* ox = d_dx + p * C;
+      T* oy = d_dy + p * C;
+      if (tri_id[p] == 0) {
+        for (std::int64_t c = 0; c < C; ++c) ox[c] = oy[c] = T(0);
+        continue;
+      }
+      const std::int32_t* tri = tris + 3 * static_cast<std::int64_t>(tri_id[p] - 1);
+      // Homogeneous screen vertices, c_k = V_{k+1} x V_{k+2}, D = V_0 . c_0.
+      detail::HVec V[3];
+      for (int k = 0; k < 3; ++k) {
+        const T* v = clip + 4 * static_cast<std::int64_t>(tri[k]);
+        V[k] = {0.5 * width * (double(v[0]) + v[3]), 0.5 * height * (double(v[3]) - v[1]), double(v[3])};
+      }
+      detail::HVec cr[3];
+      for (int k = 0; k < 3; ++k) cr[k] = detail::cross(V[(k + 1) % 3], V[(k + 2) % 3]);
+      const double inv_d = safe_inv(detail::dot(V[0], cr[0]));
+      // dlambda_k/dx = w_k c_k.x / D, dlambda_k/dy = w_k c_k.y / D.
+      double dlx[3], dly[3];
+      for (int k = 0; k < 3; ++k) {
+        dlx[k] = V[k].w * cr[k].x * inv_d;
+        dly[k] = V[k].w * cr[k].y * inv_d;
+      }
+      const PixelWeights pw = pixel_weights(clip, tri, uv + 2 * p, perspective);
+      const T* a[3] = {attr + tri[0] * C, attr + tri[1] * C, attr + tri[2] * C};
+      if (!perspective) {
+        // dA/dx = sum_k dlambda_k/dx A_k.
+        for (std::int64_t c = 0; c < C; ++c) {
+          ox[c] = static_cast<T>(dlx[0] * a[0][c] + dlx[1] * a[1][c] + dlx[2] * a[2][c]);
+          oy[c] = static_cast<T>(dly[0] * a[0][c] + dly[1] * a[1][c] + dly[2] * a[2][c]);
+        }
+        continue;
+      }
+      // dq_k = dlambda_k / w_k; dA/dx = sum_k dq_k/dx (A_k - A) / s.
+      double dqx[3], dqy[3];
+      for (int k = 0; k < 3; ++k) {
+        dqx[k] = dlx[k] * pw.inv_w[k] * pw.inv_s;
+        dqy[k] = dly[k] * pw.inv_w[k] * pw.inv_s;
+      }
+      for (std::int64_t c = 0; c < C; ++c) {
+        const double A = pw.weight[0] * a[0][c] + pw.weight[1] * a[1][c] + pw.weight[2] * a[2][c];
+        double sx = 0.0, sy = 0.0;
+        for (int k = 0; k < 3; ++k) {
+          sx += dqx[k] * (a[k][c] - A);
+          sy += dqy[k] * (a[k][c] - A);
+        }
+        ox[c] = static_cast<T>(sx);
+        oy[c] = static_cast<T>(sy);
+      }
+    }
+  });
+}
+
 #define GR_INSTANTIATE(T)                                                                          \
   template void interpolate_forward<T>(const T*, std::int64_t, std::int64_t, const T*,            \
                                        const std::int32_t*, std::int64_t, const std::int32_t*,    \
                                        const T*, int, int, bool, const T*, T*);                   \
   template void interpolate_backward<T>(const T*, std::int64_t, std::int64_t, const T*,           \
                                         const std::int32_t*, std::int64_t, const std::int32_t*,   \
-                                        const T*, int, int, bool, const T*, T*, T*, T*);
+                                        const T*, int, int, bool, const T*, T*, T*, T*);   \
+  template void interpolate_derivatives<T>(const T*, std::int64_t, std::int64_t, const T*,        \
+                                           const std::int32_t*, std::int64_t, const std::int32_t*,\
+                                           const T*, int, int, bool, T*, T*);
 GR_INSTANTIATE(float)
 GR_INSTANTIATE(double)
 #undef GR_INSTANTIATE

@@ -45,4 +45,21 @@ void interpolate_backward(const T* attr, std::int64_t num_vertices, std::int64_t
                           typename detail::NoDeduce<T>::type* grad_clip,
                           typename detail::NoDeduce<T>::type* grad_uv);
 
+// Screen-space derivatives of interpolate_forward's output (not differentiated
+// further): d_dx, d_dy (H*W*C each) get dA/dx and dA/dy per pixel, x to the
+// right and y DOWN, in units of one pixel. The screen barycentrics are affine
+// in screen space, also for triangles crossing the near plane: with the
+// homogeneous vertices V_k = (W/2 (x_k + w_k), H/2 (w_k - y_k), w_k),
+// c_k = V_{k+1} x V_{k+2}, D = V_0 . c_0 and lambda_k = w_k (s . c_k) / D,
+//   dlambda_k/dx = w_k c_k.x / D,  dlambda_k/dy = w_k c_k.y / D
+// (constant per triangle). Then, with q_k = lambda_k / w_k, s = sum q_k:
+//   perspective: dA/dx = sum_k (dq_k/dx) (A_k - A) / s,  dq_k/dx = (dlambda_k/dx) / w_k;
+//   linear:      dA/dx = sum_k (dlambda_k/dx) A_k;
+// likewise for y. Background pixels get zeros.
+template <class T>
+void interpolate_derivatives(const T* attr, std::int64_t num_vertices, std::int64_t channels,
+                             const T* clip, const std::int32_t* tris, std::int64_t num_tris,
+                             const std::int32_t* tri_id, const T* uv, int width, int height,
+                             bool perspective, T* d_dx, T* d_dy);
+
 }  // namespace gr::raster

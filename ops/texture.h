@@ -1,0 +1,40 @@
+// Texture sampling as an op: an [Ht, Wt, C] texture looked up at per-pixel
+// (u, v) with nearest, bilinear or mipmapped trilinear filtering and repeat /
+// clamp / mirror addressing. Differentiable w.r.t. the texels (every mip
+// level's gradient flows back to the base texture) and w.r.t. uv.
+#pragma once
+
+#include "autodiff/tensor.h"
+#include "raster/texture.h"
+
+namespace gr {
+
+using raster::Filter;
+using raster::Wrap;
+
+struct TextureOptions {
+  Filter filter = Filter::Bilinear;
+  Wrap wrap = Wrap::Repeat;
+  // Trilinear: highest mip level used (0 = base only); -1 = the full chain to 1 x 1.
+  int max_mip_level = -1;
+};
+
+// tex [Ht, Wt, C] float32/float64 (row 0 = top of the image, as read_image
+// returns it); uv [..., 2] of the same dtype (u right, v UP: texel x =
+// u Wt - 0.5, y = (1 - v) Ht - 0.5) -> [..., C]. Trilinear needs uv_dx and
+// uv_dy, the screen-space derivatives d(u, v)/dx and d(u, v)/dy per pixel
+// (same shape as uv; e.g. from interpolate_with_derivatives); the other
+// filters ignore them. docs/texture.md has the details.
+// Adjoints, with taps t (texel_t, weight w_t) of a sample and g = dL/d(out):
+//   dL/d texel_t += w_t g (levels >= 1 then through the box-filter adjoint:
+//   each child texel's gradient to its parents / block size);
+//   dL/du = g . sum_t (dw_t/du) texel_t with dx/du = W_l,
+//   dL/dv = g . sum_t (dw_t/dv) texel_t with dy/dv = -H_l.
+// Nearest gives no gradient to uv (piecewise constant). The LOD is a stop-
+// gradient: uv_dx and uv_dy never receive a gradient.
+// Throws ShapeError / DTypeError naming the argument for bad shapes or dtypes,
+// ValueError for trilinear without derivatives and for NaN/Inf in uv, uv_dx, uv_dy.
+Tensor texture(const Tensor& tex, const Tensor& uv, const TextureOptions& options = {}, const Tensor& uv_dx = {},
+               const Tensor& uv_dy = {});
+
+}  // namespace gr

@@ -1,0 +1,269 @@
+// Texture sampling forward and adjoint. Every filter is reduced to a list of at
+// most 8 taps (texel index in the all-levels buffer, weight, d weight/du,
+// d weight/dv): the forward sums weight * texel, the uv adjoint sums the weight
+// derivatives, the texel adjoint scatters weight * g. Samples run in parallel;
+// texel gradients are scattered serially in sample order (fixed chunks), so
+// they do not depend on the thread count.
+#include "raster/texture.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+#include "autodiff/error.h"
+#include "autodiff/parallel.h"
+#include "autodiff/tensor.h"
+#include "raster/rasterize_setup.h"  // detail::check_finite
+
+namespace gr::raster {
+namespace {
+
+constexpr int kMaxTaps = 8;
+
+struct Taps {
+  int n = 0;
+  std::int64_t index[kMaxTaps];  // texel in the all-levels buffer (level offset + row * W + column)
+  double w[kMaxTaps], dw_du[kMaxTaps], dw_dv[kMaxTaps];
+};
+
+// Address of integer texel index i (a whole number held in a double) along an
+// axis of n texels. The final clamp keeps any input (huge, NaN) in range.
+[[gnu::always_inline]] inline std::int64_t address(double i, int n, Wrap wrap) {
+  if (i >= 0.0 && i < n) return static_cast<std::int64_t>(i);  // inside: every mode agrees
+  double r = i;
+  if (wrap == Wrap::Repeat) {
+    // One period out (the common case near a seam) without a division.
+    r = i < 0.0 && i >= -n ? i + n : i >= n && i < 2.0 * n ? i - n : i - n * std::floor(i / n);
+  } else if (wrap == Wrap::Mirror) {
+    const double period = 2.0 * n;
+    r = i - period * std::floor(i / period);
+    if (r >= n) r = period - 1.0 - r;
+  }
+  if (!(r >= 0.0)) r = 0.0;
+  if (r > n - 1) r = n - 1;
+  return static_cast<std::int64_t>(r);
+}
+
+// Bilinear taps of level `lv` at (u, v), scaled by the level weight `scale`.
+template <bool kDerivatives>
+[[gnu::always_inline]] inline void bilinear_taps(const MipLevel& lv, double u, double v, double scale, Wrap wrap, Taps& t) {
+  // Continuous texel coordinates: x = u W - 0.5, y = (1 - v) H - 0.5.
+  const double x = u * lv.width - 0.5, y = (1.0 - v) * lv.height - 0.5;
+  const double x0 = std::floor(x), y0 = std::floor(y);
+  const double fx = x - x0, fy = y - y0;
+  const std::int64_t ix[2] = {address(x0, lv.width, wrap), address(x0 + 1.0, lv.width, wrap)};
+  const std::int64_t iy[2] = {address(y0, lv.height, wrap), address(y0 + 1.0, lv.height, wrap)};
+  // Weights and their derivatives: dfx/du = W, dfy/dv = -H.
+  const double wx[2] = {1.0 - fx, fx}, wy[2] = {1.0 - fy, fy};
+  const double dwx[2] = {-double(lv.width), double(lv.width)};
+  const double dwy[2] = {double(lv.height), -double(lv.height)};
+  for (int b = 0; b < 2; ++b)
+    for (int a = 0; a < 2; ++a) {
+      const int k = t.n++;
+      t.index[k] = lv.offset + iy[b] * lv.width + ix[a];
+      t.w[k] = scale * wx[a] * wy[b];
+      if (kDerivatives) {
+        t.dw_du[k] = scale * dwx[a] * wy[b];
+        t.dw_dv[k] = scale * wx[a] * dwy[b];
+      }
+    }
+}
+
+// Taps of sample s; the weight derivatives only when kDerivatives.
+template <class T, bool kDerivatives>
+[[gnu::always_inline]] inline Taps sample_taps(const TextureParams<T>& p, std::int64_t s) {
+  Taps t;
+  const double u = p.uv[2 * s], v = p.uv[2 * s + 1];
+  const MipLevel& base = p.layout.levels[0];
+  switch (p.filter) {
+    case Filter::Nearest: {
+      // Texel containing (x + 0.5, y + 0.5): floor(u W), floor((1 - v) H).
+      const std::int64_t ix = address(std::floor(u * base.width), base.width, p.wrap);
+      const std::int64_t iy = address(std::floor((1.0 - v) * base.height), base.height, p.wrap);
+      t.n = 1;
+      t.index[0] = iy * base.width + ix;
+      t.w[0] = 1.0;
+      t.dw_du[0] = t.dw_dv[0] = 0.0;
+      break;
+    }
+    case Filter::Bilinear: bilinear_taps<kDerivatives>(base, u, v, 1.0, p.wrap, t); break;
+    case Filter::Trilinear: {
+      const int L = p.layout.count();
+      const double lod = texture_lod(p.uv_dx[2 * s], p.uv_dx[2 * s + 1], p.uv_dy[2 * s], p.uv_dy[2 * s + 1],
+                                     base.width, base.height, L);
+      // Levels floor(lod) and floor(lod) + 1, weights 1 - f and f.
+      const int l0 = std::min(static_cast<int>(lod), L - 1);
+      const double f = l0 == L - 1 ? 0.0 : lod - l0;
+      bilinear_taps<kDerivatives>(p.layout.levels[l0], u, v, 1.0 - f, p.wrap, t);
+      if (f > 0.0) bilinear_taps<kDerivatives>(p.layout.levels[l0 + 1], u, v, f, p.wrap, t);
+      break;
+    }
+  }
+  return t;
+}
+
+// Texel `index` of the all-levels buffer: level 0 from tex, the rest from pyramid.
+template <class T>
+inline const T* texel(const TextureParams<T>& p, std::int64_t index, std::int64_t base_texels) {
+  return index < base_texels ? p.tex + index * p.channels : p.pyramid + (index - base_texels) * p.channels;
+}
+
+template <class T>
+void check_params(const TextureParams<T>& p, const char* op) {
+  if (p.layout.count() < 1 || p.channels < 1 || p.num_samples < 0)
+    throw ShapeError(std::string(op) + ": empty texture or negative sample count");
+  if (p.filter == Filter::Trilinear && (!p.uv_dx || !p.uv_dy))
+    throw ValueError(std::string(op) + ": trilinear filtering needs uv_dx and uv_dy");
+  if (p.filter == Filter::Trilinear && p.layout.count() > 1 && !p.pyramid)
+    throw ValueError(std::string(op) + ": trilinear filtering needs the mip pyramid");
+}
+
+}  // namespace
+
+double texture_lod(double du_dx, double dv_dx, double du_dy, double dv_dy, int width, int height, int levels) {
+  // Footprint of one pixel step along x and along y, in level-0 texels.
+  const double ax = du_dx * width, ay = dv_dx * height, bx = du_dy * width, by = dv_dy * height;
+  const double rho2 = std::max(ax * ax + ay * ay, bx * bx + by * by);
+  double lod = 0.5 * std::log2(rho2);
+  if (!(lod > 0.0)) lod = 0.0;  // magnification, zero footprint, NaN
+  if (lod > levels - 1) lod = levels - 1;
+  return lod;
+}
+
+template <class T>
+void texture_forward(const TextureParams<T>& p, T* out) {
+  check_params(p, "texture");
+  detail::check_finite(p.uv, 2 * p.num_samples, "uv", "texture");
+  if (p.filter == Filter::Trilinear) {
+    detail::check_finite(p.uv_dx, 2 * p.num_samples, "uv_dx", "texture");
+    detail::check_finite(p.uv_dy, 2 * p.num_samples, "uv_dy", "texture");
+  }
+  const std::int64_t C = p.channels;
+  const std::int64_t base_texels = std::int64_t(p.layout.levels[0].height) * p.layout.levels[0].width;
+  parallel_for(0, p.num_samples, 4096, [&](std::int64_t lo, std::int64_t hi) {
+    for (std::int64_t s = lo; s < hi; ++s) {
+      const Taps t = sample_taps<T, false>(p, s);
+      T* o = out + s * C;
+      // out = sum_t w_t texel_t (channel-outer: the taps' pointers stay in registers).
+      const T* tx[kMaxTaps];
+      for (int k = 0; k < t.n; ++k) tx[k] = texel(p, t.index[k], base_texels);
+      for (std::int64_t c = 0; c < C; ++c) {
+        double a = 0.0;
+        for (int k = 0; k < t.n; ++k) a += t.w[k] * tx[k][c];
+        o[c] = static_cast<T>(a);
+      }
+    }
+  });
+}
+
+template <class T>
+void texture_backward(const TextureParams<T>& p, const T* grad_out, T* grad_tex, T* grad_uv) {
+  check_params(p, "texture backward");
+  if (p.filter == Filter::Nearest) grad_uv = nullptr;  // piecewise constant in uv
+  if (!grad_tex && !grad_uv) return;
+  const std::int64_t C = p.channels, S = p.num_samples;
+  const std::int64_t base_texels = std::int64_t(p.layout.levels[0].height) * p.layout.levels[0].width;
+  const int levels_used = p.filter == Filter::Trilinear ? p.layout.count() : 1;
+
+  // Texel gradients of every level used, in double (level 0 straight into
+  // grad_tex when that is already double and no other level exists).
+  Tensor scratch;
+  double* acc = nullptr;
+  bool direct = false;  // acc is grad_tex itself
+  if (grad_tex) {
+    if constexpr (std::is_same_v<T, double>) {
+      if (levels_used == 1) {
+        acc = grad_tex;
+        direct = true;
+      }
+    }
+    if (!acc) {
+      // Through the storage cache: no fresh pages in an optimization loop.
+      scratch = Tensor::zeros({(levels_used == 1 ? base_texels : p.layout.total_texels) * C}, DType::Float64);
+      acc = scratch.data<double>();
+    }
+  }
+
+  // Samples in chunks: taps and uv gradients in parallel, texel sums in sample
+  // order. Taps are kept compactly (index, weight) with a fixed stride.
+  constexpr std::int64_t kChunk = 16384;
+  const int stride = p.filter == Filter::Nearest ? 1 : p.filter == Filter::Bilinear ? 4 : kMaxTaps;
+  const std::size_t chunk = static_cast<std::size_t>(std::min(S, kChunk));
+  std::vector<std::int64_t> tap_index(grad_tex ? stride * chunk : 0);
+  std::vector<double> tap_w(grad_tex ? stride * chunk : 0);
+  std::vector<std::uint8_t> tap_n(chunk);  // 0: sample skipped
+  const std::int64_t acc_texels = levels_used == 1 ? base_texels : p.layout.total_texels;
+  const std::int64_t bands = std::max(1, num_threads());
+  const std::int64_t band_size = (acc_texels + bands - 1) / bands;
+  for (std::int64_t c0 = 0; c0 < S; c0 += kChunk) {
+    const std::int64_t c1 = std::min(S, c0 + kChunk);
+    parallel_for(c0, c1, 1024, [&](std::int64_t lo, std::int64_t hi) {
+      for (std::int64_t s = lo; s < hi; ++s) {
+        const std::int64_t i = s - c0;
+        const T* g = grad_out + s * C;
+        // Zero incoming gradient: skip.
+        bool any = false;
+        for (std::int64_t c = 0; c < C && !any; ++c) any = g[c] != T(0);
+        tap_n[i] = 0;
+        if (!any) continue;
+        const Taps t = sample_taps<T, true>(p, s);
+        if (grad_uv) {
+          // dL/du = g . sum_t dw_t/du texel_t (likewise v).
+          double gu = 0.0, gv = 0.0;
+          for (int k = 0; k < t.n; ++k) {
+            const T* tx = texel(p, t.index[k], base_texels);
+            double d = 0.0;
+            for (std::int64_t c = 0; c < C; ++c) d += static_cast<double>(g[c]) * tx[c];
+            gu += t.dw_du[k] * d;
+            gv += t.dw_dv[k] * d;
+          }
+          grad_uv[2 * s] += static_cast<T>(gu);
+          grad_uv[2 * s + 1] += static_cast<T>(gv);
+        }
+        tap_n[i] = static_cast<std::uint8_t>(t.n);
+        if (!grad_tex) continue;
+        for (int k = 0; k < t.n; ++k) {
+          tap_index[stride * i + k] = t.index[k];
+          tap_w[stride * i + k] = t.w[k];
+        }
+      }
+    });
+    if (!grad_tex) continue;
+    // Scatter in sample order: dL/d texel_t += w_t g. The texels are split
+    // into bands, one task each; every task walks all taps in sample order and
+    // applies those in its band, so each texel sees the same sequence of adds
+    // whatever the number of bands or threads.
+    parallel_for(0, bands, 1, [&](std::int64_t b0, std::int64_t b1) {
+      const std::int64_t lo = band_size * b0, hi = std::min(acc_texels, band_size * b1);
+      for (std::int64_t s = c0; s < c1; ++s) {
+        const std::int64_t i = s - c0;
+        const int n = tap_n[i];
+        const T* g = grad_out + s * C;
+        for (int k = 0; k < n; ++k) {
+          const std::int64_t t = tap_index[stride * i + k];
+          if (t < lo || t >= hi) continue;
+          double* a = acc + t * C;
+          const double w = tap_w[stride * i + k];
+          for (std::int64_t c = 0; c < C; ++c) a[c] += w * g[c];
+        }
+      }
+    });
+  }
+  if (!grad_tex || direct) return;
+  // Every level's gradient down to level 0, then into grad_tex.
+  if (levels_used > 1) mip_backward(C, p.layout, acc);
+  parallel_for(0, base_texels * C, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
+    for (std::int64_t k = lo; k < hi; ++k) grad_tex[k] += static_cast<T>(acc[k]);
+  });
+}
+
+#define GR_INSTANTIATE(T)                                                   \
+  template void texture_forward<T>(const TextureParams<T>&, T*);            \
+  template void texture_backward<T>(const TextureParams<T>&, const T*, T*, T*);
+GR_INSTANTIATE(float)
+GR_INSTANTIATE(double)
+#undef GR_INSTANTIATE
+
+}  // namespace gr::raster

@@ -1,0 +1,72 @@
+// Texture sampling and its adjoint on plain arrays (no tape): nearest,
+// bilinear and mipmapped trilinear lookups of an H x W x C texture at
+// per-sample (u, v), with repeat / clamp / mirror addressing.
+//
+// Conventions (docs/texture.md):
+// - u to the right, v UP (OBJ / OpenGL); texel row 0 is the TOP row of the
+//   texture (as read_image returns it). Continuous texel coordinates of a
+//   level of size H_l x W_l are x = u W_l - 0.5, y = (1 - v) H_l - 0.5, so
+//   texel (i, j) (column, row) has its centre at x = i, y = j, and (u, v) =
+//   (0, 1) is the top-left corner of the image.
+// - Addressing acts on integer texel indices: Repeat i mod n, Clamp
+//   min(max(i, 0), n - 1), Mirror reflects with period 2n (0..n-1, n-1..0).
+//   Bilinear lookups blend the two texels on either side of a repeat seam.
+// - Nearest picks texel (floor(u W), floor((1 - v) H)) of level 0.
+//   Bilinear blends the 4 texels around (x, y) on level 0.
+//   Trilinear: LOD = log2(max(|(du/dx W, dv/dx H)|, |(du/dy W, dv/dy H)|))
+//   (W, H of level 0; isotropic, as OpenGL), clamped to [0, L - 1];
+//   out = (1 - f) bilinear(level floor(lod)) + f bilinear(level floor(lod) + 1),
+//   f = lod - floor(lod). Levels come from raster/mipmap.h.
+#pragma once
+
+#include <cstdint>
+
+#include "raster/mipmap.h"
+
+namespace gr::raster {
+
+enum class Filter { Nearest, Bilinear, Trilinear };
+enum class Wrap { Repeat, Clamp, Mirror };
+
+// Inputs of one texture call, shared by the forward and the adjoint.
+template <class T>
+struct TextureParams {
+  const T* tex = nullptr;      // level 0: layout.levels[0].height x width x channels
+  const T* pyramid = nullptr;  // levels 1.. (mip_build), needed when layout has more than one level
+  MipLayout layout;            // trilinear: the levels to use; otherwise only level 0 is read
+  std::int64_t channels = 0;
+  const T* uv = nullptr;       // num_samples x 2
+  const T* uv_dx = nullptr;    // num_samples x 2: d(u, v)/dx per pixel (trilinear only)
+  const T* uv_dy = nullptr;    // num_samples x 2: d(u, v)/dy per pixel (trilinear only)
+  std::int64_t num_samples = 0;
+  Filter filter = Filter::Bilinear;
+  Wrap wrap = Wrap::Repeat;
+};
+
+// Level of detail of one sample for a texture of base size width x height with
+// `levels` mip levels: log2 of the larger screen-space footprint in texels,
+// clamped to [0, levels - 1] (NaN and -Inf give 0).
+double texture_lod(double du_dx, double dv_dx, double du_dy, double dv_dy, int width, int height,
+                   int levels);
+
+// out: num_samples x channels. Throws ValueError naming the element if uv (or,
+// for trilinear, uv_dx / uv_dy) holds NaN or Inf.
+template <class T>
+void texture_forward(const TextureParams<T>& p, T* out);
+
+// Adjoint of texture_forward, ACCUMULATED (+=). With g = dL/d(out) of a sample
+// and the taps t (texel t, weight w_t; weights include the trilinear level
+// weights 1 - f and f):
+//   dL/d(texel t of level l) += w_t g, then each level's gradient flows to
+//   level 0 through the box-filter adjoint (mip_backward);
+//   dL/du += g . sum_t (dw_t/du) texel_t,  dw/du from dx/du = W_l,
+//   dL/dv += g . sum_t (dw_t/dv) texel_t,  dw/dv from dy/dv = -H_l.
+// Nearest has no gradient to uv (piecewise constant). The LOD is a stop-
+// gradient: nothing flows to uv_dx / uv_dy. grad_tex (level-0 shape) and
+// grad_uv (num_samples x 2) may be null. Texel sums are accumulated in double
+// and added in sample order, so the result is bit-identical for any thread
+// count. Samples with an all-zero incoming gradient are skipped.
+template <class T>
+void texture_backward(const TextureParams<T>& p, const T* grad_out, T* grad_tex, T* grad_uv);
+
+}  // namespace gr::raster

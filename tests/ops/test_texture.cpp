@@ -1,0 +1,430 @@
+// Tests of the texture op and of interpolate's screen-space derivatives:
+// gradchecks of bilinear and trilinear lookups w.r.t. texels and uv for every
+// addressing mode (with samples across repeat seams and beyond clamp borders),
+// nearest values and gradients, mip/bilinear consistency, constant textures,
+// gradient mass through the pyramid, determinism, derivatives against exact
+// values and finite differences across pixels, and bad arguments.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <limits>
+#include <random>
+#include <vector>
+
+#include "autodiff/parallel.h"
+#include "autodiff/tape.h"
+#include "ops/interpolate.h"
+#include "ops/rasterize.h"
+#include "ops/texture.h"
+#include "raster/mipmap.h"
+#include "test_support.h"
+
+using namespace gr;
+using gr::testing::random_input;
+using gr::testing::require_gradcheck;
+using Inputs = std::vector<Tensor>;
+
+namespace {
+
+const char* wrap_name(Wrap w) { return w == Wrap::Repeat ? "repeat" : w == Wrap::Clamp ? "clamp" : "mirror"; }
+
+// Distance of t to the nearest integer.
+double to_integer(double t) { return std::abs(t - std::round(t)); }
+
+// True if (u, v) is at least `margin` texels away from every cell boundary of
+// the levels in [first, last] of `layout`, so gradcheck's +-2 eps steps stay on
+// one smooth piece of the bilinear lookups.
+bool away_from_cells(const raster::MipLayout& layout, int first, int last, double u, double v, double margin) {
+  for (int l = first; l <= last && l < layout.count(); ++l) {
+    const raster::MipLevel& lv = layout.levels[l];
+    if (to_integer(u * lv.width - 0.5) < margin || to_integer((1 - v) * lv.height - 0.5) < margin) return false;
+  }
+  return true;
+}
+
+// n uv samples in [lo, hi)^2, each away from the cell boundaries of levels
+// [first, last]; the first ones are forced near the repeat seam (u ~ 0 and 1)
+// and beyond the clamp borders (u, v outside [0, 1]).
+Tensor sample_uv(std::int64_t n, const raster::MipLayout& layout, int first, int last, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> d(-0.35, 1.35);
+  const double forced[][2] = {{0.01, 0.5}, {0.995, 0.3}, {-0.02, 0.97}, {1.01, 0.02}, {-0.3, 0.4}, {0.6, 1.3}, {1.2, -0.25}};
+  std::vector<double> uv;
+  for (std::int64_t i = 0; i < n; ++i) {
+    double u = 0, v = 0;
+    for (int attempt = 0;; ++attempt) {
+      if (i < 7 && attempt < 50) {
+        // Jitter the forced point until it is clear of the cells.
+        u = forced[i][0] + 0.002 * attempt * ((attempt & 1) ? 1 : -1);
+        v = forced[i][1] + 0.0013 * attempt;
+      } else {
+        u = d(rng);
+        v = d(rng);
+      }
+      if (away_from_cells(layout, first, last, u, v, 0.05)) break;
+    }
+    uv.push_back(u);
+    uv.push_back(v);
+  }
+  Tensor t = Tensor::from_values(uv, {n, 2}, DType::Float64);
+  return t;
+}
+
+// Derivatives giving LOD `lod` for a base texture of width w (footprint along x).
+void lod_derivatives(const std::vector<double>& lods, int w, Tensor* dx, Tensor* dy) {
+  std::vector<double> a, b;
+  for (double lod : lods) {
+    a.push_back(std::pow(2.0, lod) / w);
+    a.push_back(0.0);
+    b.push_back(0.0);
+    b.push_back(1e-4);
+  }
+  const std::int64_t n = static_cast<std::int64_t>(lods.size());
+  *dx = Tensor::from_values(a, {n, 2}, DType::Float64);
+  *dy = Tensor::from_values(b, {n, 2}, DType::Float64);
+}
+
+}  // namespace
+
+TEST_CASE("texture: bilinear gradients w.r.t. texels and uv match finite differences across seams and borders", "[ops][texture][gradcheck]") {
+  const int th = 5, tw = 6;
+  const raster::MipLayout layout = raster::mip_layout(th, tw, 0);
+  for (Wrap wrap : {Wrap::Repeat, Wrap::Clamp, Wrap::Mirror}) {
+    INFO(wrap_name(wrap));
+    Tensor tex = random_input({th, tw, 3}, -1, 1, 11);
+    Tensor uv = sample_uv(24, layout, 0, 0, 5).set_requires_grad();
+    TextureOptions opt;
+    opt.wrap = wrap;
+    require_gradcheck(std::string("texture bilinear ") + wrap_name(wrap),
+                      [&](const Inputs& in) { return texture(in[0], in[1], opt); }, {tex, uv});
+  }
+}
+
+TEST_CASE("texture: trilinear gradients w.r.t. texels of every level and uv match finite differences", "[ops][texture][gradcheck]") {
+  // 16 x 12 -> 8 x 6 -> 4 x 3 -> 2 x 1 -> 1 x 1; LODs inside levels (0.4, 1.3,
+  // 2.6, 3.5) and beyond the last one. The LOD is a stop-gradient, so only uv
+  // and the texels are differentiated; uv avoids cell boundaries on all levels.
+  const int th = 12, tw = 16;
+  const raster::MipLayout layout = raster::mip_layout(th, tw);
+  REQUIRE(layout.count() == 5);
+  const std::vector<double> lods = {0.4, 1.3, 2.6, 3.5, 7.0};
+  std::vector<double> per_sample;
+  for (int i = 0; i < 20; ++i) per_sample.push_back(lods[i % lods.size()]);
+  Tensor dx, dy;
+  lod_derivatives(per_sample, tw, &dx, &dy);
+  for (Wrap wrap : {Wrap::Repeat, Wrap::Clamp, Wrap::Mirror}) {
+    INFO(wrap_name(wrap));
+    Tensor tex = random_input({th, tw, 2}, -1, 1, 21);
+    Tensor uv = sample_uv(20, layout, 0, 4, 8).set_requires_grad();
+    TextureOptions opt;
+    opt.filter = Filter::Trilinear;
+    opt.wrap = wrap;
+    require_gradcheck(std::string("texture trilinear ") + wrap_name(wrap),
+                      [&](const Inputs& in) { return texture(in[0], in[1], opt, dx, dy); }, {tex, uv});
+  }
+  SECTION("with max_mip_level limiting the chain") {
+    Tensor tex = random_input({th, tw, 2}, -1, 1, 22);
+    Tensor uv = sample_uv(20, layout, 0, 2, 9).set_requires_grad();
+    TextureOptions opt;
+    opt.filter = Filter::Trilinear;
+    opt.max_mip_level = 2;
+    require_gradcheck("texture trilinear max level 2",
+                      [&](const Inputs& in) { return texture(in[0], in[1], opt, dx, dy); }, {tex, uv});
+  }
+}
+
+TEST_CASE("texture: nearest returns the picked texel and sends its gradient only there", "[ops][texture]") {
+  Tensor tex = Tensor::from_values({10, 20, 30, 40, 50, 60}, {2, 3, 1}, DType::Float64).set_requires_grad();
+  // Bottom-right texel (row 1, column 2) and, through repeat, top-left.
+  Tensor uv = Tensor::from_values({0.9, 0.2, 1.1, 0.9}, {2, 2}, DType::Float64).set_requires_grad();
+  TextureOptions opt;
+  opt.filter = Filter::Nearest;
+  Tensor out = texture(tex, uv, opt);
+  REQUIRE(out.shape() == Shape{2, 1});
+  CHECK(out.at({0, 0}) == 60);
+  CHECK(out.at({1, 0}) == 10);
+  backward(out, Tensor::from_values({2, 3}, {2, 1}, DType::Float64));
+  CHECK(tex.grad().to_vector() == std::vector<double>{3, 0, 0, 0, 0, 2});
+  CHECK(!uv.grad().defined());  // piecewise constant: no gradient to uv
+}
+
+TEST_CASE("texture: trilinear at level 0 equals bilinear when the derivatives are tiny", "[ops][texture]") {
+  Tensor tex = Tensor::uniform({9, 14, 3}, 0, 1, 3, DType::Float64);
+  Tensor uv = Tensor::uniform({6, 7, 2}, -0.5, 1.5, 4, DType::Float64);
+  Tensor tiny = Tensor::full({6, 7, 2}, 1e-6, DType::Float64);
+  for (Wrap wrap : {Wrap::Repeat, Wrap::Clamp, Wrap::Mirror}) {
+    TextureOptions bil, tri;
+    bil.wrap = tri.wrap = wrap;
+    tri.filter = Filter::Trilinear;
+    const std::vector<double> a = texture(tex, uv, bil).to_vector(), b = texture(tex, uv, tri, tiny, tiny).to_vector();
+    REQUIRE(a.size() == b.size());
+    for (std::size_t i = 0; i < a.size(); ++i) CHECK(a[i] == b[i]);
+  }
+}
+
+TEST_CASE("texture: a constant texture stays constant at every level of detail", "[ops][texture]") {
+  Tensor tex = Tensor::full({13, 7, 2}, 0.625, DType::Float32);  // odd sides
+  const int levels = raster::mip_layout(13, 7).count();
+  std::vector<double> lods;
+  for (double lod = 0; lod <= levels + 1; lod += 0.25) lods.push_back(lod);
+  const std::int64_t n = static_cast<std::int64_t>(lods.size());
+  Tensor dx64, dy64;
+  lod_derivatives(lods, 7, &dx64, &dy64);
+  Tensor dx = Tensor::from_values(dx64.to_vector(), {n, 2}), dy = Tensor::from_values(dy64.to_vector(), {n, 2});
+  Tensor uv = Tensor::uniform({n, 2}, -2, 3, 6);
+  for (Wrap wrap : {Wrap::Repeat, Wrap::Clamp, Wrap::Mirror}) {
+    TextureOptions opt;
+    opt.filter = Filter::Trilinear;
+    opt.wrap = wrap;
+    for (double x : texture(tex, uv, opt, dx, dy).to_vector()) CHECK(x == Approx(0.625).epsilon(1e-6));
+  }
+}
+
+TEST_CASE("texture: trilinear texel gradients sum to the incoming gradient through the pyramid", "[ops][texture]") {
+  // Tap weights sum to one on each level and the box adjoint preserves sums.
+  Tensor tex = Tensor::uniform({11, 10, 2}, 0, 1, 7, DType::Float64).set_requires_grad();
+  Tensor uv = Tensor::uniform({50, 2}, -1, 2, 8, DType::Float64);
+  Tensor dx = Tensor::uniform({50, 2}, -0.5, 0.5, 9, DType::Float64);
+  Tensor dy = Tensor::uniform({50, 2}, -0.01, 0.01, 10, DType::Float64);
+  Tensor g = Tensor::uniform({50, 2}, -1, 1, 11, DType::Float64);
+  TextureOptions opt;
+  opt.filter = Filter::Trilinear;
+  backward(texture(tex, uv, opt, dx, dy), g);
+  const std::vector<double> gt = tex.grad().to_vector(), gg = g.to_vector();
+  double st[2] = {0, 0}, sg[2] = {0, 0};
+  for (std::size_t i = 0; i < gt.size(); ++i) st[i % 2] += gt[i];
+  for (std::size_t i = 0; i < gg.size(); ++i) sg[i % 2] += gg[i];
+  CHECK(st[0] == Approx(sg[0]).epsilon(1e-12));
+  CHECK(st[1] == Approx(sg[1]).epsilon(1e-12));
+}
+
+TEST_CASE("texture: gradients are bit-identical for 1 and 2 threads", "[ops][texture]") {
+  Tensor tex0 = Tensor::uniform({64, 48, 3}, 0, 1, 12);
+  Tensor uv0 = Tensor::uniform({200, 150, 2}, -0.2, 1.2, 13);
+  Tensor dx = Tensor::uniform({200, 150, 2}, -0.05, 0.05, 14);
+  Tensor dy = Tensor::uniform({200, 150, 2}, -0.05, 0.05, 15);
+  Tensor g = Tensor::uniform({200, 150, 3}, -1, 1, 16);
+  for (Filter f : {Filter::Bilinear, Filter::Trilinear}) {
+    std::vector<std::vector<double>> tex_grads, uv_grads, outs;
+    for (int threads : {1, 2}) {
+      set_num_threads(threads);
+      Tensor tex = tex0.copy().set_requires_grad();
+      Tensor uv = uv0.copy().set_requires_grad();
+      TextureOptions opt;
+      opt.filter = f;
+      Tensor out = texture(tex, uv, opt, dx, dy);
+      backward(out, g);
+      outs.push_back(out.to_vector());
+      tex_grads.push_back(tex.grad().to_vector());
+      uv_grads.push_back(uv.grad().to_vector());
+    }
+    set_num_threads(0);
+    CHECK(outs[0] == outs[1]);
+    CHECK(tex_grads[0] == tex_grads[1]);
+    CHECK(uv_grads[0] == uv_grads[1]);
+  }
+}
+
+TEST_CASE("texture: no gradient reaches the derivatives (the LOD is a stop-gradient)", "[ops][texture]") {
+  Tensor tex = Tensor::uniform({8, 8, 1}, 0, 1, 17, DType::Float64).set_requires_grad();
+  Tensor uv = Tensor::uniform({5, 2}, 0, 1, 18, DType::Float64);
+  Tensor dx = Tensor::full({5, 2}, 0.3, DType::Float64).set_requires_grad();
+  Tensor dy = Tensor::full({5, 2}, 0.1, DType::Float64).set_requires_grad();
+  TextureOptions opt;
+  opt.filter = Filter::Trilinear;
+  backward(texture(tex, uv, opt, dx, dy), Tensor::ones({5, 1}, DType::Float64));
+  CHECK(tex.grad().defined());
+  CHECK(!dx.grad().defined());
+  CHECK(!dy.grad().defined());
+}
+
+TEST_CASE("texture: bad arguments throw errors naming them", "[ops][texture][errors]") {
+  Tensor tex = Tensor::ones({4, 4, 3});
+  Tensor uv = Tensor::full({2, 3, 2}, 0.5);
+  CHECK_THROWS_WITH(texture(Tensor::ones({0, 4, 3}), uv), Catch::Contains("'tex'"));
+  CHECK_THROWS_AS(texture(Tensor::ones({0, 4, 3}), uv), ShapeError);
+  CHECK_THROWS_AS(texture(Tensor::ones({4, 4, 0}), uv), ShapeError);
+  CHECK_THROWS_WITH(texture(Tensor::ones({4, 4}), uv), Catch::Contains("'tex'") && Catch::Contains("[Ht, Wt, C]"));
+  CHECK_THROWS_WITH(texture(tex, Tensor::ones({2, 3, 3})), Catch::Contains("'uv'") && Catch::Contains("[..., 2]"));
+  CHECK_THROWS_AS(texture(tex, Tensor::ones({2, 3, 2}, DType::Float64)), DTypeError);
+  CHECK_THROWS_AS(texture(Tensor::ones({4, 4, 3}, DType::Int32), uv), DTypeError);
+  CHECK_THROWS_AS(texture(tex, Tensor()), ValueError);
+  TextureOptions tri;
+  tri.filter = Filter::Trilinear;
+  CHECK_THROWS_WITH(texture(tex, uv, tri), Catch::Contains("uv_dx"));
+  CHECK_THROWS_WITH(texture(tex, uv, tri, uv), Catch::Contains("uv_dy"));
+  CHECK_THROWS_WITH(texture(tex, uv, tri, uv, Tensor::ones({2, 2, 2})), Catch::Contains("uv_dy") && Catch::Contains("shape"));
+  CHECK_THROWS_AS(texture(tex, uv, tri, uv, Tensor::ones({2, 3, 2}, DType::Float64)), DTypeError);
+  TextureOptions bad_level;
+  bad_level.max_mip_level = -2;
+  CHECK_THROWS_AS(texture(tex, uv, bad_level), ValueError);
+  Tensor nan_uv = Tensor::from_values({0.5, std::numeric_limits<double>::quiet_NaN()}, {1, 2});
+  CHECK_THROWS_WITH(texture(tex, nan_uv), Catch::Contains("uv[1]") && Catch::Contains("NaN"));
+  Tensor inf_dx = Tensor::from_values({0.5, std::numeric_limits<double>::infinity()}, {1, 2});
+  CHECK_THROWS_WITH(texture(tex, Tensor::full({1, 2}, 0.5), tri, inf_dx, inf_dx), Catch::Contains("uv_dx[1]"));
+  // Output shape follows uv's leading axes.
+  CHECK(texture(tex, Tensor::full({2}, 0.5)).shape() == Shape{3});
+  CHECK(texture(tex, Tensor::full({2, 1, 3, 2}, 0.5)).shape() == Shape{2, 1, 3, 3});
+}
+
+// ---- screen-space derivatives from interpolate ----
+
+namespace {
+
+// A floor quad from z = +2 (behind the camera: crosses the near plane) to
+// z = -14, plus a tilted triangle in front of it, through a GL perspective.
+struct Scene {
+  Tensor world, clip, tris;
+  Scene() {
+    const std::vector<double> p = {-3, -1, 2, 3, -1, 2, 3, -1, -14, -3, -1, -14,  //
+                                   -1.2, -0.8, -4, 1.0, -0.6, -5.5, 0.1, 0.9, -4.5};
+    world = Tensor::from_values(p, {7, 3}, DType::Float64);
+    const double n = 0.1, f = 50, fy = 1 / std::tan(0.5), aspect = 1.25;
+    std::vector<double> c;
+    for (int i = 0; i < 7; ++i) {
+      const double x = p[3 * i], y = p[3 * i + 1], z = p[3 * i + 2];
+      c.insert(c.end(), {fy / aspect * x, fy * y, (f + n) / (n - f) * z + 2 * f * n / (n - f), -z});
+    }
+    clip = Tensor::from_values(c, {7, 4}, DType::Float64);
+    tris = Tensor::from_vector<std::int32_t>({0, 1, 2, 0, 2, 3, 4, 5, 6}, {3, 3});
+  }
+};
+
+}  // namespace
+
+TEST_CASE("interpolate with derivatives: linear screen positions have unit derivatives", "[ops][interpolate][texture]") {
+  Scene s;
+  const int W = 40, H = 32;
+  // Only the unclipped triangle has finite screen positions.
+  Tensor tris = Tensor::from_vector<std::int32_t>({4, 5, 6}, {1, 3});
+  GBuffer gb = rasterize(s.clip, tris, {W, H});
+  std::vector<double> screen;
+  for (int i = 0; i < 7; ++i) {
+    const double w = s.clip.at({i, 3});
+    screen.push_back(0.5 * W * (1 + s.clip.at({i, 0}) / w));
+    screen.push_back(0.5 * H * (1 - s.clip.at({i, 1}) / w));
+  }
+  InterpolateOptions lin;
+  lin.perspective = false;
+  auto r = interpolate_with_derivatives(Tensor::from_values(screen, {7, 2}, DType::Float64), s.clip, gb, tris, lin);
+  int covered = 0;
+  for (int j = 0; j < H; ++j)
+    for (int i = 0; i < W; ++i) {
+      if (gb.tri_id.at({j, i}) == 0) {
+        CHECK(r.d_dx.at({j, i, 0}) == 0);
+        continue;
+      }
+      ++covered;
+      CHECK(r.values.at({j, i, 0}) == Approx(i + 0.5).epsilon(1e-12));
+      CHECK(r.d_dx.at({j, i, 0}) == Approx(1).epsilon(1e-12));
+      CHECK(r.d_dx.at({j, i, 1}) == Approx(0).margin(1e-12));
+      CHECK(r.d_dy.at({j, i, 0}) == Approx(0).margin(1e-12));
+      CHECK(r.d_dy.at({j, i, 1}) == Approx(1).epsilon(1e-12));
+    }
+  CHECK(covered > 20);
+}
+
+TEST_CASE("interpolate with derivatives: perspective clip position gives d(ndc)/d(screen) exactly, clipped triangles too", "[ops][interpolate][texture]") {
+  Scene s;
+  const int W = 40, H = 32;
+  GBuffer gb = rasterize(s.clip, s.tris, {W, H});
+  REQUIRE(gb.stats.clipped_near == 2);
+  // Perspective interpolation of the clip position is the surface point's clip
+  // position, so d(x/w)/dx = 2/W and d(y/w)/dy = -2/H (y down).
+  auto r = interpolate_with_derivatives(s.clip, s.clip, gb, s.tris);
+  int covered = 0;
+  for (int j = 0; j < H; ++j)
+    for (int i = 0; i < W; ++i) {
+      if (gb.tri_id.at({j, i}) == 0) continue;
+      ++covered;
+      const double x = r.values.at({j, i, 0}), y = r.values.at({j, i, 1}), w = r.values.at({j, i, 3});
+      const double ndx = (r.d_dx.at({j, i, 0}) * w - x * r.d_dx.at({j, i, 3})) / (w * w);
+      const double ndy = (r.d_dy.at({j, i, 1}) * w - y * r.d_dy.at({j, i, 3})) / (w * w);
+      const double cross_x = (r.d_dy.at({j, i, 0}) * w - x * r.d_dy.at({j, i, 3})) / (w * w);
+      CHECK(ndx == Approx(2.0 / W).epsilon(1e-9));
+      CHECK(ndy == Approx(-2.0 / H).epsilon(1e-9));
+      CHECK(cross_x == Approx(0).margin(1e-10));
+    }
+  CHECK(covered > 400);
+}
+
+TEST_CASE("interpolate with derivatives: derivatives match finite differences across neighbouring pixels", "[ops][interpolate][texture]") {
+  Scene s;
+  // A fine image: the curvature near the horizon spans many pixels, so the
+  // fourth-order differences' truncation error stays well below 1e-4.
+  const int W = 288, H = 240;
+  GBuffer gb = rasterize(s.clip, s.tris, {W, H});
+  // Texture coordinates of the floor and the wall, smooth per triangle.
+  std::vector<double> a;
+  for (int i = 0; i < 7; ++i) {
+    a.push_back(s.world.at({i, 0}) / 6 + 0.5);
+    a.push_back(-s.world.at({i, 2}) / 8 + 0.3 * s.world.at({i, 1}));
+  }
+  Tensor attr = Tensor::from_values(a, {7, 2}, DType::Float64);
+  for (bool perspective : {true, false}) {
+    INFO("perspective " << perspective);
+    InterpolateOptions opt;
+    opt.perspective = perspective;
+    auto r = interpolate_with_derivatives(attr, s.clip, gb, s.tris, opt);
+    const std::vector<double> values = r.values.to_vector(), dx = r.d_dx.to_vector(), dy = r.d_dy.to_vector();
+    CHECK(values == interpolate(attr, s.clip, gb, s.tris, opt).to_vector());
+    auto id = [&](int j, int i) { return gb.tri_id.at({j, i}); };
+    auto val = [&](int j, int i, int c) { return values[(j * W + i) * 2 + c]; };
+    double worst = 0;
+    int checked = 0;
+    for (int j = 2; j < H - 2; ++j)
+      for (int i = 2; i < W - 2; ++i) {
+        const auto t = id(j, i);
+        if (t == 0) continue;
+        bool same = true;
+        for (int k = -2; k <= 2; ++k) same = same && id(j, i + k) == t && id(j + k, i) == t;
+        if (!same) continue;
+        ++checked;
+        for (int c = 0; c < 2; ++c) {
+          // Fourth-order central differences with a one-pixel step.
+          const double fx = (8 * (val(j, i + 1, c) - val(j, i - 1, c)) - (val(j, i + 2, c) - val(j, i - 2, c))) / 12;
+          const double fy = (8 * (val(j + 1, i, c) - val(j - 1, i, c)) - (val(j + 2, i, c) - val(j - 2, i, c))) / 12;
+          const double ax = dx[(j * W + i) * 2 + c], ay = dy[(j * W + i) * 2 + c];
+          worst = std::max(worst, std::abs(fx - ax) / std::max(std::abs(ax), 1e-3));
+          worst = std::max(worst, std::abs(fy - ay) / std::max(std::abs(ay), 1e-3));
+        }
+      }
+    INFO("worst relative error " << worst << " over " << checked << " pixels");
+    CHECK(checked > 10000);
+    CHECK(worst < (perspective ? 2e-4 : 1e-9));
+  }
+}
+
+TEST_CASE("texture: a rendered floor samples coarser levels farther away and passes gradients to the texture", "[ops][texture][gradcheck]") {
+  Scene s;
+  const int W = 24, H = 20;
+  Tensor tris = Tensor::from_vector<std::int32_t>({0, 1, 2, 0, 2, 3}, {2, 3});
+  GBuffer gb = rasterize(s.clip, tris, {W, H});
+  std::vector<double> a;
+  for (int i = 0; i < 7; ++i) {
+    a.push_back(s.world.at({i, 0}) / 6 + 0.5);
+    a.push_back(-s.world.at({i, 2}) / 4);
+  }
+  auto r = interpolate_with_derivatives(Tensor::from_values(a, {7, 2}, DType::Float64), s.clip, gb, tris);
+  // Footprint (texels per pixel for a 16 x 16 texture) grows towards the horizon.
+  auto footprint = [&](int j) {
+    const int i = W / 2;
+    return std::hypot(r.d_dy.at({j, i, 0}) * 16, r.d_dy.at({j, i, 1}) * 16);
+  };
+  int row_far = -1, row_near = -1;
+  for (int j = 0; j < H; ++j)
+    if (gb.tri_id.at({j, W / 2}) != 0) {
+      if (row_far < 0) row_far = j;
+      row_near = j;
+    }
+  REQUIRE(row_far >= 0);
+  REQUIRE(row_near > row_far + 2);
+  CHECK(footprint(row_far) > 2 * footprint(row_near));
+  TextureOptions opt;
+  opt.filter = Filter::Trilinear;
+  Tensor tex = random_input({16, 16, 1}, 0, 1, 30);
+  GradcheckOptions go;
+  go.eps = 1e-3;  // linear in the texels
+  require_gradcheck("texture trilinear rendered floor",
+                    [&](const Inputs& in) { return texture(in[0], r.values, opt, r.d_dx, r.d_dy); }, {tex}, go);
+}
