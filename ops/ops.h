@@ -5,6 +5,7 @@
 #include "autodiff/parallel.h"
 #include "autodiff/tape.h"
 #include "autodiff/tensor.h"
+#include "ops/antialias.h"
 #include "ops/elementwise.h"
 #include "ops/interpolate.h"
 #include "ops/linalg.h"

@@ -1,0 +1,376 @@
+// Silhouette antialiasing: edge topology, the forward blend over pixel pairs
+// next to a tri_id change, and its adjoint (see antialias.h for formulas).
+// Pairs are found and evaluated per row in parallel, then applied in row order;
+// the adjoint computes per-pair contributions in parallel and adds them in pair
+// order, so results are bit-identical for any thread count.
+#include "raster/antialias.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <string>
+
+#include "autodiff/error.h"
+#include "autodiff/parallel.h"
+#include "raster/project.h"
+#include "raster/rasterize_setup.h"
+
+namespace gr::raster {
+
+namespace {
+
+template <class T>
+T finite_cast(double x) {
+  const double big = static_cast<double>(std::numeric_limits<T>::max());
+  if (!(x == x)) return T(0);
+  return static_cast<T>(std::clamp(x, -big, big));
+}
+
+// 1 / x, kept finite for |x| -> 0 (sign preserved).
+double safe_inv(double x) { return 1.0 / (x + std::copysign(1e-30, x)); }
+
+// Screen edge function E(q; a, b) = (qx - ax)(by - ay) - (qy - ay)(bx - ax).
+double edge_fn(double qx, double qy, const double* a, const double* b) {
+  return (qx - a[0]) * (b[1] - a[1]) - (qy - a[1]) * (b[0] - a[0]);
+}
+
+// Side of the line a-b (screen) on which the surface of the triangle through
+// a, b and o lies near the edge: the sign of E(.; a, b) there. Computed in
+// homogeneous coordinates, -sign det[Va, Vb, Vo], which stays right when o is
+// behind the camera (a and b must be in front). 0 if degenerate.
+int surface_side(const detail::Vertices& v, std::int32_t a, std::int32_t b, std::int32_t o, int w, int h) {
+  const double d = detail::dot(detail::cross(detail::homogeneous(v, a, w, h), detail::homogeneous(v, b, w, h)),
+                               detail::homogeneous(v, o, w, h));
+  return d > 0.0 ? -1 : (d < 0.0 ? 1 : 0);
+}
+
+// Interior edges crossed at most between two pixel centres before giving up.
+constexpr int kMaxWalk = 16;
+
+}  // namespace
+
+// ---------------------------------------------------------------------------
+// Edge topology
+
+template <class T>
+EdgeTopology build_edge_topology(const std::int32_t* tris, std::int64_t num_tris, std::int64_t num_vertices,
+                                 const T* pos, int dims) {
+  const char* op = "antialias topology";
+  detail::check_triangles(tris, num_tris, num_vertices, op);
+  if (pos && dims > 0) detail::check_finite(pos, num_vertices * dims, "positions", op);
+
+  // Canonical vertex ids: the smallest index among vertices with equal rows.
+  std::vector<std::int32_t> canon(static_cast<std::size_t>(num_vertices));
+  std::iota(canon.begin(), canon.end(), 0);
+  if (pos && dims > 0) {
+    auto row_less = [&](std::int32_t a, std::int32_t b) {
+      for (int d = 0; d < dims; ++d) {
+        const T pa = pos[std::int64_t(a) * dims + d], pb = pos[std::int64_t(b) * dims + d];
+        if (pa != pb) return pa < pb;
+      }
+      return false;
+    };
+    std::vector<std::int32_t> order(canon);
+    std::sort(order.begin(), order.end(), [&](std::int32_t a, std::int32_t b) {
+      if (row_less(a, b)) return true;
+      if (row_less(b, a)) return false;
+      return a < b;
+    });
+    for (std::size_t i = 1; i < order.size(); ++i)
+      if (!row_less(order[i - 1], order[i])) canon[order[i]] = canon[order[i - 1]];
+  }
+
+  EdgeTopology topo;
+  topo.num_tris = num_tris;
+  topo.neighbour.assign(static_cast<std::size_t>(3 * num_tris), kBoundaryEdge);
+
+  // Bucket the undirected edges by their smaller canonical vertex (counting sort).
+  auto ends = [&](std::int64_t e, std::int32_t* lo, std::int32_t* hi) {
+    const std::int32_t* tri = tris + 3 * (e / 3);
+    const int k = static_cast<int>(e % 3);
+    const std::int32_t a = canon[tri[(k + 1) % 3]], b = canon[tri[(k + 2) % 3]];
+    *lo = std::min(a, b);
+    *hi = std::max(a, b);
+  };
+  std::vector<std::int64_t> start(static_cast<std::size_t>(num_vertices) + 1, 0);
+  for (std::int64_t e = 0; e < 3 * num_tris; ++e) {
+    std::int32_t lo, hi;
+    ends(e, &lo, &hi);
+    if (lo == hi)
+      topo.neighbour[e] = kNonManifoldEdge;  // zero-length edge: never crossed
+    else
+      ++start[lo + 1];
+  }
+  for (std::int64_t i = 0; i < num_vertices; ++i) start[i + 1] += start[i];
+  struct Entry {
+    std::int32_t hi;
+    std::int64_t edge;
+  };
+  std::vector<Entry> entries(static_cast<std::size_t>(start[num_vertices]));
+  {
+    std::vector<std::int64_t> fill(start.begin(), start.end() - 1);
+    for (std::int64_t e = 0; e < 3 * num_tris; ++e) {
+      std::int32_t lo, hi;
+      ends(e, &lo, &hi);
+      if (lo != hi) entries[fill[lo]++] = {hi, e};
+    }
+  }
+  // Within each bucket, edges with the same far vertex are the same edge.
+  parallel_for(0, num_vertices, 4096, [&](std::int64_t v0, std::int64_t v1) {
+    for (std::int64_t v = v0; v < v1; ++v) {
+      Entry* b = entries.data() + start[v];
+      Entry* e = entries.data() + start[v + 1];
+      std::sort(b, e, [](const Entry& x, const Entry& y) { return x.hi != y.hi ? x.hi < y.hi : x.edge < y.edge; });
+      for (Entry* g = b; g != e;) {
+        Entry* g1 = g;
+        while (g1 != e && g1->hi == g->hi) ++g1;
+        if (g1 - g == 2) {
+          topo.neighbour[g[0].edge] = g[1].edge;
+          topo.neighbour[g[1].edge] = g[0].edge;
+        } else if (g1 - g > 2) {
+          for (Entry* x = g; x != g1; ++x) topo.neighbour[x->edge] = kNonManifoldEdge;
+        }
+        g = g1;
+      }
+    }
+  });
+  return topo;
+}
+
+EdgeTopology build_edge_topology(const std::int32_t* tris, std::int64_t num_tris, std::int64_t num_vertices) {
+  return build_edge_topology<double>(tris, num_tris, num_vertices, nullptr, 0);
+}
+
+// ---------------------------------------------------------------------------
+// Forward
+
+template <class T>
+void antialias_forward(const T* image, int channels, const std::int32_t* tri_id, const T* depth, int width,
+                       int height, const T* clip, std::int64_t num_vertices, const std::int32_t* tris,
+                       std::int64_t num_tris, const EdgeTopology& topology, T* out,
+                       std::vector<AntialiasPair>* pairs_out, AntialiasStats* stats) {
+  const char* op = "antialias";
+  detail::check_image_size(width, height, op);
+  if (channels < 1) throw ValueError("antialias: channel count must be >= 1, got " + std::to_string(channels));
+  detail::check_triangles(tris, num_tris, num_vertices, op);
+  detail::check_finite(clip, 4 * num_vertices, "clip", op);
+  const int W = width, H = height, C = channels;
+  const std::int64_t P = static_cast<std::int64_t>(W) * H;
+  detail::check_tri_ids(tri_id, P, num_tris, op);
+  if (topology.num_tris != num_tris || static_cast<std::int64_t>(topology.neighbour.size()) != 3 * num_tris)
+    throw ValueError("antialias: the edge topology was built for " + std::to_string(topology.num_tris) +
+                     " triangles, but " + std::to_string(num_tris) + " were given");
+  const detail::Vertices v = detail::project_vertices(clip, num_vertices, W, H);
+
+  // Unchanged pixels: a plain copy.
+  parallel_for(0, P * C, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
+    std::copy(image + lo, image + hi, out + lo);
+  });
+
+  // Where the segment from centre ci to centre co leaves triangle ti (not
+  // through its entry edge `skip`): the edge k whose normalized value, falling
+  // along the segment, reaches zero first; its crossing t; the triangle's side.
+  struct Exit {
+    int k = -1, side = 0;
+    double t = std::numeric_limits<double>::infinity();
+  };
+  auto exit_of = [&](std::int64_t ti, int skip, double cix, double ciy, double cox, double coy) {
+    const std::int32_t* tri = tris + 3 * ti;
+    Exit ex;
+    // det[V1, V2, V0] = det[V0, V1, V2]: one side sign for all three edges (k, k+1, k+2 cyclic).
+    const int side = surface_side(v, tri[1], tri[2], tri[0], W, H);
+    if (side == 0) return ex;
+    for (int k = 0; k < 3; ++k) {
+      if (k == skip) continue;
+      const std::int32_t a = tri[(k + 1) % 3], b = tri[(k + 2) % 3];
+      // Edges with a vertex behind the near plane have no screen line.
+      if (!v.front[a] || !v.front[b]) continue;
+      const double* sa = &v.screen[3 * static_cast<std::size_t>(a)];
+      const double* sb = &v.screen[3 * static_cast<std::size_t>(b)];
+      // Normalized so that the triangle's side is positive; only a falling value is left.
+      const double ei = side * edge_fn(cix, ciy, sa, sb), eo = side * edge_fn(cox, coy, sa, sb);
+      if (!(eo < ei)) continue;
+      const double t = ei / (ei - eo);
+      if (t < ex.t) ex = {k, side, t};
+    }
+    return ex;
+  };
+
+  // The pair (p, q): starting in the front triangle at its pixel centre, walk
+  // along the segment across interior edges (the surface continues) until a
+  // silhouette edge is crossed before the other centre (blend) or not (none).
+  auto evaluate = [&](std::int64_t p, std::int64_t q, std::vector<AntialiasPair>& found) {
+    const std::int32_t ip = tri_id[p], iq = tri_id[q];
+    // Front: smaller (depth, id) key; background (id 0) is behind everything.
+    const bool p_front = iq == 0 || (ip != 0 && (depth[p] < depth[q] || (depth[p] == depth[q] && ip < iq)));
+    const std::int64_t in = p_front ? p : q, outp = p_front ? q : p;
+    const double cix = double(in % W) + 0.5, ciy = double(in / W) + 0.5;
+    const double cox = double(outp % W) + 0.5, coy = double(outp / W) + 0.5;
+    std::int64_t cur = (p_front ? ip : iq) - 1;
+    int skip = -1;
+    for (int step = 0; step < kMaxWalk; ++step) {
+      const Exit ex = exit_of(cur, skip, cix, ciy, cox, coy);
+      if (ex.k < 0 || !(ex.t < 1.0)) return;  // the other centre is still on this surface
+      const std::int32_t* tri = tris + 3 * cur;
+      const std::int32_t a = tri[(ex.k + 1) % 3], b = tri[(ex.k + 2) % 3];
+      // Silhouette: boundary, non-manifold, or the neighbour folds back onto the
+      // same side of the edge in screen space (one front-, one back-facing).
+      const std::int64_t nb = topology.neighbour[3 * cur + ex.k];
+      const int side_n = nb >= 0 ? surface_side(v, a, b, tris[nb], W, H) : 0;  // tris[3n + k'] = opposite vertex
+      if (nb < 0 || side_n == 0 || side_n == ex.side) {
+        found.push_back({in, outp, a, b, std::max(ex.t, 0.0)});  // t < 0: rounding at a centre on the edge
+        return;
+      }
+      // Interior edge: continue in the neighbour, which entered through its edge k'.
+      cur = nb / 3;
+      skip = static_cast<int>(nb % 3);
+    }
+  };
+
+  std::vector<std::vector<AntialiasPair>> rows(static_cast<std::size_t>(H));
+  std::vector<std::int64_t> candidates(static_cast<std::size_t>(H), 0);
+  parallel_for(0, H, 4, [&](std::int64_t y0, std::int64_t y1) {
+    for (std::int64_t y = y0; y < y1; ++y) {
+      const std::int32_t* row = tri_id + y * W;
+      std::int64_t count = 0;
+      for (std::int64_t x = 0; x < W; ++x) {
+        const std::int64_t p = y * W + x;
+        if (x + 1 < W && row[x] != row[x + 1]) {
+          ++count;
+          evaluate(p, p + 1, rows[y]);
+        }
+        if (y + 1 < H && row[x] != row[x + W]) {
+          ++count;
+          evaluate(p, p + W, rows[y]);
+        }
+      }
+      candidates[y] = count;
+    }
+  });
+
+  // Apply in row order (a pixel can be written by up to four pairs).
+  std::size_t total = 0;
+  for (const auto& r : rows) total += r.size();
+  if (pairs_out) pairs_out->reserve(pairs_out->size() + total);
+  for (const auto& r : rows)
+    for (const AntialiasPair& pr : r) {
+      const bool outward = pr.t > 0.5;
+      const std::int64_t target = outward ? pr.outside : pr.inside, source = outward ? pr.inside : pr.outside;
+      const double w = outward ? pr.t - 0.5 : 0.5 - pr.t;
+      for (int c = 0; c < C; ++c) {
+        const double d = double(image[source * C + c]) - double(image[target * C + c]);
+        out[target * C + c] = static_cast<T>(double(out[target * C + c]) + w * d);
+      }
+      if (pairs_out) pairs_out->push_back(pr);
+    }
+  if (stats) {
+    stats->candidate_pairs = std::accumulate(candidates.begin(), candidates.end(), std::int64_t(0));
+    stats->blended_pairs = static_cast<std::int64_t>(total);
+  }
+}
+
+// ---------------------------------------------------------------------------
+// Adjoint
+
+template <class T>
+void antialias_backward(const T* image, int channels, int width, int height, const T* clip,
+                        std::int64_t num_vertices, const std::vector<AntialiasPair>& pairs, const T* grad_out,
+                        T* grad_image, T* grad_clip) {
+  const int W = width, H = height, C = channels;
+  const std::int64_t P = static_cast<std::int64_t>(W) * H;
+  const std::int64_t n_pairs = static_cast<std::int64_t>(pairs.size());
+  auto target_of = [](const AntialiasPair& pr, std::int64_t* target, std::int64_t* source, double* w) {
+    const bool outward = pr.t > 0.5;
+    *target = outward ? pr.outside : pr.inside;
+    *source = outward ? pr.inside : pr.outside;
+    *w = outward ? pr.t - 0.5 : 0.5 - pr.t;
+  };
+
+  // Colours: identity plus the blend weights, in pair order.
+  if (grad_image) {
+    parallel_for(0, P * C, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
+      for (std::int64_t i = lo; i < hi; ++i) grad_image[i] += grad_out[i];
+    });
+    for (const AntialiasPair& pr : pairs) {
+      std::int64_t target, source;
+      double w;
+      target_of(pr, &target, &source, &w);
+      for (int c = 0; c < C; ++c) {
+        const double g = double(grad_out[target * C + c]);
+        if (g == 0.0) continue;
+        grad_image[target * C + c] -= static_cast<T>(w * g);
+        grad_image[source * C + c] += static_cast<T>(w * g);
+      }
+    }
+  }
+  if (!grad_clip || n_pairs == 0) return;
+
+  // Edge vertices: per-pair screen gradients in parallel ...
+  const double hw = 0.5 * W, hh = 0.5 * H;
+  std::vector<double> contrib(static_cast<std::size_t>(4 * n_pairs), 0.0);
+  std::vector<std::uint8_t> live(static_cast<std::size_t>(n_pairs), 0);
+  parallel_for(0, n_pairs, 2048, [&](std::int64_t lo, std::int64_t hi) {
+    for (std::int64_t i = lo; i < hi; ++i) {
+      const AntialiasPair& pr = pairs[i];
+      std::int64_t target, source;
+      double w;
+      target_of(pr, &target, &source, &w);
+      // dL/dt = g[target] . (image[inside] - image[outside]); zero: skip.
+      double gt = 0.0;
+      for (int c = 0; c < C; ++c)
+        gt += double(grad_out[target * C + c]) * (double(image[pr.inside * C + c]) - double(image[pr.outside * C + c]));
+      if (gt == 0.0) continue;
+      // Screen positions exactly as the forward projected them.
+      const T* ca = clip + 4 * static_cast<std::int64_t>(pr.a);
+      const T* cb = clip + 4 * static_cast<std::int64_t>(pr.b);
+      const double sa[2] = {hw * (1.0 + double(ca[0]) / double(ca[3])), hh * (1.0 - double(ca[1]) / double(ca[3]))};
+      const double sb[2] = {hw * (1.0 + double(cb[0]) / double(cb[3])), hh * (1.0 - double(cb[1]) / double(cb[3]))};
+      const double cix = double(pr.inside % W) + 0.5, ciy = double(pr.inside / W) + 0.5;
+      const double cox = double(pr.outside % W) + 0.5, coy = double(pr.outside / W) + 0.5;
+      // t = E_i / (E_i - E_o): quotient rule.
+      const double ei = edge_fn(cix, ciy, sa, sb), eo = edge_fn(cox, coy, sa, sb);
+      const double inv_d = safe_inv(ei - eo);
+      const double g_ei = -eo * inv_d * inv_d * gt, g_eo = ei * inv_d * inv_d * gt;
+      // Partials of E(q; a, b) w.r.t. the edge's endpoints.
+      double* o = &contrib[4 * i];
+      o[0] = g_ei * (ciy - sb[1]) + g_eo * (coy - sb[1]);
+      o[1] = g_ei * (sb[0] - cix) + g_eo * (sb[0] - cox);
+      o[2] = g_ei * (sa[1] - ciy) + g_eo * (sa[1] - coy);
+      o[3] = g_ei * (cix - sa[0]) + g_eo * (cox - sa[0]);
+      live[i] = 1;
+    }
+  });
+  // ... added per vertex in pair order (deterministic).
+  std::vector<double> acc(static_cast<std::size_t>(2 * num_vertices), 0.0);
+  bool any = false;
+  for (std::int64_t i = 0; i < n_pairs; ++i) {
+    if (!live[i]) continue;
+    any = true;
+    const double* o = &contrib[4 * i];
+    acc[2 * static_cast<std::size_t>(pairs[i].a)] += o[0];
+    acc[2 * static_cast<std::size_t>(pairs[i].a) + 1] += o[1];
+    acc[2 * static_cast<std::size_t>(pairs[i].b)] += o[2];
+    acc[2 * static_cast<std::size_t>(pairs[i].b) + 1] += o[3];
+  }
+  if (!any) return;
+  // Screen -> NDC -> clip with the projection adjoints (edge vertices have w > 0).
+  std::vector<T> g_screen(static_cast<std::size_t>(2 * num_vertices));
+  std::vector<T> g_ndc(static_cast<std::size_t>(3 * num_vertices), T(0));
+  for (std::int64_t i = 0; i < 2 * num_vertices; ++i) g_screen[i] = finite_cast<T>(acc[i]);
+  viewport_backward(num_vertices, W, H, g_screen.data(), g_ndc.data());
+  wdivide_backward(clip, num_vertices, g_ndc.data(), grad_clip);
+}
+
+#define GR_INSTANTIATE(T)                                                                                      \
+  template EdgeTopology build_edge_topology<T>(const std::int32_t*, std::int64_t, std::int64_t, const T*, int); \
+  template void antialias_forward<T>(const T*, int, const std::int32_t*, const T*, int, int, const T*,        \
+                                     std::int64_t, const std::int32_t*, std::int64_t, const EdgeTopology&, T*, \
+                                     std::vector<AntialiasPair>*, AntialiasStats*);                            \
+  template void antialias_backward<T>(const T*, int, int, int, const T*, std::int64_t,                         \
+                                      const std::vector<AntialiasPair>&, const T*, T*, T*);
+GR_INSTANTIATE(float)
+GR_INSTANTIATE(double)
+#undef GR_INSTANTIATE
+
+}  // namespace gr::raster

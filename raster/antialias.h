@@ -1,0 +1,85 @@
+// Analytic silhouette antialiasing and its adjoint, on plain arrays (no tape).
+//
+// For every pair of horizontally or vertically neighbouring pixels whose
+// triangle ids differ, the segment between the two centres is followed from
+// the front triangle (smaller (depth, id) key; background is behind
+// everything) across interior edges; if it crosses a silhouette edge before the
+// other centre, the crossing position t blends the two colours (a box filter
+// across the edge). Only pixels next to a tri_id change are visited.
+// The adjoint goes to the colours of both pixels and, through t, to the screen
+// positions of the edge's two vertices, then through the viewport and
+// w-divide adjoints to the clip-space positions. Formulas, the silhouette
+// criterion and the determinism scheme: docs/rasterizer.md, "Antialiasing".
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+namespace gr::raster {
+
+// neighbour[] values for edges with no unique partner.
+constexpr std::int64_t kBoundaryEdge = -1;     // no other triangle has this edge
+constexpr std::int64_t kNonManifoldEdge = -2;  // three or more triangles (or a zero-length edge)
+
+// Edge adjacency of a triangle list. Edge k of triangle t is the edge opposite
+// vertex k (between vertices k+1 and k+2, mod 3), as in the rasterizer.
+// neighbour[3t + k] = 3n + k' for the one other triangle n that has the same
+// undirected edge (k' = n's slot opposite that edge), or kBoundaryEdge /
+// kNonManifoldEdge. Vertices are compared by index, or, when weld positions
+// are given, vertices with equal position rows count as one vertex (so meshes
+// with duplicated seam vertices are still closed).
+struct EdgeTopology {
+  std::int64_t num_tris = 0;
+  std::vector<std::int64_t> neighbour;  // 3 * num_tris
+};
+
+// tris: M x 3 int32 (validated against num_vertices, IndexError naming the
+// triangle). weld_positions: num_vertices x dims row-major, or null (no welding).
+template <class T>
+EdgeTopology build_edge_topology(const std::int32_t* tris, std::int64_t num_tris, std::int64_t num_vertices,
+                                 const T* weld_positions, int dims);
+EdgeTopology build_edge_topology(const std::int32_t* tris, std::int64_t num_tris, std::int64_t num_vertices);
+
+// One blended pixel pair, in the order the forward applied them (row-major by
+// the pair's top/left pixel, then horizontal before vertical).
+struct AntialiasPair {
+  std::int64_t inside;   // pixel covered by the front triangle (row-major index)
+  std::int64_t outside;  // its neighbour, on the far side of the silhouette edge
+  std::int32_t a, b;     // vertex indices of the silhouette edge
+  double t;              // crossing position along inside -> outside centre, in [0, 1)
+};
+
+struct AntialiasStats {
+  std::int64_t candidate_pairs = 0;  // neighbouring pixels with different tri_id
+  std::int64_t blended_pairs = 0;    // of those, crossed by a silhouette edge
+};
+
+// image, out: H x W x C row-major (out may not alias image). tri_id, depth:
+// H x W, the G-buffer of rasterize_forward on the same clip, tris, W, H.
+// clip: N x 4. For each blended pair, with t the crossing position:
+//   t > 1/2: out[outside] += (t - 1/2) (image[inside] - image[outside])
+//   t <= 1/2: out[inside] += (1/2 - t) (image[outside] - image[inside])
+// (every other pixel is copied). Pairs are appended to *pairs if non-null
+// (the backward needs them). Throws ValueError / IndexError on bad input.
+template <class T>
+void antialias_forward(const T* image, int channels, const std::int32_t* tri_id, const T* depth, int width,
+                       int height, const T* clip, std::int64_t num_vertices, const std::int32_t* tris,
+                       std::int64_t num_tris, const EdgeTopology& topology, T* out,
+                       std::vector<AntialiasPair>* pairs = nullptr, AntialiasStats* stats = nullptr);
+
+// Adjoint of antialias_forward, ACCUMULATED (+=) into grad_image (H x W x C)
+// and grad_clip (N x 4); either may be null. With g = grad_out, per pair
+// (target = the pixel written, source = the other, w = |t - 1/2|):
+//   dL/dimage += g;  dL/dimage[target] -= w g[target];  dL/dimage[source] += w g[target]
+//   dL/dt = g[target] . (image[inside] - image[outside])
+//   t = E_i / (E_i - E_o), E_* = E(centre; a, b) (screen edge function):
+//   dt/dE_i = -E_o / D^2, dt/dE_o = E_i / D^2, D = E_i - E_o (guarded)
+//   dE/dax = qy - by, dE/day = bx - qx, dE/dbx = ay - qy, dE/dby = qx - ax
+// then viewport_backward and wdivide_backward per vertex. Contributions are
+// added in pair order: bit-identical for any thread count.
+template <class T>
+void antialias_backward(const T* image, int channels, int width, int height, const T* clip,
+                        std::int64_t num_vertices, const std::vector<AntialiasPair>& pairs, const T* grad_out,
+                        T* grad_image, T* grad_clip);
+
+}  // namespace gr::raster

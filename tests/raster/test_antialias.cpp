@@ -1,0 +1,196 @@
+// Antialias kernels on plain arrays: edge topology (welding, boundaries,
+// non-manifold edges), hand-computed blends across a straight silhouette, and
+// no blending across interior or continuing edges.
+#include <catch2/catch.hpp>
+
+#include <cstdint>
+#include <vector>
+
+#include "autodiff/error.h"
+#include "raster/antialias.h"
+#include "raster/rasterize.h"
+
+using namespace gr;
+using namespace gr::raster;
+
+namespace {
+
+// Rasterizes clip (w = 1 rows given as x, y, z) at W x H and antialiases the
+// image "1 on any triangle, 0 on background" (one channel).
+struct Result {
+  std::vector<std::int32_t> tri_id;
+  std::vector<double> image, out;
+  std::vector<AntialiasPair> pairs;
+  AntialiasStats stats;
+};
+Result render(const std::vector<double>& xyz, const std::vector<std::int32_t>& tris, int W, int H,
+              const EdgeTopology* topo = nullptr) {
+  const std::int64_t n = static_cast<std::int64_t>(xyz.size() / 3), m = static_cast<std::int64_t>(tris.size() / 3);
+  std::vector<double> clip;
+  for (std::int64_t i = 0; i < n; ++i) clip.insert(clip.end(), {xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2], 1.0});
+  Result r;
+  const std::int64_t P = std::int64_t(W) * H;
+  r.tri_id.resize(P);
+  std::vector<double> uv(2 * P), depth(P);
+  rasterize_forward(clip.data(), n, tris.data(), m, RasterSettings{W, H}, r.tri_id.data(), uv.data(), depth.data());
+  r.image.resize(P);
+  for (std::int64_t p = 0; p < P; ++p) r.image[p] = r.tri_id[p] != 0 ? 1.0 : 0.0;
+  r.out.resize(P);
+  const EdgeTopology own = build_edge_topology(tris.data(), m, n, clip.data(), 4);
+  antialias_forward(r.image.data(), 1, r.tri_id.data(), depth.data(), W, H, clip.data(), n, tris.data(), m,
+                    topo ? *topo : own, r.out.data(), &r.pairs, &r.stats);
+  return r;
+}
+
+// NDC x of screen column position xs for width W.
+double ndc_x(double xs, int W) { return 2.0 * xs / W - 1.0; }
+
+}  // namespace
+
+TEST_CASE("antialias topology: a quad's diagonal is shared and its outline is boundary", "[raster][antialias]") {
+  const std::vector<std::int32_t> tris = {0, 1, 2, 0, 2, 3};
+  const EdgeTopology t = build_edge_topology(tris.data(), 2, 4);
+  REQUIRE(t.neighbour.size() == 6);
+  // Edge 1 of triangle 0 (vertices 2, 0) is edge 2 of triangle 1 (vertices 0, 2).
+  CHECK(t.neighbour[1] == 3 * 1 + 2);
+  CHECK(t.neighbour[3 * 1 + 2] == 1);
+  for (int e : {0, 2, 3, 4}) CHECK(t.neighbour[e] == kBoundaryEdge);
+}
+
+TEST_CASE("antialias topology: duplicated vertices are welded by position, not by index", "[raster][antialias]") {
+  // Triangle 1 uses copies (4, 5) of vertices 0 and 2.
+  const std::vector<std::int32_t> tris = {0, 1, 2, 4, 5, 3};
+  const std::vector<double> pos = {0, 0, 1, 0, 1, 1, 0, 1, 0, 0, 1, 1};
+  const EdgeTopology by_index = build_edge_topology(tris.data(), 2, 6);
+  for (std::int64_t e : by_index.neighbour) CHECK(e == kBoundaryEdge);
+  const EdgeTopology welded = build_edge_topology(tris.data(), 2, 6, pos.data(), 2);
+  CHECK(welded.neighbour[1] == 3 * 1 + 2);  // edge (2, 0) ~ edge (4, 5)
+  CHECK(welded.neighbour[3 * 1 + 2] == 1);
+}
+
+TEST_CASE("antialias topology: an edge of three triangles is non-manifold, bad indices throw", "[raster][antialias]") {
+  const std::vector<std::int32_t> tris = {0, 1, 2, 1, 0, 3, 0, 1, 4};
+  const EdgeTopology t = build_edge_topology(tris.data(), 3, 5);
+  CHECK(t.neighbour[2] == kNonManifoldEdge);  // edge (0, 1) of triangle 0
+  CHECK(t.neighbour[3 + 2] == kNonManifoldEdge);
+  CHECK(t.neighbour[6 + 2] == kNonManifoldEdge);
+  const std::vector<std::int32_t> bad = {0, 1, 7};
+  CHECK_THROWS_AS(build_edge_topology(bad.data(), 1, 3), IndexError);
+}
+
+TEST_CASE("antialias kernel: a vertical silhouette blends like a box filter of the covered fraction",
+          "[raster][antialias]") {
+  const int W = 8, H = 4;
+  // A quad covering x < xs_edge over the full height; its diagonal crosses the image.
+  for (double edge : {3.3, 2.7}) {
+    const double xe = ndc_x(edge, W);
+    const std::vector<double> xyz = {-2, -2, 0, xe, -2, 0, xe, 2, 0, -2, 2, 0};
+    const Result r = render(xyz, {0, 1, 2, 0, 2, 3}, W, H);
+    CHECK(r.stats.blended_pairs == H);
+    CHECK(r.stats.candidate_pairs > H);  // the diagonal's pairs are candidates, but not blended
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x) {
+        const double expected = x == 2 || x == 3 ? std::min(1.0, std::max(0.0, edge - x)) : r.image[y * W + x];
+        INFO("edge " << edge << " pixel " << x << "," << y);
+        CHECK(r.out[y * W + x] == Approx(expected).margin(1e-12));
+      }
+    for (const AntialiasPair& p : r.pairs) {
+      CHECK(p.outside == p.inside + 1);
+      CHECK(p.t == Approx(edge - 2.5).margin(1e-12));
+    }
+  }
+}
+
+TEST_CASE("antialias kernel: a quad filling the image is never blended", "[raster][antialias]") {
+  const std::vector<double> xyz = {-1.5, -1.5, 0, 1.5, -1.5, 0, 1.5, 1.5, 0, -1.5, 1.5, 0};
+  const Result r = render(xyz, {0, 1, 2, 0, 2, 3}, 16, 12);
+  CHECK(r.stats.candidate_pairs > 0);
+  CHECK(r.stats.blended_pairs == 0);
+  CHECK(r.out == r.image);
+}
+
+TEST_CASE("antialias kernel: an edge whose neighbour folds back onto the same side is a silhouette",
+          "[raster][antialias]") {
+  const int W = 8, H = 4;
+  const double xe = ndc_x(4.3, W);
+  // Triangle 0 covers x < xe (full height). Triangle 1 shares its right edge;
+  // its third vertex lies either beyond the edge (the surface continues) or
+  // back on triangle 0's side, farther away (a fold: the edge is a silhouette).
+  const std::vector<std::int32_t> tris = {0, 1, 2, 2, 1, 3};
+  const std::vector<double> continues = {-3, -3, 0, xe, -3, 0, xe, 5, 0, 3, 1, 0};
+  const std::vector<double> folds = {-3, -3, 0, xe, -3, 0, xe, 5, 0, -1, 1, 0.5};
+  const Result a = render(continues, tris, W, H);
+  CHECK(a.stats.blended_pairs == 0);
+  CHECK(a.out == a.image);
+  const Result b = render(folds, tris, W, H);
+  CHECK(b.stats.blended_pairs == H);
+  for (int y = 0; y < H; ++y) CHECK(b.out[y * W + 4] == Approx(0.3).margin(1e-12));
+}
+
+TEST_CASE("antialias kernel: the front triangle's silhouette blends over a triangle behind it",
+          "[raster][antialias]") {
+  const int W = 8, H = 4;
+  const double xe = ndc_x(5.2, W);
+  // Triangle 0 (front, z = -0.5) covers x < xe; triangle 1 (behind) covers everything.
+  const std::vector<double> xyz = {-3, -3, -0.5, xe, -3, -0.5, xe, 5, -0.5, -9, -9, 0.5, 9, -9, 0.5, 0, 9, 0.5};
+  const std::vector<std::int32_t> tris = {0, 1, 2, 3, 4, 5};
+  Result r = render(xyz, tris, W, H);
+  CHECK(r.stats.blended_pairs == H);
+  for (const AntialiasPair& p : r.pairs) {
+    CHECK(r.tri_id[p.inside] == 1);
+    CHECK(r.tri_id[p.outside] == 2);
+    CHECK(p.t == Approx(0.7).margin(1e-12));
+  }
+}
+
+TEST_CASE("antialias kernel: a topology for another mesh and bad sizes are rejected", "[raster][antialias]") {
+  const std::vector<std::int32_t> tris = {0, 1, 2};
+  const std::vector<double> clip = {0, 0, 0, 1, 1, 0, 0, 1, 0, 1, 0, 1};
+  std::vector<std::int32_t> tri_id(4, 0);
+  std::vector<double> depth(4, 1.0), image(4, 0.0), out(4);
+  EdgeTopology other;
+  other.num_tris = 2;
+  other.neighbour.assign(6, kBoundaryEdge);
+  CHECK_THROWS_AS(antialias_forward(image.data(), 1, tri_id.data(), depth.data(), 2, 2, clip.data(), 3, tris.data(), 1,
+                                    other, out.data()),
+                  ValueError);
+  const EdgeTopology topo = build_edge_topology(tris.data(), 1, 3);
+  CHECK_THROWS_AS(antialias_forward(image.data(), 1, tri_id.data(), depth.data(), 0, 2, clip.data(), 3, tris.data(), 1,
+                                    topo, out.data()),
+                  ValueError);
+  tri_id[3] = 5;
+  CHECK_THROWS_AS(antialias_forward(image.data(), 1, tri_id.data(), depth.data(), 2, 2, clip.data(), 3, tris.data(), 1,
+                                    topo, out.data()),
+                  IndexError);
+}
+
+TEST_CASE("antialias kernel: a seam of duplicated vertices blends only when the topology does not weld it",
+          "[raster][antialias]") {
+  // The full-image quad again, its second triangle on copies (4, 5) of vertices 0 and 2.
+  const std::vector<double> xyz = {-1.5, -1.5, 0, 1.5, -1.5, 0, 1.5, 1.5, 0, -1.5, 1.5, 0, -1.5, -1.5, 0, 1.5, 1.5, 0};
+  const std::vector<std::int32_t> tris = {0, 1, 2, 4, 5, 3};
+  const Result welded = render(xyz, tris, 16, 12);  // welds equal clip rows
+  CHECK(welded.stats.blended_pairs == 0);
+  CHECK(welded.out == welded.image);
+  const EdgeTopology by_index = build_edge_topology(tris.data(), 2, 6);
+  const Result seam = render(xyz, tris, 16, 12, &by_index);
+  CHECK(seam.stats.blended_pairs > 0);
+}
+
+TEST_CASE("antialias kernel: the walk crosses interior edges to a silhouette owned by a sliver triangle",
+          "[raster][antialias]") {
+  const int W = 8, H = 4;
+  const double x1 = ndc_x(3.6, W), xe = ndc_x(4.3, W);
+  // Triangle 0 covers x < x1 (column 3's centre, 3.5); a strip x1 < x < xe of two
+  // triangles covers no pixel centre but owns the silhouette at xe.
+  const std::vector<double> xyz = {-3, -3, 0, x1, -3, 0, x1, 5, 0, xe, -3, 0, xe, 5, 0};
+  const std::vector<std::int32_t> tris = {0, 1, 2, 1, 3, 4, 1, 4, 2};
+  const Result r = render(xyz, tris, W, H);
+  for (int y = 0; y < H; ++y) REQUIRE(r.tri_id[y * W + 4] == 0);
+  CHECK(r.stats.blended_pairs == H);
+  for (const AntialiasPair& p : r.pairs) {
+    CHECK(p.a + p.b == 3 + 4);  // the strip's right edge
+    CHECK(p.t == Approx(0.8).margin(1e-12));
+  }
+  for (int y = 0; y < H; ++y) CHECK(r.out[y * W + 4] == Approx(0.3).margin(1e-12));
+}
