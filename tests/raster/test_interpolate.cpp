@@ -13,19 +13,13 @@
 #include "autodiff/parallel.h"
 #include "raster/interpolate.h"
 #include "raster/rasterize.h"
+#include "raster/kernel_checks.h"
 
 using namespace gr;
 using namespace gr::raster;
+using namespace gr::testing;
 
 namespace {
-
-std::vector<double> random_vector(std::size_t n, double lo, double hi, unsigned seed) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> d(lo, hi);
-  std::vector<double> v(n);
-  for (double& x : v) x = d(rng);
-  return v;
-}
 
 // A small synthetic G-buffer over 3 triangles and 6 vertices.
 struct Scene {
@@ -51,23 +45,6 @@ struct Scene {
     return out;
   }
 };
-
-// Central-difference gradient of f over x; returns max |numeric - analytic| / max |analytic|.
-double fd_error(const std::function<double(const std::vector<double>&)>& f, std::vector<double> x,
-                const std::vector<double>& analytic, double h = 1e-6) {
-  double err = 0, scale = 1e-30;
-  for (std::size_t i = 0; i < x.size(); ++i) {
-    const double x0 = x[i];
-    x[i] = x0 + h;
-    const double fp = f(x);
-    x[i] = x0 - h;
-    const double fm = f(x);
-    x[i] = x0;
-    err = std::max(err, std::abs((fp - fm) / (2 * h) - analytic[i]));
-    scale = std::max(scale, std::abs(analytic[i]));
-  }
-  return err / scale;
-}
 
 }  // namespace
 

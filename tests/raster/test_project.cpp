@@ -9,45 +9,13 @@
 
 #include "autodiff/error.h"
 #include "raster/project.h"
+#include "raster/kernel_checks.h"
 
 using namespace gr;
 using namespace gr::raster;
+using namespace gr::testing;
 
 namespace {
-
-// Central difference of f at x, element by element: the gradient of a scalar f.
-std::vector<double> numeric_grad(const std::function<double(const std::vector<double>&)>& f,
-                                 std::vector<double> x, double h = 1e-6) {
-  std::vector<double> g(x.size());
-  for (std::size_t i = 0; i < x.size(); ++i) {
-    const double x0 = x[i];
-    x[i] = x0 + h;
-    const double fp = f(x);
-    x[i] = x0 - h;
-    const double fm = f(x);
-    x[i] = x0;
-    g[i] = (fp - fm) / (2 * h);
-  }
-  return g;
-}
-
-// max |a - b| / max(1, max |b|).
-double rel_error(const std::vector<double>& a, const std::vector<double>& b) {
-  double err = 0, scale = 1;
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    err = std::max(err, std::abs(a[i] - b[i]));
-    scale = std::max(scale, std::abs(b[i]));
-  }
-  return err / scale;
-}
-
-std::vector<double> random_vector(std::size_t n, double lo, double hi, unsigned seed) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> d(lo, hi);
-  std::vector<double> v(n);
-  for (double& x : v) x = d(rng);
-  return v;
-}
 
 }  // namespace
 
@@ -86,7 +54,7 @@ TEST_CASE("wdivide: gradient matches finite differences", "[raster][project]") {
   std::vector<double> grad(4 * n, 0.25);  // accumulates onto existing values
   wdivide_backward(clip.data(), n, wts.data(), grad.data());
   for (double& g : grad) g -= 0.25;
-  const double err = rel_error(grad, numeric_grad(loss, clip));
+  const double err = fd_error(loss, clip, grad);
   INFO("relative error " << err);
   CHECK(err < 1e-8);
 }
@@ -111,7 +79,7 @@ TEST_CASE("viewport: gradient matches finite differences", "[raster][project]") 
   };
   std::vector<double> grad(3 * n, 0.0);
   viewport_backward(n, W, H, wts.data(), grad.data());
-  const double err = rel_error(grad, numeric_grad(loss, ndc));
+  const double err = fd_error(loss, ndc, grad);
   INFO("relative error " << err);
   CHECK(err < 1e-8);
 }

@@ -16,9 +16,11 @@
 #include "autodiff/error.h"
 #include "autodiff/parallel.h"
 #include "raster/rasterize.h"
+#include "raster/kernel_checks.h"
 
 using namespace gr;
 using namespace gr::raster;
+using namespace gr::testing;
 
 namespace {
 
@@ -107,18 +109,6 @@ void push_view_vertex(std::vector<double>& clip, double x, double y, double z, d
   clip.insert(clip.end(), {t / aspect * x, t * y, (f + n) / (n - f) * z + 2 * f * n / (n - f), -z});
 }
 
-std::vector<double> random_vector(std::size_t n, double lo, double hi, unsigned seed) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> d(lo, hi);
-  std::vector<double> v(n);
-  for (double& x : v) x = d(rng);
-  return v;
-}
-
-bool all_finite(const std::vector<double>& v) {
-  return std::all_of(v.begin(), v.end(), [](double x) { return std::isfinite(x); });
-}
-
 // Checks rasterize_backward against central differences of
 // L = sum_p (a_p u_p + b_p v_p + c_p depth_p) with the coverage held fixed.
 double fd_check(const std::vector<double>& clip, const std::vector<std::int32_t>& tris, int W, int H,
@@ -134,21 +124,7 @@ double fd_check(const std::vector<double>& clip, const std::vector<std::int32_t>
       l += wuv[2 * p] * g.uv[2 * p] + wuv[2 * p + 1] * g.uv[2 * p + 1] + wd[p] * g.depth[p] * (g.id[p] != 0);
     return l;
   };
-  const std::vector<double> grad = backward(clip, tris, W, H, base.id, wuv, &wd);
-  std::vector<double> x = clip;
-  double err = 0, scale = 1e-30;
-  const double h = 1e-6;
-  for (std::size_t i = 0; i < x.size(); ++i) {
-    const double x0 = x[i];
-    x[i] = x0 + h;
-    const double fp = loss(x);
-    x[i] = x0 - h;
-    const double fm = loss(x);
-    x[i] = x0;
-    err = std::max(err, std::abs((fp - fm) / (2 * h) - grad[i]));
-    scale = std::max(scale, std::abs(grad[i]));
-  }
-  return err / scale;
+  return fd_error(loss, clip, backward(clip, tris, W, H, base.id, wuv, &wd));
 }
 
 }  // namespace

@@ -14,19 +14,13 @@
 #include "raster/mipmap.h"
 #include "raster/temp_dir.h"
 #include "raster/texture.h"
+#include "raster/kernel_checks.h"
 
 using namespace gr;
 using namespace gr::raster;
+using namespace gr::testing;
 
 namespace {
-
-std::vector<double> random_vector(std::size_t n, double lo, double hi, unsigned seed) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> d(lo, hi);
-  std::vector<double> v(n);
-  for (double& x : v) x = d(rng);
-  return v;
-}
 
 // One lookup of a single-level (nearest / bilinear) texture.
 std::vector<double> lookup(const std::vector<double>& tex, int h, int w, int c, double u, double v, Filter filter,
