@@ -13,6 +13,7 @@
 
 #include "autodiff/error.h"
 #include "autodiff/parallel.h"
+#include "raster/guarded_math.h"
 #include "raster/project.h"
 #include "raster/rasterize_setup.h"
 
@@ -20,15 +21,8 @@ namespace gr::raster {
 
 namespace {
 
-template <class T>
-T finite_cast(double x) {
-  const double big = static_cast<double>(std::numeric_limits<T>::max());
-  if (!(x == x)) return T(0);
-  return static_cast<T>(std::clamp(x, -big, big));
-}
-
-// 1 / x, kept finite for |x| -> 0 (sign preserved).
-double safe_inv(double x) { return 1.0 / (x + std::copysign(1e-30, x)); }
+using detail::finite_cast;
+using detail::safe_inv;
 
 // Screen edge function E(q; a, b) = (qx - ax)(by - ay) - (qy - ay)(bx - ax).
 double edge_fn(double qx, double qy, const double* a, const double* b) {

@@ -10,14 +10,15 @@
 
 #include "autodiff/error.h"
 #include "autodiff/parallel.h"
+#include "raster/guarded_math.h"
 #include "raster/rasterize_setup.h"
 
 namespace gr::raster {
 namespace {
 
-// 1 / x, kept finite for |x| -> 0 (sign preserved; x = 0 counts as positive).
-double safe_inv(double x) { return 1.0 / (x + std::copysign(1e-30, x)); }
+using detail::safe_inv;
 
+// 1 / x, kept finite for |x| -> 0 (sign preserved; x = 0 counts as positive).
 // Weights of the three vertices at one pixel: A = sum_k weight_k A_k.
 // Also returns 1/w_k, lambda_k / w_k and 1/s for the adjoint (perspective only).
 struct PixelWeights {

@@ -14,24 +14,17 @@
 
 #include "autodiff/error.h"
 #include "autodiff/parallel.h"
+#include "raster/guarded_math.h"
 #include "raster/project.h"
 #include "raster/rasterize_setup.h"
 
 namespace gr::raster {
 namespace {
 
+using detail::finite_cast;
+using detail::safe_inv;
+
 constexpr int kTile = 32;
-
-// Converts a double gradient to T without producing Inf or NaN.
-template <class T>
-T finite_cast(double x) {
-  const double big = static_cast<double>(std::numeric_limits<T>::max());
-  if (!(x == x)) return T(0);
-  return static_cast<T>(std::clamp(x, -big, big));
-}
-
-// 1 / x, kept finite for |x| -> 0 (sign preserved).
-double safe_inv(double x) { return 1.0 / (x + std::copysign(1e-30, x)); }
 
 // Triangles listed per tile, in triangle order.
 struct Bins {

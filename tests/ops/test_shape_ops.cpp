@@ -1,4 +1,4 @@
-// Tests of reshape, slice, concat, stack, gather and scatter_add: finite
+// Tests of ops/shape_ops.cpp: reshape, slice, concat, stack, gather and scatter_add: finite
 // difference checks, hand-computed layouts (negative indices and steps, every
 // axis), duplicate indices, thread-count independence, and index validation.
 #include <catch2/catch.hpp>

@@ -3,6 +3,7 @@
 // clipping, determinism over threads and triangle order, degenerate input,
 // bad input, and the adjoint against central finite differences.
 #include <catch2/catch.hpp>
+// raster/rasterize_setup.cpp (edge setup, classification, validation) is tested through it.
 
 #include <algorithm>
 #include <cmath>
