@@ -2,8 +2,8 @@
 // (watertight shared edges and vertices on pixel centres), culling, near-plane
 // clipping, determinism over threads and triangle order, degenerate input,
 // bad input, and the adjoint against central finite differences.
+// raster/rasterize_setup.cpp (edge setup, classification, validation) is tested through these.
 #include <catch2/catch.hpp>
-// raster/rasterize_setup.cpp (edge setup, classification, validation) is tested through it.
 
 #include <algorithm>
 #include <cmath>
