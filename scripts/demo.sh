@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # The README's first command: installs what is missing and builds (through
 # scripts/setup.sh), then runs the main example, gradraster-fit, with its
-# defaults (or with the flags given here, e.g. --iterations 100 --out my_out;
-# see --help), and says where its pictures are.
+# defaults (or with the flags given here, e.g. --mode pose, --fit texture,
+# --mesh my.obj --texture my.png, --out my_out; see --help), and says where its
+# pictures are.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -24,4 +25,4 @@ echo
 echo "demo: outputs in $(cd "$out" && pwd)/"
 echo "  snapshot_NNNN.png  target | current | |difference| per view, at the start, during the run and at the end"
 echo "  loss.png           image loss per iteration (log scale)"
-echo "  fitted.obj         the fitted mesh"
+echo "  fitted.obj         the fitted mesh (--mode pose: posed.obj; --fit texture: + fitted.mtl, fitted_texture.png)"

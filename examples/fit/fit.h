@@ -1,13 +1,19 @@
 // The fit example's core, callable from main() and from tests: inverse
-// rendering of vertex colours and vertex positions from Lambert-shaded target
-// images of several views, with Adam and a Laplacian smoothness term.
+// rendering through the whole differentiable pipeline (rasterize ->
+// interpolate -> texture -> Lambert -> antialias), optimized with the
+// library's Adam.
 //
-// What is fitted, honestly: the start has the reference's triangles, grey
-// colours and positions dented along the normals; the parameters are the
-// vertex colours and one offset per vertex along its start normal. There is no antialias op
-// yet, so gradients come from pixel interiors only and silhouettes do not
-// move; the image loss therefore counts only pixels covered in both the
-// target and the current render.
+// Shape mode (the default): target images of a textured reference object from
+// several views; the start is a grey sphere. Fitted: free 3-D positions of the
+// sphere's points (with a uniform-Laplacian smoothness term and a smoothing
+// reparametrization), vertex colours or
+// a texture, and optionally a small rigid correction of every camera. The loss
+// is the mean squared error over all pixels, silhouettes included: the
+// antialias op gives the edge vertices their gradient.
+//
+// Pose mode: one target image of the reference at an unknown rotation and
+// translation; starting from a pose about 25 degrees and 0.15 units off, only
+// the pose (a quaternion and a translation) is fitted.
 #pragma once
 
 #include <cstdint>
@@ -19,39 +25,65 @@
 
 namespace fit {
 
+enum class Mode { Shape, Pose };
+enum class Appearance { Colours, Texture };  // what shape mode fits besides the positions
+
 struct FitOptions {
-  int iterations = 300;
+  Mode mode = Mode::Shape;
+  int iterations = 0;              // 0: the mode's default (kDefaultShapeIterations / kDefaultPoseIterations)
   int size = 128;                  // images are size x size
-  int views = 6;
+  int views = 6;                   // shape mode (pose mode uses one view)
   std::string out_dir = "out";
   int threads = 0;                 // 0: all hardware threads
   std::string mesh_path;           // empty: the built-in object
-  std::uint64_t seed = 1;
-  double colour_lr = 0.03;         // Adam learning rates, decayed to 10% over the run
-  double position_lr = 0.002;
-  double laplacian_weight = 5.0;
+  std::string texture_path;        // the reference's texture (overrides the OBJ's map_Kd)
+  std::uint64_t seed = 1;          // pose mode: the true pose and the start's error; --fit-camera: camera errors
+  Appearance appearance = Appearance::Colours;
+  bool fit_camera = false;         // shape mode: start from perturbed cameras and fit a correction per view
+  int start_subdivisions = 4;      // start icosphere: 20 * 4^s triangles
+  int reference_subdivisions = 0;  // built-in reference icosphere; 0: 5 (shape), 4 (pose renders it every step)
+  int texture_size = 128;          // fitted texture: texture_size x 2 texture_size
+  // Adam learning rates (one Adam per parameter group), decayed geometrically to 10% over the run.
+  double position_lr = 0.02;
+  double colour_lr = 0.03;
+  double camera_lr = 0.003;
+  double pose_lr = 0.02;
+  double laplacian_weight = 60.0;  // times mean |L x|^2, decayed like the learning rates
+  int smoothing_passes = 4;        // positions = start + (I - L/2)^k u (see run_fit)
   bool progress_bar = true;        // print progress (to the stream given to run_fit)
   bool interactive = false;        // redraw one line with '\r' (set it when stdout is a terminal)
 };
 
+constexpr int kDefaultShapeIterations = 300;
+constexpr int kDefaultPoseIterations = 200;
+
 struct FitResult {
+  Mode mode = Mode::Shape;
   std::string scene_name;
-  std::int64_t vertices = 0, triangles = 0;
+  std::int64_t points = 0, triangles = 0;  // of the mesh being fitted
+  int iterations = 0;
   std::vector<double> losses;      // image loss before each step, then after the last one
   double initial_loss = 0, final_loss = 0;
+  double initial_iou = 0, final_iou = 0;  // silhouette IoU with the targets, mean over views
   double seconds = 0;              // wall time of the whole run
   double iterations_per_second = 0;  // of the optimization loop alone
-  double start_position_rms = 0, final_position_rms = 0;  // vertex distance to the reference
-  double start_colour_rms = 0, final_colour_rms = 0;      // colour distance to the reference
-  gr::Tensor positions, colours;   // fitted parameters [N, 3]
+  // Pose mode, and the camera corrections of --fit-camera (mean over views):
+  // rotation error in degrees, translation error in scene units (object radius 1).
+  double initial_rotation_error = 0, final_rotation_error = 0;
+  double initial_translation_error = 0, final_translation_error = 0;
+  gr::Tensor positions;            // shape: fitted points [P, 3]; pose: the posed reference points
+  gr::Tensor colours, texture;     // the fitted appearance (one of them)
   std::vector<std::string> files;  // everything written, in order
 };
 
 // Runs the optimization, writing PNG strips, a loss plot and the fitted OBJ to
-// options.out_dir (created if missing). Progress and the summary go to `log`.
+// options.out_dir (created if missing). Progress goes to `log`.
 FitResult run_fit(const FitOptions& options, std::ostream& log);
 
 // Iterations at which run_fit writes a snapshot strip (0 and `iterations` included).
 std::vector<int> snapshot_iterations(int iterations);
+
+// Silhouette IoU of two coverage masks (any shape, 1 = covered): |a and b| / |a or b|.
+double coverage_iou(const gr::Tensor& a, const gr::Tensor& b);
 
 }  // namespace fit

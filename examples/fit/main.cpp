@@ -22,26 +22,41 @@ int main(int argc, char** argv) {
   }
   fit::FitOptions& o = cl.options;
   o.interactive = fit::stdout_is_terminal();
+  const bool pose = o.mode == fit::Mode::Pose;
+  const int iterations =
+      o.iterations > 0 ? o.iterations : pose ? fit::kDefaultPoseIterations : fit::kDefaultShapeIterations;
 
-  std::cout << "gradraster-fit: fitting vertex colours and positions to " << o.views << " Lambert-shaded views ("
-            << o.size << "x" << o.size << "), " << o.iterations << " Adam steps.\n"
-            << "Start: same triangles, grey colours, positions dented along the normals. Fitted: vertex\n"
-            << "colours and one offset per vertex along its normal. Without antialiasing, silhouettes\n"
-            << "get no gradient: the image loss counts pixels covered in both target and render.\n";
+  if (pose)
+    std::cout << "gradraster-fit --mode pose: recovering the rotation and translation of the object from one\n"
+              << o.size << "x" << o.size << " image, starting 25 degrees and 0.15 units off; " << iterations
+              << " Adam steps on a quaternion and a translation.\n";
+  else
+    std::cout << "gradraster-fit: a grey sphere is fitted to " << o.views << " views (" << o.size << "x" << o.size
+              << ") of a textured object, " << iterations << " Adam steps.\n"
+              << "Fitted: free vertex positions (+ Laplacian smoothness), "
+              << (o.appearance == fit::Appearance::Texture ? "a texture" : "vertex colours")
+              << (o.fit_camera ? ", a rigid correction per camera" : "")
+              << ". The loss is the MSE over all pixels;\nantialiasing gives silhouette edges their gradient.\n";
   try {
     const fit::FitResult r = fit::run_fit(o, std::cout);
-    std::cout << std::setprecision(4) << "\nobject:        " << r.scene_name << " (" << r.vertices << " vertices, "
-              << r.triangles << " triangles)\n"
-              << "image loss:    " << std::scientific << r.initial_loss << " -> " << r.final_loss << std::fixed
+    std::cout << std::setprecision(4) << "\nobject:          " << r.scene_name << " (fitted mesh: " << r.points
+              << " points, " << r.triangles << " triangles)\n"
+              << "image loss:      " << std::scientific << r.initial_loss << " -> " << r.final_loss << std::fixed
               << std::setprecision(1) << "  (" << r.initial_loss / r.final_loss << "x lower)\n"
-              << std::setprecision(4) << "colour RMS:    " << r.start_colour_rms << " -> " << r.final_colour_rms
-              << "  (per vertex, vs the reference)\n"
-              << "position RMS:  " << r.start_position_rms << " -> " << r.final_position_rms
-              << "  (per vertex, object radius 1)\n"
-              << std::setprecision(1) << "wall time:     " << r.seconds << " s, " << r.iterations_per_second
+              << std::setprecision(3) << "silhouette IoU:  " << r.initial_iou << " -> " << r.final_iou
+              << (pose ? "\n" : "  (mean over views)\n");
+    if (pose || o.fit_camera)
+      std::cout << std::setprecision(2) << (pose ? "rotation error:  " : "camera rotation: ") << r.initial_rotation_error
+                << " -> " << r.final_rotation_error << " degrees\n"
+                << std::setprecision(4) << (pose ? "translation err: " : "camera shift:    ")
+                << r.initial_translation_error << " -> " << r.final_translation_error
+                << " units (object radius 1)" << (pose ? "\n" : ", mean over views\n");
+    std::cout << std::setprecision(1) << "wall time:       " << r.seconds << " s, " << r.iterations_per_second
               << " it/s\n"
-              << "outputs:       snapshot_NNNN.png (target | current | |difference| x" << fit::kDifferenceGain
-              << ", one row per view), loss.png, fitted.obj in " << o.out_dir << "/\n";
+              << "outputs:         snapshot_NNNN.png (target | current | |difference| x" << fit::kDifferenceGain
+              << (pose ? "" : ", one row per view") << "), loss.png, " << (pose ? "posed.obj" : "fitted.obj")
+              << (o.appearance == fit::Appearance::Texture && !pose ? " (+ fitted.mtl, fitted_texture.png)" : "")
+              << " in " << o.out_dir << "/\n";
   } catch (const std::exception& e) {  // gr::Error (bad mesh, unwritable file) or std::filesystem_error
     std::cerr << program << ": " << e.what() << "\n";
     return 1;

@@ -1,19 +1,17 @@
-// Builds the fit example's scene: reference object, colour pattern, start
-// point and cameras. Plain C++ on tensor storage; nothing here is recorded on
-// the tape.
+// Builds the fit example's scene: reference object and its texture, the start
+// sphere, cameras and lights. Plain C++ on tensor storage; nothing here is
+// recorded on the tape.
 #include "examples/fit/scene.h"
 
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <map>
 
 #include "autodiff/error.h"
 #include "autodiff/tape.h"
-#include "examples/fit/geometry.h"
 #include "ops/ops.h"
+#include "raster/image_io.h"
 #include "raster/obj_io.h"
-#include "raster/procedural.h"
 
 namespace fit {
 
@@ -23,7 +21,7 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-// Moves the bounding-box centre to the origin and scales the farthest vertex to radius 1.
+// Moves the bounding-box centre to the origin and scales the farthest point to radius 1.
 void fit_in_unit_sphere(Tensor& positions) {
   float* p = positions.data<float>();
   const std::int64_t n = positions.size(0);
@@ -36,78 +34,74 @@ void fit_in_unit_sphere(Tensor& positions) {
     for (int k = 0; k < 3; ++k) r2 += std::pow(p[3 * i + k] - 0.5 * (lo[k] + hi[k]), 2);
     radius = std::max(radius, std::sqrt(r2));
   }
-  if (radius <= 0) throw ValueError("fit: the mesh has no extent");
+  if (!(radius > 0)) throw ValueError("fit: the mesh has no extent");
   for (std::int64_t i = 0; i < n; ++i)
     for (int k = 0; k < 3; ++k) p[3 * i + k] = float((p[3 * i + k] - 0.5 * (lo[k] + hi[k])) / radius);
 }
 
-// Smooth random offsets along the vertex normals, largest magnitude = depth.
-Tensor dented(const Tensor& positions, const Tensor& triangles, double depth, std::uint64_t seed) {
-  NoGradGuard no_grad;
-  const std::int64_t n = positions.size(0);
-  const UniformLaplacian laplacian(triangles, n);
-  Tensor noise = Tensor::uniform({n, 1}, -1.0, 1.0, seed);
-  for (int pass = 0; pass < 8; ++pass) noise = noise - laplacian.apply(noise);  // neighbour averages
-  double peak = 0;
-  for (double x : noise.to_vector()) peak = std::max(peak, std::abs(x));
-  return positions + vertex_normals(positions, triangles) * noise * (depth / std::max(peak, 1e-12));
+// The colour pattern on the unit direction (x, y, z).
+std::array<float, 3> pattern(double x, double y, double z) {
+  const std::array<double, 3> warm{0.95, 0.55, 0.15}, cool{0.10, 0.45, 0.70}, pale{0.95, 0.92, 0.85};
+  const double longitude = std::atan2(x, z);
+  const double band = 0.5 + 0.5 * std::sin(7 * y + 2 * std::sin(3 * longitude));  // wavy latitude stripes
+  const double spots = std::pow(0.5 + 0.5 * std::cos(4 * longitude) * std::cos(6 * y), 4.0);
+  std::array<float, 3> c;
+  for (int k = 0; k < 3; ++k) c[k] = float((band * warm[k] + (1 - band) * cool[k]) * (1 - spots) + spots * pale[k]);
+  return c;
 }
 
 }  // namespace
 
-raster::Mesh make_builtin_object() {
-  raster::Mesh mesh = raster::make_icosphere(4);
-  float* p = mesh.positions.data<float>();
-  for (std::int64_t i = 0; i < mesh.num_vertices(); ++i) {
-    const double x = p[3 * i], y = p[3 * i + 1], z = p[3 * i + 2];
-    const double bumps = 0.12 * std::sin(3 * x + 0.5) * std::sin(3 * y + 1.0) * std::sin(3 * z) +
-                         0.06 * std::cos(5 * std::atan2(z, x)) * (1 - y * y);
-    for (int k = 0; k < 3; ++k) p[3 * i + k] *= float(1 + bumps);
-  }
-  fit_in_unit_sphere(mesh.positions);
-  mesh.normals = Tensor();  // stale after the bumps
-  return mesh;
+double builtin_radius(double x, double y, double z) {
+  const double lobes = 0.35 * y * y - 0.22 * std::exp(-y * y / 0.08);  // two lobes along y and a waist
+  const double bumps = 0.10 * std::sin(3 * x + 0.5) * std::sin(3 * y + 1.0) * std::sin(3 * z) +
+                       0.06 * std::cos(5 * std::atan2(z, x)) * (1 - y * y);
+  const double lean = 0.12 * x * (1 + y);  // breaks the symmetries (the pose fit needs that)
+  return 0.85 + lobes + bumps + lean;
 }
 
-raster::Mesh load_reference_object(const std::string& path) {
+SurfaceMesh make_builtin_object(int subdivisions) {
+  SurfaceMesh s = sphere_surface(subdivisions, 1.0);
+  float* p = s.positions.data<float>();
+  for (std::int64_t i = 0; i < s.num_points(); ++i) {
+    const double r = builtin_radius(p[3 * i], p[3 * i + 1], p[3 * i + 2]);
+    for (int k = 0; k < 3; ++k) p[3 * i + k] = float(p[3 * i + k] * r);
+  }
+  fit_in_unit_sphere(s.positions);
+  return s;
+}
+
+SurfaceMesh load_reference_object(const std::string& path, std::string* texture_path) {
   const raster::Mesh loaded = raster::load_obj(path);
-  const float* p = loaded.positions.data<float>();
-  std::map<std::array<float, 3>, std::int32_t> index_of;
-  std::vector<float> positions;
-  std::vector<std::int32_t> remap(static_cast<std::size_t>(loaded.num_vertices()));
-  for (std::int64_t i = 0; i < loaded.num_vertices(); ++i) {
-    const std::array<float, 3> key{p[3 * i], p[3 * i + 1], p[3 * i + 2]};
-    auto [it, inserted] = index_of.emplace(key, static_cast<std::int32_t>(index_of.size()));
-    if (inserted) positions.insert(positions.end(), key.begin(), key.end());
-    remap[i] = it->second;
-  }
-  std::vector<std::int32_t> triangles;
-  const std::int32_t* t = loaded.triangles.data<std::int32_t>();
-  for (std::int64_t f = 0; f < loaded.num_triangles(); ++f) {
-    const std::int32_t a = remap[t[3 * f]], b = remap[t[3 * f + 1]], c = remap[t[3 * f + 2]];
-    if (a != b && b != c && a != c) triangles.insert(triangles.end(), {a, b, c});
-  }
-  if (triangles.empty()) throw ValueError("fit: " + path + " has no non-degenerate triangle");
-  raster::Mesh mesh;
-  mesh.positions = Tensor::from_vector(positions, {std::int64_t(positions.size() / 3), 3});
-  mesh.triangles = Tensor::from_vector(triangles, {std::int64_t(triangles.size() / 3), 3});
-  fit_in_unit_sphere(mesh.positions);
-  return mesh;
+  SurfaceMesh s = make_surface(loaded);
+  fit_in_unit_sphere(s.positions);
+  if (texture_path) *texture_path = loaded.texture_path;
+  return s;
+}
+
+Tensor striped_texture(int height) {
+  const int width = 2 * height;
+  std::vector<float> texels(static_cast<std::size_t>(3) * width * height);
+  for (int j = 0; j < height; ++j)
+    for (int i = 0; i < width; ++i) {
+      // Texel centre -> (u, v) -> direction (the inverse of sphere_surface's uv map).
+      const double u = (i + 0.5) / width, v = 1 - (j + 0.5) / height;
+      const double longitude = (u - 0.5) * 2 * kPi, latitude = (v - 0.5) * kPi;
+      const auto c = pattern(std::cos(latitude) * std::sin(longitude), std::sin(latitude),
+                             std::cos(latitude) * std::cos(longitude));
+      std::copy(c.begin(), c.end(), texels.begin() + 3 * (std::size_t(j) * width + i));
+    }
+  return Tensor::from_vector(texels, {height, width, 3});
 }
 
 Tensor striped_colours(const Tensor& positions) {
-  const std::array<double, 3> warm{0.95, 0.55, 0.15}, cool{0.10, 0.55, 0.70}, pale{0.90, 0.88, 0.80};
   const float* p = positions.data<float>();
   const std::int64_t n = positions.size(0);
   std::vector<float> colours(static_cast<std::size_t>(3 * n));
   for (std::int64_t i = 0; i < n; ++i) {
     const double r = std::sqrt(p[3 * i] * p[3 * i] + p[3 * i + 1] * p[3 * i + 1] + p[3 * i + 2] * p[3 * i + 2]) + 1e-12;
-    const double x = p[3 * i] / r, y = p[3 * i + 1] / r, z = p[3 * i + 2] / r;
-    const double longitude = std::atan2(z, x);
-    const double band = 0.5 + 0.5 * std::sin(7 * y + 2 * std::sin(3 * longitude));  // wavy latitude stripes
-    const double spots = std::pow(0.5 + 0.5 * std::cos(4 * longitude) * std::cos(6 * y), 4.0);
-    for (int k = 0; k < 3; ++k)
-      colours[3 * i + k] = float((band * warm[k] + (1 - band) * cool[k]) * (1 - spots) + spots * pale[k]);
+    const auto c = pattern(p[3 * i] / r, p[3 * i + 1] / r, p[3 * i + 2] / r);
+    std::copy(c.begin(), c.end(), colours.begin() + 3 * i);
   }
   return Tensor::from_vector(colours, {n, 3});
 }
@@ -125,23 +119,33 @@ std::vector<Camera> orbit_cameras(int views) {
     const Tensor eye = Tensor::from_values({3.2 * cx, 3.2 * cy, 3.2 * cz}, {3});
     // The light sits above and to the left of the camera.
     const Tensor light = normalize(Tensor::from_values({cx - 0.4 * cz, cy + 0.6, cz + 0.4 * cx}, {3}));
-    cameras.push_back({matmul(projection, look_at(eye, origin, up)), light});
+    cameras.push_back({look_at(eye, origin, up), projection, light});
   }
   return cameras;
 }
 
 Scene make_scene(const SceneOptions& options) {
   if (options.views < 1) throw ValueError("fit: need at least one view");
-  const raster::Mesh mesh =
-      options.mesh_path.empty() ? make_builtin_object() : load_reference_object(options.mesh_path);
   Scene scene;
-  scene.name = options.mesh_path.empty() ? "built-in bumpy icosphere" : options.mesh_path;
-  scene.triangles = mesh.triangles;
-  scene.reference_positions = mesh.positions;
-  scene.reference_colours = striped_colours(mesh.positions);
-  scene.start_positions = dented(mesh.positions, mesh.triangles, options.dent_depth, options.seed);
-  scene.start_colours = Tensor::full({mesh.num_vertices(), 3}, 0.5);
+  if (options.mesh_path.empty()) {
+    scene.name = "built-in lobed blob";
+    scene.reference = make_builtin_object(options.reference_subdivisions);
+    scene.reference_material.texture = striped_texture(256);
+  } else {
+    scene.name = options.mesh_path;
+    std::string texture_path;
+    scene.reference = load_reference_object(options.mesh_path, &texture_path);
+    if (!options.texture_path.empty()) texture_path = options.texture_path;
+    if (scene.reference.uvs.defined() && !texture_path.empty()) {
+      scene.reference_material.texture = raster::read_image(texture_path, 3);
+      scene.name += " with " + texture_path;
+    } else {
+      scene.reference_material.point_colours = striped_colours(scene.reference.positions);
+    }
+  }
+  scene.start = sphere_surface(options.start_subdivisions, options.start_radius);
   scene.cameras = orbit_cameras(options.views);
+  scene.background = Tensor::from_values({0.92, 0.94, 1.0}, {3});
   return scene;
 }
 

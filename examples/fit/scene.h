@@ -1,7 +1,6 @@
-// The scene the fit example optimizes: a reference object with per-vertex
-// colours (the built-in bumpy, striped icosphere or a user's OBJ), the start
-// point of the optimization (same triangles, grey colours, dented positions)
-// and the cameras, each with a light that travels with it.
+// The scenes the fit example optimizes: a textured reference object (the
+// built-in lobed blob or a user's OBJ), the sphere the shape fit starts from,
+// the cameras (each with a light that travels with it) and the background.
 #pragma once
 
 #include <cstdint>
@@ -9,38 +8,51 @@
 #include <vector>
 
 #include "autodiff/tensor.h"
+#include "examples/fit/geometry.h"
 #include "examples/fit/shading.h"
-#include "raster/mesh.h"
 
 namespace fit {
 
 struct SceneOptions {
   int views = 6;
-  std::string mesh_path;    // empty: the built-in object
-  std::uint64_t seed = 1;   // of the dents in the start positions
-  double dent_depth = 0.05; // largest start offset along the normal (object radius = 1)
+  std::string mesh_path;       // empty: the built-in object
+  std::string texture_path;    // overrides the OBJ's map_Kd (used when the OBJ has uvs)
+  int reference_subdivisions = 5;  // of the built-in object's icosphere
+  int start_subdivisions = 4;      // of the start sphere
+  double start_radius = 0.75;
+};
+
+struct Camera {
+  Tensor view;        // [4, 4] world -> view (look_at)
+  Tensor projection;  // [4, 4]
+  Tensor light;       // [3] unit direction towards the light, world space
 };
 
 struct Scene {
   std::string name;
-  Tensor triangles;            // [M, 3] int32
-  Tensor reference_positions;  // [N, 3] what the target images show
-  Tensor reference_colours;    // [N, 3]
-  Tensor start_positions;      // [N, 3] reference + smooth dents along the normals
-  Tensor start_colours;        // [N, 3] grey
+  SurfaceMesh reference;       // what the target images show
+  Material reference_material; // a texture if the reference has uvs and one, else vertex colours
+  SurfaceMesh start;           // the sphere the shape fit starts from (with uvs)
   std::vector<Camera> cameras;
+  Tensor background;           // [3]
 };
 
 Scene make_scene(const SceneOptions& options);
 
-// A bumpy icosphere (2562 vertices, 5120 triangles) fitting in the unit sphere.
-gr::raster::Mesh make_builtin_object();
-// Loads an OBJ, welds vertices that share a position (so dents cannot tear
-// uv seams open), drops triangles that collapse, and scales it into the unit
-// sphere around its bounding-box centre.
-gr::raster::Mesh load_reference_object(const std::string& path);
-// Per-vertex colours [N, 3] from a procedural stripe pattern on the direction
-// of each vertex seen from the origin.
+// The built-in reference: an icosphere whose radius varies smoothly with
+// direction (two lobes along y, a waist and bumps), scaled into the unit
+// sphere. Star-shaped about the origin, so a sphere can morph into it.
+SurfaceMesh make_builtin_object(int subdivisions);
+// radius of the built-in object along unit direction (x, y, z), before the
+// scaling into the unit sphere.
+double builtin_radius(double x, double y, double z);
+// Loads an OBJ and scales it into the unit sphere around its bounding-box centre.
+SurfaceMesh load_reference_object(const std::string& path, std::string* texture_path);
+// A procedural equirectangular texture [height, 2 height, 3]: wavy warm/cool
+// latitude stripes with pale spots (what the built-in object wears).
+gr::Tensor striped_texture(int height);
+// Per-point colours [P, 3] with the same pattern, from each point's direction
+// (for meshes without uvs).
 gr::Tensor striped_colours(const Tensor& positions);
 // `views` cameras circling the y axis at alternating heights, 3.2 units out.
 std::vector<Camera> orbit_cameras(int views);

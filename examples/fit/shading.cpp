@@ -1,8 +1,9 @@
-// Lambert shading of a rasterized, vertex-coloured mesh with tensor ops:
-// transform -> rasterize -> interpolate colour and normal -> shade.
+// Lambert shading of a rasterized mesh with tensor ops, composited over a
+// background and antialiased so that silhouette pixels depend smoothly on the
+// vertex positions.
 #include "examples/fit/shading.h"
 
-#include "examples/fit/geometry.h"
+#include "autodiff/error.h"
 #include "ops/ops.h"
 
 namespace fit {
@@ -13,15 +14,33 @@ Tensor lambert(const Tensor& albedo, const Tensor& normal, const Tensor& light, 
   return albedo * (ambient + (1.0 - ambient) * maximum(dot(normal, light), 0.0));
 }
 
-Render render(const Tensor& positions, const Tensor& colours, const Tensor& triangles, const Camera& camera,
-              int size) {
-  const Tensor clip = transform_points(positions, camera.view_projection);  // [N, 4]
-  const GBuffer gb = rasterize(clip, triangles, {size, size});
-  const Tensor albedo = interpolate(colours, clip, gb, triangles);          // [H, W, 3]
-  const Tensor normal = normalize(interpolate(vertex_normals(positions, triangles), clip, gb, triangles));
-  const Tensor covered = greater(cast(gb.tri_id, DType::Float32), Tensor::scalar(0.0));  // no gradient
+Render render(const SurfaceMesh& mesh, const Tensor& positions, const Material& material, const Tensor& view_projection,
+              const Tensor& light, const Tensor& background, int size) {
+  // Vertex data on the render vertices; normals are computed on the welded points.
+  const Tensor vertices = mesh.to_render(positions);
+  const Tensor normals = mesh.to_render(vertex_normals(positions, mesh.point_triangles));
+  const Tensor clip = transform_points(vertices, view_projection);  // [R, 4]
+  const GBuffer gb = rasterize(clip, mesh.triangles, {size, size});
+
+  Tensor albedo;  // [H, W, 3]
+  if (material.texture.defined()) {
+    if (!mesh.uvs.defined()) throw ValueError("fit: a texture needs a mesh with uvs");
+    const auto uv = interpolate_with_derivatives(mesh.uvs, clip, gb, mesh.triangles);
+    TextureOptions options;
+    options.filter = Filter::Trilinear;
+    albedo = texture(material.texture, uv.values, options, uv.d_dx, uv.d_dy);
+  } else {
+    albedo = interpolate(mesh.to_render(material.point_colours), clip, gb, mesh.triangles);
+  }
+  const Tensor normal = normalize(interpolate(normals, clip, gb, mesh.triangles));
+
+  // Coverage from the triangle ids (no gradient); the background fills the rest.
+  const Tensor covered = greater(cast(gb.tri_id, DType::Float32), Tensor::scalar(0.0));
   const Tensor coverage = reshape(covered, {size, size, 1});
-  return {lambert(albedo, normal, camera.light) * coverage, coverage};
+  const Tensor composited = lambert(albedo, normal, light) * coverage + background * (1.0 - coverage);
+  AntialiasOptions aa;
+  aa.topology = mesh.topology;
+  return {antialias(composited, gb, clip, mesh.triangles, aa), coverage};
 }
 
 }  // namespace fit

@@ -1,30 +1,37 @@
-// Rendering one view of a vertex-coloured mesh with Lambert shading, every
-// step a tensor op, so a loss on the image differentiates back to the vertex
-// positions and colours. This is the part to copy into your own program.
+// Rendering one view of a mesh with Lambert shading, every step a tensor op,
+// so a loss on the image differentiates back to the vertex positions, the
+// vertex colours or texture, and the camera:
+//   clip -> rasterize -> interpolate (colour or uv -> texture, normal)
+//   -> Lambert -> composite over the background -> antialias.
+// The antialias step is what lets the loss move silhouettes. This is the part
+// to copy into your own program.
 #pragma once
 
 #include "autodiff/tensor.h"
+#include "examples/fit/geometry.h"
 
 namespace fit {
 
 using gr::Tensor;
 
-// A camera and the light that travels with it.
-struct Camera {
-  Tensor view_projection;  // [4, 4]: clip = P V p
-  Tensor light;            // [3]: unit direction towards the light, world space
+// Where the surface colour comes from: vertex colours (one per point) or a
+// texture sampled at the mesh's uvs (trilinear, repeat).
+struct Material {
+  Tensor point_colours;  // [P, 3], or undefined
+  Tensor texture;        // [Ht, Wt, 3], used when defined (the mesh needs uvs)
 };
 
 struct Render {
-  Tensor image;     // [H, W, 3] shaded colour, 0 on the background
-  Tensor coverage;  // [H, W, 1] 1 where a triangle covers the pixel, else 0 (no gradient)
+  Tensor image;     // [H, W, 3] shaded, composited over the background, antialiased
+  Tensor coverage;  // [H, W, 1] 1 where a triangle covers the pixel centre, else 0 (no gradient)
 };
 
 // albedo * (ambient + (1 - ambient) * max(n . l, 0)), per pixel.
 Tensor lambert(const Tensor& albedo, const Tensor& normal, const Tensor& light, double ambient = 0.2);
 
-// positions [N, 3], colours [N, 3], triangles [M, 3] int32 -> a size x size image.
-Render render(const Tensor& positions, const Tensor& colours, const Tensor& triangles, const Camera& camera,
-              int size);
+// positions [P, 3] (the mesh's points, moved), view_projection [4, 4],
+// light [3] (unit, towards the light), background [3] -> a size x size render.
+Render render(const SurfaceMesh& mesh, const Tensor& positions, const Material& material, const Tensor& view_projection,
+              const Tensor& light, const Tensor& background, int size);
 
 }  // namespace fit
