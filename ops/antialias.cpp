@@ -8,6 +8,7 @@
 
 #include "autodiff/tape.h"
 #include "ops/broadcast.h"
+#include "raster/rasterize_setup.h"  // detail::check_finite
 
 namespace gr {
 
@@ -67,6 +68,9 @@ Tensor antialias(const Tensor& image, const GBuffer& gbuffer, const Tensor& clip
   auto pairs = std::make_shared<std::vector<raster::AntialiasPair>>();
   dispatch_float(clip.dtype(), op, [&](auto tag) {
     using T = decltype(tag);
+    // NaN/Inf clip rows are refused here, naming 'clip' (the default topology
+    // below would otherwise report them as its 'positions').
+    raster::detail::check_finite(clip.data<T>(), 4 * n, "clip", op.c_str());
     // Default topology: weld vertices with equal clip rows (indices are checked there).
     if (!topology)
       topology = std::make_shared<const raster::EdgeTopology>(

@@ -3,6 +3,7 @@
 
 #include "autodiff/tape.h"
 #include "ops/broadcast.h"
+#include "raster/rasterize_setup.h"  // detail::check_finite
 #include "raster/interpolate.h"
 
 namespace gr {
@@ -23,6 +24,11 @@ Tensor interpolate(const Tensor& attributes, const Tensor& clip, const GBuffer& 
   if (gbuffer.uv.shape() != Shape{h, w, 2} || gbuffer.uv.dtype() != clip.dtype())
     throw ShapeError("interpolate: gbuffer.uv " + gbuffer.uv.describe() + " does not match tri_id " +
                      gbuffer.tri_id.describe() + " and clip dtype");
+  // NaN/Inf attributes would silently spread over every pixel of their triangles.
+  dispatch_float(attributes.dtype(), "interpolate", [&](auto tag) {
+    using T = decltype(tag);
+    raster::detail::check_finite(attributes.data<T>(), attributes.numel(), "attributes", "interpolate");
+  });
   Tensor background = options.background;
   if (background.defined()) {
     detail::check_float(background, "interpolate", "background");

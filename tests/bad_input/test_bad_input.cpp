@@ -1,0 +1,374 @@
+// Bad-input catalogue (issue 7, part 2): one test per class of bad input. Each
+// asserts the exception type and that the message names the offending
+// argument; sizes are refused before any buffer is allocated; file errors
+// leave no partial output behind. docs/robustness.md lists the behaviours.
+#include <catch2/catch.hpp>
+
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "autodiff/storage.h"
+#include "examples/render/render_tool.h"
+#include "ops/ops.h"
+#include "raster/image_io.h"
+#include "raster/obj_io.h"
+#include "raster/procedural.h"
+#include "raster/temp_dir.h"
+
+using namespace gr;
+using gr::testing::TempDir;
+
+namespace {
+
+// Runs f, requires it to throw exactly E (or a subclass) whose message contains every `parts`.
+template <class E, class F>
+void require_throw(F&& f, std::initializer_list<std::string> parts) {
+  bool thrown = false;
+  try {
+    f();
+  } catch (const E& e) {
+    thrown = true;
+    const std::string msg = e.what();
+    INFO("message: " << msg);
+    for (const std::string& p : parts) CHECK(msg.find(p) != std::string::npos);
+  } catch (const std::exception& e) {
+    FAIL("wrong exception type, message: " << e.what());
+  }
+  CHECK(thrown);
+}
+
+const double kNaN = std::numeric_limits<double>::quiet_NaN();
+const double kInf = std::numeric_limits<double>::infinity();
+
+// One triangle in front of the camera in clip space (w = 1), 8x8 pixels.
+Tensor clip_tri(DType dt = DType::Float32) {
+  return Tensor::from_values({-0.8, -0.7, 0.1, 1, 0.9, -0.6, 0.2, 1, 0.0, 0.8, 0.3, 1}, {3, 4}, dt);
+}
+Tensor one_tri() { return Tensor::from_vector<std::int32_t>({0, 1, 2}, {1, 3}); }
+
+std::vector<unsigned char> read_bytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::vector<unsigned char>(std::istreambuf_iterator<char>(in), {});
+}
+void write_bytes(const std::string& path, const std::vector<unsigned char>& b) {
+  std::ofstream(path, std::ios::binary).write(reinterpret_cast<const char*>(b.data()), std::streamsize(b.size()));
+}
+bool exists(const std::string& path) {
+  struct stat st;
+  return ::stat(path.c_str(), &st) == 0;
+}
+
+}  // namespace
+
+TEST_CASE("bad input: NaN or Inf vertex positions and attributes are refused naming the element",
+          "[bad_input]") {
+  for (double bad : {kNaN, kInf, -kInf}) {
+    for (DType dt : {DType::Float32, DType::Float64}) {
+      std::vector<double> c = clip_tri(DType::Float64).to_vector();
+      c[5] = bad;  // vertex 1, y
+      const Tensor clip = Tensor::from_values(c, {3, 4}, dt);
+      require_throw<ValueError>([&] { rasterize(clip, one_tri(), {8, 8}); }, {"rasterize", "clip[5]"});
+      const GBuffer gb = rasterize(clip_tri(dt), one_tri(), {8, 8});
+      require_throw<ValueError>([&] { antialias(Tensor::zeros({8, 8, 3}, dt), gb, clip, one_tri()); },
+                                {"antialias", "clip[5]"});
+      // Attributes: interpolate names the element of 'attributes'.
+      std::vector<double> a(9, 0.5);
+      a[4] = bad;
+      require_throw<ValueError>(
+          [&] { interpolate(Tensor::from_values(a, {3, 3}, dt), clip_tri(dt), gb, one_tri()); },
+          {"interpolate", "attributes[4]"});
+      // Texture coordinates.
+      require_throw<ValueError>(
+          [&] { texture(Tensor::ones({4, 4, 3}, dt), Tensor::from_values({0.5, bad}, {1, 2}, dt)); },
+          {"texture", "uv[1]"});
+    }
+    // Model positions through transform_points reach rasterize as NaN clip rows.
+    Tensor pos = Tensor::from_values({0, 0, -2, 1, 0, -2, 0, 1, bad}, {3, 3});
+    const Tensor clip = transform_points(pos, perspective(1.0, 1.0, 0.1, 10.0));
+    require_throw<ValueError>([&] { rasterize(clip, one_tri(), {8, 8}); }, {"rasterize", "clip["});
+    // A mesh with a NaN position fails validation naming the field.
+    raster::Mesh mesh = raster::make_cube();
+    mesh.positions.data<float>()[7] = static_cast<float>(bad);
+    require_throw<ValueError>([&] { mesh.validate("my_tool"); }, {"my_tool", "positions"});
+  }
+}
+
+TEST_CASE("bad input: triangle indices negative or >= the vertex count are refused naming tris[t][k]",
+          "[bad_input]") {
+  for (std::int32_t bad : {-1, 3, 1 << 30}) {
+    const Tensor tris = Tensor::from_vector<std::int32_t>({0, 1, 2, 2, bad, 0}, {2, 3});
+    require_throw<IndexError>([&] { rasterize(clip_tri(), tris, {8, 8}); }, {"rasterize", "tris[1][1]"});
+    const GBuffer gb = rasterize(clip_tri(), one_tri(), {8, 8});
+    require_throw<IndexError>([&] { interpolate(Tensor::ones({3, 2}), clip_tri(), gb, tris); },
+                              {"interpolate", "tris[1][1]"});
+    require_throw<IndexError>([&] { antialias(Tensor::zeros({8, 8, 3}), gb, clip_tri(), tris); },
+                              {"antialias", "tris[1][1]"});
+    raster::Mesh mesh = raster::make_cube();
+    mesh.triangles.data<std::int32_t>()[5] = bad == 3 ? 24 : bad;
+    require_throw<IndexError>([&] { mesh.validate("load"); }, {"load", "triangles"});
+  }
+}
+
+TEST_CASE("bad input: an empty mesh rasterizes to an empty G-buffer; an OBJ without triangles is an IOError",
+          "[bad_input]") {
+  TempDir dir;
+  for (std::int64_t n : {0, 3}) {
+    // Zero triangles (with zero or some vertices) is a valid scene: all background.
+    Tensor clip = n ? clip_tri(DType::Float64) : Tensor::zeros({0, 4}, DType::Float64);
+    clip.set_requires_grad();
+    const Tensor tris = Tensor::zeros({0, 3}, DType::Int32);
+    const GBuffer gb = rasterize(clip, tris, {6, 5});
+    for (double id : gb.tri_id.to_vector()) CHECK(id == 0);
+    for (double d : gb.depth.to_vector()) CHECK(d == raster::kBackgroundDepth);
+    CHECK(gb.stats.triangles_in == 0);
+    Tensor colours = Tensor::ones({n, 3}, DType::Float64).set_requires_grad();
+    Tensor img = interpolate(colours, clip, gb, tris);
+    img = antialias(img, gb, clip, tris);
+    CHECK(img.shape() == Shape{5, 6, 3});
+    for (double x : img.to_vector()) CHECK(x == 0.0);
+    backward(sum(img + reshape(gb.depth, {5, 6, 1})));
+    for (const Tensor& t : {clip, colours})
+      if (t.grad().defined())
+        for (double g : t.grad().to_vector()) CHECK(g == 0.0);
+  }
+  // Files: empty, only vertices, only comments.
+  for (const char* text : {"", "v 0 0 0\nv 1 0 0\nv 0 1 0\n", "# nothing\n\n"}) {
+    const std::string path = dir.write("empty.obj", text);
+    require_throw<IOError>([&] { raster::load_obj(path); }, {"load_obj", path, "no triangles"});
+  }
+}
+
+TEST_CASE("bad input: zero, negative and absurd image sizes are refused before allocating", "[bad_input]") {
+  const Tensor clip = clip_tri();
+  const std::vector<std::pair<int, int>> sizes = {{0, 8}, {8, 0}, {-4, 8}, {8, -1}, {100000, 100000},
+                                                  {16385, 1}, {16384, 16384 + 1}, {INT32_MAX, INT32_MAX}};
+  for (auto [w, h] : sizes) {
+    INFO(w << " x " << h);
+    const std::int64_t before = storage_stats().fresh_allocations;
+    require_throw<ValueError>([&] { rasterize(clip, one_tri(), {w, h}); }, {"rasterize", "image size"});
+    CHECK(storage_stats().fresh_allocations == before);
+  }
+  // viewport: no allocation of the image, but the size is still checked.
+  require_throw<ValueError>([&] { viewport(Tensor::zeros({3, 3}), 0, 8); }, {"viewport", "width and height"});
+  // Textures larger than the texel limit per side are refused (before building a mip pyramid).
+  const Tensor tall = Tensor::zeros({40000, 1, 1});
+  const std::int64_t before = storage_stats().fresh_allocations;
+  require_throw<ValueError>(
+      [&] {
+        texture(tall, Tensor::zeros({4, 2}), {Filter::Trilinear}, Tensor::zeros({4, 2}), Tensor::zeros({4, 2}));
+      },
+      {"texture", "'tex'"});
+  CHECK(storage_stats().fresh_allocations == before);
+  // An empty image cannot be written.
+  TempDir dir;
+  require_throw<ShapeError>([&] { raster::write_png(dir.file("e.png"), Tensor::zeros({0, 4, 3})); },
+                            {"write_png", "image"});
+  CHECK(dir.count() == 0);
+  // A PNG whose header claims 100000 x 100000 pixels is refused by the reader, not decoded.
+  raster::write_png(dir.file("small.png"), Tensor::full({2, 2, 3}, 0.5));
+  std::vector<unsigned char> png = read_bytes(dir.file("small.png"));
+  REQUIRE(png.size() > 24);
+  for (int k : {16, 20}) {  // IHDR width, height (big-endian)
+    png[k] = 0;
+    png[k + 1] = 0x01;
+    png[k + 2] = 0x86;
+    png[k + 3] = 0xA0;
+  }
+  write_bytes(dir.file("huge.png"), png);
+  require_throw<IOError>([&] { raster::read_image(dir.file("huge.png")); }, {"huge.png"});
+}
+
+TEST_CASE("bad input: attribute rows that do not match the vertex count are a ShapeError naming 'attributes'",
+          "[bad_input]") {
+  const GBuffer gb = rasterize(clip_tri(), one_tri(), {8, 8});
+  for (std::int64_t n : {2, 4}) {
+    require_throw<ShapeError>([&] { interpolate(Tensor::ones({n, 3}), clip_tri(), gb, one_tri()); },
+                              {"interpolate", "'attributes'", "N = 3"});
+  }
+  InterpolateOptions o;
+  o.background = Tensor::zeros({2});
+  require_throw<ShapeError>([&] { interpolate(Tensor::ones({3, 3}), clip_tri(), gb, one_tri(), o); },
+                            {"interpolate", "background"});
+  // An image of another size than the G-buffer.
+  require_throw<ShapeError>([&] { antialias(Tensor::zeros({8, 9, 3}), gb, clip_tri(), one_tri()); },
+                            {"antialias", "'gbuffer'"});
+  // A mesh whose normals or uvs do not have one row per vertex.
+  raster::Mesh mesh = raster::make_cube();
+  mesh.normals = Tensor::zeros({5, 3});
+  require_throw<ShapeError>([&] { mesh.validate("mesh"); }, {"mesh", "normals"});
+}
+
+TEST_CASE("bad input: wrong dtype or rank is a DTypeError or ShapeError naming the argument", "[bad_input]") {
+  const Tensor tris = one_tri();
+  require_throw<DTypeError>([&] { rasterize(Tensor::zeros({3, 4}, DType::Int32), tris, {8, 8}); },
+                            {"rasterize", "'clip'"});
+  require_throw<ShapeError>([&] { rasterize(Tensor::zeros({3, 3}), tris, {8, 8}); }, {"rasterize", "'clip'"});
+  require_throw<ShapeError>([&] { rasterize(Tensor::zeros({1, 3, 4}), tris, {8, 8}); }, {"rasterize", "'clip'"});
+  require_throw<DTypeError>([&] { rasterize(clip_tri(), Tensor::zeros({1, 3}), {8, 8}); },
+                            {"rasterize", "'triangles'"});
+  require_throw<ShapeError>([&] { rasterize(clip_tri(), Tensor::zeros({1, 4}, DType::Int32), {8, 8}); },
+                            {"rasterize", "'triangles'"});
+  require_throw<ShapeError>([&] { rasterize(clip_tri(), Tensor::zeros({3}, DType::Int32), {8, 8}); },
+                            {"rasterize", "'triangles'"});
+  const GBuffer gb = rasterize(clip_tri(), tris, {8, 8});
+  require_throw<DTypeError>([&] { interpolate(Tensor::ones({3, 3}, DType::Float64), clip_tri(), gb, tris); },
+                            {"interpolate", "attributes"});
+  require_throw<DTypeError>([&] { interpolate(Tensor::ones({3, 3}, DType::Int32), clip_tri(), gb, tris); },
+                            {"interpolate", "'attributes'"});
+  require_throw<ShapeError>([&] { interpolate(Tensor::ones({3}), clip_tri(), gb, tris); },
+                            {"interpolate", "'attributes'"});
+  require_throw<DTypeError>([&] { antialias(Tensor::zeros({8, 8, 3}, DType::Float64), gb, clip_tri(), tris); },
+                            {"antialias", "'image'"});
+  require_throw<ShapeError>([&] { antialias(Tensor::zeros({8, 8}), gb, clip_tri(), tris); },
+                            {"antialias", "'image'"});
+  require_throw<DTypeError>([&] { texture(Tensor::ones({4, 4, 3}), Tensor::zeros({2, 2}, DType::Float64)); },
+                            {"texture", "'uv'"});
+  require_throw<ShapeError>([&] { texture(Tensor::ones({4, 4, 3}), Tensor::zeros({2, 3})); }, {"texture", "'uv'"});
+  require_throw<DTypeError>([&] { raster::write_png("unused.png", Tensor::zeros({2, 2, 3}, DType::Int32)); },
+                            {"write_png", "image"});
+  require_throw<ShapeError>([&] { raster::write_png("unused.png", Tensor::zeros({2, 2, 2, 3})); },
+                            {"write_png", "image"});
+  CHECK(!exists("unused.png"));
+}
+
+TEST_CASE("bad input: textures of size 0 or with mismatched channels are refused naming the argument",
+          "[bad_input]") {
+  const Tensor uv = Tensor::full({4, 2}, 0.5);
+  for (const Shape& s : {Shape{0, 4, 3}, Shape{4, 0, 3}, Shape{4, 4, 0}, Shape{4, 4}})
+    require_throw<ShapeError>([&] { texture(Tensor::zeros(s), uv); }, {"texture", "'tex'"});
+  require_throw<ShapeError>(
+      [&] { texture(Tensor::ones({4, 4, 3}), uv, {Filter::Trilinear}, Tensor::zeros({4, 2}), Tensor::zeros({3, 2})); },
+      {"texture", "'uv_dy'"});
+  require_throw<ValueError>([&] { texture(Tensor::ones({4, 4, 3}), uv, {Filter::Trilinear}); },
+                            {"texture", "'uv_dx'"});
+  // A 4-channel (RGBA) texture multiplied with a 3-channel colour: the broadcast names both shapes.
+  const Tensor rgba = texture(Tensor::ones({4, 4, 4}), uv);
+  require_throw<ShapeError>([&] { mul(rgba, Tensor::ones({4, 3})); }, {"[4, 4]", "[4, 3]"});
+  // Asking the reader for an impossible channel count.
+  TempDir dir;
+  raster::write_png(dir.file("t.png"), Tensor::full({2, 2, 3}, 0.5));
+  require_throw<ValueError>([&] { raster::read_image(dir.file("t.png"), 5); }, {"read_image", "channels"});
+  CHECK(raster::read_image(dir.file("t.png"), 4).shape() == Shape{2, 2, 4});
+}
+
+TEST_CASE("bad input: malformed OBJ files are an IOError naming the file and line; missing MTL or texture warns",
+          "[bad_input]") {
+  TempDir dir;
+  const std::string tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
+  struct Bad {
+    const char* what;
+    std::string text;
+    std::string line;
+  };
+  const std::vector<Bad> bad = {
+      {"truncated v line", "v 0 0 0\nv 1 0\nv 0 1 0\nf 1 2 3\n", "line 2"},
+      {"truncated f line", tri + "f 1 2\n", "line 4"},
+      {"bad number", "v 0 0 0\nv 1 zero 0\nv 0 1 0\nf 1 2 3\n", "line 2"},
+      {"number with junk", "v 0 0 0\nv 1 0 0\nv 0 1 0.5x\nf 1 2 3\n", "line 3"},
+      {"non-finite number", "v 0 0 0\nv 1e999 0 0\nv 0 1 0\nf 1 2 3\n", "line 2"},
+      {"face refers to a missing vertex", tri + "f 1 2 9\n", "line 4"},
+      {"face index 0", tri + "f 0 1 2\n", "line 4"},
+      {"face refers to a missing uv", tri + "vt 0 0\nf 1/1 2/2 3/1\n", "line 5"},
+      {"huge index", tri + "f 1 2 99999999999999999999\n", "line 4"},
+      {"truncated last line", tri + "f 1 2", "line 4"},
+  };
+  for (const Bad& b : bad) {
+    INFO(b.what);
+    const std::string path = dir.write("bad.obj", b.text);
+    require_throw<IOError>([&] { raster::load_obj(path); }, {"load_obj", path, b.line});
+  }
+  require_throw<IOError>([&] { raster::load_obj(dir.file("missing.obj")); }, {"load_obj", "missing.obj"});
+  require_throw<IOError>([&] { raster::load_obj(dir.file("")); }, {"load_obj"});
+  // Missing MTL file and missing texture: the mesh loads, with warnings naming them.
+  {
+    const std::string path = dir.write("nomtl.obj", "mtllib nothere.mtl\nusemtl a\n" + tri + "f 1 2 3\n");
+    const raster::Mesh m = raster::load_obj(path);
+    CHECK(m.num_triangles() == 1);
+    CHECK(m.texture_path.empty());
+    std::string all;
+    for (const auto& w : m.warnings) all += w + "\n";
+    INFO(all);
+    CHECK(all.find("nothere.mtl") != std::string::npos);
+  }
+  {
+    dir.write("tex.mtl", "newmtl a\nmap_Kd missing_texture.png\n");
+    const std::string path = dir.write("notex.obj", "mtllib tex.mtl\nusemtl a\n" + tri + "f 1 2 3\n");
+    const raster::Mesh m = raster::load_obj(path);
+    CHECK(m.num_triangles() == 1);
+    CHECK(m.texture_path.empty());
+    std::string all;
+    for (const auto& w : m.warnings) all += w + "\n";
+    INFO(all);
+    CHECK(all.find("missing_texture.png") != std::string::npos);
+  }
+}
+
+TEST_CASE("bad input: missing, unreadable, truncated or corrupt PNG files are an IOError naming the path",
+          "[bad_input]") {
+  TempDir dir;
+  raster::write_png(dir.file("good.png"), Tensor::full({4, 5, 3}, 0.25));
+  const std::vector<unsigned char> good = read_bytes(dir.file("good.png"));
+  REQUIRE(good.size() > 40);
+  write_bytes(dir.file("truncated.png"), std::vector<unsigned char>(good.begin(), good.begin() + 40));
+  write_bytes(dir.file("header_only.png"), std::vector<unsigned char>(good.begin(), good.begin() + 8));
+  std::vector<unsigned char> flipped = good;
+  for (std::size_t k = 33; k < flipped.size(); ++k) flipped[k] ^= 0x5A;  // corrupt everything after IHDR
+  write_bytes(dir.file("corrupt.png"), flipped);
+  write_bytes(dir.file("empty.png"), {});
+  write_bytes(dir.file("text.png"), {'h', 'e', 'l', 'l', 'o'});
+  for (const char* name : {"missing.png", "truncated.png", "header_only.png", "corrupt.png", "empty.png", "text.png"}) {
+    INFO(name);
+    require_throw<IOError>([&] { raster::read_image(dir.file(name)); }, {"read image", name});
+  }
+  require_throw<IOError>([&] { raster::read_image(dir.file("")); }, {"read image"});  // a directory
+  if (::geteuid() != 0) {  // root reads files whatever their mode
+    ::chmod(dir.file("good.png").c_str(), 0);
+    require_throw<IOError>([&] { raster::read_image(dir.file("good.png")); }, {"good.png"});
+    ::chmod(dir.file("good.png").c_str(), 0644);
+  }
+}
+
+TEST_CASE("bad input: a failed write leaves no partial file and keeps an existing one", "[bad_input]") {
+  TempDir dir;
+  // Unwritable target: a missing folder.
+  require_throw<IOError>([&] { raster::write_png(dir.file("no/such/dir/a.png"), Tensor::zeros({2, 2, 3})); },
+                         {"a.png"});
+  CHECK(dir.count() == 0);
+  // A bad image after a good write: the old file stays as it was, no temporaries remain.
+  const std::string path = dir.file("keep.png");
+  raster::write_png(path, Tensor::full({3, 3, 3}, 0.75));
+  const std::vector<unsigned char> before = read_bytes(path);
+  require_throw<ShapeError>([&] { raster::write_png(path, Tensor::zeros({3, 3, 7})); }, {"write_png", "image"});
+  CHECK(read_bytes(path) == before);
+  CHECK(dir.count() == 1);
+  // save_obj of an invalid mesh writes nothing.
+  raster::Mesh mesh = raster::make_cube();
+  mesh.positions.data<float>()[0] = std::numeric_limits<float>::quiet_NaN();
+  require_throw<ValueError>([&] { raster::save_obj(dir.file("bad.obj"), mesh); }, {"positions"});
+  CHECK(!exists(dir.file("bad.obj")));
+  CHECK(dir.count() == 1);
+  // The render tool on a malformed OBJ: exit code 1, a message naming the file, no output files.
+  const std::string obj = dir.write("broken.obj", "v 0 0 0\nv 1 0\nf 1 2 3\n");
+  std::ostringstream out, err;
+  const int code = render_tool::run_render_tool({"--mesh", obj, "--width", "16", "--height", "16", "--eye", "0,0,3",
+                                                 "--out", dir.file("r.png"), "--out-triid", dir.file("r.tri")},
+                                                out, err);
+  CHECK(code == render_tool::kExitRuntime);
+  CHECK(err.str().find("broken.obj") != std::string::npos);
+  CHECK(!exists(dir.file("r.png")));
+  CHECK(!exists(dir.file("r.tri")));
+  // ... and on an absurd image size: a usage or runtime error, never an allocation.
+  std::ostringstream out2, err2;
+  const int code2 = render_tool::run_render_tool({"--builtin", "cube", "--width", "100000", "--height", "100000",
+                                                  "--eye", "0,0,3", "--out", dir.file("big.png")},
+                                                 out2, err2);
+  CHECK(code2 != render_tool::kExitOk);
+  CHECK(!exists(dir.file("big.png")));
+}
