@@ -1,5 +1,6 @@
 #include "ops/broadcast.h"
 
+#include <algorithm>
 #include <array>
 #include <cstring>
 
@@ -33,15 +34,49 @@ std::int64_t source_offset(std::int64_t flat, const Dims& dst, const Dims& src_s
   return off;
 }
 
+// Copies src (dims src_dims, broadcast) into out (dims out_dims) a row of the
+// last axis at a time: each row is a plain copy or a fill.
 template <class T>
 void expand_kernel(const T* src, const Dims& src_dims, T* out, const Dims& out_dims) {
   Dims s = row_major_strides(src_dims);
   for (int d = 0; d < 4; ++d)
     if (src_dims[d] == 1) s[d] = 0;
-  const std::int64_t n = out_dims[0] * out_dims[1] * out_dims[2] * out_dims[3];
-  parallel_for(0, n, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
-    for (std::int64_t i = lo; i < hi; ++i) out[i] = src[source_offset(i, out_dims, s)];
+  const std::int64_t inner = out_dims[3];
+  const std::int64_t rows = out_dims[0] * out_dims[1] * out_dims[2];
+  const std::int64_t grain = std::max<std::int64_t>(1, kElementwiseGrain / std::max<std::int64_t>(inner, 1));
+  parallel_for(0, rows, grain, [&](std::int64_t lo, std::int64_t hi) {
+    for (std::int64_t r = lo; r < hi; ++r) {
+      const std::int64_t i2 = r % out_dims[2], i1 = (r / out_dims[2]) % out_dims[1], i0 = r / (out_dims[1] * out_dims[2]);
+      const T* sp = src + i0 * s[0] + i1 * s[1] + i2 * s[2];
+      T* op = out + r * inner;
+      if (s[3] == 0) std::fill(op, op + inner, sp[0]);
+      else std::copy(sp, sp + inner, op);
+    }
   });
+}
+
+// Sum of g[base + offset(k)] for k in [lo, hi) of the reduced index space
+// (dims rd, strides rs), visited in increasing k with an odometer.
+template <class T>
+double sum_reduced(const T* g, std::int64_t base, const Dims& rd, const Dims& rs, std::int64_t lo, std::int64_t hi) {
+  Dims idx{};
+  std::int64_t rest = lo, off = 0;
+  for (int d = 3; d >= 0; --d) {
+    idx[d] = rest % rd[d];
+    rest /= rd[d];
+    off += idx[d] * rs[d];
+  }
+  double acc = 0;
+  for (std::int64_t k = lo; k < hi; ++k) {
+    acc += g[base + off];
+    for (int d = 3; d >= 0; --d) {  // advance the odometer
+      off += rs[d];
+      if (++idx[d] < rd[d]) break;
+      off -= rs[d] * rd[d];
+      idx[d] = 0;
+    }
+  }
+  return acc;
 }
 
 // out[t] = sum of g over the reduced axes, for each target element t. The
@@ -61,9 +96,7 @@ void reduce_kernel(const T* g, const Dims& g_dims, T* out, const Dims& t_dims) {
   const std::int64_t nr = reduced_dims[0] * reduced_dims[1] * reduced_dims[2] * reduced_dims[3];
 
   auto sum_range = [&](std::int64_t base, std::int64_t lo, std::int64_t hi) {
-    double acc = 0;
-    for (std::int64_t k = lo; k < hi; ++k) acc += g[base + source_offset(k, reduced_dims, reduced_strides)];
-    return acc;
+    return sum_reduced(g, base, reduced_dims, reduced_strides, lo, hi);
   };
   if (nt >= 64) {  // many outputs: one thread per output, sequential sum
     parallel_for(0, nt, 16, [&](std::int64_t lo, std::int64_t hi) {
