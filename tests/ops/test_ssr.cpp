@@ -83,10 +83,9 @@ TEST_CASE("ssr_composite: gradient w.r.t. colour buffer, reflectivity and fade p
       const SsrComposite c = ssr_composite(in[0], t, in[1], fade);
       return concat({c.image, c.reflection, c.confidence}, 2);
     };
-    GradcheckOptions go;
-    go.eps = 1e-5;
-    go.rtol = 1e-5;
-    require_gradcheck(form == EdgeFade::Circular ? "ssr_composite circular" : "ssr_composite vignette", f, inputs, go);
+    // Default step. The vignette's clamp at 1 is a kink that some pixels sit near,
+    // which bounds its measured error (~4e-7) rather than the adjoint.
+    require_gradcheck(form == EdgeFade::Circular ? "ssr_composite circular" : "ssr_composite vignette", f, inputs);
     // The circular form does not use edge_distance: nothing connects it to the output.
     if (form == EdgeFade::Circular) {
       SsrFade fade = ssr_fade(o, DType::Float64);
