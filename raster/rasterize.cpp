@@ -2,14 +2,18 @@
 // adjoint (per-pixel contributions scattered in pixel order).
 //
 // Forward: project vertices; classify triangles in parallel (frustum reject,
-// area, culling, pixel bounding box); bin them to kTile x kTile screen tiles
-// in triangle order; then parallel_for over non-empty tiles, each owning its
-// pixels, so the (depth, id) test needs no atomics and is order independent.
+// area, culling, pixel bounding box) and bin them to kTile x kTile screen
+// tiles, in parallel over fixed triangle chunks (counts per chunk and tile,
+// offsets chunk by chunk within each tile, then a fill per chunk), so every
+// tile lists its triangles in ascending order for any thread count; then
+// parallel_for over non-empty tiles, each owning its pixels, so the
+// (depth, id) test needs no atomics and is order independent.
 #include "raster/rasterize.h"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <vector>
 
 #include "autodiff/error.h"
@@ -30,9 +34,20 @@ constexpr int kTile = 32;
 struct Bins {
   int tiles_x = 0, tiles_y = 0;
   std::vector<std::int64_t> offset;  // tiles + 1
-  std::vector<std::int32_t> tris;
-  std::vector<detail::PixelBox> box;  // per triangle
+  // Left uninitialized on allocation (every entry is written before use), so
+  // first-touch page faults happen in the parallel passes, not in a serial fill.
+  std::unique_ptr<std::int32_t[]> tris;
+  std::unique_ptr<detail::PixelBox[]> box;  // per triangle
 };
+
+// Triangles per binning chunk: a function of the triangle and tile counts only
+// (never of the thread count): at least 4096, at most 256 chunks, and at most
+// ~2M (chunk, tile) counters.
+std::int64_t bin_chunk(std::int64_t num_tris, int tiles) {
+  constexpr std::int64_t kMinChunk = 4096, kMaxChunks = 256, kMaxCounters = std::int64_t(1) << 21;
+  const std::int64_t max_chunks = std::max<std::int64_t>(1, std::min(kMaxChunks, kMaxCounters / tiles));
+  return std::max(kMinChunk, (num_tris + max_chunks - 1) / max_chunks);
+}
 
 // Scans one tile: every binned triangle over its box clipped to the tile.
 void scan_tile(const detail::Vertices& v, const std::int32_t* tris, const Bins& bins, int tile,
@@ -96,49 +111,87 @@ void rasterize_forward(const T* clip, std::int64_t num_vertices, const std::int3
     }
   });
 
-  // Per-vertex projection and per-triangle classification (parallel).
+  // Per-vertex projection, then per-triangle classification and binning.
   const detail::Vertices v = detail::project_vertices(clip, num_vertices, W, H);
   const int cull = s.cull == Cull::Back ? 1 : s.cull == Cull::Front ? -1 : 0;
   Bins bins;
-  bins.box.resize(num_tris);
-  std::vector<detail::TriClass> cls(num_tris);
-  parallel_for(0, num_tris, 4096, [&](std::int64_t lo, std::int64_t hi) {
-    for (std::int64_t t = lo; t < hi; ++t)
-      cls[t] = detail::classify_triangle(v, tris + 3 * t, W, H, cull, &bins.box[t]);
-  });
-
-  // Bin accepted triangles to the tiles their boxes touch (serial, triangle order).
+  bins.box.reset(new detail::PixelBox[static_cast<std::size_t>(num_tris)]);
   bins.tiles_x = (W + kTile - 1) / kTile;
   bins.tiles_y = (H + kTile - 1) / kTile;
   const int tiles = bins.tiles_x * bins.tiles_y;
-  bins.offset.assign(tiles + 1, 0);
+  const std::int64_t chunk = bin_chunk(num_tris, tiles);
+  const std::int64_t chunks = (num_tris + chunk - 1) / chunk;
+  std::vector<detail::TriClass> cls(num_tris);
+
+  // Pass 1 (parallel over fixed triangle chunks): classify, and count each
+  // chunk's triangles per tile. Chunks depend on num_tris and tiles only.
+  std::vector<std::int64_t> at(static_cast<std::size_t>(chunks) * tiles, 0);  // counts, then cursors
+  std::vector<RasterStats> cst(static_cast<std::size_t>(chunks));
+  parallel_for(0, chunks, 1, [&](std::int64_t c0, std::int64_t c1) {
+    for (std::int64_t c = c0; c < c1; ++c) {
+      std::int64_t* cnt = &at[static_cast<std::size_t>(c) * tiles];
+      RasterStats& st = cst[c];
+      const std::int64_t t1 = std::min(num_tris, (c + 1) * chunk);
+      for (std::int64_t t = c * chunk; t < t1; ++t) {
+        const detail::TriClass k = cls[t] =
+            detail::classify_triangle(v, tris + 3 * t, W, H, cull, &bins.box[t]);
+        switch (k) {
+          case detail::TriClass::Outside: ++st.culled_outside; continue;
+          case detail::TriClass::ZeroArea: ++st.culled_zero_area; continue;
+          case detail::TriClass::Face: ++st.culled_face; continue;
+          case detail::TriClass::NoPixel: ++st.culled_no_pixel; continue;
+          case detail::TriClass::Clipped: ++st.clipped_near; break;
+          case detail::TriClass::Raster: ++st.rasterized; break;
+        }
+        const detail::PixelBox& b = bins.box[t];
+        for (int ty = b.y0 / kTile; ty <= b.y1 / kTile; ++ty)
+          for (int tx = b.x0 / kTile; tx <= b.x1 / kTile; ++tx) ++cnt[ty * bins.tiles_x + tx];
+      }
+    }
+  });
   RasterStats st;
   st.triangles_in = num_tris;
-  for (std::int64_t t = 0; t < num_tris; ++t) {
-    switch (cls[t]) {
-      case detail::TriClass::Outside: ++st.culled_outside; continue;
-      case detail::TriClass::ZeroArea: ++st.culled_zero_area; continue;
-      case detail::TriClass::Face: ++st.culled_face; continue;
-      case detail::TriClass::NoPixel: ++st.culled_no_pixel; continue;
-      case detail::TriClass::Clipped: ++st.clipped_near; break;
-      case detail::TriClass::Raster: ++st.rasterized; break;
-    }
-    const detail::PixelBox& b = bins.box[t];
-    for (int ty = b.y0 / kTile; ty <= b.y1 / kTile; ++ty)
-      for (int tx = b.x0 / kTile; tx <= b.x1 / kTile; ++tx) ++bins.offset[ty * bins.tiles_x + tx + 1];
+  for (const RasterStats& c : cst) {
+    st.culled_outside += c.culled_outside;
+    st.culled_zero_area += c.culled_zero_area;
+    st.culled_face += c.culled_face;
+    st.culled_no_pixel += c.culled_no_pixel;
+    st.clipped_near += c.clipped_near;
+    st.rasterized += c.rasterized;
   }
-  for (int i = 0; i < tiles; ++i) bins.offset[i + 1] += bins.offset[i];
-  bins.tris.resize(bins.offset[tiles]);
+
+  // Offsets tile by tile, chunks in order within a tile: each tile's list is
+  // in ascending triangle order. Counts become each (chunk, tile) cursor.
+  bins.offset.assign(tiles + 1, 0);
   {
-    std::vector<std::int64_t> fill(bins.offset.begin(), bins.offset.end() - 1);
-    for (std::int64_t t = 0; t < num_tris; ++t) {
-      if (cls[t] != detail::TriClass::Raster && cls[t] != detail::TriClass::Clipped) continue;
-      const detail::PixelBox& b = bins.box[t];
-      for (int ty = b.y0 / kTile; ty <= b.y1 / kTile; ++ty)
-        for (int tx = b.x0 / kTile; tx <= b.x1 / kTile; ++tx)
-          bins.tris[fill[ty * bins.tiles_x + tx]++] = static_cast<std::int32_t>(t);
+    std::int64_t run = 0;
+    for (int i = 0; i < tiles; ++i) {
+      bins.offset[i] = run;
+      for (std::int64_t c = 0; c < chunks; ++c) {
+        std::int64_t& a = at[static_cast<std::size_t>(c) * tiles + i];
+        const std::int64_t n = a;
+        a = run;
+        run += n;
+      }
     }
+    bins.offset[tiles] = run;
   }
+  bins.tris.reset(new std::int32_t[static_cast<std::size_t>(bins.offset[tiles])]);
+
+  // Pass 2 (parallel over the same chunks): fill, each chunk into its own slots.
+  parallel_for(0, chunks, 1, [&](std::int64_t c0, std::int64_t c1) {
+    for (std::int64_t c = c0; c < c1; ++c) {
+      std::int64_t* fill = &at[static_cast<std::size_t>(c) * tiles];
+      const std::int64_t t1 = std::min(num_tris, (c + 1) * chunk);
+      for (std::int64_t t = c * chunk; t < t1; ++t) {
+        if (cls[t] != detail::TriClass::Raster && cls[t] != detail::TriClass::Clipped) continue;
+        const detail::PixelBox& b = bins.box[t];
+        for (int ty = b.y0 / kTile; ty <= b.y1 / kTile; ++ty)
+          for (int tx = b.x0 / kTile; tx <= b.x1 / kTile; ++tx)
+            bins.tris[fill[ty * bins.tiles_x + tx]++] = static_cast<std::int32_t>(t);
+      }
+    }
+  });
   if (stats) *stats = st;
 
   // Scan the non-empty tiles in parallel; each writes only its own pixels.
@@ -336,17 +389,21 @@ void rasterize_backward(const T* clip, std::int64_t num_vertices, const std::int
   // Screen -> NDC -> clip per vertex with the projection adjoints.
   if (any_screen) {
     std::vector<T> g_screen(2 * num_vertices), g_ndc(3 * num_vertices, T(0));
-    for (std::int64_t i = 0; i < num_vertices; ++i) {
-      g_screen[2 * i] = finite_cast<T>(acc_screen[3 * i]);
-      g_screen[2 * i + 1] = finite_cast<T>(acc_screen[3 * i + 1]);
-      g_ndc[3 * i + 2] = finite_cast<T>(acc_screen[3 * i + 2]);
-    }
+    parallel_for(0, num_vertices, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
+      for (std::int64_t i = lo; i < hi; ++i) {
+        g_screen[2 * i] = finite_cast<T>(acc_screen[3 * i]);
+        g_screen[2 * i + 1] = finite_cast<T>(acc_screen[3 * i + 1]);
+        g_ndc[3 * i + 2] = finite_cast<T>(acc_screen[3 * i + 2]);
+      }
+    });
     viewport_backward(num_vertices, W, H, g_screen.data(), g_ndc.data());
     // Only vertices of screen-form triangles (w > 0) carry gradient here.
     wdivide_backward(clip, num_vertices, g_ndc.data(), grad_clip);
   }
   if (!acc_clip.empty())
-    for (std::int64_t i = 0; i < 4 * num_vertices; ++i) grad_clip[i] += finite_cast<T>(acc_clip[i]);
+    parallel_for(0, 4 * num_vertices, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
+      for (std::int64_t i = lo; i < hi; ++i) grad_clip[i] += finite_cast<T>(acc_clip[i]);
+    });
 }
 
 #define GR_INSTANTIATE(T)                                                                         \

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include "autodiff/error.h"
 #include "autodiff/parallel.h"
@@ -18,35 +19,62 @@ void check_image_size(int width, int height, const char* op) {
                      std::to_string(width) + "x" + std::to_string(height));
 }
 
+namespace {
+
+// Lowest i in [0, n) with bad(i), or -1. Blocks are fixed by n alone and the
+// lowest failing block wins, so the reported element never depends on threads.
+template <class Bad>
+std::int64_t first_bad(std::int64_t n, Bad bad) {
+  constexpr std::int64_t kBlock = 65536;
+  const std::int64_t blocks = (n + kBlock - 1) / kBlock;
+  std::vector<std::int64_t> first(static_cast<std::size_t>(blocks), -1);
+  parallel_for(0, blocks, 1, [&](std::int64_t b0, std::int64_t b1) {
+    for (std::int64_t b = b0; b < b1; ++b) {
+      const std::int64_t hi = std::min(n, (b + 1) * kBlock);
+      for (std::int64_t i = b * kBlock; i < hi; ++i)
+        if (bad(i)) {
+          first[b] = i;
+          break;
+        }
+    }
+  });
+  for (const std::int64_t f : first)
+    if (f >= 0) return f;
+  return -1;
+}
+
+}  // namespace
+
 void check_triangles(const std::int32_t* tris, std::int64_t num_tris, std::int64_t num_vertices,
                      const char* op) {
   if (num_tris < 0 || num_vertices < 0)
     throw ValueError(std::string(op) + ": negative vertex or triangle count");
   if (num_tris > INT32_MAX - 1)
     throw ValueError(std::string(op) + ": too many triangles for int32 tri_id");
-  for (std::int64_t t = 0; t < num_tris; ++t)
-    for (int k = 0; k < 3; ++k) {
-      const std::int32_t i = tris[3 * t + k];
-      if (i < 0 || i >= num_vertices)
-        throw IndexError(std::string(op) + ": tris[" + std::to_string(t) + "][" + std::to_string(k) +
-                         "] = " + std::to_string(i) + " is outside [0, " +
-                         std::to_string(num_vertices) + ")");
-    }
+  const std::int64_t j = first_bad(3 * num_tris, [&](std::int64_t i) {
+    return tris[i] < 0 || tris[i] >= num_vertices;
+  });
+  if (j >= 0)
+    throw IndexError(std::string(op) + ": tris[" + std::to_string(j / 3) + "][" + std::to_string(j % 3) +
+                     "] = " + std::to_string(tris[j]) + " is outside [0, " +
+                     std::to_string(num_vertices) + ")");
 }
 
 void check_tri_ids(const std::int32_t* tri_id, std::int64_t pixels, std::int64_t num_tris,
                    const char* op) {
-  for (std::int64_t p = 0; p < pixels; ++p)
-    if (tri_id[p] < 0 || tri_id[p] > num_tris)
-      throw IndexError(std::string(op) + ": tri_id[" + std::to_string(p) + "] = " +
-                       std::to_string(tri_id[p]) + " is outside [0, " + std::to_string(num_tris) + "]");
+  const std::int64_t p = first_bad(pixels, [&](std::int64_t i) {
+    return tri_id[i] < 0 || tri_id[i] > num_tris;
+  });
+  if (p >= 0)
+    throw IndexError(std::string(op) + ": tri_id[" + std::to_string(p) + "] = " +
+                     std::to_string(tri_id[p]) + " is outside [0, " + std::to_string(num_tris) + "]");
 }
 
 template <class T>
 void check_finite(const T* values, std::int64_t count, const char* what, const char* op) {
-  for (std::int64_t i = 0; i < count; ++i)
-    if (!std::isfinite(values[i]))
-      throw ValueError(std::string(op) + ": " + what + "[" + std::to_string(i) + "] is NaN or Inf");
+  const std::int64_t i = first_bad(count, [&](std::int64_t k) { return !std::isfinite(values[k]); });
+  if (i >= 0)
+    throw ValueError(std::string(op) + ": " + what + "[" + std::to_string(i) + "] is NaN or Inf");
 }
 
 template <class T>
