@@ -9,6 +9,7 @@
 
 #include "ops/antialias.h"
 #include "ops/ops.h"
+#include "ops/clip_scenes.h"
 #include "raster/procedural.h"
 #include "test_support.h"
 
@@ -16,22 +17,10 @@ using namespace gr;
 using gr::testing::all_finite;
 using gr::testing::require_gradcheck;
 using Inputs = std::vector<Tensor>;
+using gr::testing::two_triangles;
+using gr::testing::two_triangles_clip;
 
 namespace {
-
-// Two overlapping triangles at different depths with w varying per vertex
-// (every edge crosses the image; pixel centres and mid-points stay well
-// away from the edges for the steps used below).
-Tensor two_triangles_clip() {
-  return Tensor::from_values({-0.8, -0.7, 0.1, 1.0,   //
-                              0.9, -0.6, 0.2, 1.3,    //
-                              -0.1, 0.8, 0.3, 0.9,    //
-                              -0.5, -0.2, -0.2, 1.1,  //
-                              0.4, 0.1, 0.0, 1.2,     //
-                              -0.3, 0.6, 0.1, 1.05},
-                             {6, 4}, DType::Float64);
-}
-Tensor two_triangles() { return Tensor::from_vector<std::int32_t>({0, 1, 2, 3, 4, 5}, {2, 3}); }
 
 // Smallest distance (in pixels) of any pixel centre, and any mid-point between
 // neighbouring centres, to any triangle edge of `clip` (w > 0) in a

@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "ops/ops.h"
+#include "ops/clip_scenes.h"
 #include "raster/procedural.h"
 #include "test_support.h"
 
@@ -11,22 +12,8 @@ using gr::testing::all_finite;
 using gr::testing::random_input;
 using gr::testing::require_gradcheck;
 using Inputs = std::vector<Tensor>;
-
-namespace {
-
-// Two triangles in clip space at different depths, w varying per vertex.
-Tensor two_triangles_clip() {
-  return Tensor::from_values({-0.8, -0.7, 0.1, 1.0,   //
-                              0.9, -0.6, 0.2, 1.3,    //
-                              -0.1, 0.8, 0.3, 0.9,    //
-                              -0.5, -0.2, -0.2, 1.1,  //
-                              0.4, 0.1, 0.0, 1.2,     //
-                              -0.3, 0.6, 0.1, 1.05},
-                             {6, 4}, DType::Float64);
-}
-Tensor two_triangles() { return Tensor::from_vector<std::int32_t>({0, 1, 2, 3, 4, 5}, {2, 3}); }
-
-}  // namespace
+using gr::testing::two_triangles;
+using gr::testing::two_triangles_clip;
 
 TEST_CASE("rasterize op: G-buffer holds 1-based ids, barycentrics and depth of the nearest triangle", "[ops][rasterize]") {
   Tensor clip = two_triangles_clip();
