@@ -31,7 +31,7 @@ TEST_CASE("tensor: rank above 4, wrong element type and bad indices throw", "[au
   CHECK_THROWS_AS(i.set_requires_grad(), DTypeError);
 }
 
-TEST_CASE("tensor: detach shares storage without gradient tracking; copy does not share", "[autodiff][tensor]") {
+TEST_CASE("tensor: detach shares storage without gradient tracking, and copy does not share", "[autodiff][tensor]") {
   Tensor a = Tensor::ones({3}).set_requires_grad();
   Tensor d = a.detach();
   CHECK_FALSE(d.requires_grad());

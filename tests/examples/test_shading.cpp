@@ -194,7 +194,7 @@ TEST_CASE("shading: vertex tangent gradients w.r.t. positions and uvs match fini
   }
 }
 
-TEST_CASE("shading: SH with only a DC coefficient c gives constant irradiance pi Y00 c; constant radiance L gives pi L",
+TEST_CASE("shading: SH with only a DC coefficient c gives constant irradiance pi Y00 c, and constant radiance L gives pi L",
           "[examples][shading]") {
   const Tensor n = sphere_directions(50);
   std::vector<double> dc(27, 0.0);

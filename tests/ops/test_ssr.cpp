@@ -119,7 +119,7 @@ TEST_CASE("ssr_composite: the tensor-op fades equal the tracer's plain fades", "
   }
 }
 
-TEST_CASE("ssr_composite: a hit on a pixel centre reflects that pixel's colour; misses keep the base colour and "
+TEST_CASE("ssr_composite: a hit on a pixel centre reflects that pixel's colour, and misses keep the base colour and "
           "pass its gradient through",
           "[ops][ssr]") {
   // Hand-made 2 x 3 trace: pixel (0, 0) hits the centre of pixel (2, 1) at distance 1; the rest miss.

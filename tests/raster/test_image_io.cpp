@@ -96,7 +96,7 @@ TEST_CASE("write_png: row 0 is the top row of the file", "[raster][io][image]") 
   CHECK(back.at({1, 0, 0}) == 0.0f);
 }
 
-TEST_CASE("write_png: float64 and H×W images are accepted; values are clamped and rounded", "[raster][io][image]") {
+TEST_CASE("write_png: float64 and H×W images are accepted, and values are clamped and rounded", "[raster][io][image]") {
   TempDir dir;
   Tensor img = Tensor::from_values({-0.5, 0.2, 1.7, std::nan(""), 0.5 / 255, 0.49 / 255}, {2, 3},
                                    DType::Float64);

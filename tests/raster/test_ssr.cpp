@@ -189,7 +189,7 @@ const char* name_of(SsrTracer t) {
 }  // namespace
 
 TEST_CASE("ssr: reflected floor rays hit the spheres and the box where the exact intersection projects, "
-          "within a pixel (99%; 1.5 px at worst), for every tracer",
+          "within a pixel (99%, and 1.5 px at worst), for every tracer",
           "[ssr][raster]") {
   const Rendered r = render(160, 120);
   for (SsrTracer t : {SsrTracer::ViewSpace, SsrTracer::Dda, SsrTracer::Reference}) {
