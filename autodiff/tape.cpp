@@ -49,7 +49,22 @@ void Tape::append(const char* name, std::vector<Tensor> inputs, const std::vecto
   }
   Node node;
   node.name = name;
-  node.inputs = std::move(inputs);
+  node.inputs.reserve(inputs.size());
+  for (const Tensor& t : inputs) {
+    InputRef ref;
+    if (t.defined()) {
+      TensorImpl* impl = t.impl();
+      ref.defined = true;
+      ref.requires_grad = impl->requires_grad;
+      ref.shape = impl->shape;
+      ref.dtype = impl->dtype;
+      if (impl->recorded)
+        ref.slot = impl->grad_slot;
+      else if (impl->requires_grad)
+        ref.leaf = t.impl_ptr();
+    }
+    node.inputs.push_back(std::move(ref));
+  }
   node.adjoint = std::move(adjoint);
   for (Tensor* out : outputs) {
     TensorImpl* o = out->impl();
@@ -76,23 +91,22 @@ const Tensor& AdjointContext::grad_output(std::size_t i) const {
 }
 
 bool AdjointContext::needs_grad(std::size_t input) const {
-  const Tensor& t = node_.inputs.at(input);
-  return t.defined() && t.requires_grad();
+  const Tape::InputRef& in = node_.inputs.at(input);
+  return in.defined && in.requires_grad;
 }
 
 void AdjointContext::accumulate(std::size_t input, const Tensor& grad) {
-  const Tensor& in = node_.inputs.at(input);
-  if (!in.defined() || !in.requires_grad()) return;
-  if (grad.shape() != in.shape() || grad.dtype() != in.dtype())
-    throw TapeError(std::string(node_.name) + " adjoint: gradient " + grad.describe() +
-                    " does not match input " + std::to_string(input) + " " + in.describe());
-  TensorImpl* impl = in.impl();
-  if (impl->recorded)
-    accumulate_into(tape_.slot_grads_[static_cast<std::size_t>(impl->grad_slot)], grad);
+  const Tape::InputRef& in = node_.inputs.at(input);
+  if (!in.defined || !in.requires_grad) return;
+  if (grad.shape() != in.shape || grad.dtype() != in.dtype)
+    throw TapeError(std::string(node_.name) + " adjoint: gradient " + grad.describe() + " does not match input " +
+                    std::to_string(input) + " " + dtype_name(in.dtype) + in.shape.str());
+  if (in.slot >= 0)
+    accumulate_into(tape_.slot_grads_[static_cast<std::size_t>(in.slot)], grad);
   else {
-    Tensor g(std::move(impl->grad));
+    Tensor g(std::move(in.leaf->grad));
     accumulate_into(g, grad);
-    impl->grad = g.impl_ptr();
+    in.leaf->grad = g.impl_ptr();
   }
 }
 

@@ -50,9 +50,20 @@ class Tape {
   void run_backward(const Tensor& output, const Tensor& upstream);
 
  private:
+  // What the sweep needs of an input: where its gradient goes and what shape
+  // it must have. Not the tensor itself, so an input's values stay alive only
+  // if the op's adjoint captured them (a sum needs only its input's shape).
+  struct InputRef {
+    bool defined = false;
+    bool requires_grad = false;
+    Shape shape;
+    DType dtype = DType::Float32;
+    std::int64_t slot = -1;              // recorded input: its gradient slot
+    std::shared_ptr<TensorImpl> leaf;    // leaf requiring grad: where .grad accumulates
+  };
   struct Node {
     const char* name = "";
-    std::vector<Tensor> inputs;
+    std::vector<InputRef> inputs;
     std::vector<std::int64_t> output_slots;
     Adjoint adjoint;  // empty once swept
   };
@@ -73,7 +84,9 @@ class AdjointContext {
   bool needs_grad(std::size_t input) const;
   // Adds `grad` (same shape and dtype as input i) into dL/d(input i).
   void accumulate(std::size_t input, const Tensor& grad);
-  const Tensor& input(std::size_t i) const { return node_.inputs.at(i); }
+  // Shape and dtype of input i (adjoints that reduce a broadcast gradient need them).
+  const Shape& input_shape(std::size_t i) const { return node_.inputs.at(i).shape; }
+  DType input_dtype(std::size_t i) const { return node_.inputs.at(i).dtype; }
 
  private:
   friend class Tape;

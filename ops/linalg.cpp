@@ -354,7 +354,7 @@ Tensor to_homogeneous(const Tensor& points) {
     record("to_homogeneous", {points}, {&out}, [rows](AdjointContext& ctx) {
       const Tensor& g = ctx.grad_output();
       if (!g.defined()) return;
-      Tensor gp = Tensor::empty(ctx.input(0).shape(), g.dtype());
+      Tensor gp = Tensor::empty(ctx.input_shape(0), g.dtype());
       dispatch_float(g.dtype(), "to_homogeneous", [&](auto tag) {
         using T = decltype(tag);
         const T* pg = g.data<T>();

@@ -34,7 +34,7 @@ Tensor sum_into(const char* name, const Tensor& a, const Shape& target, const Sh
     record(name, {a}, {&out}, [target](AdjointContext& ctx) {
       Tensor g = ctx.grad_output().detach();
       g.impl()->shape = target;
-      ctx.accumulate(0, detail::expand_raw_full(g, ctx.input(0).shape()));
+      ctx.accumulate(0, detail::expand_raw_full(g, ctx.input_shape(0)));
     });
   }
   return out;
@@ -85,7 +85,7 @@ Tensor broadcast_to(const Tensor& a, const Shape& shape) {
   if (out.same(a)) out = a.copy();
   if (should_record({a})) {
     record("broadcast_to", {a}, {&out}, [](AdjointContext& ctx) {
-      ctx.accumulate(0, detail::reduce_raw(ctx.grad_output(), ctx.input(0).shape()));
+      ctx.accumulate(0, detail::reduce_raw(ctx.grad_output(), ctx.input_shape(0)));
     });
   }
   return out;

@@ -111,7 +111,7 @@ Tensor join(const char* name, const std::vector<Tensor>& parts, const std::vecto
       // dL/d part_i = the columns of g that part_i filled.
       std::int64_t offset = 0;
       for (std::size_t i = 0; i < chunk.size(); ++i) {
-        if (ctx.needs_grad(i)) ctx.accumulate(i, split_raw(g, outer, offset, chunk[i], ctx.input(i).shape()));
+        if (ctx.needs_grad(i)) ctx.accumulate(i, split_raw(g, outer, offset, chunk[i], ctx.input_shape(i)));
         offset += chunk[i];
       }
     });
@@ -234,7 +234,7 @@ Tensor reshape(const Tensor& a, const std::vector<std::int64_t>& shape) {
       const Tensor& g = ctx.grad_output();
       if (!g.defined()) return;
       // dL/da = g viewed in a's shape.
-      ctx.accumulate(0, view_as(g, ctx.input(0).shape()));
+      ctx.accumulate(0, view_as(g, ctx.input_shape(0)));
     });
   }
   return out;
@@ -281,7 +281,7 @@ Tensor slice(const Tensor& a, int axis, std::int64_t start, std::int64_t stop, s
     record("slice", {a}, {&out}, [first, step, count, n, outer, inner](AdjointContext& ctx) {
       const Tensor& g = ctx.grad_output();
       if (!g.defined()) return;
-      Tensor ga = Tensor::zeros(ctx.input(0).shape(), g.dtype());
+      Tensor ga = Tensor::zeros(ctx.input_shape(0), g.dtype());
       dispatch_float(g.dtype(), "slice", [&](auto tag) {
         using T = decltype(tag);
         const T* pg = g.data<T>();
@@ -375,7 +375,7 @@ Tensor gather(const Tensor& a, const Tensor& index) {
       const Tensor& g = ctx.grad_output();
       if (!g.defined()) return;
       // dL/da = scatter_add of g's rows into the picked rows (fixed order).
-      ctx.accumulate(0, scatter_raw(g, index, rows, inner, ctx.input(0).shape()));
+      ctx.accumulate(0, scatter_raw(g, index, rows, inner, ctx.input_shape(0)));
     });
   }
   return out;
@@ -403,7 +403,7 @@ Tensor scatter_add(const Tensor& src, const Tensor& index, std::int64_t rows) {
       const Tensor& g = ctx.grad_output();
       if (!g.defined()) return;
       // dL/dsrc = gather(g, index).
-      ctx.accumulate(0, gather_raw(g, index, inner, ctx.input(0).shape()));
+      ctx.accumulate(0, gather_raw(g, index, inner, ctx.input_shape(0)));
     });
   }
   return out;

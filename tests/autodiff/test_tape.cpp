@@ -137,3 +137,17 @@ TEST_CASE("gradcheck: refuses float32 inputs and inputs that need no gradient", 
   Tensor x = Tensor::ones({2}, DType::Float64);
   CHECK_THROWS_AS(gradcheck(f, {x}), ValueError);
 }
+
+TEST_CASE("tape: an input whose values the adjoint does not need is not kept alive", "[autodiff][tape]") {
+  // sum needs only its input's shape: once the caller drops the intermediate,
+  // its buffer must be free although backward has not run yet.
+  Tensor x = Tensor::uniform({1000}, -1, 1, 3, DType::Float64).set_requires_grad();
+  Tensor mid = x * 2.0;
+  std::weak_ptr<TensorImpl> mid_impl = mid.impl_ptr();
+  Tensor loss = sum(mid);
+  mid = Tensor();
+  CHECK(mid_impl.expired());
+  backward(loss);
+  REQUIRE(x.grad().defined());
+  for (double g : x.grad().to_vector()) CHECK(g == 2.0);
+}
