@@ -1,3 +1,8 @@
+// parallel_for on TBB. With set_num_threads(n > 0) every top-level loop runs
+// inside a task_arena of n slots, and a global_control sets TBB's worker pool
+// to n - 1 workers: an arena alone cannot get more workers than the hardware
+// default (TBB ignores the request), and a global_control alone raises the pool
+// but not the implicit arena's concurrency, so "8 threads" needs both.
 #include "autodiff/parallel.h"
 
 #include <tbb/blocked_range.h>
@@ -8,11 +13,70 @@
 #include <memory>
 #include <mutex>
 
+// ThreadSanitizer does not see TBB's own synchronization (libtbb is not
+// instrumented), so it would take every hand-over of data between the caller
+// and the workers for a race. Under TSan, parallel_for states the fork/join
+// order TBB guarantees: all before the call happens-before every body, every
+// body happens-before the return. Bodies stay unordered with each other, so
+// real races between chunks are still reported (docs/determinism.md).
+#if defined(__SANITIZE_THREAD__)
+#define GR_TSAN_ANNOTATIONS 1
+#elif defined(__has_feature)
+#if __has_feature(thread_sanitizer)
+#define GR_TSAN_ANNOTATIONS 1
+#endif
+#endif
+#ifdef GR_TSAN_ANNOTATIONS
+extern "C" void __tsan_acquire(void* addr);
+extern "C" void __tsan_release(void* addr);
+#endif
+
 namespace gr {
 namespace {
-std::mutex g_control_mutex;
+
+// Fork/join happens-before edges for ThreadSanitizer (no-ops otherwise).
+struct ForkJoin {
+#ifdef GR_TSAN_ANNOTATIONS
+  char fork = 0, join = 0;
+  void before_fork() { __tsan_release(&fork); }
+  void body_start() { __tsan_acquire(&fork); }
+  void body_end() { __tsan_release(&join); }
+  void after_join() { __tsan_acquire(&join); }
+#else
+  void before_fork() {}
+  void body_start() {}
+  void body_end() {}
+  void after_join() {}
+#endif
+};
+
+std::mutex g_mutex;  // guards the three below
+int g_threads = 0;   // 0 = TBB's default (all hardware threads)
 std::unique_ptr<tbb::global_control> g_control;
-int g_threads = 0;
+// Shared so that a loop in flight keeps its arena alive if set_num_threads
+// replaces it from another thread.
+std::shared_ptr<tbb::task_arena> g_arena;
+
+// > 0 while this thread runs a parallel_for body: a nested parallel_for then
+// stays in the arena the thread is already working in.
+thread_local int t_body_depth = 0;
+
+struct BodyScope {
+  explicit BodyScope(ForkJoin* sync = nullptr) : sync_(sync) {
+    if (sync_) sync_->body_start();
+    ++t_body_depth;
+  }
+  ~BodyScope() {
+    --t_body_depth;
+    if (sync_) sync_->body_end();
+  }
+  BodyScope(const BodyScope&) = delete;
+  BodyScope& operator=(const BodyScope&) = delete;
+
+ private:
+  ForkJoin* sync_;
+};
+
 }  // namespace
 
 void parallel_for(std::int64_t begin, std::int64_t end, std::int64_t grain,
@@ -23,21 +87,54 @@ void parallel_for(std::int64_t begin, std::int64_t end, std::int64_t grain,
     body(begin, end);
     return;
   }
-  tbb::parallel_for(tbb::blocked_range<std::int64_t>(begin, end, static_cast<std::size_t>(grain)),
-                    [&](const tbb::blocked_range<std::int64_t>& r) { body(r.begin(), r.end()); });
+  ForkJoin sync;
+  auto run = [&] {
+    struct Join {  // also when a body throws
+      ForkJoin& sync;
+      ~Join() { sync.after_join(); }
+    } join{sync};
+    sync.before_fork();
+    tbb::parallel_for(tbb::blocked_range<std::int64_t>(begin, end, static_cast<std::size_t>(grain)),
+                      [&](const tbb::blocked_range<std::int64_t>& r) {
+                        BodyScope scope(&sync);
+                        body(r.begin(), r.end());
+                      });
+  };
+  if (t_body_depth > 0) {  // nested: the current arena
+    run();
+    return;
+  }
+  std::shared_ptr<tbb::task_arena> arena;
+  int threads = 0;
+  {
+    std::lock_guard<std::mutex> lock(g_mutex);
+    arena = g_arena;
+    threads = g_threads;
+  }
+  if (threads == 1) {  // one thread: a plain serial loop
+    BodyScope scope;
+    body(begin, end);
+  } else if (arena) {
+    arena->execute(run);
+  } else {
+    run();
+  }
 }
 
 void set_num_threads(int n) {
-  std::lock_guard<std::mutex> lock(g_control_mutex);
+  std::lock_guard<std::mutex> lock(g_mutex);
+  g_arena.reset();
   g_control.reset();
   g_threads = n > 0 ? n : 0;
-  if (g_threads > 0)
-    g_control = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
-                                                      static_cast<std::size_t>(g_threads));
+  if (g_threads == 0) return;
+  // Also for n = 1: no workers at all, so a TBB loop anywhere stays serial.
+  g_control = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
+                                                    static_cast<std::size_t>(g_threads));
+  if (g_threads > 1) g_arena = std::make_shared<tbb::task_arena>(g_threads);
 }
 
 int num_threads() {
-  std::lock_guard<std::mutex> lock(g_control_mutex);
+  std::lock_guard<std::mutex> lock(g_mutex);
   return g_threads > 0 ? g_threads : tbb::this_task_arena::max_concurrency();
 }
 

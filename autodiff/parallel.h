@@ -16,12 +16,18 @@ namespace gr {
 constexpr std::int64_t kElementwiseGrain = 16384;
 
 // Runs body(lo, hi) over disjoint sub-ranges covering [begin, end). Ranges of
-// at most `grain` elements run inline on the calling thread.
+// at most `grain` elements run inline on the calling thread, and so does
+// everything with one thread. A parallel_for inside a body is allowed (it
+// shares the outer loop's threads).
 void parallel_for(std::int64_t begin, std::int64_t end, std::int64_t grain,
                   const std::function<void(std::int64_t, std::int64_t)>& body);
 
-// Limits the threads used by parallel_for (0 = all hardware threads).
+// Runs every later parallel_for on up to n threads (0 = all hardware
+// threads, the default), also more than the machine has cores: n = 8 on two
+// cores really starts 8 threads (useful to test determinism and races).
+// Call it between parallel regions, not from inside a parallel_for body.
 void set_num_threads(int n);
+// The n of set_num_threads, or the hardware thread count for 0.
 int num_threads();
 
 // Sum over [0, n) of block_sum(lo, hi), with blocks of `block` elements fixed

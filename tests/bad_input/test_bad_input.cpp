@@ -151,7 +151,8 @@ TEST_CASE("bad input: zero, negative and absurd image sizes are refused before a
   const Tensor tris = one_tri();
   const std::vector<std::pair<int, int>> sizes = {{0, 8}, {8, 0}, {-4, 8}, {8, -1}, {100000, 100000},
                                                   {16385, 1}, {16384, 16384 + 1}, {INT32_MAX, INT32_MAX}};
-  for (auto [w, h] : sizes) {
+  for (const auto& size : sizes) {
+    const int w = size.first, h = size.second;  // not a structured binding: lambdas capture it (C++17, clang)
     INFO(w << " x " << h);
     const std::int64_t before = storage_stats().fresh_allocations;
     require_throw<ValueError>([&] { rasterize(clip, tris, {w, h}); }, {"rasterize", "image size"});
