@@ -3,6 +3,7 @@
 #pragma once
 
 #include "autodiff/tensor.h"
+#include "ops/fragments.h"
 #include "ops/rasterize.h"
 
 namespace gr {
@@ -19,8 +20,18 @@ struct InterpolateOptions {
 // Adjoints to the attributes, to w (into clip's last column) and to u, v
 // (hence through rasterize to the clip positions); raster/interpolate.h
 // states the formulas. w thus receives gradient along two paths (here and
-// through rasterize), which the tape adds.
+// through rasterize), which the tape adds. Near-clipped triangles (a vertex
+// with w <= 0 or z < -w) take q_k = F_k / D from the clip positions and the
+// pixel centre instead (equal in value, exact at w_k = 0), so their gradient
+// goes to x, y, w of clip, not to u, v.
 Tensor interpolate(const Tensor& attributes, const Tensor& clip, const GBuffer& gbuffer, const Tensor& triangles,
+                   const InterpolateOptions& options = {});
+
+// Fragment form (ops/fragments.h): the same values and adjoints at the
+// fragments only -> [F, C], row f = the image form's pixel pixel_index[f], bit
+// for bit. The uv adjoint goes to fragments.uv and from there into
+// gbuffer.uv's gradient. options.background must be undefined (use to_image's).
+Tensor interpolate(const Tensor& attributes, const Tensor& clip, const Fragments& fragments, const Tensor& triangles,
                    const InterpolateOptions& options = {});
 
 // Interpolated attributes together with their screen-space derivatives (like

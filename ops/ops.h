@@ -7,6 +7,7 @@
 #include "autodiff/tensor.h"
 #include "ops/antialias.h"
 #include "ops/elementwise.h"
+#include "ops/fragments.h"
 #include "ops/interpolate.h"
 #include "ops/linalg.h"
 #include "ops/project.h"

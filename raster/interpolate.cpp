@@ -1,6 +1,9 @@
-// Attribute interpolation forward and adjoint. Both loop over pixels in
-// parallel; the adjoint's per-vertex sums are scattered in pixel order in
-// fixed chunks so gradients do not depend on thread count or triangle order.
+// Attribute interpolation forward and adjoint. Both loop over pixels (image
+// form) or fragments (fragment form: the covered pixels only, in ascending
+// pixel order) in parallel, through the same per-item loops; the adjoint's
+// per-vertex sums are scattered in item order in fixed chunks so gradients do
+// not depend on thread count or triangle order, and the two forms give
+// bit-identical results.
 #include "raster/interpolate.h"
 
 #include <algorithm>
@@ -18,17 +21,77 @@ namespace {
 
 using detail::safe_inv;
 
-// 1 / x, kept finite for |x| -> 0 (sign preserved; x = 0 counts as positive).
-// Weights of the three vertices at one pixel: A = sum_k weight_k A_k.
-// Also returns 1/w_k, lambda_k / w_k and 1/s for the adjoint (perspective only).
-struct PixelWeights {
-  double lambda[3], weight[3], inv_w[3], q[3], inv_s;
+// Rasterize's near-plane test (detail::project_vertices): a triangle takes the
+// homogeneous (clipped) form there when a vertex is not in front (w > 0, z >= -w).
+template <class T>
+bool behind_near_plane(const T* c) {
+  const double z = c[2], w = c[3];
+  return !(w > 0.0 && z >= -w);
+}
+
+template <class T>
+bool is_clipped(const T* clip, const std::int32_t* tri) {
+  for (int k = 0; k < 3; ++k)
+    if (behind_near_plane(clip + 4 * static_cast<std::int64_t>(tri[k]))) return true;
+  return false;
+}
+
+// Whether any vertex is behind (so some triangle may be clipped).
+template <class T>
+bool any_vertex_behind(const T* clip, std::int64_t num_vertices) {
+  for (std::int64_t i = 0; i < num_vertices; ++i)
+    if (behind_near_plane(clip + 4 * i)) return true;
+  return false;
+}
+
+// Per-call facts the per-pixel math needs besides the triangle: where item p
+// lies (pixel p of a width x height image, or pixel pixel_index[p] for
+// fragments), and whether any vertex is behind the near plane (if none, no
+// triangle is clipped and the per-pixel test is skipped).
+struct Items {
+  int width, height;
+  const std::int32_t* pixel_index;  // null: item p is pixel p
+  bool any_behind;
+  // Centre e = (col + 0.5, row + 0.5, 1) of item p's pixel.
+  detail::HVec centre(std::int64_t p) const {
+    const std::int64_t pixel = pixel_index ? static_cast<std::int64_t>(pixel_index[p]) : p;
+    return {static_cast<double>(pixel % width) + 0.5, static_cast<double>(pixel / width) + 0.5, 1.0};
+  }
 };
 
 template <class T>
-PixelWeights pixel_weights(const T* clip, const std::int32_t* tri, const T* uv_p, bool perspective) {
+Items make_items(const T* clip, std::int64_t num_vertices, int width, int height, const std::int32_t* pixel_index) {
+  return {width, height, pixel_index, any_vertex_behind(clip, num_vertices)};
+}
+
+// Homogeneous screen vertices V_k = (W/2 (x_k + w_k), H/2 (w_k - y_k), w_k).
+template <class T>
+void homogeneous_vertices(const T* clip, const std::int32_t* tri, int width, int height, detail::HVec* V) {
+  for (int k = 0; k < 3; ++k) {
+    const T* v = clip + 4 * static_cast<std::int64_t>(tri[k]);
+    V[k] = {0.5 * width * (double(v[0]) + v[3]), 0.5 * height * (double(v[3]) - v[1]), double(v[3])};
+  }
+}
+
+// Weights of the three vertices at one pixel: A = sum_k weight_k A_k.
+// Perspective: q_k = lambda_k / w_k, s = sum q_k, weight_k = q_k / s; also
+// returns 1/w_k, q_k and 1/s for the adjoint. Clipped triangles take q_k from
+// the clip positions and the pixel centre e instead: q_k = F_k / D with
+// F_k = e . (V_k+1 x V_k+2), D = V_0 . (V_1 x V_2) (docs/rasterizer.md). That is
+// the same value (rasterize stores lambda_k = w_k F_k / D), but it stays exact
+// at w_k = 0, where lambda_k = 0 and lambda_k / w_k loses the vertex's weight.
+struct PixelWeights {
+  double lambda[3], weight[3], inv_w[3], q[3], inv_s;
+  bool from_clip = false;  // q_k = F_k / D; then V, e and inv_d are set
+  detail::HVec V[3], e;
+  double inv_d;
+};
+
+template <class T>
+PixelWeights pixel_weights(const T* clip, const std::int32_t* tri, const T* uv, bool perspective,
+                           const Items& items, std::int64_t p) {
   PixelWeights pw;
-  const double u = uv_p[0], v = uv_p[1];
+  const double u = uv[2 * p], v = uv[2 * p + 1];
   pw.lambda[0] = 1.0 - u - v;
   pw.lambda[1] = u;
   pw.lambda[2] = v;
@@ -36,16 +99,55 @@ PixelWeights pixel_weights(const T* clip, const std::int32_t* tri, const T* uv_p
     for (int k = 0; k < 3; ++k) pw.weight[k] = pw.lambda[k];
     return pw;
   }
-  // q_k = lambda_k / w_k, s = sum q_k, weight_k = q_k / s.
   double s = 0.0;
-  for (int k = 0; k < 3; ++k) {
-    pw.inv_w[k] = safe_inv(static_cast<double>(clip[4 * static_cast<std::int64_t>(tri[k]) + 3]));
-    pw.q[k] = pw.lambda[k] * pw.inv_w[k];
-    s += pw.q[k];
+  if (items.any_behind && is_clipped(clip, tri)) {
+    // q_k = F_k / D.
+    pw.from_clip = true;
+    homogeneous_vertices(clip, tri, items.width, items.height, pw.V);
+    pw.e = items.centre(p);
+    pw.inv_d = safe_inv(detail::dot(pw.V[0], detail::cross(pw.V[1], pw.V[2])));
+    for (int k = 0; k < 3; ++k) {
+      pw.q[k] = detail::dot(pw.e, detail::cross(pw.V[(k + 1) % 3], pw.V[(k + 2) % 3])) * pw.inv_d;
+      s += pw.q[k];
+    }
+  } else {
+    // q_k = lambda_k / w_k.
+    for (int k = 0; k < 3; ++k) {
+      pw.inv_w[k] = safe_inv(static_cast<double>(clip[4 * static_cast<std::int64_t>(tri[k]) + 3]));
+      pw.q[k] = pw.lambda[k] * pw.inv_w[k];
+      s += pw.q[k];
+    }
   }
   pw.inv_s = safe_inv(s);
   for (int k = 0; k < 3; ++k) pw.weight[k] = pw.q[k] * pw.inv_s;
   return pw;
+}
+
+// Adjoint of q_k = F_k / D (clipped triangles) for dL/dq_k = G_k, written as
+// dL/d(x, y, w) of the three vertices to xyw[3k..3k+2]. dL/dD = -sum_k G_k q_k / D
+// is 0 (G_k = g . (A_k - A) / s and sum_k q_k (A_k - A) = 0), so only
+// dL/dF_k = G_k / D is propagated: dF_k/dV_a = V_b x e, dF_k/dV_b = e x V_a
+// (a, b = k+1, k+2), then V -> clip: dx = W/2 gV.x, dy = -H/2 gV.y,
+// dw = W/2 gV.x + H/2 gV.y + gV.w.
+void clip_weights_backward(const PixelWeights& pw, int width, int height, const double* G, double* xyw) {
+  detail::HVec gV[3] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}};
+  auto add = [](detail::HVec& acc, const detail::HVec& d, double g) {
+    acc.x += g * d.x;
+    acc.y += g * d.y;
+    acc.w += g * d.w;
+  };
+  for (int k = 0; k < 3; ++k) {
+    const int a = (k + 1) % 3, b = (k + 2) % 3;
+    const double gF = G[k] * pw.inv_d;
+    add(gV[a], detail::cross(pw.V[b], pw.e), gF);
+    add(gV[b], detail::cross(pw.e, pw.V[a]), gF);
+  }
+  const double hw = 0.5 * width, hh = 0.5 * height;
+  for (int k = 0; k < 3; ++k) {
+    xyw[3 * k] = hw * gV[k].x;
+    xyw[3 * k + 1] = -hh * gV[k].y;
+    xyw[3 * k + 2] = hw * gV[k].x + hh * gV[k].y + gV[k].w;
+  }
 }
 
 void check_args(std::int64_t num_vertices, std::int64_t channels, const std::int32_t* tris,
@@ -57,15 +159,36 @@ void check_args(std::int64_t num_vertices, std::int64_t channels, const std::int
   detail::check_tri_ids(tri_id, static_cast<std::int64_t>(width) * height, num_tris, op);
 }
 
-}  // namespace
+// Fragments are covered pixels: every tri_id must lie in [1, num_tris], every
+// pixel_index in [0, width * height).
+void check_fragment_args(std::int64_t num_vertices, std::int64_t channels, const std::int32_t* tris,
+                         std::int64_t num_tris, const std::int32_t* tri_id, const std::int32_t* pixel_index,
+                         std::int64_t count, int width, int height, const char* op) {
+  if (count < 0) throw ShapeError(std::string(op) + ": fragment count is negative");
+  if (channels < 0) throw ShapeError(std::string(op) + ": attribute channel count is negative");
+  detail::check_image_size(width, height, op);
+  detail::check_triangles(tris, num_tris, num_vertices, op);
+  const std::int64_t pixels = static_cast<std::int64_t>(width) * height;
+  for (std::int64_t f = 0; f < count; ++f) {
+    if (tri_id[f] < 1 || tri_id[f] > num_tris)
+      throw IndexError(std::string(op) + ": fragment " + std::to_string(f) + " has tri_id " +
+                       std::to_string(tri_id[f]) + ", outside [1, " + std::to_string(num_tris) +
+                       "] (fragments must be covered pixels)");
+    if (pixel_index[f] < 0 || pixel_index[f] >= pixels)
+      throw IndexError(std::string(op) + ": fragment " + std::to_string(f) + " has pixel_index " +
+                       std::to_string(pixel_index[f]) + ", outside [0, " + std::to_string(pixels) + ")");
+  }
+}
 
+// The image and fragment forms share these loops: "items" are the pixels of
+// an image (tri_id 0 = background) or the covered pixels of a fragment list
+// (tri_id never 0); item p reads tri_id[p], uv[2p, 2p+1] and writes or reads
+// C values at p * C; `items` gives its pixel (for clipped triangles' weights).
+// Arguments are checked by the callers.
 template <class T>
-void interpolate_forward(const T* attr, std::int64_t num_vertices, std::int64_t C, const T* clip,
-                         const std::int32_t* tris, std::int64_t num_tris, const std::int32_t* tri_id,
-                         const T* uv, int width, int height, bool perspective,
-                         const typename detail::NoDeduce<T>::type* background, T* out) {
-  check_args(num_vertices, C, tris, num_tris, tri_id, width, height, "interpolate");
-  const std::int64_t P = static_cast<std::int64_t>(width) * height;
+void forward_items(const T* attr, std::int64_t C, const T* clip, const std::int32_t* tris,
+                   const std::int32_t* tri_id, const T* uv, std::int64_t P, const Items& items,
+                   bool perspective, const T* background, T* out) {
   parallel_for(0, P, 4096, [&](std::int64_t lo, std::int64_t hi) {
     for (std::int64_t p = lo; p < hi; ++p) {
       T* o = out + p * C;
@@ -75,7 +198,7 @@ void interpolate_forward(const T* attr, std::int64_t num_vertices, std::int64_t 
         continue;
       }
       const std::int32_t* tri = tris + 3 * static_cast<std::int64_t>(tri_id[p] - 1);
-      const PixelWeights pw = pixel_weights(clip, tri, uv + 2 * p, perspective);
+      const PixelWeights pw = pixel_weights(clip, tri, uv, perspective, items, p);
       // A = sum_k weight_k A_k.
       const T* a0 = attr + tri[0] * C;
       const T* a1 = attr + tri[1] * C;
@@ -87,23 +210,23 @@ void interpolate_forward(const T* attr, std::int64_t num_vertices, std::int64_t 
 }
 
 template <class T>
-void interpolate_backward(const T* attr, std::int64_t num_vertices, std::int64_t C, const T* clip,
-                          const std::int32_t* tris, std::int64_t num_tris,
-                          const std::int32_t* tri_id, const T* uv, int width, int height,
-                          bool perspective, const T* grad_out,
-                          typename detail::NoDeduce<T>::type* grad_attr,
-                          typename detail::NoDeduce<T>::type* grad_clip,
-                          typename detail::NoDeduce<T>::type* grad_uv) {
-  check_args(num_vertices, C, tris, num_tris, tri_id, width, height, "interpolate backward");
+void backward_items(const T* attr, std::int64_t N, std::int64_t C, const T* clip, const std::int32_t* tris,
+                    const std::int32_t* tri_id, const T* uv, std::int64_t P, const Items& items,
+                    bool perspective, const T* grad_out, T* grad_attr, T* grad_clip, T* grad_uv) {
   if (!grad_attr && !grad_clip && !grad_uv) return;
-  const std::int64_t P = static_cast<std::int64_t>(width) * height;
-  // Only the perspective mode has a gradient to w.
+  // Only the perspective mode has a gradient to clip.
   if (!perspective) grad_clip = nullptr;
   const bool scatter = grad_attr || grad_clip;
+  // One vertex range per thread for the scatter (any count gives the same bits).
+  const std::int64_t vertex_groups = std::max<std::int64_t>(1, std::min<std::int64_t>(num_threads(), N));
+  const std::int64_t per_group = (N + vertex_groups - 1) / vertex_groups;
 
-  // Pixels in chunks: per-pixel terms in parallel, per-vertex sums in pixel order.
+  // Items in chunks: per-item terms in parallel, per-vertex sums in item order.
+  // live: 0 skip, 1 gradient to w (grad_w), 2 to x, y, w (grad_xyw; clipped triangle).
+  enum : std::uint8_t { kSkip = 0, kToW = 1, kToXYW = 2 };
   constexpr std::int64_t kChunk = 32768;
-  std::vector<double> weight(3 * kChunk), grad_w(3 * kChunk);
+  std::vector<double> weight(3 * kChunk), grad_w(3 * kChunk), grad_xyw;
+  if (grad_clip && items.any_behind) grad_xyw.resize(9 * kChunk);
   std::vector<std::uint8_t> live(kChunk);
   for (std::int64_t c0 = 0; c0 < P; c0 += kChunk) {
     const std::int64_t c1 = std::min(P, c0 + kChunk);
@@ -111,16 +234,16 @@ void interpolate_backward(const T* attr, std::int64_t num_vertices, std::int64_t
       std::vector<double> value(static_cast<std::size_t>(C));
       for (std::int64_t p = lo; p < hi; ++p) {
         const std::int64_t i = p - c0;
-        live[i] = 0;
+        live[i] = kSkip;
         if (tri_id[p] == 0) continue;
         const T* g = grad_out + p * C;
         // Zero incoming gradient: skip.
         bool any = false;
         for (std::int64_t c = 0; c < C && !any; ++c) any = g[c] != T(0);
         if (!any) continue;
-        live[i] = 1;
+        live[i] = kToW;
         const std::int32_t* tri = tris + 3 * static_cast<std::int64_t>(tri_id[p] - 1);
-        const PixelWeights pw = pixel_weights(clip, tri, uv + 2 * p, perspective);
+        const PixelWeights pw = pixel_weights(clip, tri, uv, perspective, items, p);
         const T* a[3] = {attr + tri[0] * C, attr + tri[1] * C, attr + tri[2] * C};
         double g_lambda[3];
         if (!perspective) {
@@ -132,16 +255,26 @@ void interpolate_backward(const T* attr, std::int64_t num_vertices, std::int64_t
             grad_w[3 * i + k] = 0.0;
           }
         } else {
-          // A at this pixel, then G_k = g . (A_k - A) / s.
+          // A at this pixel, then G_k = dL/dq_k = g . (A_k - A) / s.
           for (std::int64_t c = 0; c < C; ++c)
             value[c] = pw.weight[0] * a[0][c] + pw.weight[1] * a[1][c] + pw.weight[2] * a[2][c];
+          double G[3];
           for (int k = 0; k < 3; ++k) {
             double d = 0.0;
             for (std::int64_t c = 0; c < C; ++c) d += static_cast<double>(g[c]) * (a[k][c] - value[c]);
-            const double G = d * pw.inv_s;
-            // dL/dlambda_k = G_k / w_k ; dL/dw_k = -G_k q_k / w_k.
-            g_lambda[k] = G * pw.inv_w[k];
-            grad_w[3 * i + k] = -G * pw.q[k] * pw.inv_w[k];
+            G[k] = d * pw.inv_s;
+          }
+          if (pw.from_clip) {
+            // q_k = F_k / D does not depend on u, v.
+            for (int k = 0; k < 3; ++k) g_lambda[k] = 0.0;
+            if (grad_clip) clip_weights_backward(pw, items.width, items.height, G, &grad_xyw[9 * i]);
+            live[i] = kToXYW;
+          } else {
+            // q_k = lambda_k / w_k: dL/dlambda_k = G_k / w_k ; dL/dw_k = -G_k q_k / w_k.
+            for (int k = 0; k < 3; ++k) {
+              g_lambda[k] = G[k] * pw.inv_w[k];
+              grad_w[3 * i + k] = -G[k] * pw.q[k] * pw.inv_w[k];
+            }
           }
         }
         for (int k = 0; k < 3; ++k) weight[3 * i + k] = pw.weight[k];
@@ -153,22 +286,90 @@ void interpolate_backward(const T* attr, std::int64_t num_vertices, std::int64_t
       }
     });
     if (!scatter) continue;
-    // Scatter in pixel order: dL/dA_k += weight_k g, dL/dw_k += grad_w_k.
-    for (std::int64_t p = c0; p < c1; ++p) {
-      const std::int64_t i = p - c0;
-      if (!live[i]) continue;
-      const std::int32_t* tri = tris + 3 * static_cast<std::int64_t>(tri_id[p] - 1);
-      const T* g = grad_out + p * C;
-      for (int k = 0; k < 3; ++k) {
-        if (grad_attr) {
-          T* ga = grad_attr + tri[k] * C;
-          const double wk = weight[3 * i + k];
-          for (std::int64_t c = 0; c < C; ++c) ga[c] += static_cast<T>(wk * g[c]);
+    // Scatter in item order: dL/dA_k += weight_k g, dL/dw_k += grad_w_k (or
+    // dL/d(x, y, w)_k += grad_xyw_k). Each thread owns a range of vertices and
+    // walks all items in order, so every vertex sums its contributions in item
+    // order: the result does not depend on how many ranges there are.
+    parallel_for(0, vertex_groups, 1, [&](std::int64_t g0, std::int64_t g1) {
+      const std::int64_t v0 = g0 * per_group, v1 = std::min(N, g1 * per_group);
+      for (std::int64_t p = c0; p < c1; ++p) {
+        const std::int64_t i = p - c0;
+        if (live[i] == kSkip) continue;
+        const std::int32_t* tri = tris + 3 * static_cast<std::int64_t>(tri_id[p] - 1);
+        const T* g = grad_out + p * C;
+        for (int k = 0; k < 3; ++k) {
+          if (tri[k] < v0 || tri[k] >= v1) continue;
+          if (grad_attr) {
+            T* ga = grad_attr + tri[k] * C;
+            const double wk = weight[3 * i + k];
+            for (std::int64_t c = 0; c < C; ++c) ga[c] += static_cast<T>(wk * g[c]);
+          }
+          if (!grad_clip) continue;
+          T* gc = grad_clip + 4 * static_cast<std::int64_t>(tri[k]);
+          if (live[i] == kToXYW) {
+            const double* gk = &grad_xyw[9 * i + 3 * k];
+            gc[0] += static_cast<T>(gk[0]);
+            gc[1] += static_cast<T>(gk[1]);
+            gc[3] += static_cast<T>(gk[2]);
+          } else {
+            gc[3] += static_cast<T>(grad_w[3 * i + k]);
+          }
         }
-        if (grad_clip) grad_clip[4 * static_cast<std::int64_t>(tri[k]) + 3] += static_cast<T>(grad_w[3 * i + k]);
       }
-    }
+    });
   }
+}
+
+}  // namespace
+
+template <class T>
+void interpolate_forward(const T* attr, std::int64_t num_vertices, std::int64_t C, const T* clip,
+                         const std::int32_t* tris, std::int64_t num_tris, const std::int32_t* tri_id,
+                         const T* uv, int width, int height, bool perspective,
+                         const typename detail::NoDeduce<T>::type* background, T* out) {
+  check_args(num_vertices, C, tris, num_tris, tri_id, width, height, "interpolate");
+  forward_items(attr, C, clip, tris, tri_id, uv, static_cast<std::int64_t>(width) * height,
+                make_items(clip, num_vertices, width, height, nullptr), perspective, background, out);
+}
+
+template <class T>
+void interpolate_backward(const T* attr, std::int64_t num_vertices, std::int64_t C, const T* clip,
+                          const std::int32_t* tris, std::int64_t num_tris,
+                          const std::int32_t* tri_id, const T* uv, int width, int height,
+                          bool perspective, const T* grad_out,
+                          typename detail::NoDeduce<T>::type* grad_attr,
+                          typename detail::NoDeduce<T>::type* grad_clip,
+                          typename detail::NoDeduce<T>::type* grad_uv) {
+  check_args(num_vertices, C, tris, num_tris, tri_id, width, height, "interpolate backward");
+  backward_items(attr, num_vertices, C, clip, tris, tri_id, uv, static_cast<std::int64_t>(width) * height,
+                 make_items(clip, num_vertices, width, height, nullptr), perspective, grad_out, grad_attr, grad_clip,
+                 grad_uv);
+}
+
+template <class T>
+void interpolate_fragments_forward(const T* attr, std::int64_t num_vertices, std::int64_t C, const T* clip,
+                                   const std::int32_t* tris, std::int64_t num_tris,
+                                   const std::int32_t* tri_id, const T* uv, const std::int32_t* pixel_index,
+                                   std::int64_t count, int width, int height, bool perspective, T* out) {
+  check_fragment_args(num_vertices, C, tris, num_tris, tri_id, pixel_index, count, width, height,
+                      "interpolate (fragments)");
+  forward_items(attr, C, clip, tris, tri_id, uv, count, make_items(clip, num_vertices, width, height, pixel_index),
+                perspective, static_cast<const T*>(nullptr), out);
+}
+
+template <class T>
+void interpolate_fragments_backward(const T* attr, std::int64_t num_vertices, std::int64_t C, const T* clip,
+                                    const std::int32_t* tris, std::int64_t num_tris,
+                                    const std::int32_t* tri_id, const T* uv, const std::int32_t* pixel_index,
+                                    std::int64_t count, int width, int height, bool perspective,
+                                    const T* grad_out, typename detail::NoDeduce<T>::type* grad_attr,
+                                    typename detail::NoDeduce<T>::type* grad_clip,
+                                    typename detail::NoDeduce<T>::type* grad_uv) {
+  check_fragment_args(num_vertices, C, tris, num_tris, tri_id, pixel_index, count, width, height,
+                      "interpolate (fragments) backward");
+  backward_items(attr, num_vertices, C, clip, tris, tri_id, uv, count,
+                 make_items(clip, num_vertices, width, height, pixel_index), perspective, grad_out, grad_attr,
+                 grad_clip, grad_uv);
 }
 
 template <class T>
@@ -177,6 +378,7 @@ void interpolate_derivatives(const T* attr, std::int64_t num_vertices, std::int6
                              const T* uv, int width, int height, bool perspective, T* d_dx, T* d_dy) {
   check_args(num_vertices, C, tris, num_tris, tri_id, width, height, "interpolate derivatives");
   const std::int64_t P = static_cast<std::int64_t>(width) * height;
+  const Items items = make_items(clip, num_vertices, width, height, nullptr);
   parallel_for(0, P, 4096, [&](std::int64_t lo, std::int64_t hi) {
     for (std::int64_t p = lo; p < hi; ++p) {
       T* ox = d_dx + p * C;
@@ -188,10 +390,7 @@ void interpolate_derivatives(const T* attr, std::int64_t num_vertices, std::int6
       const std::int32_t* tri = tris + 3 * static_cast<std::int64_t>(tri_id[p] - 1);
       // Homogeneous screen vertices, c_k = V_{k+1} x V_{k+2}, D = V_0 . c_0.
       detail::HVec V[3];
-      for (int k = 0; k < 3; ++k) {
-        const T* v = clip + 4 * static_cast<std::int64_t>(tri[k]);
-        V[k] = {0.5 * width * (double(v[0]) + v[3]), 0.5 * height * (double(v[3]) - v[1]), double(v[3])};
-      }
+      homogeneous_vertices(clip, tri, width, height, V);
       detail::HVec cr[3];
       for (int k = 0; k < 3; ++k) cr[k] = detail::cross(V[(k + 1) % 3], V[(k + 2) % 3]);
       const double inv_d = safe_inv(detail::dot(V[0], cr[0]));
@@ -201,7 +400,7 @@ void interpolate_derivatives(const T* attr, std::int64_t num_vertices, std::int6
         dlx[k] = V[k].w * cr[k].x * inv_d;
         dly[k] = V[k].w * cr[k].y * inv_d;
       }
-      const PixelWeights pw = pixel_weights(clip, tri, uv + 2 * p, perspective);
+      const PixelWeights pw = pixel_weights(clip, tri, uv, perspective, items, p);
       const T* a[3] = {attr + tri[0] * C, attr + tri[1] * C, attr + tri[2] * C};
       if (!perspective) {
         // dA/dx = sum_k dlambda_k/dx A_k.
@@ -211,11 +410,12 @@ void interpolate_derivatives(const T* attr, std::int64_t num_vertices, std::int6
         }
         continue;
       }
-      // dq_k = dlambda_k / w_k; dA/dx = sum_k dq_k/dx (A_k - A) / s.
+      // q_k = lambda_k / w_k = (e . c_k) / D: dq_k/dx = c_k.x / D, not divided by
+      // w_k (exact at w_k = 0); dA/dx = sum_k dq_k/dx (A_k - A) / s.
       double dqx[3], dqy[3];
       for (int k = 0; k < 3; ++k) {
-        dqx[k] = dlx[k] * pw.inv_w[k] * pw.inv_s;
-        dqy[k] = dly[k] * pw.inv_w[k] * pw.inv_s;
+        dqx[k] = cr[k].x * inv_d * pw.inv_s;
+        dqy[k] = cr[k].y * inv_d * pw.inv_s;
       }
       for (std::int64_t c = 0; c < C; ++c) {
         const double A = pw.weight[0] * a[0][c] + pw.weight[1] * a[1][c] + pw.weight[2] * a[2][c];
@@ -240,7 +440,17 @@ void interpolate_derivatives(const T* attr, std::int64_t num_vertices, std::int6
                                         const T*, int, int, bool, const T*, T*, T*, T*);   \
   template void interpolate_derivatives<T>(const T*, std::int64_t, std::int64_t, const T*,        \
                                            const std::int32_t*, std::int64_t, const std::int32_t*,\
-                                           const T*, int, int, bool, T*, T*);
+                                           const T*, int, int, bool, T*, T*);                      \
+  template void interpolate_fragments_forward<T>(const T*, std::int64_t, std::int64_t, const T*,  \
+                                                 const std::int32_t*, std::int64_t,               \
+                                                 const std::int32_t*, const T*,                   \
+                                                 const std::int32_t*, std::int64_t, int, int,     \
+                                                 bool, T*);                                       \
+  template void interpolate_fragments_backward<T>(const T*, std::int64_t, std::int64_t, const T*, \
+                                                  const std::int32_t*, std::int64_t,              \
+                                                  const std::int32_t*, const T*,                  \
+                                                  const std::int32_t*, std::int64_t, int, int,    \
+                                                  bool, const T*, T*, T*, T*);
 GR_INSTANTIATE(float)
 GR_INSTANTIATE(double)
 #undef GR_INSTANTIATE

@@ -4,6 +4,15 @@
 // screen-space barycentrics are lambda = (1 - u - v, u, v) over the vertices
 // (k0, k1, k2) of triangle tri_id - 1, and w_k is the clip w of vertex k
 // (column 3 of clip), so gradients to w flow back into clip.
+//
+// Clipped triangles (a vertex with w <= 0 or z < -w: rasterize's homogeneous
+// form, docs/rasterizer.md) take their perspective weights from the clip
+// positions and the pixel centre e = (col + 0.5, row + 0.5, 1) instead:
+//   q_k = F_k / D,  F_k = e . (V_k+1 x V_k+2),  D = V_0 . (V_1 x V_2),
+//   V_k = (W/2 (x_k + w_k), H/2 (w_k - y_k), w_k),
+// which equals lambda_k / w_k for the (u, v) rasterize stores but stays exact
+// at w_k = 0 (where lambda_k = 0 carries no weight). In perspective mode their
+// uv is not read, and their gradient goes to x, y, w of clip instead of uv.
 #pragma once
 
 #include <cstdint>
@@ -13,10 +22,12 @@
 namespace gr::raster {
 
 // out (H*W*C): per pixel,
-//   perspective: A = sum_k (lambda_k / w_k) A_k / s,  s = sum_k lambda_k / w_k;
+//   perspective: A = sum_k q_k A_k / s,  s = sum_k q_k,  q_k = lambda_k / w_k
+//                (F_k / D on clipped triangles, above);
 //   linear:      A = sum_k lambda_k A_k.
 // Background pixels (tri_id 0) get `background` (C values; null = zeros).
-// attr: N x C; clip: N x 4 (only w is read); tris: M x 3; uv: H*W*2.
+// attr: N x C; clip: N x 4 (z, w read; x, y too for clipped triangles);
+// tris: M x 3; uv: H*W*2.
 template <class T>
 void interpolate_forward(const T* attr, std::int64_t num_vertices, std::int64_t channels,
                          const T* clip, const std::int32_t* tris, std::int64_t num_tris,
@@ -27,11 +38,15 @@ void interpolate_forward(const T* attr, std::int64_t num_vertices, std::int64_t 
 // Adjoint of interpolate_forward, ACCUMULATED (+=). With g = dL/dA (C values)
 // at a covered pixel and q_k = lambda_k / w_k:
 //   perspective: dL/dA_k += g q_k / s,
-//                G_k = g . (A_k - A) / s,  dL/dlambda_k = G_k / w_k,
+//                G_k = dL/dq_k = g . (A_k - A) / s,  dL/dlambda_k = G_k / w_k,
 //                dL/dw_k -= G_k q_k / w_k;
+//   clipped triangles (q_k = F_k / D): dL/dF_k = G_k / D (dL/dD = 0 as
+//                sum_k G_k q_k = 0), dF_k/dV_k+1 = V_k+2 x e,
+//                dF_k/dV_k+2 = e x V_k+1, then V -> x, y, w of clip;
 //   linear:      dL/dA_k += g lambda_k,  dL/dlambda_k = g . A_k;
 //   dL/du += dL/dlambda_1 - dL/dlambda_0,  dL/dv += dL/dlambda_2 - dL/dlambda_0.
-// grad_attr (N x C), grad_clip (N x 4, only column 3 touched), grad_uv
+// grad_attr (N x C), grad_clip (N x 4: column 3, plus columns 0 and 1 for
+// the vertices of clipped triangles), grad_uv
 // (H*W*2): any may be null (not needed). Background pixels and pixels whose
 // incoming gradient is zero contribute nothing. Per-vertex sums are added in
 // pixel order, so results are bit-identical for any thread count. Divisions
@@ -45,6 +60,29 @@ void interpolate_backward(const T* attr, std::int64_t num_vertices, std::int64_t
                           typename detail::NoDeduce<T>::type* grad_clip,
                           typename detail::NoDeduce<T>::type* grad_uv);
 
+// Fragment form: the same per-pixel math over `count` fragments (covered
+// pixels, e.g. gr::Fragments) of a width x height image instead of the whole
+// image. tri_id (count, each in [1, num_tris]), uv (count x 2), pixel_index
+// (count, each in [0, W*H): the fragment's row-major pixel, whose centre the
+// clipped triangles' weights use), out / grad_out (count x C), grad_uv
+// (count x 2). Results equal interpolate_forward / interpolate_backward at the
+// fragments' pixels bit for bit (same loops, same summation order) when the
+// fragments are in ascending pixel order.
+template <class T>
+void interpolate_fragments_forward(const T* attr, std::int64_t num_vertices, std::int64_t channels,
+                                   const T* clip, const std::int32_t* tris, std::int64_t num_tris,
+                                   const std::int32_t* tri_id, const T* uv, const std::int32_t* pixel_index,
+                                   std::int64_t count, int width, int height, bool perspective, T* out);
+template <class T>
+void interpolate_fragments_backward(const T* attr, std::int64_t num_vertices, std::int64_t channels,
+                                    const T* clip, const std::int32_t* tris, std::int64_t num_tris,
+                                    const std::int32_t* tri_id, const T* uv, const std::int32_t* pixel_index,
+                                    std::int64_t count, int width, int height, bool perspective,
+                                    const T* grad_out,
+                                    typename detail::NoDeduce<T>::type* grad_attr,
+                                    typename detail::NoDeduce<T>::type* grad_clip,
+                                    typename detail::NoDeduce<T>::type* grad_uv);
+
 // Screen-space derivatives of interpolate_forward's output (not differentiated
 // further): d_dx, d_dy (H*W*C each) get dA/dx and dA/dy per pixel, x to the
 // right and y DOWN, in units of one pixel. The screen barycentrics are affine
@@ -52,8 +90,10 @@ void interpolate_backward(const T* attr, std::int64_t num_vertices, std::int64_t
 // homogeneous vertices V_k = (W/2 (x_k + w_k), H/2 (w_k - y_k), w_k),
 // c_k = V_{k+1} x V_{k+2}, D = V_0 . c_0 and lambda_k = w_k (s . c_k) / D,
 //   dlambda_k/dx = w_k c_k.x / D,  dlambda_k/dy = w_k c_k.y / D
-// (constant per triangle). Then, with q_k = lambda_k / w_k, s = sum q_k:
-//   perspective: dA/dx = sum_k (dq_k/dx) (A_k - A) / s,  dq_k/dx = (dlambda_k/dx) / w_k;
+// (constant per triangle). Then, with q_k = lambda_k / w_k = (s . c_k) / D,
+// s = sum q_k:
+//   perspective: dA/dx = sum_k (dq_k/dx) (A_k - A) / s,  dq_k/dx = c_k.x / D
+//                (not divided by w_k, so exact at w_k = 0);
 //   linear:      dA/dx = sum_k (dlambda_k/dx) A_k;
 // likewise for y. Background pixels get zeros.
 template <class T>

@@ -36,6 +36,26 @@ TEST_CASE("interpolate op: gradients w.r.t. attributes, w and barycentrics match
   }
 }
 
+TEST_CASE("interpolate op: gradients of a near-clipped triangle with a vertex at w = 0 match finite differences",
+          "[ops][interpolate][gradcheck][near]") {
+  // Vertex 1 is behind the camera, vertex 2 exactly on the eye plane (w = 0):
+  // the clipped form takes q_k = F_k / D from x, y, w of clip.
+  Tensor tris = Tensor::from_vector<std::int32_t>({0, 1, 2}, {1, 3});
+  Tensor attr = random_input({3, 3}, -1, 1, 43);
+  Tensor clip = Tensor::from_values({-0.6, -0.5, -0.8, 1.0, 0.7, -0.4, 1.3, 1.5, 0.3, -0.8, -0.6, 0.0}, {3, 4},
+                                    DType::Float64)
+                    .set_requires_grad();
+  GBuffer gb = rasterize(clip.detach(), tris, {20, 16});
+  gb.uv = gb.uv.copy().set_requires_grad();
+  require_gradcheck("interpolate clipped, w = 0",
+                    [&](const Inputs& in) {
+                      GBuffer g = gb;
+                      g.uv = in[2];
+                      return interpolate(in[0], in[1], g, tris);
+                    },
+                    {attr, clip, gb.uv});
+}
+
 TEST_CASE("interpolate op: constant attributes stay constant and background gets the chosen value", "[ops][interpolate]") {
   Tensor clip = clip_of_two_triangles();
   Tensor tris = Tensor::from_vector<std::int32_t>({0, 1, 2, 3, 4, 5}, {2, 3});

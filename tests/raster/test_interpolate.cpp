@@ -21,7 +21,8 @@ using namespace gr::testing;
 
 namespace {
 
-// A small synthetic G-buffer over 3 triangles and 6 vertices.
+// A small synthetic G-buffer over 3 triangles and 6 vertices, all in front of
+// the near plane (|z| < w), so no triangle takes the clipped form.
 struct Scene {
   int W = 5, H = 4, N = 6, M = 3, C = 3;
   std::vector<double> attr, clip, uv;
@@ -29,7 +30,10 @@ struct Scene {
   explicit Scene(unsigned seed) {
     attr = random_vector(N * C, -2, 2, seed);
     clip = random_vector(4 * N, -1, 1, seed + 1);
-    for (int i = 0; i < N; ++i) clip[4 * i + 3] = 0.5 + 1.5 * std::abs(clip[4 * i + 3]);
+    for (int i = 0; i < N; ++i) {
+      clip[4 * i + 3] = 0.5 + 1.5 * std::abs(clip[4 * i + 3]);
+      clip[4 * i + 2] *= 0.45;
+    }
     uv = random_vector(2 * W * H, 0.05, 0.45, seed + 2);
     std::mt19937 rng(seed + 3);
     for (int p = 0; p < W * H; ++p) id.push_back(static_cast<std::int32_t>(rng() % (M + 1)));
@@ -241,4 +245,119 @@ TEST_CASE("interpolate: bad input throws with the argument named", "[raster][int
   bad_tri.tris[4] = s.N;
   CHECK_THROWS_AS(run(bad_tri, s.W, s.H, s.C), IndexError);
   CHECK_THROWS_WITH(run(bad_tri, s.W, s.H, s.C), Catch::Contains("tris[1][1]"));
+}
+
+namespace {
+
+// One triangle with a vertex behind the camera and, as vertex 2, a vertex at
+// w = w2 (x = 0.3, y = -0.8, z = -0.6 - w2 so it is behind the near plane),
+// rasterized on 32 x 32; attributes of 2 channels.
+struct ClippedScene {
+  int W = 32, H = 32;
+  std::vector<double> clip, attr = {1, 2, 3, 4, 5, 6}, uv, depth;
+  std::vector<std::int32_t> tris = {0, 1, 2}, id;
+  explicit ClippedScene(double w2) {
+    clip = {-0.6, -0.5, -0.8, 1.0, 0.7, -0.4, 1.3, 1.5, 0.3, -0.8, -0.6 - w2, w2};
+    id.resize(W * H);
+    uv.resize(2 * W * H);
+    depth.resize(W * H);
+    rasterize_forward(clip.data(), 3, tris.data(), 1, RasterSettings{W, H, Cull::None}, id.data(), uv.data(),
+                      depth.data());
+  }
+  std::vector<double> forward(const std::vector<double>& c) const {
+    std::vector<double> out(2 * W * H);
+    interpolate_forward(attr.data(), 3, 2, c.data(), tris.data(), 1, id.data(), uv.data(), W, H, true, nullptr,
+                        out.data());
+    return out;
+  }
+};
+
+double max_abs_diff(const std::vector<double>& a, const std::vector<double>& b) {
+  double m = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) m = std::max(m, std::abs(a[i] - b[i]));
+  return m;
+}
+
+}  // namespace
+
+TEST_CASE("interpolate: clipped triangles weight vertex k by F_k/D, equal to lambda_k/w_k of the stored uv",
+          "[raster][interpolate][near]") {
+  const ClippedScene s(-0.6);
+  const std::vector<double> out = s.forward(s.clip);
+  int covered = 0;
+  double worst = 0;
+  for (int p = 0; p < s.W * s.H; ++p) {
+    if (!s.id[p]) continue;
+    ++covered;
+    // The screen-barycentric form: q_k = lambda_k / w_k with lambda from rasterize's uv.
+    const double lambda[3] = {1 - s.uv[2 * p] - s.uv[2 * p + 1], s.uv[2 * p], s.uv[2 * p + 1]};
+    double q[3], sum = 0;
+    for (int k = 0; k < 3; ++k) sum += q[k] = lambda[k] / s.clip[4 * k + 3];
+    for (int c = 0; c < 2; ++c) {
+      double a = 0;
+      for (int k = 0; k < 3; ++k) a += q[k] / sum * s.attr[2 * k + c];
+      worst = std::max(worst, std::abs(out[2 * p + c] - a));
+    }
+  }
+  INFO("worst difference " << worst);
+  CHECK(covered > 10);
+  CHECK(worst < 1e-10);
+}
+
+TEST_CASE("interpolate: a vertex at w = 0 keeps its perspective weight (continuous across w = 0)",
+          "[raster][interpolate][near]") {
+  // Same coverage for all three; only vertex 2's w differs.
+  const ClippedScene plus(1e-15), zero(0.0), minus(-1e-15);
+  REQUIRE(plus.id == zero.id);
+  REQUIRE(minus.id == zero.id);
+  const std::vector<double> a = plus.forward(plus.clip), b = zero.forward(zero.clip), c = minus.forward(minus.clip);
+  CHECK(all_finite(b));
+  CHECK(max_abs_diff(a, b) < 1e-12);
+  CHECK(max_abs_diff(c, b) < 1e-12);
+  // Vertex 2 keeps its weight: its attribute (5, 6) dominates the pixels seen
+  // toward its direction (without it every pixel would mix vertices 0 and 1 only, in [1, 3]).
+  double closest = 1e9;
+  for (int p = 0; p < zero.W * zero.H; ++p)
+    if (zero.id[p]) closest = std::min(closest, std::abs(b[2 * p] - 5.0));
+  CHECK(closest < 1.0);
+  // The screen-space derivatives too.
+  auto derivatives = [](const ClippedScene& sc) {
+    std::vector<double> dx(2 * sc.W * sc.H), dy(2 * sc.W * sc.H);
+    interpolate_derivatives(sc.attr.data(), 3, 2, sc.clip.data(), sc.tris.data(), 1, sc.id.data(), sc.uv.data(),
+                            sc.W, sc.H, true, dx.data(), dy.data());
+    dx.insert(dx.end(), dy.begin(), dy.end());
+    return dx;
+  };
+  const std::vector<double> da = derivatives(plus), db = derivatives(zero), dc = derivatives(minus);
+  CHECK(all_finite(db));
+  CHECK(max_abs_diff(da, db) < 1e-12);
+  CHECK(max_abs_diff(dc, db) < 1e-12);
+  double largest = 0;
+  for (double d : db) largest = std::max(largest, std::abs(d));
+  CHECK(largest > 1e-3);
+}
+
+TEST_CASE("interpolate: gradients to x, y, w of a clipped triangle match finite differences, also at w = 0",
+          "[raster][interpolate][near][gradient]") {
+  for (double w2 : {-0.6, -1e-7, 0.0, 1e-7}) {
+    INFO("w2 = " << w2);
+    const ClippedScene s(w2);
+    const std::vector<double> wts = random_vector(2 * s.W * s.H, -1, 1, 17);
+    auto loss = [&](const std::vector<double>& c) {
+      const std::vector<double> out = s.forward(c);
+      double l = 0;
+      for (std::size_t i = 0; i < out.size(); ++i) l += wts[i] * out[i];
+      return l;
+    };
+    std::vector<double> ga(6, 0.0), gc(12, 0.0), gu(2 * s.W * s.H, 0.0);
+    interpolate_backward(s.attr.data(), 3, 2, s.clip.data(), s.tris.data(), 1, s.id.data(), s.uv.data(), s.W, s.H,
+                         true, wts.data(), ga.data(), gc.data(), gu.data());
+    CHECK(all_finite(gc));
+    const double ec = fd_error(loss, s.clip, gc, 1e-8);
+    INFO("relative error clip " << ec);
+    CHECK(ec < 1e-6);
+    // z does not enter; uv is not read for clipped triangles, so it gets no gradient.
+    for (int k = 0; k < 3; ++k) CHECK(gc[4 * k + 2] == 0);
+    CHECK(std::all_of(gu.begin(), gu.end(), [](double x) { return x == 0; }));
+  }
 }

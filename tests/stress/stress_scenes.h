@@ -108,12 +108,17 @@ inline std::string sci(double x) {
 
 // ---------------------------------------------------------------- near plane
 
+// Smallest finite-difference step for the near-plane vertex (taken for |w| < 1e-2).
+constexpr double kClippedVertexStep = 1e-7;
+
 // A background quad at w = 3 and a triangle whose third vertex sits at view
 // depth w (fixed view x, y), so its screen position runs off to ~0.04/w
 // pixels as w -> 0 and it crosses the eye plane for w <= 0. near = 5e-4: for
-// w < 5e-4 the triangle is near-clipped (homogeneous path).
+// w < 5e-4 the triangle is near-clipped (homogeneous path), and interpolate
+// takes its perspective weights F_k / D from the clip positions, smooth
+// through w = 0.
 // inputs {positions [6,3], colours [7,3], vertex [1,3]} (the special vertex
-// separately, so its finite-difference step can be scaled with w).
+// separately, with its own finite-difference step).
 inline Case near_plane_case(double w) {
   const int W = 32, H = 32;
   const double fov = 1.0;
@@ -134,14 +139,13 @@ inline Case near_plane_case(double w) {
   c.render = [inner](const std::vector<Tensor>& in) { return inner({concat({in[0], in[2]}, 0), in[1]}); };
   c.check({0}, 1e-6);
   c.check({1}, 1e-3);
-  if (w != 0) {
-    // Steps far below the vertex's distance to the eye plane; atol covers the
-    // finite-difference rounding noise, ~1e-16 |L| / eps with |L| ~ 1e3.
-    const double eps = 1e-5 * std::fabs(w);
-    c.check({2}, eps, 1e-4, 1e-7 + 2e-13 / eps);
-  } else {
-    c.note = "vertex at w = 0 exactly: perspective weight lost (docs/robustness.md, known limitation)";
-  }
+  // The vertex: steps of 1e-5 |w|, but at least kClippedVertexStep. For
+  // |w| < near the triangle is clipped and the image is smooth through w = 0
+  // (interpolate's F_k / D), so the steps may cross it; they keep the coverage
+  // (checked). atol covers the finite-difference rounding noise,
+  // ~1e-16 |L| / eps with |L| ~ 1e3.
+  const double eps = std::max(1e-5 * std::fabs(w), kClippedVertexStep);
+  c.check({2}, eps, 1e-4, 1e-7 + 2e-13 / eps);
   return c;
 }
 
@@ -441,7 +445,7 @@ inline Case division_case(double delta) {
 
 inline std::vector<Case> near_plane_cases() {
   std::vector<Case> v;
-  for (double w : {1e-1, 1e-3, 1e-5, 1e-7, 0.0, -1e-7, -1e-1}) v.push_back(near_plane_case(w));
+  for (double w : {1e-1, 1e-3, 1e-5, 1e-7, 1e-15, 0.0, -1e-15, -1e-7, -1e-1}) v.push_back(near_plane_case(w));
   v.push_back(depth_precision_case());
   return v;
 }
