@@ -8,7 +8,7 @@ namespace gr {
 
 GBuffer rasterize(const Tensor& clip, const Tensor& triangles, const RasterizeOptions& options) {
   detail::check_clip_and_triangles(clip, triangles, "rasterize");
-  const raster::RasterSettings settings{options.width, options.height, options.cull};
+  const raster::RasterSettings settings{options.width, options.height, options.cull, options.front_to_back};
   const std::int64_t h = options.height, w = options.width;
   if (h <= 0 || w <= 0 || h > 16384 || w > 16384 || h * w > (std::int64_t(1) << 28))
     throw ValueError("rasterize: image size " + std::to_string(w) + " x " + std::to_string(h) +

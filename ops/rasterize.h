@@ -18,6 +18,7 @@ struct RasterizeOptions {
   int width = 0;
   int height = 0;
   Cull cull = Cull::None;  // front face = counter-clockwise in NDC
+  bool front_to_back = false;  // work order only; same G-buffer (raster::RasterSettings)
 };
 
 // Per-pixel results, row 0 at the top.

@@ -1,13 +1,14 @@
 // Rasterizer forward (tiled, watertight, deterministic depth test) and its
 // adjoint (per-pixel contributions scattered in pixel order).
 //
-// Forward: project vertices; classify triangles in parallel (frustum reject,
-// area, culling, pixel bounding box) and bin them to kTile x kTile screen
-// tiles, in parallel over fixed triangle chunks (counts per chunk and tile,
-// offsets chunk by chunk within each tile, then a fill per chunk), so every
-// tile lists its triangles in ascending order for any thread count; then
-// parallel_for over non-empty tiles, each owning its pixels, so the
-// (depth, id) test needs no atomics and is order independent.
+// Forward: project vertices; classify triangles in parallel over fixed
+// triangle chunks (frustum reject, area, culling, pixel bounding box) while
+// counting each chunk's triangles per kTile x kTile screen tile; offsets chunk
+// by chunk within each tile, then a fill per chunk, so every tile lists its triangles
+// in ascending order for any thread count; then parallel_for over the
+// non-empty tiles, each owning its pixels (empty tiles are never visited), so the
+// (depth, id) test needs no atomics and is order independent. Buffers come
+// from a scratch pool and are reused across calls.
 #include "raster/rasterize.h"
 
 #include <algorithm>
@@ -29,62 +30,129 @@ using detail::finite_cast;
 using detail::safe_inv;
 
 constexpr int kTile = 32;
+constexpr int kTilePixels = kTile * kTile;
 
-// Triangles listed per tile, in triangle order.
-struct Bins {
-  int tiles_x = 0, tiles_y = 0;
-  std::vector<std::int64_t> offset;  // tiles + 1
-  // Left uninitialized on allocation (every entry is written before use), so
-  // first-touch page faults happen in the parallel passes, not in a serial fill.
-  std::unique_ptr<std::int32_t[]> tris;
-  std::unique_ptr<detail::PixelBox[]> box;  // per triangle
+// Per-call buffers, reused across calls through a pool (allocated and
+// page-faulted once; nothing is zero-filled serially).
+struct ForwardScratch {
+  detail::Vertices v;
+  std::vector<detail::PixelBox> box;  // per triangle; x0 > x1 when not binned
+  std::vector<double> zmin;           // per triangle, front_to_back only
+  std::vector<std::int32_t> count;    // chunks x tiles: counts, then fill cursors
+  std::vector<std::int64_t> offset;   // tiles + 1
+  std::vector<std::int32_t> bin;      // triangle ids, tile by tile
+  std::vector<RasterStats> chunk_stats;
 };
+detail::ScratchPool<ForwardScratch> g_forward_pool;
 
 // Triangles per binning chunk: a function of the triangle and tile counts only
-// (never of the thread count): at least 4096, at most 256 chunks, and at most
-// ~2M (chunk, tile) counters.
+// (never of the thread count): at least 4096, at most 64 chunks, and at most
+// ~1M (chunk, tile) counters.
 std::int64_t bin_chunk(std::int64_t num_tris, int tiles) {
-  constexpr std::int64_t kMinChunk = 4096, kMaxChunks = 256, kMaxCounters = std::int64_t(1) << 21;
+  constexpr std::int64_t kMinChunk = 4096, kMaxChunks = 64, kMaxCounters = std::int64_t(1) << 20;
   const std::int64_t max_chunks = std::max<std::int64_t>(1, std::min(kMaxChunks, kMaxCounters / tiles));
   return std::max(kMinChunk, (num_tris + max_chunks - 1) / max_chunks);
 }
 
-// Scans one tile: every binned triangle over its box clipped to the tile.
-void scan_tile(const detail::Vertices& v, const std::int32_t* tris, const Bins& bins, int tile,
-               int width, int height, double* zbuf, std::int32_t* ids, double* lu, double* lv) {
-  const int tx0 = (tile % bins.tiles_x) * kTile, ty0 = (tile / bins.tiles_x) * kTile;
-  const int tx1 = std::min(tx0 + kTile, width) - 1, ty1 = std::min(ty0 + kTile, height) - 1;
-  std::fill(zbuf, zbuf + kTile * kTile, std::numeric_limits<double>::infinity());
-  std::fill(ids, ids + kTile * kTile, -1);
-  for (std::int64_t n = bins.offset[tile]; n < bins.offset[tile + 1]; ++n) {
-    const std::int32_t t = bins.tris[n];
-    const detail::PixelBox& b = bins.box[t];
-    const int x0 = std::max(b.x0, tx0), x1 = std::min(b.x1, tx1);
-    const int y0 = std::max(b.y0, ty0), y1 = std::min(b.y1, ty1);
-    detail::TriSetup s;
-    detail::setup_edges(v, tris + 3 * static_cast<std::int64_t>(t), width, height, &s);
-    const detail::Edge &e0 = s.e[0], &e1 = s.e[1], &e2 = s.e[2];
-    for (int y = y0; y <= y1; ++y) {
-      const double py = y + 0.5;
-      const double r0 = e0.row(py), r1 = e1.row(py), r2 = e2.row(py);
-      const int row = (y - ty0) * kTile - tx0;
-      for (int x = x0; x <= x1; ++x) {
-        const double px = x + 0.5;
-        // Coverage: all three edges inside (ties by the top-left rule).
-        const double v0 = e0.eval(px, r0), v1 = e1.eval(px, r1), v2 = e2.eval(px, r2);
-        if (!(e0.inside(v0) && e1.inside(v1) && e2.inside(v2))) continue;
-        // Depth, near/far test, then the (depth, id) key test.
-        const double z = v0 * e0.mz + v1 * e1.mz + v2 * e2.mz;
-        if (s.z_test && !(z >= -1.0 && z <= 1.0)) continue;
-        const int p = row + x;
-        if (z < zbuf[p] || (z == zbuf[p] && t < ids[p])) {
-          zbuf[p] = z;
-          ids[p] = t;
-          lu[p] = v1 * e1.mu;
-          lv[p] = v2 * e2.mu;
-        }
+// A value <= every depth the scan computes for triangle tri (screen form).
+// Exactly, depth = sum lambda_k z_k >= min z_k; in floating point each edge
+// value e_k has an absolute error below ~2^-50 (bw + 1)(bh + 1) (|px - ax| <= box
+// width bw, |dy| <= box height bh, and so on), so sum lambda_k may fall short of
+// 1 by 3 such errors / |2A|. The margin below covers that with room to spare.
+double depth_lower_bound(const detail::Vertices& v, const std::int32_t* tri) {
+  const double* p[3] = {&v.screen[3 * static_cast<std::size_t>(tri[0])],
+                        &v.screen[3 * static_cast<std::size_t>(tri[1])],
+                        &v.screen[3 * static_cast<std::size_t>(tri[2])]};
+  const double bw = std::max({p[0][0], p[1][0], p[2][0]}) - std::min({p[0][0], p[1][0], p[2][0]});
+  const double bh = std::max({p[0][1], p[1][1], p[2][1]}) - std::min({p[0][1], p[1][1], p[2][1]});
+  const double a2 = std::abs((p[0][0] - p[1][0]) * (p[2][1] - p[1][1]) -
+                             (p[0][1] - p[1][1]) * (p[2][0] - p[1][0]));
+  const double zmin = std::min({p[0][2], p[1][2], p[2][2]});
+  const double zabs = std::max({std::abs(p[0][2]), std::abs(p[1][2]), std::abs(p[2][2])});
+  const double rel = std::ldexp(1.0, -40) * ((bw + 2.0) * (bh + 2.0) / a2 + 1.0);
+  return zmin - zabs * rel;
+}
+
+// One tile's pixels: depth, triangle index (-1 = none) and (u, v).
+struct TileBuffer {
+  double z[kTilePixels], u[kTilePixels], v[kTilePixels];
+  std::int32_t id[kTilePixels];
+  int covered;  // pixels with id >= 0
+  double zmax;  // largest z over the tile once every pixel is covered, else +inf
+};
+
+// Scans triangle t over its box clipped to the tile [tx0, tx1] x [ty0, ty1].
+void scan_triangle(const detail::Vertices& v, const std::int32_t* tris, std::int32_t t,
+                   const detail::PixelBox& b, int tx0, int ty0, int tx1, int ty1, int width,
+                   int height, TileBuffer& tb) {
+  const int x0 = std::max(b.x0, tx0), x1 = std::min(b.x1, tx1);
+  const int y0 = std::max(b.y0, ty0), y1 = std::min(b.y1, ty1);
+  detail::TriSetup s;
+  detail::setup_edges(v, tris + 3 * static_cast<std::int64_t>(t), width, height, &s);
+  const detail::Edge &e0 = s.e[0], &e1 = s.e[1], &e2 = s.e[2];
+  for (int y = y0; y <= y1; ++y) {
+    const double py = y + 0.5;
+    const double r0 = e0.row(py), r1 = e1.row(py), r2 = e2.row(py);
+    const int row = (y - ty0) * kTile - tx0;
+    for (int x = x0; x <= x1; ++x) {
+      const double px = x + 0.5;
+      // Coverage: all three edges inside (ties by the top-left rule).
+      const double v0 = e0.eval(px, r0), v1 = e1.eval(px, r1), v2 = e2.eval(px, r2);
+      if (!(e0.inside(v0) && e1.inside(v1) && e2.inside(v2))) continue;
+      // Depth, near/far test, then the (depth, id) key test.
+      const double z = v0 * e0.mz + v1 * e1.mz + v2 * e2.mz;
+      if (s.z_test && !(z >= -1.0 && z <= 1.0)) continue;
+      const int p = row + x;
+      if (z < tb.z[p] || (z == tb.z[p] && t < tb.id[p])) {
+        tb.covered += tb.id[p] < 0;
+        tb.z[p] = z;
+        tb.id[p] = t;
+        tb.u[p] = v1 * e1.mu;
+        tb.v[p] = v2 * e2.mu;
       }
     }
+  }
+}
+
+// Scans the tile's triangles into tb. With front_to_back, the list is visited
+// by ascending (zmin, id) and a triangle whose smallest vertex depth is beyond
+// the tile's largest stored depth (all pixels covered) is skipped: each of its
+// pixels would fail z < zbuf, so the result is the same.
+void scan_tile(const detail::Vertices& v, const std::int32_t* tris, const ForwardScratch& sc,
+               int tiles_x, int tile, int width, int height, bool front_to_back,
+               std::vector<std::int32_t>& order, TileBuffer& tb) {
+  const int tx0 = (tile % tiles_x) * kTile, ty0 = (tile / tiles_x) * kTile;
+  const int tx1 = std::min(tx0 + kTile, width) - 1, ty1 = std::min(ty0 + kTile, height) - 1;
+  const int area = (tx1 - tx0 + 1) * (ty1 - ty0 + 1);
+  std::fill(tb.z, tb.z + kTilePixels, std::numeric_limits<double>::infinity());
+  std::fill(tb.id, tb.id + kTilePixels, -1);
+  tb.covered = 0;
+  tb.zmax = std::numeric_limits<double>::infinity();
+  const std::int32_t* list = sc.bin.data() + sc.offset[tile];
+  const std::int64_t n = sc.offset[tile + 1] - sc.offset[tile];
+  if (!front_to_back) {
+    for (std::int64_t i = 0; i < n; ++i)
+      scan_triangle(v, tris, list[i], sc.box[list[i]], tx0, ty0, tx1, ty1, width, height, tb);
+    return;
+  }
+  order.assign(list, list + n);
+  const double* zmin = sc.zmin.data();
+  std::sort(order.begin(), order.end(), [zmin](std::int32_t a, std::int32_t b) {
+    return zmin[a] < zmin[b] || (zmin[a] == zmin[b] && a < b);
+  });
+  int since = 0;  // triangles scanned since zmax was last refreshed
+  for (const std::int32_t t : order) {
+    if (tb.covered == area && (since >= 8 || tb.zmax == std::numeric_limits<double>::infinity())) {
+      // Refresh the tile's farthest stored depth (unused slots hold +inf).
+      double m = -std::numeric_limits<double>::infinity();
+      for (int y = 0; y <= ty1 - ty0; ++y)
+        for (int x = 0; x <= tx1 - tx0; ++x) m = std::max(m, tb.z[y * kTile + x]);
+      tb.zmax = m;
+      since = 0;
+    }
+    if (zmin[t] > tb.zmax) continue;
+    scan_triangle(v, tris, t, sc.box[t], tx0, ty0, tx1, ty1, width, height, tb);
+    ++since;
   }
 }
 
@@ -100,58 +168,57 @@ void rasterize_forward(const T* clip, std::int64_t num_vertices, const std::int3
   detail::check_triangles(tris, num_tris, num_vertices, op);
   detail::check_finite(clip, 4 * num_vertices, "clip", op);
   const int W = s.width, H = s.height;
-  const std::int64_t P = static_cast<std::int64_t>(W) * H;
-
-  // Background everywhere; tiles overwrite covered pixels.
-  parallel_for(0, P, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
-    for (std::int64_t p = lo; p < hi; ++p) {
-      tri_id[p] = 0;
-      uv[2 * p] = uv[2 * p + 1] = T(0);
-      depth[p] = T(kBackgroundDepth);
-    }
-  });
+  auto lease = g_forward_pool.take();
+  ForwardScratch& sc = *lease;
 
   // Per-vertex projection, then per-triangle classification and binning.
-  const detail::Vertices v = detail::project_vertices(clip, num_vertices, W, H);
+  detail::project_vertices_into(clip, num_vertices, W, H, &sc.v);
+  const detail::Vertices& v = sc.v;
   const int cull = s.cull == Cull::Back ? 1 : s.cull == Cull::Front ? -1 : 0;
-  Bins bins;
-  bins.box.reset(new detail::PixelBox[static_cast<std::size_t>(num_tris)]);
-  bins.tiles_x = (W + kTile - 1) / kTile;
-  bins.tiles_y = (H + kTile - 1) / kTile;
-  const int tiles = bins.tiles_x * bins.tiles_y;
+  const int tiles_x = (W + kTile - 1) / kTile, tiles_y = (H + kTile - 1) / kTile;
+  const int tiles = tiles_x * tiles_y;
   const std::int64_t chunk = bin_chunk(num_tris, tiles);
   const std::int64_t chunks = (num_tris + chunk - 1) / chunk;
-  std::vector<detail::TriClass> cls(num_tris);
+  sc.box.resize(static_cast<std::size_t>(num_tris));
+  if (s.front_to_back) sc.zmin.resize(static_cast<std::size_t>(num_tris));
+  sc.count.resize(static_cast<std::size_t>(chunks) * tiles);
+  sc.chunk_stats.assign(static_cast<std::size_t>(chunks), RasterStats{});
 
   // Pass 1 (parallel over fixed triangle chunks): classify, and count each
   // chunk's triangles per tile. Chunks depend on num_tris and tiles only.
-  std::vector<std::int64_t> at(static_cast<std::size_t>(chunks) * tiles, 0);  // counts, then cursors
-  std::vector<RasterStats> cst(static_cast<std::size_t>(chunks));
   parallel_for(0, chunks, 1, [&](std::int64_t c0, std::int64_t c1) {
     for (std::int64_t c = c0; c < c1; ++c) {
-      std::int64_t* cnt = &at[static_cast<std::size_t>(c) * tiles];
-      RasterStats& st = cst[c];
+      std::int32_t* cnt = &sc.count[static_cast<std::size_t>(c) * tiles];
+      std::fill(cnt, cnt + tiles, 0);
+      RasterStats& st = sc.chunk_stats[c];
       const std::int64_t t1 = std::min(num_tris, (c + 1) * chunk);
       for (std::int64_t t = c * chunk; t < t1; ++t) {
-        const detail::TriClass k = cls[t] =
-            detail::classify_triangle(v, tris + 3 * t, W, H, cull, &bins.box[t]);
+        const std::int32_t* tri = tris + 3 * t;
+        detail::PixelBox& b = sc.box[t];
+        const detail::TriClass k = detail::classify_triangle(v, tri, W, H, cull, &b);
         switch (k) {
-          case detail::TriClass::Outside: ++st.culled_outside; continue;
-          case detail::TriClass::ZeroArea: ++st.culled_zero_area; continue;
-          case detail::TriClass::Face: ++st.culled_face; continue;
-          case detail::TriClass::NoPixel: ++st.culled_no_pixel; continue;
+          case detail::TriClass::Outside: ++st.culled_outside; break;
+          case detail::TriClass::ZeroArea: ++st.culled_zero_area; break;
+          case detail::TriClass::Face: ++st.culled_face; break;
+          case detail::TriClass::NoPixel: ++st.culled_no_pixel; break;
           case detail::TriClass::Clipped: ++st.clipped_near; break;
           case detail::TriClass::Raster: ++st.rasterized; break;
         }
-        const detail::PixelBox& b = bins.box[t];
+        if (k != detail::TriClass::Raster && k != detail::TriClass::Clipped) {
+          b = {1, 1, 0, 0};  // not binned
+          continue;
+        }
+        if (s.front_to_back)
+          sc.zmin[t] = k == detail::TriClass::Clipped ? -std::numeric_limits<double>::infinity()
+                                                      : depth_lower_bound(v, tri);
         for (int ty = b.y0 / kTile; ty <= b.y1 / kTile; ++ty)
-          for (int tx = b.x0 / kTile; tx <= b.x1 / kTile; ++tx) ++cnt[ty * bins.tiles_x + tx];
+          for (int tx = b.x0 / kTile; tx <= b.x1 / kTile; ++tx) ++cnt[ty * tiles_x + tx];
       }
     }
   });
   RasterStats st;
   st.triangles_in = num_tris;
-  for (const RasterStats& c : cst) {
+  for (const RasterStats& c : sc.chunk_stats) {
     st.culled_outside += c.culled_outside;
     st.culled_zero_area += c.culled_zero_area;
     st.culled_face += c.culled_face;
@@ -159,63 +226,71 @@ void rasterize_forward(const T* clip, std::int64_t num_vertices, const std::int3
     st.clipped_near += c.clipped_near;
     st.rasterized += c.rasterized;
   }
+  if (stats) *stats = st;
 
   // Offsets tile by tile, chunks in order within a tile: each tile's list is
   // in ascending triangle order. Counts become each (chunk, tile) cursor.
-  bins.offset.assign(tiles + 1, 0);
+  sc.offset.resize(static_cast<std::size_t>(tiles) + 1);
   {
     std::int64_t run = 0;
     for (int i = 0; i < tiles; ++i) {
-      bins.offset[i] = run;
+      sc.offset[i] = run;
       for (std::int64_t c = 0; c < chunks; ++c) {
-        std::int64_t& a = at[static_cast<std::size_t>(c) * tiles + i];
+        std::int32_t& a = sc.count[static_cast<std::size_t>(c) * tiles + i];
         const std::int64_t n = a;
-        a = run;
+        a = static_cast<std::int32_t>(run - sc.offset[i]);  // cursor relative to the tile start
         run += n;
       }
     }
-    bins.offset[tiles] = run;
+    sc.offset[tiles] = run;
   }
-  bins.tris.reset(new std::int32_t[static_cast<std::size_t>(bins.offset[tiles])]);
+  sc.bin.resize(static_cast<std::size_t>(sc.offset[tiles]));
 
   // Pass 2 (parallel over the same chunks): fill, each chunk into its own slots.
   parallel_for(0, chunks, 1, [&](std::int64_t c0, std::int64_t c1) {
     for (std::int64_t c = c0; c < c1; ++c) {
-      std::int64_t* fill = &at[static_cast<std::size_t>(c) * tiles];
+      std::int32_t* fill = &sc.count[static_cast<std::size_t>(c) * tiles];
       const std::int64_t t1 = std::min(num_tris, (c + 1) * chunk);
       for (std::int64_t t = c * chunk; t < t1; ++t) {
-        if (cls[t] != detail::TriClass::Raster && cls[t] != detail::TriClass::Clipped) continue;
-        const detail::PixelBox& b = bins.box[t];
+        const detail::PixelBox& b = sc.box[t];
+        if (b.x0 > b.x1) continue;
         for (int ty = b.y0 / kTile; ty <= b.y1 / kTile; ++ty)
-          for (int tx = b.x0 / kTile; tx <= b.x1 / kTile; ++tx)
-            bins.tris[fill[ty * bins.tiles_x + tx]++] = static_cast<std::int32_t>(t);
+          for (int tx = b.x0 / kTile; tx <= b.x1 / kTile; ++tx) {
+            const int i = ty * tiles_x + tx;
+            sc.bin[sc.offset[i] + fill[i]++] = static_cast<std::int32_t>(t);
+          }
       }
     }
   });
-  if (stats) *stats = st;
 
-  // Scan the non-empty tiles in parallel; each writes only its own pixels.
+  // Background everywhere (one parallel pass); the non-empty tiles then
+  // overwrite their covered pixels, each tile writing only its own pixels.
+  const std::int64_t P = static_cast<std::int64_t>(W) * H;
+  parallel_for(0, P, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
+    std::fill(tri_id + lo, tri_id + hi, 0);
+    std::fill(uv + 2 * lo, uv + 2 * hi, T(0));
+    std::fill(depth + lo, depth + hi, T(kBackgroundDepth));
+  });
   std::vector<int> busy;
   for (int i = 0; i < tiles; ++i)
-    if (bins.offset[i + 1] > bins.offset[i]) busy.push_back(i);
+    if (sc.offset[i + 1] > sc.offset[i]) busy.push_back(i);
   parallel_for(0, static_cast<std::int64_t>(busy.size()), 1, [&](std::int64_t lo, std::int64_t hi) {
-    std::vector<double> zbuf(kTile * kTile), lu(kTile * kTile), lv(kTile * kTile);
-    std::vector<std::int32_t> ids(kTile * kTile);
+    std::unique_ptr<TileBuffer> tb(new TileBuffer);
+    std::vector<std::int32_t> order;
     for (std::int64_t n = lo; n < hi; ++n) {
       const int tile = busy[n];
-      scan_tile(v, tris, bins, tile, W, H, zbuf.data(), ids.data(), lu.data(), lv.data());
-      // Copy the tile's covered pixels out.
-      const int tx0 = (tile % bins.tiles_x) * kTile, ty0 = (tile / bins.tiles_x) * kTile;
+      scan_tile(v, tris, sc, tiles_x, tile, W, H, s.front_to_back, order, *tb);
+      const int tx0 = (tile % tiles_x) * kTile, ty0 = (tile / tiles_x) * kTile;
       const int tw = std::min(kTile, W - tx0), th = std::min(kTile, H - ty0);
       for (int y = 0; y < th; ++y)
         for (int x = 0; x < tw; ++x) {
           const int q = y * kTile + x;
-          if (ids[q] < 0) continue;
+          if (tb->id[q] < 0) continue;
           const std::int64_t p = static_cast<std::int64_t>(ty0 + y) * W + tx0 + x;
-          tri_id[p] = ids[q] + 1;
-          uv[2 * p] = static_cast<T>(lu[q]);
-          uv[2 * p + 1] = static_cast<T>(lv[q]);
-          depth[p] = static_cast<T>(zbuf[q]);
+          tri_id[p] = tb->id[q] + 1;
+          uv[2 * p] = static_cast<T>(tb->u[q]);
+          uv[2 * p + 1] = static_cast<T>(tb->v[q]);
+          depth[p] = static_cast<T>(tb->z[q]);
         }
     }
   });
@@ -316,6 +391,21 @@ void pixel_grad_homogeneous(const detail::Vertices& vx, const std::int32_t* tri,
   }
 }
 
+// Per-call buffers of rasterize_backward, reused through a pool.
+struct BackwardScratch {
+  detail::Vertices v;
+  std::vector<double> acc_screen, acc_clip, contrib;
+  std::vector<std::int8_t> kind;
+};
+detail::ScratchPool<BackwardScratch> g_backward_pool;
+
+// data[0, n) = 0, in parallel.
+void parallel_fill(double* data, std::int64_t n) {
+  parallel_for(0, n, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
+    std::fill(data + lo, data + hi, 0.0);
+  });
+}
+
 }  // namespace
 
 template <class T>
@@ -330,17 +420,25 @@ void rasterize_backward(const T* clip, std::int64_t num_vertices, const std::int
   const int W = s.width, H = s.height;
   const std::int64_t P = static_cast<std::int64_t>(W) * H;
   detail::check_tri_ids(tri_id, P, num_tris, op);
-  const detail::Vertices v = detail::project_vertices(clip, num_vertices, W, H);
+  auto lease = g_backward_pool.take();
+  BackwardScratch& sc = *lease;
+  detail::project_vertices_into(clip, num_vertices, W, H, &sc.v);
+  const detail::Vertices& v = sc.v;
 
-  // Per-vertex accumulators: screen (x, y, z_ndc) and clip (x, y, z, w).
-  std::vector<double> acc_screen(3 * num_vertices, 0.0);
-  std::vector<double> acc_clip;
-  bool any_screen = false;
+  // Per-vertex accumulators: screen (x, y, z_ndc) and clip (x, y, z, w),
+  // zeroed in parallel (reused buffers).
+  std::vector<double>& acc_screen = sc.acc_screen;
+  std::vector<double>& acc_clip = sc.acc_clip;
+  acc_screen.resize(3 * static_cast<std::size_t>(num_vertices));
+  parallel_fill(acc_screen.data(), 3 * num_vertices);
+  bool any_screen = false, any_clip = false;
 
   // Pixels in chunks: contributions in parallel, then added in pixel order.
   constexpr std::int64_t kChunk = 16384;
-  std::vector<double> contrib(12 * kChunk);
-  std::vector<std::int8_t> kind(kChunk);  // 0 none, 1 screen, 2 homogeneous
+  std::vector<double>& contrib = sc.contrib;
+  std::vector<std::int8_t>& kind = sc.kind;  // 0 none, 1 screen, 2 homogeneous
+  contrib.resize(12 * kChunk);
+  kind.resize(kChunk);
   for (std::int64_t c0 = 0; c0 < P; c0 += kChunk) {
     const std::int64_t c1 = std::min(P, c0 + kChunk);
     parallel_for(c0, c1, 1024, [&](std::int64_t lo, std::int64_t hi) {
@@ -379,7 +477,11 @@ void rasterize_backward(const T* clip, std::int64_t num_vertices, const std::int
         for (int j = 0; j < 3; ++j)
           for (int d = 0; d < 3; ++d) acc_screen[3 * static_cast<std::size_t>(tri[j]) + d] += g[3 * j + d];
       } else {
-        if (acc_clip.empty()) acc_clip.assign(4 * num_vertices, 0.0);
+        if (!any_clip) {
+          acc_clip.resize(4 * static_cast<std::size_t>(num_vertices));
+          parallel_fill(acc_clip.data(), 4 * num_vertices);
+          any_clip = true;
+        }
         for (int j = 0; j < 3; ++j)
           for (int d = 0; d < 4; ++d) acc_clip[4 * static_cast<std::size_t>(tri[j]) + d] += g[4 * j + d];
       }
@@ -400,7 +502,7 @@ void rasterize_backward(const T* clip, std::int64_t num_vertices, const std::int
     // Only vertices of screen-form triangles (w > 0) carry gradient here.
     wdivide_backward(clip, num_vertices, g_ndc.data(), grad_clip);
   }
-  if (!acc_clip.empty())
+  if (any_clip)
     parallel_for(0, 4 * num_vertices, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
       for (std::int64_t i = lo; i < hi; ++i) grad_clip[i] += finite_cast<T>(acc_clip[i]);
     });

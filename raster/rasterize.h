@@ -28,6 +28,11 @@ struct RasterSettings {
   int width = 0;   // pixels, 1..16384
   int height = 0;  // pixels, 1..16384, width * height <= 2^28
   Cull cull = Cull::None;
+  // Scan each tile's triangles nearest first (by their smallest vertex depth)
+  // and skip triangles lying entirely behind everything the tile already
+  // holds. Same output bit for bit (the (depth, id) key decides, not the
+  // order); it only changes the amount of work (see docs/rasterizer.md).
+  bool front_to_back = false;
 };
 
 // Triangle counts from one rasterize_forward call (each triangle lands in

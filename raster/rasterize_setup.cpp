@@ -23,14 +23,17 @@ namespace {
 
 // Lowest i in [0, n) with bad(i), or -1. Blocks are fixed by n alone and the
 // lowest failing block wins, so the reported element never depends on threads.
-template <class Bad>
-std::int64_t first_bad(std::int64_t n, Bad bad) {
+// any_bad(lo, hi) is a branch-free (vectorizable) scan of a block; only a
+// block that fails it is searched element by element.
+template <class AnyBad, class Bad>
+std::int64_t first_bad(std::int64_t n, AnyBad any_bad, Bad bad) {
   constexpr std::int64_t kBlock = 65536;
   const std::int64_t blocks = (n + kBlock - 1) / kBlock;
   std::vector<std::int64_t> first(static_cast<std::size_t>(blocks), -1);
   parallel_for(0, blocks, 1, [&](std::int64_t b0, std::int64_t b1) {
     for (std::int64_t b = b0; b < b1; ++b) {
       const std::int64_t hi = std::min(n, (b + 1) * kBlock);
+      if (!any_bad(b * kBlock, hi)) continue;
       for (std::int64_t i = b * kBlock; i < hi; ++i)
         if (bad(i)) {
           first[b] = i;
@@ -51,9 +54,16 @@ void check_triangles(const std::int32_t* tris, std::int64_t num_tris, std::int64
     throw ValueError(std::string(op) + ": negative vertex or triangle count");
   if (num_tris > INT32_MAX - 1)
     throw ValueError(std::string(op) + ": too many triangles for int32 tri_id");
-  const std::int64_t j = first_bad(3 * num_tris, [&](std::int64_t i) {
-    return tris[i] < 0 || tris[i] >= num_vertices;
-  });
+  // An index is valid iff, as unsigned, it is below num_vertices (negatives wrap high).
+  const std::uint64_t n_ok = static_cast<std::uint64_t>(num_vertices);
+  const std::int64_t j = first_bad(
+      3 * num_tris,
+      [&](std::int64_t lo, std::int64_t hi) {
+        std::uint32_t worst = 0;
+        for (std::int64_t i = lo; i < hi; ++i) worst = std::max(worst, static_cast<std::uint32_t>(tris[i]));
+        return worst >= n_ok;
+      },
+      [&](std::int64_t i) { return tris[i] < 0 || tris[i] >= num_vertices; });
   if (j >= 0)
     throw IndexError(std::string(op) + ": tris[" + std::to_string(j / 3) + "][" + std::to_string(j % 3) +
                      "] = " + std::to_string(tris[j]) + " is outside [0, " +
@@ -62,9 +72,15 @@ void check_triangles(const std::int32_t* tris, std::int64_t num_tris, std::int64
 
 void check_tri_ids(const std::int32_t* tri_id, std::int64_t pixels, std::int64_t num_tris,
                    const char* op) {
-  const std::int64_t p = first_bad(pixels, [&](std::int64_t i) {
-    return tri_id[i] < 0 || tri_id[i] > num_tris;
-  });
+  const std::uint64_t n_ok = static_cast<std::uint64_t>(num_tris);
+  const std::int64_t p = first_bad(
+      pixels,
+      [&](std::int64_t lo, std::int64_t hi) {
+        std::uint32_t worst = 0;
+        for (std::int64_t i = lo; i < hi; ++i) worst = std::max(worst, static_cast<std::uint32_t>(tri_id[i]));
+        return worst > n_ok;
+      },
+      [&](std::int64_t i) { return tri_id[i] < 0 || tri_id[i] > num_tris; });
   if (p >= 0)
     throw IndexError(std::string(op) + ": tri_id[" + std::to_string(p) + "] = " +
                      std::to_string(tri_id[p]) + " is outside [0, " + std::to_string(num_tris) + "]");
@@ -72,7 +88,15 @@ void check_tri_ids(const std::int32_t* tri_id, std::int64_t pixels, std::int64_t
 
 template <class T>
 void check_finite(const T* values, std::int64_t count, const char* what, const char* op) {
-  const std::int64_t i = first_bad(count, [&](std::int64_t k) { return !std::isfinite(values[k]); });
+  // x - x is +0 for every finite x and NaN for Inf or NaN.
+  const std::int64_t i = first_bad(
+      count,
+      [&](std::int64_t lo, std::int64_t hi) {
+        unsigned bad = 0;
+        for (std::int64_t k = lo; k < hi; ++k) bad |= static_cast<unsigned>(!(values[k] - values[k] == T(0)));
+        return bad != 0;
+      },
+      [&](std::int64_t k) { return !std::isfinite(values[k]); });
   if (i >= 0)
     throw ValueError(std::string(op) + ": " + what + "[" + std::to_string(i) + "] is NaN or Inf");
 }
@@ -80,6 +104,14 @@ void check_finite(const T* values, std::int64_t count, const char* what, const c
 template <class T>
 Vertices project_vertices(const T* clip, std::int64_t n, int width, int height) {
   Vertices v;
+  project_vertices_into(clip, n, width, height, &v);
+  return v;
+}
+
+template <class T>
+void project_vertices_into(const T* clip, std::int64_t n, int width, int height, Vertices* out) {
+  Vertices& v = *out;
+  // resize() keeps the capacity, and writes nothing when the size is unchanged.
   v.clip.resize(4 * n);
   v.screen.resize(3 * n);
   v.front.resize(n);
@@ -98,7 +130,6 @@ Vertices project_vertices(const T* clip, std::int64_t n, int width, int height) 
       v.front[i] = ok;
     }
   });
-  return v;
 }
 
 namespace {
@@ -125,11 +156,17 @@ int clip_polygon(const double (*in)[4], int n, double (*out)[4], Dist dist) {
 }
 
 // Pixel-centre index range [lo, hi] of the interval [a, b], clamped to [0, n-1].
-void pixel_range(double a, double b, int n, std::int32_t* lo, std::int32_t* hi) {
-  a = std::clamp(a, -2.0, n + 2.0);
-  b = std::clamp(b, -2.0, n + 2.0);
-  *lo = std::max(0, static_cast<int>(std::ceil(a - 0.5)));
-  *hi = std::min(n - 1, static_cast<int>(std::floor(b - 0.5)));
+inline void pixel_range(double a, double b, int n, std::int32_t* lo, std::int32_t* hi) {
+  a = a < -2.0 ? -2.0 : a > n + 2.0 ? n + 2.0 : a;
+  b = b < -2.0 ? -2.0 : b > n + 2.0 ? n + 2.0 : b;
+  // Exact floor/ceil of values in [-2.5, n + 1.5] without a libm call:
+  // conversion truncates towards zero, then one compare fixes the direction.
+  const double lo_f = a - 0.5, hi_f = b - 0.5;
+  int lo_i = static_cast<int>(lo_f), hi_i = static_cast<int>(hi_f);
+  lo_i += lo_i < lo_f;  // ceil
+  hi_i -= hi_i > hi_f;  // floor
+  *lo = std::max(0, lo_i);
+  *hi = std::min(n - 1, hi_i);
 }
 
 // Canonical order of two vertices: by position, then by index.
@@ -323,5 +360,7 @@ template void check_finite<float>(const float*, std::int64_t, const char*, const
 template void check_finite<double>(const double*, std::int64_t, const char*, const char*);
 template Vertices project_vertices<float>(const float*, std::int64_t, int, int);
 template Vertices project_vertices<double>(const double*, std::int64_t, int, int);
+template void project_vertices_into<float>(const float*, std::int64_t, int, int, Vertices*);
+template void project_vertices_into<double>(const double*, std::int64_t, int, int, Vertices*);
 
 }  // namespace gr::raster::detail

@@ -9,6 +9,8 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
+#include <mutex>
 #include <vector>
 
 namespace gr::raster::detail {
@@ -34,6 +36,47 @@ struct Vertices {
 };
 template <class T>
 Vertices project_vertices(const T* clip, std::int64_t num_vertices, int width, int height);
+// Same, into `out`, reusing its buffers (no allocation when they are big enough).
+template <class T>
+void project_vertices_into(const T* clip, std::int64_t num_vertices, int width, int height,
+                           Vertices* out);
+
+// A free list of scratch objects reused across calls, so large per-call
+// buffers are allocated (and page-faulted) once, not on every call. Each call
+// takes its own object, so calls may run concurrently or nest (a thread that
+// waits in a parallel_for may run another rasterize task).
+template <class S>
+class ScratchPool {
+ public:
+  class Lease {
+   public:
+    Lease(ScratchPool* pool, std::unique_ptr<S> s) : pool_(pool), s_(std::move(s)) {}
+    Lease(const Lease&) = delete;
+    Lease& operator=(const Lease&) = delete;
+    ~Lease() { pool_->give(std::move(s_)); }
+    S& operator*() { return *s_; }
+    S* operator->() { return s_.get(); }
+
+   private:
+    ScratchPool* pool_;
+    std::unique_ptr<S> s_;
+  };
+  Lease take() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (free_.empty()) return Lease(this, std::make_unique<S>());
+    std::unique_ptr<S> s = std::move(free_.back());
+    free_.pop_back();
+    return Lease(this, std::move(s));
+  }
+
+ private:
+  void give(std::unique_ptr<S> s) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    free_.push_back(std::move(s));
+  }
+  std::mutex mutex_;
+  std::vector<std::unique_ptr<S>> free_;
+};
 
 // A triangle uses homogeneous (clipped) setup when a vertex is not in front.
 inline bool needs_clipping(const Vertices& v, const std::int32_t* tri) {

@@ -32,12 +32,12 @@ struct GBuffer {
 };
 
 GBuffer render(const std::vector<double>& clip, const std::vector<std::int32_t>& tris, int W, int H,
-               Cull cull = Cull::None) {
+               Cull cull = Cull::None, bool front_to_back = false) {
   GBuffer g;
   g.id.resize(W * H);
   g.uv.resize(2 * W * H);
   g.depth.resize(W * H);
-  RasterSettings s{W, H, cull};
+  RasterSettings s{W, H, cull, front_to_back};
   rasterize_forward(clip.data(), static_cast<std::int64_t>(clip.size() / 4), tris.data(),
                     static_cast<std::int64_t>(tris.size() / 3), s, g.id.data(), g.uv.data(),
                     g.depth.data(), &g.stats);
@@ -322,6 +322,79 @@ TEST_CASE("rasterize: G-buffer and gradients are identical for 1 and 2 threads a
   CHECK(gs.uv == g1.uv);
   CHECK(gs.depth == g1.depth);
   CHECK(backward(clip, shuffled, W, H, gs.id, gu, &gd) == grad1);
+}
+
+// Overlapping layers: big quads that cover whole tiles at a few depths (some
+// equal, so ties decide), many small triangles in between, slivers, and some
+// triangles crossing w = 0.
+void layered_scene(int W, int H, std::vector<double>& clip, std::vector<std::int32_t>& tris) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(0, 1);
+  auto quad = [&](double z) {
+    const std::int32_t b = static_cast<std::int32_t>(clip.size() / 4);
+    for (const auto& xy : {std::array<double, 2>{-3, W + 3.0}, {W + 3.0, W + 3.0}, {W + 3.0, -3}, {-3, -3}})
+      push_screen_vertex(clip, xy[0], xy[1], z, 1.0, W, H);
+    tris.insert(tris.end(), {b, b + 1, b + 2, b, b + 2, b + 3});
+  };
+  for (int t = 0; t < 1500; ++t) {
+    if (t % 300 == 0) quad(0.2 + 0.1 * (t / 600));  // z = 0.2, 0.2, 0.3, 0.3, 0.4
+    const std::int32_t b = static_cast<std::int32_t>(clip.size() / 4);
+    const double cx = u(rng) * W, cy = u(rng) * H, r = t % 7 == 0 ? 25 : 3, z = 2 * u(rng) - 1;
+    for (int k = 0; k < 3; ++k) {
+      const double w = (t % 97 == 0 && k == 0) ? -0.3 : 0.5 + u(rng);
+      const double sliver = t % 13 == 0 ? 0.01 : 1.0;
+      push_screen_vertex(clip, cx + r * (u(rng) - 0.5), cy + sliver * r * (u(rng) - 0.5), z + 0.05 * u(rng), w, W, H);
+    }
+    tris.insert(tris.end(), {b, b + 1, b + 2});
+  }
+}
+
+TEST_CASE("rasterize: front-to-back order gives the identical G-buffer",
+          "[raster][rasterize][determinism]") {
+  const int W = 140, H = 100;
+  std::vector<double> clip;
+  std::vector<std::int32_t> tris;
+  layered_scene(W, H, clip, tris);
+  const GBuffer ref = render(clip, tris, W, H);
+  CHECK(ref.stats.clipped_near > 0);
+  for (int threads : {1, 2}) {
+    gr::set_num_threads(threads);
+    for (Cull cull : {Cull::None, Cull::Back}) {
+      const GBuffer a = render(clip, tris, W, H, cull, false);
+      const GBuffer b = render(clip, tris, W, H, cull, true);
+      CHECK(a.id == b.id);
+      CHECK(a.uv == b.uv);
+      CHECK(a.depth == b.depth);
+      if (cull == Cull::None) {
+        CHECK(b.id == ref.id);
+        CHECK(b.depth == ref.depth);
+      }
+    }
+  }
+  gr::set_num_threads(0);
+}
+
+TEST_CASE("rasterize: reused scratch buffers leave no trace between calls of different sizes",
+          "[raster][rasterize][determinism]") {
+  const int W = 140, H = 100;
+  std::vector<double> big_clip, small_clip;
+  std::vector<std::int32_t> big_tris, small_tris;
+  layered_scene(W, H, big_clip, big_tris);
+  screen_grid(3, 10, 10, 20, 2.0, 5, 64, 48, small_clip, small_tris);
+  const GBuffer first = render(big_clip, big_tris, W, H);
+  const GBuffer small_first = render(small_clip, small_tris, 64, 48);
+  const GBuffer again = render(big_clip, big_tris, W, H, Cull::None, true);
+  const GBuffer small_again = render(small_clip, small_tris, 64, 48);
+  CHECK(again.id == first.id);
+  CHECK(again.uv == first.uv);
+  CHECK(again.depth == first.depth);
+  CHECK(small_again.id == small_first.id);
+  CHECK(small_again.uv == small_first.uv);
+  // Backward twice (its accumulators are reused too).
+  const std::vector<double> gu = random_vector(2 * W * H, -1, 1, 3), gd = random_vector(W * H, -1, 1, 4);
+  const std::vector<double> g1 = backward(big_clip, big_tris, W, H, first.id, gu, &gd);
+  (void)backward(small_clip, small_tris, 64, 48, small_first.id, random_vector(2 * 64 * 48, -1, 1, 5), nullptr);
+  CHECK(backward(big_clip, big_tris, W, H, first.id, gu, &gd) == g1);
 }
 
 TEST_CASE("rasterize: gradient w.r.t. clip coordinates matches finite differences",
