@@ -39,7 +39,12 @@ struct AntialiasOptions {
 // ("outside") is followed from the front triangle across interior edges; the
 // first silhouette edge (boundary, non-manifold, or its neighbour folds onto
 // the same screen side) it crosses, if any before the outside centre, crosses at
-// t = E(inside) / (E(inside) - E(outside)); then
+// t = E(inside) / (E(inside) - E(outside)). The pair blends only if its axis
+// owns that edge: horizontal pairs own edges with |dy| >= |dx| (screen space,
+// closer to vertical), vertical pairs those with |dx| > |dy|, so every edge
+// crossing is blended exactly once, across the axis most perpendicular to it
+// (blended colours then approximate the pixel's covered area to first order,
+// and d(image)/d(edge position) the covered-area rate); then
 //   t > 1/2:  out[outside] += (t - 1/2) (c[inside] - c[outside])
 //   t <= 1/2: out[inside]  += (1/2 - t) (c[outside] - c[inside]).
 // Adjoints: to the image (identity plus the blend weights) and, through

@@ -42,6 +42,18 @@ int surface_side(const detail::Vertices& v, std::int32_t a, std::int32_t b, std:
 // Interior edges crossed at most between two pixel centres before giving up.
 constexpr int kMaxWalk = 16;
 
+// Each silhouette crossing is blended by the pixel pairs along the screen axis
+// most perpendicular to the edge, so it is counted once: horizontal pairs own
+// edges with |dy| >= |dx| (closer to vertical, ties included), vertical pairs
+// those with |dx| > |dy|. Along that axis the box blend below is the pixel's
+// covered area to first order; blending along both axes counted it twice.
+bool pair_owns_edge(bool horizontal, const detail::Vertices& v, std::int32_t a, std::int32_t b) {
+  const double* sa = &v.screen[3 * static_cast<std::size_t>(a)];
+  const double* sb = &v.screen[3 * static_cast<std::size_t>(b)];
+  const double dx = std::abs(sb[0] - sa[0]), dy = std::abs(sb[1] - sa[1]);
+  return horizontal ? dy >= dx : dx > dy;
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------------------
@@ -193,8 +205,9 @@ void antialias_forward(const T* image, int channels, const std::int32_t* tri_id,
 
   // The pair (p, q): starting in the front triangle at its pixel centre, walk
   // along the segment across interior edges (the surface continues) until a
-  // silhouette edge is crossed before the other centre (blend) or not (none).
-  auto evaluate = [&](std::int64_t p, std::int64_t q, std::vector<AntialiasPair>& found) {
+  // silhouette edge is crossed before the other centre (blend, if the pair's
+  // axis owns that edge) or not (none).
+  auto evaluate = [&](std::int64_t p, std::int64_t q, bool horizontal, std::vector<AntialiasPair>& found) {
     const std::int32_t ip = tri_id[p], iq = tri_id[q];
     // Front: smaller (depth, id) key; background (id 0) is behind everything.
     const bool p_front = iq == 0 || (ip != 0 && (depth[p] < depth[q] || (depth[p] == depth[q] && ip < iq)));
@@ -213,7 +226,8 @@ void antialias_forward(const T* image, int channels, const std::int32_t* tri_id,
       const std::int64_t nb = topology.neighbour[3 * cur + ex.k];
       const int side_n = nb >= 0 ? surface_side(v, a, b, tris[nb], W, H) : 0;  // tris[3n + k'] = opposite vertex
       if (nb < 0 || side_n == 0 || side_n == ex.side) {
-        found.push_back({in, outp, a, b, std::max(ex.t, 0.0)});  // t < 0: rounding at a centre on the edge
+        if (pair_owns_edge(horizontal, v, a, b))
+          found.push_back({in, outp, a, b, std::max(ex.t, 0.0)});  // t < 0: rounding at a centre on the edge
         return;
       }
       // Interior edge: continue in the neighbour, which entered through its edge k'.
@@ -232,11 +246,11 @@ void antialias_forward(const T* image, int channels, const std::int32_t* tri_id,
         const std::int64_t p = y * W + x;
         if (x + 1 < W && row[x] != row[x + 1]) {
           ++count;
-          evaluate(p, p + 1, rows[y]);
+          evaluate(p, p + 1, true, rows[y]);
         }
         if (y + 1 < H && row[x] != row[x + W]) {
           ++count;
-          evaluate(p, p + W, rows[y]);
+          evaluate(p, p + W, false, rows[y]);
         }
       }
       candidates[y] = count;

@@ -4,8 +4,13 @@
 // triangle ids differ, the segment between the two centres is followed from
 // the front triangle (smaller (depth, id) key; background is behind
 // everything) across interior edges; if it crosses a silhouette edge before the
-// other centre, the crossing position t blends the two colours (a box filter
-// across the edge). Only pixels next to a tri_id change are visited.
+// other centre, and the pair's axis owns that edge, the crossing position t
+// blends the two colours (a box filter across the edge). Horizontal pairs own
+// edges closer to vertical (|dy| >= |dx| in screen space), vertical pairs
+// those closer to horizontal (|dx| > |dy|), so each crossing is blended once,
+// along the axis most perpendicular to it, and the blended value is the
+// pixel's covered area to first order. Only pixels next to a tri_id change
+// are visited.
 // The adjoint goes to the colours of both pixels and, through t, to the screen
 // positions of the edge's two vertices, then through the viewport and
 // w-divide adjoints to the clip-space positions. Formulas, the silhouette
@@ -51,12 +56,14 @@ struct AntialiasPair {
 
 struct AntialiasStats {
   std::int64_t candidate_pairs = 0;  // neighbouring pixels with different tri_id
-  std::int64_t blended_pairs = 0;    // of those, crossed by a silhouette edge
+  std::int64_t blended_pairs = 0;    // of those, crossed by a silhouette edge their axis owns
 };
 
 // image, out: H x W x C row-major (out may not alias image). tri_id, depth:
 // H x W, the G-buffer of rasterize_forward on the same clip, tris, W, H.
-// clip: N x 4. For each blended pair, with t the crossing position:
+// clip: N x 4. For each blended pair (a silhouette edge a-b crossed between the
+// centres; horizontal pairs only when |dy| >= |dx| of a-b, vertical pairs only
+// when |dx| > |dy|), with t the crossing position:
 //   t > 1/2: out[outside] += (t - 1/2) (image[inside] - image[outside])
 //   t <= 1/2: out[inside] += (1/2 - t) (image[outside] - image[inside])
 // (every other pixel is copied). Pairs are appended to *pairs if non-null

@@ -136,6 +136,32 @@ TEST_CASE("antialias: rasterize -> interpolate -> antialias gradients w.r.t. cli
                     GradcheckOptions{3e-5});
 }
 
+TEST_CASE("antialias: gradients on edges owned by horizontal and by vertical pixel pairs match finite differences",
+          "[ops][antialias][gradcheck]") {
+  // Two overlapping triangles (the second nearer: a silhouette over a surface and
+  // over the background). Edge angles from vertical: 14-15 deg (owned by horizontal
+  // pairs) and 60-72 deg (owned by vertical pairs), none near the 45 deg switch.
+  const int W = 32, H = 28;
+  Tensor clip = Tensor::from_values({-0.51, -0.58, 0.1, 1.0, -0.24, 0.69, 0.1, 1.0, 0.73, 0.13, 0.1, 1.0,
+                                     0.04, -0.81, -0.2, 1.0, 0.62, -0.43, -0.2, 1.0, -0.11, -0.15, -0.2, 1.0},
+                                    {6, 4}, DType::Float64)
+                     .set_requires_grad();
+  Tensor tris = Tensor::from_vector<std::int32_t>({0, 1, 2, 3, 4, 5}, {2, 3});
+  Tensor colours = gr::testing::random_input({6, 3}, 0.1, 0.9, 29);
+  REQUIRE(edge_margin(clip, tris, W, H) > 5e-3);  // steps of 6e-5 in clip move edges < 1e-3 px
+  raster::AntialiasStats stats;
+  AntialiasOptions opt;
+  opt.stats = &stats;
+  {
+    NoGradGuard ng;
+    render_aa(clip, colours, tris, W, H, opt);
+  }
+  CHECK(stats.blended_pairs > 30);
+  require_gradcheck("antialias slanted edges (clip, colours)",
+                    [&](const Inputs& in) { return render_aa(in[0], in[1], tris, W, H); }, {clip, colours},
+                    GradcheckOptions{3e-5});
+}
+
 TEST_CASE("antialias: gradients reach model-space vertices, eye and fov through transform_points",
           "[ops][antialias][gradcheck]") {
   Scene s = make_scene(1, 28, 24);
