@@ -43,6 +43,12 @@ void expand_kernel(const T* src, const Dims& src_dims, T* out, const Dims& out_d
     if (src_dims[d] == 1) s[d] = 0;
   const std::int64_t inner = out_dims[3];
   const std::int64_t rows = out_dims[0] * out_dims[1] * out_dims[2];
+  if (src_dims[0] * src_dims[1] * src_dims[2] * src_dims[3] == 1) {  // one value: a flat fill
+    const T value = src[0];
+    parallel_for(0, rows * inner, kElementwiseGrain,
+                 [&](std::int64_t lo, std::int64_t hi) { std::fill(out + lo, out + hi, value); });
+    return;
+  }
   const std::int64_t grain = std::max<std::int64_t>(1, kElementwiseGrain / std::max<std::int64_t>(inner, 1));
   parallel_for(0, rows, grain, [&](std::int64_t lo, std::int64_t hi) {
     for (std::int64_t r = lo; r < hi; ++r) {
@@ -120,6 +126,29 @@ void reduce_kernel(const T* g, const Dims& g_dims, T* out, const Dims& t_dims) {
   }
 }
 
+// Sets v's strides if `t` broadcasts to `out` as a full, one-element, row or
+// column operand; false for any other pattern.
+bool in_place_strides(const Shape& t, const Shape& out, RowView& v) {
+  v.k = out.rank() == 0 ? 1 : out[-1];
+  v.rows = v.k == 0 ? 0 : out.numel() / v.k;
+  const bool last_is_k = t.rank() >= 1 && t[-1] == v.k;
+  const bool last_is_one = t.rank() >= 1 && t[-1] == 1;
+  if (t == out) {
+    v.row_stride = v.k, v.col_stride = 1;
+  } else if (t.numel() == 1) {
+    v.row_stride = 0, v.col_stride = 0;
+  } else if (last_is_k && t.numel() == v.k) {  // [1, .., 1, k]: one row, repeated
+    v.row_stride = 0, v.col_stride = 1;
+  } else if (last_is_one && t.numel() == v.rows) {
+    // [..., 1] whose leading extents (each 1 or equal to out's) multiply to
+    // rows: they all equal out's, so row r of the output reads element r.
+    v.row_stride = 1, v.col_stride = 0;
+  } else {
+    return false;
+  }
+  return true;
+}
+
 }  // namespace
 
 Shape broadcast_shapes(const Shape& a, const Shape& b, const std::string& op) {
@@ -151,9 +180,31 @@ Tensor expand_raw_full(const Tensor& t, const Shape& out) {
   return r;
 }
 
+RowView row_view(const Tensor& t, const Shape& out) {
+  RowView v;
+  v.tensor = t;
+  if (!in_place_strides(t.shape(), out, v)) {
+    v.tensor = expand_raw_full(t, out);
+    v.row_stride = v.k, v.col_stride = 1;
+    v.materialized = true;
+  }
+  return v;
+}
+
 Tensor reduce_raw(const Tensor& g, const Shape& target) {
   if (g.shape() == target) return g;
   Tensor r = Tensor::empty(target, g.dtype());
+  // A row or column broadcast: one contiguous pass, summed in the same order as
+  // reduce_kernel below (except a row of 64+ elements, which it sums unblocked).
+  RowView v;
+  if (in_place_strides(target, g.shape(), v) && (v.row() || v.column())) {
+    dispatch_float(g.dtype(), "sum", [&](auto tag) {
+      using T = decltype(tag);
+      const T* pg = g.data<T>();
+      sum_into_operand<T>(v, [pg](std::int64_t i, std::int64_t, std::int64_t) { return pg[i]; }, r.data<T>());
+    });
+    return r;
+  }
   dispatch_float(g.dtype(), "sum", [&](auto tag) {
     using T = decltype(tag);
     reduce_kernel(g.data<T>(), padded(g.shape()), r.data<T>(), padded(target));

@@ -2,9 +2,12 @@
 //
 // Every op here is one of two shapes, written once: a unary map y = f(x) with
 // dL/dx = df(g, x, y), or a broadcasting binary map y = f(a, b) with
-// dL/da = da(g, a, b, y) and dL/db = db(g, a, b, y). Operands are either full
-// (same shape as the output) or one-element scalars, after expand_raw; the
-// loops specialize on that so they stay contiguous and vectorizable.
+// dL/da = da(g, a, b, y) and dL/db = db(g, a, b, y). Binary operands are read
+// in place through a detail::RowView (full, scalar, a repeated row, or a
+// column repeated along the last axis; other broadcasts are materialized), and
+// an operand's adjoint is summed over the positions that read it as it is
+// computed, so broadcasting costs neither a copy nor a full-size temporary.
+// Full/scalar loops stay flat, contiguous and vectorizable.
 #include "ops/elementwise.h"
 
 #include <cmath>
@@ -34,68 +37,86 @@ void map1(const T* a, bool a_full, T* out, std::int64_t n, F f) {
   });
 }
 
-// out[i] = f(a[i], b[i]) with either operand possibly a scalar.
-template <class T, class F>
-void map2(const T* a, bool a_full, const T* b, bool b_full, T* out, std::int64_t n, F f) {
-  parallel_for(0, n, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
-    if (a_full && b_full) {
-      for (std::int64_t i = lo; i < hi; ++i) out[i] = f(a[i], b[i]);
-    } else if (a_full) {
-      const T bv = b[0];
-      for (std::int64_t i = lo; i < hi; ++i) out[i] = f(a[i], bv);
-    } else if (b_full) {
-      const T av = a[0];
-      for (std::int64_t i = lo; i < hi; ++i) out[i] = f(av, b[i]);
-    } else {
-      for (std::int64_t i = lo; i < hi; ++i) out[i] = f(a[0], b[0]);
-    }
-  });
+// Element (r, j) of an operand read through a RowView.
+template <class T>
+struct Reader {
+  const T* p;
+  std::int64_t rs, cs;
+  T operator()(std::int64_t r, std::int64_t j) const { return p[r * rs + j * cs]; }
+};
+
+template <class T>
+Reader<T> reader(const detail::RowView& v) {
+  return {v.tensor.template data<T>(), v.row_stride, v.col_stride};
 }
 
-// out[i] = f(g[i], a[i], b[i], y[i]) for adjoints; g and y are full.
+std::int64_t row_grain(std::int64_t k) { return std::max<std::int64_t>(1, kElementwiseGrain / std::max<std::int64_t>(1, k)); }
+
+// out[r, j] = f(a(r, j), b(r, j)) over an output of rows x k.
 template <class T, class F>
-void map_adjoint(const T* g, const T* a, bool a_full, const T* b, bool b_full, const T* y, T* out,
-                 std::int64_t n, F f) {
-  parallel_for(0, n, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
-    if (a_full && b_full) {
-      for (std::int64_t i = lo; i < hi; ++i) out[i] = f(g[i], a[i], b[i], y[i]);
-    } else if (a_full) {
-      const T bv = b[0];
-      for (std::int64_t i = lo; i < hi; ++i) out[i] = f(g[i], a[i], bv, y[i]);
-    } else if (b_full) {
-      const T av = a[0];
-      for (std::int64_t i = lo; i < hi; ++i) out[i] = f(g[i], av, b[i], y[i]);
-    } else {
-      for (std::int64_t i = lo; i < hi; ++i) out[i] = f(g[i], a[0], b[0], y[i]);
+void map2(const detail::RowView& va, const detail::RowView& vb, T* out, F f) {
+  const Reader<T> a = reader<T>(va), b = reader<T>(vb);
+  const std::int64_t k = va.k;
+  parallel_for(0, va.rows, row_grain(k), [&](std::int64_t r0, std::int64_t r1) {
+    const std::int64_t lo = r0 * k, hi = r1 * k;
+    if (va.full() && vb.full()) {
+      for (std::int64_t i = lo; i < hi; ++i) out[i] = f(a.p[i], b.p[i]);
+    } else if (va.full() && vb.scalar()) {
+      const T bv = b.p[0];
+      for (std::int64_t i = lo; i < hi; ++i) out[i] = f(a.p[i], bv);
+    } else if (va.scalar() && vb.full()) {
+      const T av = a.p[0];
+      for (std::int64_t i = lo; i < hi; ++i) out[i] = f(av, b.p[i]);
+    } else {  // a row or a column operand: walk the output row by row
+      for (std::int64_t r = r0; r < r1; ++r) {
+        const T* ar = a.p + r * a.rs;
+        const T* br = b.p + r * b.rs;
+        T* o = out + r * k;
+        for (std::int64_t j = 0; j < k; ++j) o[j] = f(ar[j * a.cs], br[j * b.cs]);
+      }
     }
   });
 }
 
 bool is_full(const Tensor& t, std::int64_t n) { return t.numel() == n; }
 
-// Two operands checked, broadcast to a common shape (scalars kept as scalars).
+// Two operands checked and viewed against their broadcast shape.
 struct Operands {
   Shape shape;
-  std::int64_t n;
-  Tensor a, b;  // full (shape) or one-element
+  detail::RowView a, b;
 };
 
 Operands broadcast_operands(const char* name, const Tensor& a, const Tensor& b) {
   check_same_float(a, b, name);
   const Shape shape = detail::broadcast_shapes(a.shape(), b.shape(), name);
-  return {shape, shape.numel(), expand_raw(a, shape), expand_raw(b, shape)};
+  return {shape, detail::row_view(a, shape), detail::row_view(b, shape)};
 }
 
 // out = f(a, b) elementwise over broadcast operands.
 template <class F>
 Tensor map_operands(const char* name, const Operands& o, F f) {
-  Tensor out = Tensor::empty(o.shape, o.a.dtype());
-  dispatch_float(o.a.dtype(), name, [&](auto tag) {
+  Tensor out = Tensor::empty(o.shape, o.a.tensor.dtype());
+  dispatch_float(out.dtype(), name, [&](auto tag) {
     using T = decltype(tag);
-    map2(o.a.data<T>(), is_full(o.a, o.n), o.b.data<T>(), is_full(o.b, o.n), out.data<T>(), o.n,
-         [&](T x, T z) { return T(f(x, z)); });
+    map2<T>(o.a, o.b, out.data<T>(), [&](T x, T z) { return T(f(x, z)); });
   });
   return out;
+}
+
+// Adds the adjoint of operand `input` (read through v) to ctx: the sum, over
+// the output positions that read each operand element, of term(i, r, j)
+// (see detail::sum_into_operand; term returns T).
+template <class T, class Term>
+void accumulate_operand(AdjointContext& ctx, std::size_t input, const detail::RowView& v, Term term) {
+  if (v.materialized) {  // full-size gradient, then summed back to the operand's shape
+    Tensor full = Tensor::empty(v.tensor.shape(), v.tensor.dtype());
+    detail::sum_into_operand<T>(v, term, full.data<T>());
+    ctx.accumulate(input, reduce_raw(full, ctx.input_shape(input)));
+    return;
+  }
+  Tensor grad = Tensor::empty(ctx.input_shape(input), ctx.input_dtype(input));
+  detail::sum_into_operand<T>(v, term, grad.data<T>());
+  ctx.accumulate(input, grad);
 }
 
 // y = f(x); dL/dx = df(g, x, y).
@@ -114,8 +135,11 @@ Tensor unary(const char* name, const Tensor& a, Fwd fwd, Bwd df) {
       Tensor ga = Tensor::empty(a.shape(), a.dtype());
       dispatch_float(a.dtype(), name, [&](auto tag) {
         using T = decltype(tag);
-        map_adjoint(g.data<T>(), a.data<T>(), true, y.data<T>(), true, y.data<T>(), ga.data<T>(), a.numel(),
-                    [&](T gi, T x, T, T yi) { return T(df(gi, x, yi)); });
+        const T *pg = g.data<T>(), *px = a.data<T>(), *py = y.data<T>();
+        T* d = ga.data<T>();
+        parallel_for(0, a.numel(), kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
+          for (std::int64_t i = lo; i < hi; ++i) d[i] = T(df(pg[i], px[i], py[i]));
+        });
       });
       ctx.accumulate(0, ga);
     });
@@ -124,33 +148,48 @@ Tensor unary(const char* name, const Tensor& a, Fwd fwd, Bwd df) {
 }
 
 // y = f(a, b) with broadcasting; dL/da = da(g, a, b, y), dL/db = db(g, a, b, y).
+// The output y is kept for the adjoint only when `uses_y` (else it is passed as 0).
 template <class Fwd, class DA, class DB>
-Tensor binary(const char* name, const Tensor& a, const Tensor& b, Fwd fwd, DA da, DB db) {
+Tensor binary(const char* name, const Tensor& a, const Tensor& b, bool uses_y, Fwd fwd, DA da, DB db) {
   const Operands o = broadcast_operands(name, a, b);
   Tensor out = map_operands(name, o, fwd);
   if (should_record({a, b})) {
-    Tensor y = out.detach();
-    record(name, {a, b}, {&out}, [ea = o.a, eb = o.b, y, da, db, name](AdjointContext& ctx) {
+    Tensor y = uses_y ? out.detach() : Tensor();
+    record(name, {a, b}, {&out}, [va = o.a, vb = o.b, y, da, db, name](AdjointContext& ctx) {
       const Tensor& g = ctx.grad_output();
-      const std::int64_t n = g.numel();
       dispatch_float(g.dtype(), name, [&](auto tag) {
         using T = decltype(tag);
-        auto one_side = [&](std::size_t input, auto f) {
-          if (!ctx.needs_grad(input)) return;
-          Tensor full = Tensor::empty(g.shape(), g.dtype());
-          map_adjoint(g.data<T>(), ea.data<T>(), is_full(ea, n), eb.data<T>(), is_full(eb, n), y.data<T>(),
-                      full.data<T>(), n, [&](T gi, T x, T z, T yi) { return T(f(gi, x, z, yi)); });
-          ctx.accumulate(input, reduce_raw(full, ctx.input(input).shape()));
+        const Reader<T> ra = reader<T>(va), rb = reader<T>(vb);
+        const T* pg = g.data<T>();
+        const T* py = y.defined() ? y.data<T>() : nullptr;
+        // y_at(i) is y[i], or 0 when y is not kept.
+        auto side_with = [&](std::size_t input, const detail::RowView& v, auto f, auto y_at) {
+          if (va.full() && vb.full()) {  // flat, vectorizable
+            const T *pa = ra.p, *pb = rb.p;
+            accumulate_operand<T>(ctx, input, v, [&](std::int64_t i, std::int64_t, std::int64_t) {
+              return T(f(pg[i], pa[i], pb[i], y_at(i)));
+            });
+          } else {
+            accumulate_operand<T>(ctx, input, v, [&](std::int64_t i, std::int64_t r, std::int64_t j) {
+              return T(f(pg[i], ra(r, j), rb(r, j), y_at(i)));
+            });
+          }
         };
-        one_side(0, da);
-        one_side(1, db);
+        auto one_side = [&](std::size_t input, const detail::RowView& v, auto f) {
+          if (!ctx.needs_grad(input)) return;
+          if (py) side_with(input, v, f, [py](std::int64_t i) { return py[i]; });
+          else side_with(input, v, f, [](std::int64_t) { return T(0); });
+        };
+        one_side(0, va, da);
+        one_side(1, vb, db);
       });
     });
   }
   return out;
 }
 
-// add/sub: the adjoint is +-g summed back to each operand's shape (no map needed).
+// add/sub: the adjoint is +-g summed back to each operand's shape (g itself
+// for a full operand of a's shape).
 Tensor add_or_sub(const char* name, const Tensor& a, const Tensor& b, bool subtract) {
   const Operands o = broadcast_operands(name, a, b);
   Tensor out = subtract ? map_operands(name, o, [](auto x, auto z) { return x - z; })
@@ -158,9 +197,9 @@ Tensor add_or_sub(const char* name, const Tensor& a, const Tensor& b, bool subtr
   if (should_record({a, b})) {
     record(name, {a, b}, {&out}, [subtract](AdjointContext& ctx) {
       const Tensor& g = ctx.grad_output();
-      if (ctx.needs_grad(0)) ctx.accumulate(0, reduce_raw(g, ctx.input(0).shape()));
+      if (ctx.needs_grad(0)) ctx.accumulate(0, reduce_raw(g, ctx.input_shape(0)));
       if (ctx.needs_grad(1)) {
-        Tensor gb = reduce_raw(g, ctx.input(1).shape());
+        Tensor gb = reduce_raw(g, ctx.input_shape(1));
         ctx.accumulate(1, subtract ? neg(gb) : gb);
       }
     });
@@ -219,19 +258,19 @@ Tensor add(const Tensor& a, const Tensor& b) { return add_or_sub("add", a, b, fa
 Tensor sub(const Tensor& a, const Tensor& b) { return add_or_sub("sub", a, b, true); }
 
 Tensor mul(const Tensor& a, const Tensor& b) {
-  return binary("mul", a, b, [](auto x, auto z) { return x * z; },
+  return binary("mul", a, b, false, [](auto x, auto z) { return x * z; },
                 [](auto g, auto, auto z, auto) { return g * z; },
                 [](auto g, auto x, auto, auto) { return g * x; });
 }
 
 Tensor div(const Tensor& a, const Tensor& b) {
-  return binary("div", a, b, [](auto x, auto z) { return x / z; },
+  return binary("div", a, b, true, [](auto x, auto z) { return x / z; },
                 [](auto g, auto, auto z, auto) { return g / z; },
                 [](auto g, auto, auto z, auto y) { return -(g * y) / z; });
 }
 
 Tensor pow(const Tensor& a, const Tensor& b) {
-  return binary("pow", a, b, [](auto x, auto z) { return std::pow(x, z); },
+  return binary("pow", a, b, true, [](auto x, auto z) { return std::pow(x, z); },
                 [](auto g, auto x, auto z, auto) {
                   using T = decltype(g);
                   if (x == T(0) && z < T(1)) return T(0);
@@ -274,13 +313,13 @@ Tensor pow(const Tensor& a, double p) {
 }
 
 Tensor minimum(const Tensor& a, const Tensor& b) {
-  return binary("minimum", a, b, [](auto x, auto z) { return z < x ? z : x; },
+  return binary("minimum", a, b, false, [](auto x, auto z) { return z < x ? z : x; },
                 [](auto g, auto x, auto z, auto) { return x < z ? g : x == z ? g / 2 : decltype(g)(0); },
                 [](auto g, auto x, auto z, auto) { return z < x ? g : x == z ? g / 2 : decltype(g)(0); });
 }
 
 Tensor maximum(const Tensor& a, const Tensor& b) {
-  return binary("maximum", a, b, [](auto x, auto z) { return z > x ? z : x; },
+  return binary("maximum", a, b, false, [](auto x, auto z) { return z > x ? z : x; },
                 [](auto g, auto x, auto z, auto) { return x > z ? g : x == z ? g / 2 : decltype(g)(0); },
                 [](auto g, auto x, auto z, auto) { return z > x ? g : x == z ? g / 2 : decltype(g)(0); });
 }
@@ -380,7 +419,7 @@ Tensor where(const Tensor& mask, const Tensor& a, const Tensor& b) {
               d[i] = ((m[m_full ? i : 0] != T(0)) == take_when_set) ? gp[i] : T(0);
           });
         });
-        ctx.accumulate(input, reduce_raw(full, ctx.input(input).shape()));
+        ctx.accumulate(input, reduce_raw(full, ctx.input_shape(input)));
       }
     });
   }

@@ -110,7 +110,7 @@ Tensor dot(const Tensor& a, const Tensor& b) {
               for (std::int64_t j = 0; j < k; ++j) pf[r * k + j] = gr * py[r * k + j];
             }
           });
-          ctx.accumulate(input, reduce_raw(full, ctx.input(input).shape()));
+          ctx.accumulate(input, reduce_raw(full, ctx.input_shape(input)));
         };
         side(0, eb);
         side(1, ea);
@@ -150,12 +150,12 @@ Tensor cross(const Tensor& a, const Tensor& b) {
         if (ctx.needs_grad(0)) {
           Tensor full = Tensor::empty(g.shape(), g.dtype());
           cross_rows(tag, eb, g, full);
-          ctx.accumulate(0, reduce_raw(full, ctx.input(0).shape()));
+          ctx.accumulate(0, reduce_raw(full, ctx.input_shape(0)));
         }
         if (ctx.needs_grad(1)) {
           Tensor full = Tensor::empty(g.shape(), g.dtype());
           cross_rows(tag, g, ea, full);
-          ctx.accumulate(1, reduce_raw(full, ctx.input(1).shape()));
+          ctx.accumulate(1, reduce_raw(full, ctx.input_shape(1)));
         }
       });
     });
@@ -207,37 +207,43 @@ Tensor normalize(const Tensor& v, double eps) {
   const std::int64_t k = v.size(-1);
   const std::int64_t rows = k == 0 ? 0 : v.numel() / k;
   Tensor out = Tensor::empty(v.shape(), v.dtype());
+  // Per row d = max(|v|, eps), kept for the adjoint instead of v itself (k
+  // times smaller, and v's buffer can be recycled as soon as it dies).
+  Tensor denom = Tensor::empty(Shape{rows}, v.dtype());
   dispatch_float(v.dtype(), "normalize", [&](auto tag) {
     using T = decltype(tag);
     const T* pv = v.data<T>();
     T* po = out.data<T>();
-    // out[r, :] = v[r, :] / max(|v[r]|, eps).
+    T* pd = denom.data<T>();
+    // out[r, :] = v[r, :] / max(|v[r]|, eps) (divided, not multiplied by 1 / d:
+    // exact results such as (3, 4) / 5 = (0.6, 0.8) stay exact).
     parallel_for(0, rows, row_grain(k), [&](std::int64_t lo, std::int64_t hi) {
       for (std::int64_t r = lo; r < hi; ++r) {
         const Acc d = std::max<Acc>(row_length(pv + r * k, k), eps);
         for (std::int64_t j = 0; j < k; ++j) po[r * k + j] = T(Acc(pv[r * k + j]) / d);
+        pd[r] = T(d);
       }
     });
   });
   if (should_record({v})) {
     Tensor n = out.detach();
-    record("normalize", {v}, {&out}, [v, n, k, rows, eps](AdjointContext& ctx) {
+    record("normalize", {v}, {&out}, [n, denom, k, rows, eps](AdjointContext& ctx) {
       const Tensor& g = ctx.grad_output();
       if (!g.defined()) return;
-      Tensor gv = Tensor::empty(v.shape(), v.dtype());
-      dispatch_float(v.dtype(), "normalize", [&](auto tag) {
+      Tensor gv = Tensor::empty(n.shape(), n.dtype());
+      dispatch_float(n.dtype(), "normalize", [&](auto tag) {
         using T = decltype(tag);
-        const T *pv = v.data<T>(), *pn = n.data<T>(), *pg = g.data<T>();
+        const T *pd = denom.data<T>(), *pn = n.data<T>(), *pg = g.data<T>();
         T* po = gv.data<T>();
         parallel_for(0, rows, row_grain(k), [&](std::int64_t lo, std::int64_t hi) {
           for (std::int64_t r = lo; r < hi; ++r) {
-            const Acc len = row_length(pv + r * k, k);
-            if (len > eps) {
+            if (pd[r] > T(eps)) {
+              const Acc inv = 1 / Acc(pd[r]);
               // Unit-sphere projection: dL/dv = (g - n (n.g)) / |v|.
               Acc ng = 0;
               for (std::int64_t j = 0; j < k; ++j) ng += Acc(pn[r * k + j]) * Acc(pg[r * k + j]);
               for (std::int64_t j = 0; j < k; ++j)
-                po[r * k + j] = T((Acc(pg[r * k + j]) - Acc(pn[r * k + j]) * ng) / len);
+                po[r * k + j] = T((Acc(pg[r * k + j]) - Acc(pn[r * k + j]) * ng) * inv);
             } else {
               // Below eps the op is v / eps: dL/dv = g / eps.
               for (std::int64_t j = 0; j < k; ++j) po[r * k + j] = T(Acc(pg[r * k + j]) / eps);
