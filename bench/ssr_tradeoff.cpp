@@ -1,7 +1,7 @@
 // ssr_tradeoff: run time against hit error for both SSR tracers on the SSR scene
 // (320 x 240, float32 G-buffer), measured against the dense reference tracer.
-// Prints a Markdown table and writes a log-log scatter plot (PNG, drawn here
-// without a plotting library): x = trace time (ms), y = mean hit error (px);
+// Prints a Markdown table and writes a log-log scatter plot (PNG, drawn with
+// bench/plot_png.h, no plotting library): x = trace time (ms), y = mean hit error (px);
 // view-space march in orange, DDA in blue, the reference as a black square at
 // its time on the bottom axis.
 //   ssr_tradeoff [plot.png] [repeats]
@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "autodiff/tape.h"
+#include "bench/plot_png.h"
 #include "ops/ssr.h"
 #include "ops/transforms.h"
 #include "raster/image_io.h"
@@ -32,115 +33,29 @@ struct Row {
   std::int64_t samples = 0;
 };
 
-// ---- A tiny canvas -----------------------------------------------------------
-struct Rgb {
-  float r, g, b;
-};
+using bench::Rgb;
 
-class Canvas {
- public:
-  Canvas(int w, int h) : img_(Tensor::ones({h, w, 3})), w_(w), h_(h) {}
-  void put(int x, int y, Rgb c) {
-    if (x < 0 || y < 0 || x >= w_ || y >= h_) return;
-    float* p = img_.data<float>() + 3 * (std::int64_t(y) * w_ + x);
-    p[0] = c.r, p[1] = c.g, p[2] = c.b;
-  }
-  void rect(int x0, int y0, int x1, int y1, Rgb c) {
-    for (int y = y0; y <= y1; ++y)
-      for (int x = x0; x <= x1; ++x) put(x, y, c);
-  }
-  void hline(int x0, int x1, int y, Rgb c) { rect(x0, y, x1, y, c); }
-  void vline(int x, int y0, int y1, Rgb c) { rect(x, y0, x, y1, c); }
-  void disc(int cx, int cy, int r, Rgb c) {
-    for (int y = -r; y <= r; ++y)
-      for (int x = -r; x <= r; ++x)
-        if (x * x + y * y <= r * r) put(cx + x, cy + y, c);
-  }
-  // Text in a 3 x 5 pixel font, scaled by 2; digits, '.', '-', 'e', 'm', 's', 'p', 'x'.
-  void text(int x, int y, const std::string& s, Rgb c) {
-    for (char ch : s) {
-      const char* g = glyph(ch);
-      for (int row = 0; row < 5; ++row)
-        for (int col = 0; col < 3; ++col)
-          if (g[row * 3 + col] == '#') rect(x + 2 * col, y + 2 * row, x + 2 * col + 1, y + 2 * row + 1, c);
-      x += 8;
-    }
-  }
-  const Tensor& image() const { return img_; }
-
- private:
-  static const char* glyph(char c) {
-    switch (c) {
-      case '0': return "####.##.##.####";
-      case '1': return ".#.##..#..#.###";
-      case '2': return "###..#####..###";
-      case '3': return "###..####..####";
-      case '4': return "#.##.####..#..#";
-      case '5': return "####..###..####";
-      case '6': return "####..####.####";
-      case '7': return "###..#..#..#..#";
-      case '8': return "####.#####.####";
-      case '9': return "####.####..####";
-      case '.': return "............#..";
-      case '-': return "......###......";
-      case 'e': return "....#.####..###";
-      case 'm': return "......######.##";
-      case 's': return "....###.#.###..";
-      case 'p': return "...####.####...";
-      case 'x': return "...#.#.#.#.#...";
-      default: return "...............";
-    }
-  }
-  Tensor img_;
-  int w_, h_;
-};
-
-std::string fmt(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, v >= 1 ? "%.0f" : "%.2g", v);
-  return buf;
-}
-
-Tensor plot(const std::vector<Row>& rows, double ref_ms) {
-  const int W = 720, H = 480, L = 80, R = 30, T = 30, B = 60;
-  Canvas c(W, H);
+bench::LogLogPlot plot(const std::vector<Row>& rows, double ref_ms) {
   double tmin = ref_ms, tmax = ref_ms, emin = 1e9, emax = 0;
   for (const Row& r : rows) {
     tmin = std::min(tmin, r.ms), tmax = std::max(tmax, r.ms);
     if (r.mean_err > 0) emin = std::min(emin, r.mean_err), emax = std::max(emax, r.mean_err);
   }
-  const double lx0 = std::floor(std::log10(tmin)), lx1 = std::ceil(std::log10(tmax));
-  const double ly0 = std::floor(std::log10(std::max(emin, 1e-6))), ly1 = std::ceil(std::log10(std::max(emax, 1e-5)));
-  auto X = [&](double t) { return L + (std::log10(t) - lx0) / (lx1 - lx0) * (W - L - R); };
-  auto Y = [&](double e) { return H - B - (std::log10(e) - ly0) / (ly1 - ly0) * (H - T - B); };
-  const Rgb grid{0.87f, 0.87f, 0.87f}, black{0, 0, 0};
-  for (double d = lx0; d <= lx1 + 1e-9; ++d) {
-    const int x = int(X(std::pow(10, d)));
-    c.vline(x, T, H - B, grid);
-    c.text(x - 8, H - B + 10, fmt(std::pow(10, d)), black);
-  }
-  for (double d = ly0; d <= ly1 + 1e-9; ++d) {
-    const int y = int(Y(std::pow(10, d)));
-    c.hline(L, W - R, y, grid);
-    const std::string s = fmt(std::pow(10, d));
-    c.text(L - 10 - 8 * int(s.size()), y - 5, s, black);
-  }
-  c.vline(L, T, H - B, black);
-  c.hline(L, W - R, H - B, black);
-  c.text(W / 2 - 16, H - 25, "ms", black);
-  c.text(10, T - 20, "px", black);
-  const Rgb orange{0.9f, 0.5f, 0.1f}, blue{0.15f, 0.35f, 0.85f};
+  bench::LogLogPlot p(tmin, tmax, std::max(emin, 1e-6), std::max(emax, 1e-5), "ms", "px");
+  bench::Canvas& c = p.canvas();
+  const bench::PlotFrame& f = p.frame();
+  const Rgb orange{0.9f, 0.5f, 0.1f}, blue{0.15f, 0.35f, 0.85f}, black{0, 0, 0};
   for (const Row& r : rows) {
     if (!(r.mean_err > 0)) continue;
-    c.disc(int(X(r.ms)), int(Y(r.mean_err)), r.params.find("binary 0") != std::string::npos ? 3 : 5,
+    c.disc(int(p.x(r.ms)), int(p.y(r.mean_err)), r.params.find("binary 0") != std::string::npos ? 3 : 5,
            r.tracer == "dda" ? blue : orange);
   }
-  const int rx = int(X(ref_ms));
-  c.rect(rx - 4, H - B - 4, rx + 4, H - B + 4, black);
+  const int rx = int(p.x(ref_ms)), axis_y = f.height - f.bottom;
+  c.rect(rx - 4, axis_y - 4, rx + 4, axis_y + 4, black);
   // Legend in the top margin: orange = view-space, blue = DDA (small dots: no binary search).
-  c.disc(W - R - 60, T / 2, 5, orange);
-  c.disc(W - R - 40, T / 2, 5, blue);
-  return c.image();
+  c.disc(f.width - f.right - 60, f.top / 2, 5, orange);
+  c.disc(f.width - f.right - 40, f.top / 2, 5, blue);
+  return p;
 }
 
 }  // namespace
@@ -224,7 +139,7 @@ int main(int argc, char** argv) {
   for (const Row& r : rows)
     std::printf("| %s | %s | %.2f | %lld | %.3f | %.3f | %.2f | %.2f |\n", r.tracer.c_str(), r.params.c_str(), r.ms,
                 (long long)r.samples, r.mean_err, r.p95_err, r.missed, r.extra);
-  raster::write_png(out, plot(rows, ref_ms));
+  raster::write_png(out, plot(rows, ref_ms).image());
   std::printf("\nplot: %s\n", out.c_str());
   return 0;
 }

@@ -13,6 +13,7 @@
 #include "ops/project.h"
 #include "ops/rasterize.h"
 #include "ops/reduce.h"
+#include "ops/resample.h"
 #include "ops/shape_ops.h"
 #include "ops/texture.h"
 #include "ops/transforms.h"

@@ -103,6 +103,7 @@ class Run {
   void step_done(int done, double loss) {
     result_.losses.push_back(loss);
     if (options_.progress_bar) progress_.update(done, loss);
+    if (options_.on_step) options_.on_step(done, loss);
   }
   void finish_loop() {
     if (options_.progress_bar) progress_.finish();

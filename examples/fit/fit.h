@@ -17,6 +17,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <iosfwd>
 #include <string>
 #include <vector>
@@ -52,6 +53,9 @@ struct FitOptions {
   int smoothing_passes = 4;        // positions = start + (I - L/2)^k u (see run_fit)
   bool progress_bar = true;        // print progress (to the stream given to run_fit)
   bool interactive = false;        // redraw one line with '\r' (set it when stdout is a terminal)
+  // Optional: called after every optimization step with the steps done and that
+  // step's image loss (bench/long_run watches memory with it).
+  std::function<void(int done, double loss)> on_step;
 };
 
 constexpr int kDefaultShapeIterations = 300;

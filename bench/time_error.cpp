@@ -1,0 +1,256 @@
+// time_error (issue 6): run time against gradient error for float32/float64,
+// antialiasing off/on and supersampling 1/2/4 on a fixed scene (a coloured
+// torus at 128 x 128 fitted towards a rotated and shifted copy, loss = MSE;
+// bench/time_error_scene.h). Each configuration's gradient w.r.t. the vertex
+// positions and colours is compared with a float64 finite-difference
+// reference of the area-integrated loss (16x16 supersampling with
+// antialiasing; bench/time_error_reference.h), and its image with the
+// reference image. Prints a Markdown table, writes a CSV and a log-log plot
+// of time against position-gradient error with the Pareto frontier.
+// docs/time_error.md explains the scene, the reference and the results.
+//
+//   time_error [out.csv] [out.png]     defaults out/time_error.csv, out/time_error.png
+//   time_error --convergence           the reference's convergence study (slow, ~minutes; prints only)
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "autodiff/parallel.h"
+#include "autodiff/tape.h"
+#include "bench/time_error_plot.h"
+#include "bench/time_error_reference.h"
+#include "bench/time_error_scene.h"
+#include "ops/ops.h"
+#include "raster/image_io.h"
+
+using namespace gr;
+using namespace gr::bench;
+
+namespace {
+
+constexpr int kThreads = 2;
+constexpr int kTimedRuns = 7;
+constexpr int kPositionDirections = 16;
+constexpr int kColourDirections = 6;
+constexpr std::uint64_t kSeed = 6;
+
+const char* short_dtype(DType d) { return d == DType::Float64 ? "f64" : "f32"; }
+
+std::string config_name(const RenderSettings& s) {
+  return std::string(short_dtype(s.dtype)) + (s.antialias ? " aa" : "") + " s" + std::to_string(s.supersample);
+}
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+// Root mean square of a - b over all elements, in double.
+double rms_difference(const Tensor& a, const Tensor& b) {
+  const std::vector<double> x = a.to_vector(), y = b.to_vector();
+  double s = 0;
+  for (std::size_t i = 0; i < x.size(); ++i) s += (x[i] - y[i]) * (x[i] - y[i]);
+  return std::sqrt(s / double(x.size()));
+}
+
+struct Gradients {
+  Tensor position, colour;  // [P, 3] of the settings' dtype
+  double loss = 0;
+};
+
+// One forward + backward of the loss at the scene's parameters.
+Gradients gradients(const TimeErrorScene& scene, const Tensor& target, const RenderSettings& settings) {
+  Tensor points = cast(scene.points(), settings.dtype).detach().set_requires_grad();
+  Tensor colours = cast(scene.colours(), settings.dtype).detach().set_requires_grad();
+  const Tensor t = settings.dtype == DType::Float64 ? target : cast(target, settings.dtype);
+  const Tensor loss = scene.loss(points, colours, t, settings);
+  backward(loss);
+  return {points.grad(), colours.grad(), loss.item()};
+}
+
+struct Row {
+  RenderSettings settings;
+  double ms = 0, cpu_ms = 0, position_error = 0, colour_error = 0, image_error = 0, loss = 0;
+  bool pareto = false;
+  std::vector<double> position_projections;  // grad . v_k, for comparing dtypes
+};
+
+// Errors of one configuration (the timing is done separately, interleaved).
+Row measure_errors(const TimeErrorScene& scene, const Tensor& target, const Tensor& reference_image,
+                   const Directions& directions, const ReferenceDerivatives& reference,
+                   const RenderSettings& settings) {
+  Row row;
+  row.settings = settings;
+  const Gradients g = gradients(scene, target, settings);
+  row.loss = g.loss;
+  row.position_projections = project(g.position, directions.position);
+  row.position_error = relative_l2(row.position_projections, reference.position);
+  row.colour_error = relative_l2(project(g.colour, directions.colour), reference.colour);
+  NoGradGuard no_grad;
+  row.image_error = rms_difference(scene.render(cast(scene.points(), settings.dtype),
+                                                cast(scene.colours(), settings.dtype), settings),
+                                   reference_image);
+  return row;
+}
+
+// Median forward+backward time of each row's configuration. The runs are
+// interleaved (round r times every configuration once), so a change in the
+// machine's load during the sweep hits all configurations alike. CPU time
+// (both threads' total) is kept too: unlike wall time it barely moves when other
+// jobs share the cores.
+void measure_times(const TimeErrorScene& scene, const Tensor& target, std::vector<Row>& rows) {
+  std::vector<std::vector<double>> wall(rows.size()), cpu(rows.size());
+  for (int r = 0; r < kTimedRuns; ++r)
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+      const auto t0 = std::chrono::steady_clock::now();
+      const std::clock_t c0 = std::clock();
+      gradients(scene, target, rows[i].settings);
+      cpu[i].push_back(1e3 * double(std::clock() - c0) / CLOCKS_PER_SEC);
+      wall[i].push_back(1e3 * seconds_since(t0));
+    }
+  auto median = [](std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    return v[v.size() / 2];
+  };
+  for (std::size_t i = 0; i < rows.size(); ++i) rows[i].ms = median(wall[i]), rows[i].cpu_ms = median(cpu[i]);
+}
+
+void write_csv(const std::string& path, const std::vector<Row>& rows) {
+  std::ofstream out(path);
+  out << "config,dtype,antialias,supersample,ms,cpu_ms,grad_rel_error,colour_grad_rel_error,image_rmse,loss,pareto\n";
+  char line[512];
+  for (const Row& r : rows) {
+    std::snprintf(line, sizeof line, "%s,%s,%d,%d,%.4f,%.4f,%.6g,%.6g,%.6g,%.9g,%d\n", config_name(r.settings).c_str(),
+                  short_dtype(r.settings.dtype), int(r.settings.antialias), r.settings.supersample, r.ms, r.cpu_ms,
+                  r.position_error, r.colour_error, r.image_error, r.loss, int(r.pareto));
+    out << line;
+  }
+  if (!out) throw std::runtime_error("time_error: cannot write " + path);
+}
+
+void ensure_parent(const std::string& path) {
+  const std::filesystem::path parent = std::filesystem::path(path).parent_path();
+  if (!parent.empty()) std::filesystem::create_directories(parent);
+}
+
+Tensor render_reference(const TimeErrorScene& scene, const Tensor& points, const FiniteDifferenceOptions& fd) {
+  NoGradGuard no_grad;
+  return scene.render(points, scene.colours(), fd.settings);
+}
+
+int run_sweep(const std::string& csv_path, const std::string& png_path) {
+  const auto start = std::chrono::steady_clock::now();
+  const TimeErrorScene scene;
+  const FiniteDifferenceOptions fd;
+  const Tensor target = render_reference(scene, scene.target_points(), fd);
+  const Tensor reference_image = render_reference(scene, scene.points(), fd);
+  const Directions directions = random_directions(scene.points(), kPositionDirections, kColourDirections, kSeed);
+  const ReferenceDerivatives reference = finite_difference_reference(scene, target, directions, fd);
+  std::printf("scene: torus, %lld points, %d x %d, loss = MSE against the rotated and shifted torus\n",
+              (long long)scene.num_points(), scene.width(), scene.height());
+  std::printf("reference: float64, antialias, %dx%d supersampling, 4th-order central differences along %d random\n"
+              "  position directions (step %.2f px) and %d colour directions; %.1f s. "
+              "2nd-order h vs 2h spread: %.2g\n\n",
+              fd.settings.supersample, fd.settings.supersample, kPositionDirections, fd.position_step_px,
+              kColourDirections, reference.seconds, relative_l2(reference.position_h, reference.position_2h));
+
+  std::vector<Row> rows;  // the error pass doubles as the warm-up of the storage cache
+  for (DType dtype : {DType::Float32, DType::Float64})
+    for (bool aa : {false, true})
+      for (int ss : {1, 2, 4})
+        rows.push_back(measure_errors(scene, target, reference_image, directions, reference, {dtype, aa, ss}));
+  measure_times(scene, target, rows);
+
+  std::vector<FrontierPoint> points;
+  for (const Row& r : rows)
+    points.push_back({(r.settings.antialias ? "aa x" : "x") + std::to_string(r.settings.supersample),
+                      r.ms, r.position_error, r.settings.dtype == DType::Float64, r.settings.antialias});
+  for (std::size_t i : pareto_frontier(points)) rows[i].pareto = true;
+
+  std::printf("forward+backward: median of %d interleaved runs, %d threads\n\n", kTimedRuns, kThreads);
+  std::printf("| config | dtype | aa | ss | ms | cpu ms | grad rel error (positions) | grad rel error (colours) "
+              "| image error (RMS) | pareto |\n");
+  std::printf("|---|---|---|---:|---:|---:|---:|---:|---:|---|\n");
+  for (const Row& r : rows)
+    std::printf("| %s | %s | %s | %d | %.2f | %.2f | %.3g | %.3g | %.3g | %s |\n", config_name(r.settings).c_str(),
+                short_dtype(r.settings.dtype), r.settings.antialias ? "on" : "off", r.settings.supersample, r.ms,
+                r.cpu_ms, r.position_error, r.colour_error, r.image_error, r.pareto ? "yes" : "");
+  // Rounding alone: each float32 configuration against the float64 one with the same settings.
+  std::printf("\nfloat32 against float64 with the same settings (relative L2 of the position projections):");
+  for (const Row& a : rows)
+    for (const Row& b : rows)
+      if (a.settings.dtype == DType::Float32 && b.settings.dtype == DType::Float64 &&
+          a.settings.antialias == b.settings.antialias && a.settings.supersample == b.settings.supersample)
+        std::printf(" %s %.2g;", config_name(a.settings).substr(4).c_str(),
+                    relative_l2(a.position_projections, b.position_projections));
+  std::printf("\n");
+  ensure_parent(csv_path);
+  write_csv(csv_path, rows);
+  ensure_parent(png_path);
+  raster::write_png(png_path, plot_frontier(points, "grad err"));
+  std::printf("\nwrote %s and %s; total %.1f s\n", csv_path.c_str(), png_path.c_str(), seconds_since(start));
+  return 0;
+}
+
+// How the reference depends on its supersampling and step, and how far the
+// float64 analytic gradients are from it (docs/time_error.md). Fewer
+// directions than the sweep, to keep it to a few minutes.
+int run_convergence() {
+  const TimeErrorScene scene;
+  FiniteDifferenceOptions best;
+  best.settings.supersample = 24;
+  const Tensor target = render_reference(scene, scene.target_points(), best);
+  const Directions directions = random_directions(scene.points(), 8, 4, kSeed);
+  const ReferenceDerivatives top = finite_difference_reference(scene, target, directions, best);
+  std::printf("baseline: FD at s=24, step %.2f px (%.1f s), 8 position and 4 colour directions\n\n",
+              best.position_step_px, top.seconds);
+  std::printf("| candidate | positions: rel diff to baseline | colours: rel diff | h vs 2h spread | seconds |\n");
+  std::printf("|---|---:|---:|---:|---:|\n");
+  const std::pair<int, double> candidates[] = {{8, 0.25}, {8, 0.5}, {8, 1.0}, {16, 0.125},
+                                               {16, 0.25}, {16, 0.5}, {16, 1.0}, {24, 0.5}};
+  for (const auto& [ss, step] : candidates) {
+    FiniteDifferenceOptions o = best;
+    o.settings.supersample = ss;
+    o.position_step_px = step;
+    const ReferenceDerivatives r = finite_difference_reference(scene, target, directions, o);
+    std::printf("| FD s=%d, step %.3g px | %.3g | %.3g | %.3g | %.1f |\n", ss, step,
+                relative_l2(r.position, top.position), relative_l2(r.colour, top.colour),
+                relative_l2(r.position_h, r.position_2h), r.seconds);
+    std::fflush(stdout);
+  }
+  for (int ss : {1, 4, 16}) {
+    const Gradients aa = gradients(scene, target, {DType::Float64, true, ss});
+    const Gradients plain = gradients(scene, target, {DType::Float64, false, ss});
+    const std::vector<double> pa = project(aa.position, directions.position),
+                              pp = project(plain.position, directions.position);
+    std::vector<double> half(pa.size());  // interior + half the antialias silhouette term
+    for (std::size_t k = 0; k < pa.size(); ++k) half[k] = 0.5 * (pa[k] + pp[k]);
+    std::printf("| analytic f64 aa s=%d | %.3g | %.3g | | |\n", ss, relative_l2(pa, top.position),
+                relative_l2(project(aa.colour, directions.colour), top.colour));
+    std::printf("| analytic f64 s=%d | %.3g | %.3g | | |\n", ss, relative_l2(pp, top.position),
+                relative_l2(project(plain.colour, directions.colour), top.colour));
+    std::printf("| (aa + no aa) / 2, s=%d | %.3g | | | |\n", ss, relative_l2(half, top.position));
+    std::fflush(stdout);
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  set_num_threads(kThreads);
+  try {
+    if (argc > 1 && std::string(argv[1]) == "--convergence") return run_convergence();
+    return run_sweep(argc > 1 ? argv[1] : "out/time_error.csv", argc > 2 ? argv[2] : "out/time_error.png");
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "time_error: %s\n", e.what());
+    return 1;
+  }
+}
