@@ -58,7 +58,9 @@ bool parse_number(std::string_view s) {
   if (s.size() > 1 && s[0] == '+' && s[1] != '-') s.remove_prefix(1);
   double x = 0;
   const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), x);
-  return ec == std::errc() && end == s.data() + s.size() && std::isfinite(x);
+  // Positions, normals and uvs are stored as float: the value must fit one.
+  return ec == std::errc() && end == s.data() + s.size() &&
+         std::fabs(x) <= std::numeric_limits<float>::max();
 }
 
 // A whole (possibly signed) decimal integer that fits in int, or false.
@@ -137,7 +139,7 @@ LineCheck check_lines(const std::string& path, const std::string& text) {
                                 std::to_string(n) + " (truncated line?)");
       for (std::size_t i = 1; i <= n; ++i)
         if (!parse_number(tok[i]))
-          fail(path, line_no, "'" + key + "' has a bad or non-finite number '" +
+          fail(path, line_no, "'" + key + "' has a bad, non-finite or out-of-float-range number '" +
                                   std::string(tok[i]) + "'");
       (key == "v" ? c.num_v : key == "vt" ? c.num_vt : c.num_vn) += 1;
     } else if (key == "f") {
@@ -155,6 +157,28 @@ LineCheck check_lines(const std::string& path, const std::string& text) {
                                     std::to_string(c.max_index[k]) + " but the file has only " +
                                     std::to_string(counts[k]));
   return c;
+}
+
+// Second line of defence after tinyobjloader: its reading of a line can differ
+// from check_lines' (e.g. "f 1 2 3#4 5": we stop at the comment, it reads a
+// fourth corner "5"), so every index it returns is checked against what it
+// parsed before anything is looked up.
+void check_parsed_indices(const std::string& path, const tinyobj::attrib_t& attrib,
+                          const std::vector<tinyobj::shape_t>& shapes) {
+  const auto nv = static_cast<long>(attrib.vertices.size() / 3);
+  const auto nt = static_cast<long>(attrib.texcoords.size() / 2);
+  const auto nn = static_cast<long>(attrib.normals.size() / 3);
+  for (const tinyobj::shape_t& shape : shapes) {
+    std::size_t corners = 0;
+    for (const unsigned int n : shape.mesh.num_face_vertices) corners += n;
+    if (corners != shape.mesh.indices.size())
+      throw IOError("load_obj('" + path + "'): inconsistent face data from the OBJ parser");
+    for (const tinyobj::index_t& ix : shape.mesh.indices)
+      if (ix.vertex_index < 0 || ix.vertex_index >= nv || ix.texcoord_index < -1 ||
+          ix.texcoord_index >= nt || ix.normal_index < -1 || ix.normal_index >= nn)
+        throw IOError("load_obj('" + path + "'): a face refers to a missing vertex, texcoord or "
+                      "normal once parsed (stray characters such as '#' inside an 'f' line?)");
+  }
 }
 
 // ---------------------------------------------------------------------------
@@ -257,15 +281,13 @@ std::string resolve_texture(const fs::path& dir, std::string name) {
 
 using Key = std::array<int, 3>;  // (position, texcoord, normal), -1 = none
 
-}  // namespace
-
-Mesh load_obj(const std::string& path) {
-  const std::string text = read_text(path);
+// Loads OBJ `text`; `path` names it in messages. With `dir` set, MTL files and
+// textures are looked up in that folder; without it they are not read at all.
+Mesh load_obj_text(const std::string& path, const std::string& text, const fs::path* dir) {
   const LineCheck lines = check_lines(path, text);
 
   // Parse with tinyobjloader (no triangulation, no vertex colours).
-  const fs::path dir = fs::path(path).parent_path();
-  std::string base = dir.string();
+  std::string base = dir ? dir->string() : std::string();
   if (!base.empty() && base.back() != '/') base += '/';
   tinyobj::attrib_t attrib;
   std::vector<tinyobj::shape_t> shapes;
@@ -274,9 +296,10 @@ Mesh load_obj(const std::string& path) {
   std::istringstream stream(text);
   tinyobj::MaterialFileReader mtl_reader(base);
   const bool ok = tinyobj::LoadObj(&attrib, &shapes, &materials, &warn, &err, &stream,
-                                   &mtl_reader, /*triangulate=*/false,
+                                   dir ? &mtl_reader : nullptr, /*triangulate=*/false,
                                    /*default_vcols_fallback=*/false);
   if (!ok) throw IOError("load_obj('" + path + "'): " + (err.empty() ? "parse error" : err));
+  check_parsed_indices(path, attrib, shapes);
   Mesh mesh;
   add_warnings(path, warn, mesh.warnings);
   add_warnings(path, err, mesh.warnings);  // only MTL problems reach here when ok
@@ -388,7 +411,7 @@ Mesh load_obj(const std::string& path) {
       others.push_back(t);
   }
   if (!texname.empty()) {
-    mesh.texture_path = resolve_texture(dir, texname);
+    if (dir) mesh.texture_path = resolve_texture(*dir, texname);
     if (mesh.texture_path.empty())
       mesh.warnings.push_back("load_obj('" + path + "'): texture '" + texname +
                               "' named by the MTL file not found");
@@ -399,6 +422,17 @@ Mesh load_obj(const std::string& path) {
                             " diffuse textures; only the first, '" + texname + "', is kept");
   mesh.validate("load_obj('" + path + "')");
   return mesh;
+}
+
+}  // namespace
+
+Mesh load_obj(const std::string& path) {
+  const fs::path dir = fs::path(path).parent_path();
+  return load_obj_text(path, read_text(path), &dir);
+}
+
+Mesh load_obj_from_string(const std::string& text, const std::string& name) {
+  return load_obj_text(name, text, nullptr);
 }
 
 // ---------------------------------------------------------------------------

@@ -27,10 +27,15 @@ namespace gr::raster {
 //    one, resolved relative to the OBJ's folder; set only if the file exists.
 //    A missing MTL file or texture is a warning in Mesh::warnings, not an error.
 // Throws IOError naming the path (and line) for a missing/unreadable file,
-// malformed `v`/`vt`/`vn`/`f` lines (bad or missing numbers, non-finite
-// values, faces with fewer than 3 corners, indices that are 0, malformed or
-// refer to missing vertices), and for a file without any triangle.
+// malformed `v`/`vt`/`vn`/`f` lines (bad or missing numbers, non-finite or
+// beyond-float values, faces with fewer than 3 corners, indices that are 0,
+// malformed or refer to missing vertices), and for a file without any triangle.
 Mesh load_obj(const std::string& path);
+
+// load_obj on OBJ text held in memory, with the same rules and errors; `name`
+// stands in for the path in messages and warnings. No file is read: mtllib
+// lines are ignored, so materials and texture_path stay empty.
+Mesh load_obj_from_string(const std::string& text, const std::string& name = "<string>");
 
 // Writes `mesh` as v / vt / vn / f lines (float values printed to round-trip
 // exactly). If mesh.texture_path is set, also writes "<stem>.mtl" next to the

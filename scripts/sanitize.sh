@@ -1,0 +1,80 @@
+#!/usr/bin/env bash
+# Sanitizer CI job: builds gradraster with clang, AddressSanitizer and
+# UndefinedBehaviorSanitizer in ./build-san (GRADRASTER_SANITIZE=ON,
+# GRADRASTER_FUZZ=ON), runs the whole ctest suite under the sanitizers, then
+# smoke-runs each libFuzzer target (tests/fuzz) for FUZZ_SECONDS seconds from a
+# temporary copy of its seed corpus (the repository's corpus is not modified).
+# Installs clang and its runtime libraries if missing. Safe to run repeatedly.
+#
+# Environment: GRADRASTER_SAN_DIR (build folder, default build-san),
+# FUZZ_SECONDS (per target, default 25; 0 skips the fuzz smoke),
+# CTEST_ARGS (extra ctest arguments, e.g. -R to run a subset).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+sudo_cmd=()
+[ "$(id -u)" -ne 0 ] && sudo_cmd=(sudo)
+updated=0
+# Installs the Debian packages among "$@" that are not installed yet.
+install_missing() {
+  local missing=() p
+  for p in "$@"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+  done
+  [ ${#missing[@]} -eq 0 ] && return 0
+  echo "sanitize: installing ${missing[*]}"
+  if [ "$updated" -eq 0 ]; then
+    "${sudo_cmd[@]}" apt-get update -qq
+    updated=1
+  fi
+  DEBIAN_FRONTEND=noninteractive "${sudo_cmd[@]}" apt-get install -y -qq "${missing[@]}"
+}
+
+# The library's dependencies (as scripts/setup.sh) plus clang. The sanitizer and
+# libFuzzer runtimes (libclang_rt.{asan,ubsan,fuzzer}-x86_64.a) are in
+# libclang-rt-N-dev, which clang only recommends: install it explicitly for the
+# installed clang's major version (14 on Debian 12).
+install_missing cmake make pkg-config libeigen3-dev libtbb-dev libtinyobjloader-dev libstb-dev catch2 clang
+clang_major=$(clang --version | sed -n 's/.*clang version \([0-9][0-9]*\).*/\1/p' | head -n 1)
+install_missing "libclang-rt-${clang_major}-dev"
+
+build_dir=${GRADRASTER_SAN_DIR:-build-san}
+start=$(date +%s)
+# RelWithDebInfo: optimized (the suite stays fast) with line numbers in reports.
+# The tests build the fit/render/shading example libraries themselves, so the
+# example programs and the benchmarks are not needed here.
+cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+  -DCMAKE_CXX_COMPILER=clang++ \
+  -DGRADRASTER_SANITIZE=ON -DGRADRASTER_FUZZ=ON \
+  -DGRADRASTER_BUILD_BENCH=OFF -DGRADRASTER_BUILD_EXAMPLES=OFF > /dev/null
+cmake --build "$build_dir" -j "$(nproc)"
+echo "sanitize: build took $(( $(date +%s) - start )) s"
+
+# Any report fails the run: UBSan is built with -fno-sanitize-recover, ASan
+# aborts on its first error, LeakSanitizer reports at exit.
+export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=0:strict_string_checks=1}
+export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
+start=$(date +%s)
+# shellcheck disable=SC2086  # CTEST_ARGS is a list of arguments
+ctest --test-dir "$build_dir" -j "$(nproc)" --output-on-failure ${CTEST_ARGS:-}
+echo "sanitize: tests took $(( $(date +%s) - start )) s"
+
+fuzz_seconds=${FUZZ_SECONDS:-25}
+[ "$fuzz_seconds" -eq 0 ] && exit 0
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+for target in obj raster; do
+  mkdir -p "$work/$target/corpus" "$work/$target/artifacts"
+  cp tests/fuzz/corpus/"$target"/* "$work/$target/corpus/"
+  echo "sanitize: fuzz_$target for ${fuzz_seconds} s"
+  if ! "$build_dir/fuzz/fuzz_$target" -max_total_time="$fuzz_seconds" -timeout=10 -print_final_stats=1 \
+      -artifact_prefix="$work/$target/artifacts/" "$work/$target/corpus" > "$work/$target/log" 2>&1; then
+    tail -n 60 "$work/$target/log"
+    mkdir -p "$build_dir/fuzz-artifacts"
+    cp "$work/$target/artifacts/"* "$build_dir/fuzz-artifacts/" 2>/dev/null || true
+    echo "sanitize: fuzz_$target FAILED; crashing input(s) kept in $build_dir/fuzz-artifacts" >&2
+    exit 1
+  fi
+  grep -E "^stat::number_of_executed_units|^Done" "$work/$target/log" || true
+done
+echo "sanitize: all passed"
