@@ -1,0 +1,117 @@
+// One benchmark per pixel op, forward alone and forward + its own backward
+// (from a fixed random upstream gradient), at 256^2, 512^2 and 1024^2, on one
+// scene: an icosphere(5) (20480 triangles) covering about 35% of the screen.
+// The whole iteration is in bench_iteration, rasterize alone in
+// bench_rasterize, elementwise ops in bench_elementwise.
+//   Args {size, backward (0/1)}; the default thread count (all cores).
+#include <benchmark/benchmark.h>
+
+#include <functional>
+
+#include "ops/ops.h"
+#include "raster/procedural.h"
+
+namespace {
+
+using namespace gr;
+
+struct Scene {
+  Tensor clip, triangles, colours, uv, uv_dx, uv_dy, image, texture;
+  AntialiasTopology topology;
+  GBuffer gbuffer;
+  Fragments fragments;
+};
+
+Scene make_scene(int size) {
+  Scene s;
+  const raster::Mesh mesh = raster::make_icosphere(5, 1.0f);
+  s.triangles = mesh.triangles;
+  s.topology = antialias_topology(s.triangles, mesh.positions);
+  const Tensor mvp =
+      matmul(perspective(0.8, 1.0, 0.1, 10.0), look_at(Tensor::from_values({0, 0, 3}, {3}),
+                                                       Tensor::from_values({0, 0, 0}, {3}),
+                                                       Tensor::from_values({0, 1, 0}, {3})));
+  s.clip = transform_points(mesh.positions, mvp).set_requires_grad();
+  s.colours = Tensor::uniform({mesh.num_vertices(), 3}, 0, 1, 1).set_requires_grad();
+  s.texture = Tensor::uniform({512, 512, 3}, 0, 1, 3).set_requires_grad();
+  {
+    NoGradGuard no_grad;
+    s.gbuffer = rasterize(s.clip, s.triangles, {size, size});
+    s.fragments = fragments(s.gbuffer);
+    const Tensor uv_attr = Tensor::uniform({mesh.num_vertices(), 2}, 0, 1, 2);
+    InterpolatedWithDerivatives uv = interpolate_with_derivatives(uv_attr, s.clip, s.gbuffer, s.triangles);
+    s.uv = uv.values;
+    s.uv_dx = uv.d_dx;
+    s.uv_dy = uv.d_dy;
+    s.image = interpolate(s.colours, s.clip, s.gbuffer, s.triangles);
+  }
+  s.uv.set_requires_grad();
+  s.image.set_requires_grad();
+  return s;
+}
+
+// Times op(); with Args backward = 1, also its reverse sweep.
+void time_op(benchmark::State& state, const std::function<Tensor()>& op) {
+  const bool with_backward = state.range(1) != 0;
+  Tensor upstream;
+  for (auto _ : state) {
+    Tensor out = op();
+    if (!with_backward) {
+      Tape::current().clear();
+      continue;
+    }
+    if (!upstream.defined()) upstream = Tensor::uniform(out.shape(), -1, 1, 7, out.dtype());
+    backward(out, upstream);
+  }
+}
+
+void BM_Interpolate(benchmark::State& state) {
+  Scene s = make_scene(static_cast<int>(state.range(0)));
+  time_op(state, [&] { return interpolate(s.colours, s.clip, s.gbuffer, s.triangles); });
+}
+
+void BM_InterpolateFragments(benchmark::State& state) {
+  Scene s = make_scene(static_cast<int>(state.range(0)));
+  time_op(state, [&] { return interpolate(s.colours, s.clip, s.fragments, s.triangles); });
+}
+
+void BM_Antialias(benchmark::State& state) {
+  Scene s = make_scene(static_cast<int>(state.range(0)));
+  AntialiasOptions aa;
+  aa.topology = s.topology;
+  time_op(state, [&] { return antialias(s.image, s.gbuffer, s.clip, s.triangles, aa); });
+}
+
+void BM_TextureBilinear(benchmark::State& state) {
+  Scene s = make_scene(static_cast<int>(state.range(0)));
+  time_op(state, [&] { return texture(s.texture, s.uv); });
+}
+
+void BM_TextureTrilinear(benchmark::State& state) {
+  Scene s = make_scene(static_cast<int>(state.range(0)));
+  TextureOptions options;
+  options.filter = raster::Filter::Trilinear;
+  time_op(state, [&] { return texture(s.texture, s.uv, options, s.uv_dx, s.uv_dy); });
+}
+
+void BM_DownsampleBox2(benchmark::State& state) {
+  Scene s = make_scene(static_cast<int>(state.range(0)));
+  time_op(state, [&] { return downsample_box(s.image, 2); });
+}
+
+void Sizes(benchmark::internal::Benchmark* b) {
+  for (std::int64_t size : {256, 512, 1024})
+    for (std::int64_t with_backward : {0, 1}) b->Args({size, with_backward});
+  b->ArgNames({"size", "backward"})->Unit(benchmark::kMillisecond)->UseRealTime();
+}
+
+BENCHMARK(BM_Interpolate)->Apply(Sizes);
+BENCHMARK(BM_InterpolateFragments)->Apply(Sizes);
+BENCHMARK(BM_Antialias)->Apply(Sizes);
+BENCHMARK(BM_TextureBilinear)->Apply(Sizes);
+BENCHMARK(BM_TextureTrilinear)->Apply(Sizes);
+BENCHMARK(BM_DownsampleBox2)->Apply(Sizes);
+
+}  // namespace
+
+BENCHMARK_MAIN();
