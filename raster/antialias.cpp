@@ -363,11 +363,7 @@ void antialias_backward(const T* image, int channels, int width, int height, con
   }
   if (!any) return;
   // Screen -> NDC -> clip with the projection adjoints (edge vertices have w > 0).
-  std::vector<T> g_screen(static_cast<std::size_t>(2 * num_vertices));
-  std::vector<T> g_ndc(static_cast<std::size_t>(3 * num_vertices), T(0));
-  for (std::int64_t i = 0; i < 2 * num_vertices; ++i) g_screen[i] = finite_cast<T>(acc[i]);
-  viewport_backward(num_vertices, W, H, g_screen.data(), g_ndc.data());
-  wdivide_backward(clip, num_vertices, g_ndc.data(), grad_clip);
+  screen_to_clip_backward(clip, num_vertices, W, H, acc.data(), 2, grad_clip);
 }
 
 #define GR_INSTANTIATE(T)                                                                                      \

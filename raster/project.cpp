@@ -6,6 +6,7 @@
 
 #include "autodiff/error.h"
 #include "autodiff/parallel.h"
+#include "raster/guarded_math.h"
 
 namespace gr::raster {
 
@@ -75,11 +76,31 @@ void viewport_backward(std::int64_t n, int width, int height, const T* grad_scre
   });
 }
 
+template <class T>
+void screen_to_clip_backward(const T* clip, std::int64_t n, int width, int height, const double* grad_screen,
+                             int stride, T* grad_clip) {
+  const double hw = 0.5 * width, hh = 0.5 * height;
+  parallel_for(0, n, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
+    for (std::int64_t i = lo; i < hi; ++i) {
+      const double* gs = grad_screen + stride * i;
+      const double g[3] = {hw * gs[0], -hh * gs[1], stride == 3 ? gs[2] : 0.0};
+      if (g[0] == 0.0 && g[1] == 0.0 && g[2] == 0.0) continue;
+      const T* c = clip + 4 * i;
+      T* out = grad_clip + 4 * i;
+      const double inv_w = 1.0 / c[3];
+      for (int d = 0; d < 3; ++d) out[d] = detail::finite_cast<T>(out[d] + g[d] * inv_w);
+      const double dot = g[0] * c[0] + g[1] * c[1] + g[2] * c[2];
+      out[3] = detail::finite_cast<T>(out[3] - dot * inv_w * inv_w);
+    }
+  });
+}
+
 #define GR_INSTANTIATE(T)                                                                   \
   template void wdivide_forward<T>(const T*, std::int64_t, T*);                             \
   template void wdivide_backward<T>(const T*, std::int64_t, const T*, T*);                  \
   template void viewport_forward<T>(const T*, std::int64_t, int, int, T*);                  \
-  template void viewport_backward<T>(std::int64_t, int, int, const T*, T*);
+  template void viewport_backward<T>(std::int64_t, int, int, const T*, T*);                 \
+  template void screen_to_clip_backward<T>(const T*, std::int64_t, int, int, const double*, int, T*);
 GR_INSTANTIATE(float)
 GR_INSTANTIATE(double)
 #undef GR_INSTANTIATE

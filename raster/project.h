@@ -33,4 +33,18 @@ template <class T>
 void viewport_backward(std::int64_t num_vertices, int width, int height, const T* grad_screen,
                        T* grad_ndc);
 
+// viewport_backward then wdivide_backward, fused per vertex and computed in
+// double, for kernels that accumulate screen-space gradients in double:
+// grad_screen (N x stride, screen x, y and, if stride == 3, z_ndc) ->
+//   g_ndc = (W/2 g_xs, -H/2 g_ys, g_z),  dL/d(x, y, z) += g_ndc / w,
+//   dL/dw -= (g_ndc . (x, y, z)) / w^2,
+// accumulated into grad_clip (N x 4) and clamped to T's finite range once at
+// the end: for |w| -> 0 in float32 the gradient is large but finite where
+// the float kernels above would overflow to Inf. Vertices with zero incoming
+// gradient are skipped; the others must have w > 0 (callers pass only
+// vertices in front of the near plane).
+template <class T>
+void screen_to_clip_backward(const T* clip, std::int64_t num_vertices, int width, int height,
+                             const double* grad_screen, int stride, T* grad_clip);
+
 }  // namespace gr::raster

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -82,4 +83,32 @@ TEST_CASE("viewport: gradient matches finite differences", "[raster][project]") 
   const double err = fd_error(loss, ndc, grad);
   INFO("relative error " << err);
   CHECK(err < 1e-8);
+}
+
+TEST_CASE("screen_to_clip_backward equals viewport then wdivide adjoints and stays finite for tiny w",
+          "[raster][project]") {
+  const int W = 64, H = 48;
+  const std::vector<double> clip = {0.3, -0.2, 0.5, 1.5, -1.1, 0.7, 0.2, 2.0, 0.1, 0.1, -0.4, 0.8};
+  const std::vector<double> g_screen = {0.7, -1.3, 0.4, 2.1, -0.6, 0.0, 0.0, 0.0, 0.9};  // x, y, z_ndc per vertex
+  std::vector<double> fused(12, 0.5), chained(12, 0.5);
+  screen_to_clip_backward(clip.data(), 3, W, H, g_screen.data(), 3, fused.data());
+  std::vector<double> g_xy(6), g_ndc(9);
+  for (int i = 0; i < 3; ++i) {
+    g_xy[2 * i] = g_screen[3 * i];
+    g_xy[2 * i + 1] = g_screen[3 * i + 1];
+    g_ndc[3 * i + 2] = g_screen[3 * i + 2];
+  }
+  viewport_backward(3, W, H, g_xy.data(), g_ndc.data());
+  wdivide_backward(clip.data(), 3, g_ndc.data(), chained.data());
+  for (int i = 0; i < 12; ++i) CHECK(fused[i] == Approx(chained[i]).epsilon(1e-14));
+
+  // float32, w = 1e-39: 1/w is beyond FLT_MAX; clamped, not Inf.
+  const float tiny = 1e-39f;
+  const std::vector<float> clip32 = {0.5f * tiny, 0.5f * tiny, 0, tiny};
+  const std::vector<double> g2 = {1.0, 1.0};
+  std::vector<float> out(4, 0.0f);
+  screen_to_clip_backward(clip32.data(), 1, W, H, g2.data(), 2, out.data());
+  for (float v : out) CHECK(std::isfinite(v));
+  CHECK(out[0] == std::numeric_limits<float>::max());
+  CHECK(out[1] == -std::numeric_limits<float>::max());
 }
