@@ -43,6 +43,11 @@ Tensor interpolate(const Tensor& attributes, const Tensor& clip, const GBuffer& 
     if (background.numel() != c || background.dtype() != attributes.dtype())
       throw ShapeError("interpolate: background " + background.describe() + " must hold C = " + std::to_string(c) +
                        " values of the attributes' dtype");
+    // A NaN/Inf background would fill every uncovered pixel with it.
+    dispatch_float(background.dtype(), "interpolate", [&](auto tag) {
+      using T = decltype(tag);
+      raster::detail::check_finite(background.data<T>(), background.numel(), "background", "interpolate");
+    });
   }
   Tensor out = Tensor::empty({h, w, c}, attributes.dtype());
   const bool perspective = options.perspective;

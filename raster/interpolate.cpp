@@ -224,10 +224,13 @@ void backward_items(const T* attr, std::int64_t N, std::int64_t C, const T* clip
   // Items in chunks: per-item terms in parallel, per-vertex sums in item order.
   // live: 0 skip, 1 gradient to w (grad_w), 2 to x, y, w (grad_xyw; clipped triangle).
   enum : std::uint8_t { kSkip = 0, kToW = 1, kToXYW = 2 };
+  // Scratch for one chunk, sized to the chunk actually used (small images
+  // allocate and zero only what they need; the chunk boundaries are unchanged).
   constexpr std::int64_t kChunk = 32768;
-  std::vector<double> weight(3 * kChunk), grad_w(3 * kChunk), grad_xyw;
-  if (grad_clip && items.any_behind) grad_xyw.resize(9 * kChunk);
-  std::vector<std::uint8_t> live(kChunk);
+  const auto len = static_cast<std::size_t>(std::min(kChunk, P));
+  std::vector<double> weight(3 * len), grad_w(3 * len), grad_xyw;
+  if (grad_clip && items.any_behind) grad_xyw.resize(9 * len);
+  std::vector<std::uint8_t> live(len);
   for (std::int64_t c0 = 0; c0 < P; c0 += kChunk) {
     const std::int64_t c1 = std::min(P, c0 + kChunk);
     parallel_for(c0, c1, 1024, [&](std::int64_t lo, std::int64_t hi) {

@@ -100,6 +100,23 @@ TEST_CASE("bad input: NaN or Inf vertex positions and attributes are refused nam
   }
 }
 
+TEST_CASE("bad input: a NaN or Inf interpolate background is refused naming 'background'", "[bad_input]") {
+  for (double bad : {kNaN, kInf, -kInf}) {
+    for (DType dt : {DType::Float32, DType::Float64}) {
+      INFO(bad << " " << dtype_name(dt));
+      const GBuffer gb = rasterize(clip_tri(dt), one_tri(), {8, 8});
+      InterpolateOptions o;
+      o.background = Tensor::from_values({0.0, 0.5, bad}, {3}, dt);
+      // It would fill every uncovered pixel (fuzz corpus: interpolate_accepts_nan_background.bin).
+      require_throw<ValueError>([&] { interpolate(Tensor::ones({3, 3}, dt), clip_tri(dt), gb, one_tri(), o); },
+                                {"interpolate", "background[2]"});
+      require_throw<ValueError>(
+          [&] { interpolate_with_derivatives(Tensor::ones({3, 3}, dt), clip_tri(dt), gb, one_tri(), o); },
+          {"interpolate", "background[2]"});
+    }
+  }
+}
+
 TEST_CASE("bad input: triangle indices negative or >= the vertex count are refused naming tris[t][k]",
           "[bad_input]") {
   for (std::int32_t bad : {-1, 3, 1 << 30}) {

@@ -27,17 +27,10 @@ void fuzz_obj_loader(const std::uint8_t* data, std::size_t size);
 
 // The bytes encode a small scene (see RasterCase) that goes through
 // rasterize -> interpolate (or interpolate_with_derivatives) -> backward.
-// Unless `strict`, two known issues (found by this fuzzer, to be fixed in the
-// kernels; seeds in corpus/raster_known_failures) are tolerated so that fuzzing
-// can go on past them:
-//  1. interpolate accepts a NaN/Inf background, so its output is not finite:
-//     the output check is skipped when a background value is not finite.
-//  2. rasterize_backward (float32) clamps screen-space gradients to the float
-//     range before the viewport and w-divide adjoints, which then overflow to
-//     Inf for |w| -> 0 (e.g. w = 1e-39): the clip.grad check is skipped when
-//     some |w| < 1e-6.
-// Remove a tolerance once its issue is fixed.
-void fuzz_rasterize_interpolate(const std::uint8_t* data, std::size_t size, bool strict = false);
+// No known issue is tolerated: the two this fuzzer found (a NaN/Inf interpolate
+// background, an Inf float32 clip gradient for |w| -> 0) are fixed and their
+// reproducers are seeds in corpus/raster.
+void fuzz_rasterize_interpolate(const std::uint8_t* data, std::size_t size);
 
 // A raster fuzz input in readable form, for writing seeds. Byte layout:
 //   flags (bit 0 float64, bits 1-2 cull None/Back/Front, bit 3 linear

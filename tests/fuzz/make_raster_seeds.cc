@@ -1,6 +1,5 @@
-// Writes the raster seed corpus (tests/fuzz/corpus/raster) and the reproducers
-// of the known issues (tests/fuzz/corpus/raster_known_failures, see
-// fuzz_targets.h) with encode_raster_case. Built with -DGRADRASTER_FUZZ=ON; run
+// Writes the raster seed corpus (tests/fuzz/corpus/raster), including the
+// reproducers of fixed fuzz findings, with encode_raster_case. Built with -DGRADRASTER_FUZZ=ON; run
 // as  build-san/fuzz/fuzz_make_raster_seeds tests/fuzz/corpus
 #include <cmath>
 #include <cstdio>
@@ -34,7 +33,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "usage: %s OUTPUT_DIR\n", argv[0]);
     return 2;
   }
-  std::vector<std::pair<std::string, RasterCase>> cases, known_failures;
+  std::vector<std::pair<std::string, RasterCase>> cases;
   cases.emplace_back("two_triangles_f32", two_triangles());
   {
     RasterCase c = two_triangles();
@@ -79,34 +78,32 @@ int main(int argc, char** argv) {
     cases.emplace_back("one_pixel", c);
   }
   {
-    RasterCase c;  // known issue 1: a NaN background is accepted, the output is NaN
+    RasterCase c;  // fixed finding: a NaN background was accepted, the output was NaN
     c.width = 2, c.height = 2, c.channels = 1, c.background = true;
     c.clip = {-0.9, -0.9, 0, 1, -0.8, -0.9, 0, 1, -0.9, -0.8, 0, 1};  // covers no pixel centre
     c.triangles = {0, 1, 2};
     c.attributes = {1, 2, 3};
     c.background_values = {std::numeric_limits<double>::quiet_NaN()};
-    known_failures.emplace_back("interpolate_accepts_nan_background", c);
+    cases.emplace_back("interpolate_accepts_nan_background", c);
   }
   {
-    RasterCase c;  // known issue 2: float32 clip gradient overflows to Inf for w = 1e-39
+    RasterCase c;  // fixed finding: float32 clip gradient overflowed to Inf for w = 1e-39
     c.width = 8, c.height = 8, c.channels = 1;
     c.clip = {0.5e-39, 0.5e-39, 0, 1e-39, -0.9, -0.9, 0, 1, 0.9, -0.9, 0, 1};
     c.triangles = {0, 1, 2};
     c.attributes = {0, 0, 0};
     c.background_values = {0};
-    known_failures.emplace_back("rasterize_backward_inf_grad_tiny_w_float32", c);
+    cases.emplace_back("rasterize_backward_inf_grad_tiny_w_float32", c);
   }
   const std::string root = argv[1];
-  for (const auto& [dir, list] : {std::pair{std::string("/raster/"), &cases},
-                                  std::pair{std::string("/raster_known_failures/"), &known_failures}})
-    for (const auto& [name, c] : *list) {
-      const std::vector<std::uint8_t> bytes = gr::fuzz::encode_raster_case(c);
-      std::ofstream out(root + dir + name + ".bin", std::ios::binary);
-      out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
-      if (!out) {
-        std::fprintf(stderr, "cannot write %s%s%s.bin\n", root.c_str(), dir.c_str(), name.c_str());
-        return 1;
-      }
+  for (const auto& [name, c] : cases) {
+    const std::vector<std::uint8_t> bytes = gr::fuzz::encode_raster_case(c);
+    std::ofstream out(root + "/raster/" + name + ".bin", std::ios::binary);
+    out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+    if (!out) {
+      std::fprintf(stderr, "cannot write %s/raster/%s.bin\n", root.c_str(), name.c_str());
+      return 1;
     }
+  }
   return 0;
 }
