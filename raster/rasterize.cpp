@@ -22,6 +22,7 @@
 #include "raster/guarded_math.h"
 #include "raster/project.h"
 #include "raster/rasterize_setup.h"
+#include "raster/rasterize_scan.h"
 
 namespace gr::raster {
 namespace {
@@ -29,8 +30,10 @@ namespace {
 using detail::finite_cast;
 using detail::safe_inv;
 
-constexpr int kTile = 32;
-constexpr int kTilePixels = kTile * kTile;
+using detail::kTile;
+using detail::kTilePixels;
+using detail::scan_triangle;
+using detail::TileBuffer;
 
 // Per-call buffers, reused across calls through a pool (allocated and
 // page-faulted once; nothing is zero-filled serially).
@@ -71,47 +74,6 @@ double depth_lower_bound(const detail::Vertices& v, const std::int32_t* tri) {
   const double zabs = std::max({std::abs(p[0][2]), std::abs(p[1][2]), std::abs(p[2][2])});
   const double rel = std::ldexp(1.0, -40) * ((bw + 2.0) * (bh + 2.0) / a2 + 1.0);
   return zmin - zabs * rel;
-}
-
-// One tile's pixels: depth, triangle index (-1 = none) and (u, v).
-struct TileBuffer {
-  double z[kTilePixels], u[kTilePixels], v[kTilePixels];
-  std::int32_t id[kTilePixels];
-  int covered;  // pixels with id >= 0
-  double zmax;  // largest z over the tile once every pixel is covered, else +inf
-};
-
-// Scans triangle t over its box clipped to the tile [tx0, tx1] x [ty0, ty1].
-void scan_triangle(const detail::Vertices& v, const std::int32_t* tris, std::int32_t t,
-                   const detail::PixelBox& b, int tx0, int ty0, int tx1, int ty1, int width,
-                   int height, TileBuffer& tb) {
-  const int x0 = std::max(b.x0, tx0), x1 = std::min(b.x1, tx1);
-  const int y0 = std::max(b.y0, ty0), y1 = std::min(b.y1, ty1);
-  detail::TriSetup s;
-  detail::setup_edges(v, tris + 3 * static_cast<std::int64_t>(t), width, height, &s);
-  const detail::Edge &e0 = s.e[0], &e1 = s.e[1], &e2 = s.e[2];
-  for (int y = y0; y <= y1; ++y) {
-    const double py = y + 0.5;
-    const double r0 = e0.row(py), r1 = e1.row(py), r2 = e2.row(py);
-    const int row = (y - ty0) * kTile - tx0;
-    for (int x = x0; x <= x1; ++x) {
-      const double px = x + 0.5;
-      // Coverage: all three edges inside (ties by the top-left rule).
-      const double v0 = e0.eval(px, r0), v1 = e1.eval(px, r1), v2 = e2.eval(px, r2);
-      if (!(e0.inside(v0) && e1.inside(v1) && e2.inside(v2))) continue;
-      // Depth, near/far test, then the (depth, id) key test.
-      const double z = v0 * e0.mz + v1 * e1.mz + v2 * e2.mz;
-      if (s.z_test && !(z >= -1.0 && z <= 1.0)) continue;
-      const int p = row + x;
-      if (z < tb.z[p] || (z == tb.z[p] && t < tb.id[p])) {
-        tb.covered += tb.id[p] < 0;
-        tb.z[p] = z;
-        tb.id[p] = t;
-        tb.u[p] = v1 * e1.mu;
-        tb.v[p] = v2 * e2.mu;
-      }
-    }
-  }
 }
 
 // Scans the tile's triangles into tb. With front_to_back, the list is visited
@@ -437,8 +399,11 @@ void rasterize_backward(const T* clip, std::int64_t num_vertices, const std::int
   constexpr std::int64_t kChunk = 16384;
   std::vector<double>& contrib = sc.contrib;
   std::vector<std::int8_t>& kind = sc.kind;  // 0 none, 1 screen, 2 homogeneous
-  contrib.resize(12 * kChunk);
-  kind.resize(kChunk);
+  // Pooled, so allocated once per pool entry; sized to the chunk actually used
+  // (a small image never zero-fills the full kChunk rows).
+  const std::int64_t chunk_len = std::min(kChunk, P);
+  contrib.resize(12 * static_cast<std::size_t>(chunk_len));
+  kind.resize(static_cast<std::size_t>(chunk_len));
   for (std::int64_t c0 = 0; c0 < P; c0 += kChunk) {
     const std::int64_t c1 = std::min(P, c0 + kChunk);
     parallel_for(c0, c1, 1024, [&](std::int64_t lo, std::int64_t hi) {
@@ -489,19 +454,7 @@ void rasterize_backward(const T* clip, std::int64_t num_vertices, const std::int
   }
 
   // Screen -> NDC -> clip per vertex with the projection adjoints.
-  if (any_screen) {
-    std::vector<T> g_screen(2 * num_vertices), g_ndc(3 * num_vertices, T(0));
-    parallel_for(0, num_vertices, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
-      for (std::int64_t i = lo; i < hi; ++i) {
-        g_screen[2 * i] = finite_cast<T>(acc_screen[3 * i]);
-        g_screen[2 * i + 1] = finite_cast<T>(acc_screen[3 * i + 1]);
-        g_ndc[3 * i + 2] = finite_cast<T>(acc_screen[3 * i + 2]);
-      }
-    });
-    viewport_backward(num_vertices, W, H, g_screen.data(), g_ndc.data());
-    // Only vertices of screen-form triangles (w > 0) carry gradient here.
-    wdivide_backward(clip, num_vertices, g_ndc.data(), grad_clip);
-  }
+  if (any_screen) screen_to_clip_backward(clip, num_vertices, W, H, acc_screen.data(), 3, grad_clip);
   if (any_clip)
     parallel_for(0, 4 * num_vertices, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
       for (std::int64_t i = lo; i < hi; ++i) grad_clip[i] += finite_cast<T>(acc_clip[i]);

@@ -157,8 +157,9 @@ int clip_polygon(const double (*in)[4], int n, double (*out)[4], Dist dist) {
 
 // Pixel-centre index range [lo, hi] of the interval [a, b], clamped to [0, n-1].
 inline void pixel_range(double a, double b, int n, std::int32_t* lo, std::int32_t* hi) {
-  a = a < -2.0 ? -2.0 : a > n + 2.0 ? n + 2.0 : a;
-  b = b < -2.0 ? -2.0 : b > n + 2.0 ? n + 2.0 : b;
+  // std::max(a, lo) is (a < lo ? lo : a): the same clamp, without branches.
+  a = std::min(std::max(a, -2.0), n + 2.0);
+  b = std::min(std::max(b, -2.0), n + 2.0);
   // Exact floor/ceil of values in [-2.5, n + 1.5] without a libm call:
   // conversion truncates towards zero, then one compare fixes the direction.
   const double lo_f = a - 0.5, hi_f = b - 0.5;
@@ -316,14 +317,32 @@ TriClass classify_triangle(const Vertices& v, const std::int32_t* tri, int width
 void setup_edges(const Vertices& v, const std::int32_t* tri, int width, int height, TriSetup* out) {
   if (!needs_clipping(v, tri)) {
     // Screen form: e_k = sign(2A) E_ab, lambda_k = e_k / |2A|, depth = sum lambda_k z_k.
-    const double a2 = twice_area(v, tri);
+    // screen_edge per edge, written in place (this runs per triangle and tile).
+    const double* p[3] = {&v.screen[3 * static_cast<std::size_t>(tri[0])],
+                          &v.screen[3 * static_cast<std::size_t>(tri[1])],
+                          &v.screen[3 * static_cast<std::size_t>(tri[2])]};
+    const double a2 = (p[0][0] - p[1][0]) * (p[2][1] - p[1][1]) - (p[0][1] - p[1][1]) * (p[2][0] - p[1][0]);
     const double sign = a2 > 0.0 ? 1.0 : -1.0;
     const double inv = 1.0 / std::abs(a2);
     bool z_test = false;
     for (int k = 0; k < 3; ++k) {
+      const int ia = k == 2 ? 0 : k + 1, ib = k == 0 ? 2 : k - 1;
+      const double *pa = p[ia], *pb = p[ib];
+      double sg = sign;
+      // Canonical order (screen_less): by x, then y, then vertex index.
+      const bool swap = pb[0] != pa[0] ? pb[0] < pa[0] : pb[1] != pa[1] ? pb[1] < pa[1] : tri[ib] < tri[ia];
+      if (swap) {
+        std::swap(pa, pb);
+        sg = -sg;
+      }
       Edge& e = out->e[k];
-      e = screen_edge(v, tri[(k + 1) % 3], tri[(k + 2) % 3], sign);
-      const double z = v.screen[3 * static_cast<std::size_t>(tri[k]) + 2];
+      e.ax = pa[0];
+      e.ay = pa[1];
+      e.dx = sg * (pb[0] - pa[0]);
+      e.dy = sg * (pb[1] - pa[1]);
+      e.c = 0.0;
+      e.tie = tie_rule(e.dx, e.dy);
+      const double z = p[k][2];
       e.mu = inv;
       e.mz = z * inv;
       z_test |= z > 1.0;

@@ -532,6 +532,44 @@ TEST_CASE("rasterize: degenerate triangles, slivers and vertices on pixel centre
   CHECK(all_finite(grad));
 }
 
+TEST_CASE("rasterize: float32 gradient stays finite for a vertex with tiny w and is clamped to the float range",
+          "[raster][rasterize][degenerate]") {
+  // Vertex 0 at NDC (0.5, 0.5, 0) with w = 1e-39 (a float32 denormal): 1/w is
+  // beyond FLT_MAX, so its exact gradient is too (fuzz corpus:
+  // rasterize_backward_inf_grad_tiny_w_float32.bin). The same scene with w = 1
+  // has vertex 0's gradient 1e39 times smaller (d(x/w)/dx = 1/w, d(x/w)/dw =
+  // -x/w^2 with x ~ w) and the same gradient for vertices 1 and 2.
+  const int W = 8, H = 8;
+  const float tiny = 1e-39f;
+  const std::vector<float> tiny_clip = {0.5f * tiny, 0.5f * tiny, 0, tiny, -0.9f, -0.9f, 0, 1, 0.9f, -0.9f, 0, 1};
+  const std::vector<float> unit_clip = {0.5f, 0.5f, 0, 1, -0.9f, -0.9f, 0, 1, 0.9f, -0.9f, 0, 1};
+  const std::vector<std::int32_t> tris = {0, 1, 2};
+  const RasterSettings s{W, H, Cull::None};
+  auto grad_of = [&](const std::vector<float>& clip) {
+    std::vector<std::int32_t> id(W * H);
+    std::vector<float> uv(2 * W * H), depth(W * H), grad(12, 0.0f);
+    rasterize_forward(clip.data(), 3, tris.data(), 1, s, id.data(), uv.data(), depth.data());
+    const std::vector<double> gu = random_vector(2 * W * H, -1, 1, 5), gd = random_vector(W * H, -1, 1, 6);
+    const std::vector<float> guf(gu.begin(), gu.end()), gdf(gd.begin(), gd.end());
+    rasterize_backward(clip.data(), 3, tris.data(), 1, s, id.data(), guf.data(), gdf.data(), grad.data());
+    return grad;
+  };
+  const std::vector<float> g_tiny = grad_of(tiny_clip), g_unit = grad_of(unit_clip);
+  for (int i = 0; i < 12; ++i) {
+    INFO("grad_clip[" << i << "] = " << g_tiny[i] << " (w = 1: " << g_unit[i] << ")");
+    CHECK(std::isfinite(g_tiny[i]));
+    if (i < 4) {
+      // Vertex 0: same sign, magnitude >= |g_unit| / 1e-39 or clamped to FLT_MAX.
+      if (std::abs(g_unit[i]) > 1e-3f) {
+        CHECK((g_tiny[i] > 0) == (g_unit[i] > 0));
+        CHECK(std::abs(g_tiny[i]) >= std::min(3.0e38, 0.9e39 * std::abs(g_unit[i])));
+      }
+    } else {
+      CHECK(g_tiny[i] == Approx(g_unit[i]).epsilon(1e-4).margin(1e-5));
+    }
+  }
+}
+
 TEST_CASE("rasterize: bad input throws with the argument named", "[raster][rasterize][errors]") {
   std::vector<double> clip = {0, 0, 0, 1, 1, 0, 0, 1, 0, 1, 0, 1};
   std::vector<std::int32_t> tris = {0, 1, 2};
