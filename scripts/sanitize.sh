@@ -12,23 +12,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-sudo_cmd=()
-[ "$(id -u)" -ne 0 ] && sudo_cmd=(sudo)
-updated=0
-# Installs the Debian packages among "$@" that are not installed yet.
-install_missing() {
-  local missing=() p
-  for p in "$@"; do
-    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
-  done
-  [ ${#missing[@]} -eq 0 ] && return 0
-  echo "sanitize: installing ${missing[*]}"
-  if [ "$updated" -eq 0 ]; then
-    "${sudo_cmd[@]}" apt-get update -qq
-    updated=1
-  fi
-  DEBIAN_FRONTEND=noninteractive "${sudo_cmd[@]}" apt-get install -y -qq "${missing[@]}"
-}
+# shellcheck source=install_missing.sh
+source scripts/install_missing.sh
 
 # The library's dependencies (as scripts/setup.sh) plus clang. The sanitizer and
 # libFuzzer runtimes (libclang_rt.{asan,ubsan,fuzzer}-x86_64.a) are in
