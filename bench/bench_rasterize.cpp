@@ -22,6 +22,7 @@
 #include "ops/ops.h"
 #include "raster/obj_io.h"
 #include "raster/procedural.h"
+#include "mesh_framing.h"
 
 namespace {
 
@@ -29,34 +30,6 @@ constexpr int kSize = 1024;
 constexpr const char* kBunny = "/usr/share/glmark2/models/bunny.obj";
 
 bool have_bunny() { return std::ifstream(kBunny).good(); }
-
-// Perspective camera framing the mesh's bounding sphere from an oblique
-// direction (the same framing as bench/peer_llvmpipe_scene.cpp).
-gr::Tensor frame_mesh(const gr::raster::Mesh& mesh) {
-  const float* p = mesh.positions.data<float>();
-  double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
-  for (std::int64_t i = 0; i < mesh.num_vertices(); ++i)
-    for (int a = 0; a < 3; ++a) {
-      lo[a] = std::min(lo[a], double(p[3 * i + a]));
-      hi[a] = std::max(hi[a], double(p[3 * i + a]));
-    }
-  double centre[3], radius = 0;
-  for (int a = 0; a < 3; ++a) {
-    centre[a] = 0.5 * (lo[a] + hi[a]);
-    radius += 0.25 * (hi[a] - lo[a]) * (hi[a] - lo[a]);
-  }
-  radius = std::sqrt(radius);
-  const double fov_y = 0.7, distance = radius / std::sin(fov_y / 2);
-  const double dir[3] = {0.35, 0.25, 1.0};
-  const double len = std::sqrt(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);
-  std::vector<double> eye(3);
-  for (int a = 0; a < 3; ++a) eye[a] = centre[a] + distance * dir[a] / len;
-  gr::Tensor view = gr::look_at(gr::Tensor::from_values(eye, {3}),
-                                gr::Tensor::from_values({centre[0], centre[1], centre[2]}, {3}),
-                                gr::Tensor::from_values({0, 1, 0}, {3}));
-  gr::Tensor proj = gr::perspective(fov_y, 1.0, 0.5 * (distance - radius), 2.0 * (distance + radius));
-  return gr::transform_points(mesh.positions, gr::matmul(proj, view)).detach();
-}
 
 struct Scene {
   gr::Tensor clip, tris;
@@ -69,7 +42,7 @@ const Scene& mesh_scene(int level) {
   if (it != cache.end()) return it->second;
   gr::raster::Mesh m = have_bunny() ? gr::raster::load_obj(kBunny) : gr::raster::make_icosphere(6);
   for (int i = 0; i < level; ++i) m = gr::raster::subdivide(m);  // x4 each
-  return cache[level] = Scene{frame_mesh(m), m.triangles};
+  return cache[level] = Scene{gr::bench::frame_mesh(m), m.triangles};
 }
 
 // Torus of about `triangles` triangles; built once per process.
@@ -80,7 +53,7 @@ const Scene& torus_scene(std::int64_t triangles) {
   const int minor = std::max(10, static_cast<int>(std::sqrt(triangles / 8.0)));
   const int major = static_cast<int>(triangles / (2 * minor));
   gr::raster::Mesh m = gr::raster::make_torus(major, minor, 1.0f, 0.35f);
-  return cache[triangles] = Scene{frame_mesh(m), m.triangles};
+  return cache[triangles] = Scene{gr::bench::frame_mesh(m), m.triangles};
 }
 
 // Clip x, y scaled about the view axis: the image shrinks by `scale`.
@@ -97,11 +70,7 @@ Scene scaled(const Scene& s, double scale) {
 gr::RasterizeOptions options(bool front_to_back) {
   gr::RasterizeOptions o;
   o.width = o.height = kSize;
-#ifndef GR_BENCH_BASELINE
   o.front_to_back = front_to_back;
-#else
-  (void)front_to_back;
-#endif
   return o;
 }
 

@@ -10,6 +10,7 @@ if(OSMESA_FOUND)
     ${CMAKE_CURRENT_SOURCE_DIR}/peer_llvmpipe.cpp
     ${CMAKE_CURRENT_SOURCE_DIR}/peer_llvmpipe_gl.cpp
     ${CMAKE_CURRENT_SOURCE_DIR}/peer_llvmpipe_scene.cpp
+    ${CMAKE_CURRENT_SOURCE_DIR}/mesh_framing.cpp
     ${CMAKE_CURRENT_SOURCE_DIR}/peer_llvmpipe_compare.cpp)
   target_compile_definitions(peer_llvmpipe PRIVATE GL_GLEXT_PROTOTYPES)
   target_link_libraries(peer_llvmpipe PRIVATE gradraster::gradraster PkgConfig::OSMESA)

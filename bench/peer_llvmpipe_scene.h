@@ -30,8 +30,4 @@ std::vector<Scene> make_scenes(const std::string& mesh_path,
                                const std::function<bool(const std::string&)>& wanted,
                                std::vector<std::string>* notes);
 
-// look_at + perspective (fov_y 0.7 rad, square image) framing the mesh's
-// bounding sphere from an oblique direction; returns transform_points(positions, P V).
-gr::Tensor frame_mesh(const gr::raster::Mesh& mesh);
-
 }  // namespace peer

@@ -1,0 +1,14 @@
+// The camera the rasterizer benchmarks and the llvmpipe comparison share.
+#pragma once
+
+#include "autodiff/tensor.h"
+#include "raster/mesh.h"
+
+namespace gr::bench {
+
+// look_at + perspective (fov_y 0.7 rad, square image) framing the mesh's
+// bounding sphere from an oblique direction; returns the clip positions
+// transform_points(positions, P V) (N x 4, no gradient).
+Tensor frame_mesh(const raster::Mesh& mesh);
+
+}  // namespace gr::bench
