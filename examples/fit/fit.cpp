@@ -157,7 +157,7 @@ FitResult run_shape(const FitOptions& options, std::ostream& log) {
   result.triangles = mesh.num_triangles();
   result.iterations = iterations;
 
-  std::vector<Tensor> target_images, target_coverage;
+  std::vector<Tensor> target_images, target_coverage, target_alpha;
   {
     NoGradGuard no_grad;
     for (const Camera& camera : scene.cameras) {
@@ -165,6 +165,7 @@ FitResult run_shape(const FitOptions& options, std::ostream& log) {
                               matmul(camera.projection, camera.view), camera.light, scene.background, options.size);
       target_images.push_back(r.image);
       target_coverage.push_back(r.coverage);
+      target_alpha.push_back(r.alpha);
     }
   }
 
@@ -232,15 +233,17 @@ FitResult run_shape(const FitOptions& options, std::ostream& log) {
   };
   if (options.fit_camera) camera_error(result.initial_rotation_error, result.initial_translation_error);
 
-  // One pass over the views: the image loss (mean over views of the per-pixel
-  // MSE), the current images and the mean silhouette IoU.
+  // One pass over the views: the loss (mean over views of the per-pixel
+  // colour MSE plus alpha-mask MSE), the current images and the mean silhouette IoU.
   auto image_loss = [&](std::vector<Tensor>& current, double& iou) {
     Tensor total;
     iou = 0;
     for (std::size_t v = 0; v < views; ++v) {
       const Camera& c = scene.cameras[v];
       const Render r = render(mesh, positions, material, view_projection(v), c.light, scene.background, options.size);
-      const Tensor view_loss = mean(pow(r.image - target_images[v], 2.0));
+      // Colour MSE plus the alpha masks' MSE: a flap of the surface that takes
+      // the background's colour is invisible to the first term, not the second.
+      const Tensor view_loss = mean(pow(r.image - target_images[v], 2.0)) + mean(pow(r.alpha - target_alpha[v], 2.0));
       total = total.defined() ? total + view_loss : view_loss;
       current.push_back(r.image.detach());
       iou += coverage_iou(r.coverage, target_coverage[v]) / views;

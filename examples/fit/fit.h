@@ -8,8 +8,10 @@
 // sphere's points (with a uniform-Laplacian smoothness term and a smoothing
 // reparametrization), vertex colours or
 // a texture, and optionally a small rigid correction of every camera. The loss
-// is the mean squared error over all pixels, silhouettes included: the
-// antialias op gives the edge vertices their gradient.
+// is the mean squared error over all pixels of the colour and of an alpha mask
+// (coverage antialiased like the colour), silhouettes included: the antialias
+// op gives the edge vertices their gradient, and the mask keeps it alive where
+// the surface's colour matches the background.
 //
 // Pose mode: one target image of the reference at an unknown rotation and
 // translation; starting from a pose about 25 degrees and 0.15 units off, only

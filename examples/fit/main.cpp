@@ -36,12 +36,12 @@ int main(int argc, char** argv) {
               << "Fitted: free vertex positions (+ Laplacian smoothness), "
               << (o.appearance == fit::Appearance::Texture ? "a texture" : "vertex colours")
               << (o.fit_camera ? ", a rigid correction per camera" : "")
-              << ". The loss is the MSE over all pixels;\nantialiasing gives silhouette edges their gradient.\n";
+              << ". The loss is the MSE of colour and alpha mask over all pixels;\nantialiasing gives silhouette edges their gradient.\n";
   try {
     const fit::FitResult r = fit::run_fit(o, std::cout);
     std::cout << std::setprecision(4) << "\nobject:          " << r.scene_name << " (fitted mesh: " << r.points
               << " points, " << r.triangles << " triangles)\n"
-              << "image loss:      " << std::scientific << r.initial_loss << " -> " << r.final_loss << std::fixed
+              << "loss:            " << std::scientific << r.initial_loss << " -> " << r.final_loss << std::fixed
               << std::setprecision(1) << "  (" << r.initial_loss / r.final_loss << "x lower)\n"
               << std::setprecision(3) << "silhouette IoU:  " << r.initial_iou << " -> " << r.final_iou
               << (pose ? "\n" : "  (mean over views)\n");

@@ -38,9 +38,13 @@ Render render(const SurfaceMesh& mesh, const Tensor& positions, const Material& 
   const Tensor covered = greater(cast(gb.tri_id, DType::Float32), Tensor::scalar(0.0));
   const Tensor coverage = reshape(covered, {size, size, 1});
   const Tensor composited = lambert(albedo, normal, light) * coverage + background * (1.0 - coverage);
+  // The coverage goes through antialias as a fourth channel: an alpha mask
+  // whose silhouette gradient does not vanish where the surface's colour
+  // happens to match the background.
   AntialiasOptions aa;
   aa.topology = mesh.topology;
-  return {antialias(composited, gb, clip, mesh.triangles, aa), coverage};
+  const Tensor rgba = antialias(concat({composited, coverage}, 2), gb, clip, mesh.triangles, aa);
+  return {slice(rgba, 2, 0, 3), coverage, slice(rgba, 2, 3, 4)};
 }
 
 }  // namespace fit

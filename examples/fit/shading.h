@@ -24,6 +24,7 @@ struct Material {
 struct Render {
   Tensor image;     // [H, W, 3] shaded, composited over the background, antialiased
   Tensor coverage;  // [H, W, 1] 1 where a triangle covers the pixel centre, else 0 (no gradient)
+  Tensor alpha;     // [H, W, 1] the coverage antialiased like the image (differentiable at silhouettes)
 };
 
 // albedo * (ambient + (1 - ambient) * max(n . l, 0)), per pixel.
