@@ -25,6 +25,18 @@ inline __m128d inside2(__m128d e) {
 }
 #endif
 
+// Depth range test, then the (depth, id) key test; the winner's values go to slot p.
+inline void resolve_pixel(const TriSetup& s, std::int32_t t, int p, double z, double u, double v, TileBuffer& tb) {
+  if (s.z_test && !(z >= -1.0 && z <= 1.0)) return;
+  if (z < tb.z[p] || (z == tb.z[p] && t < tb.id[p])) {
+    tb.covered += tb.id[p] < 0;
+    tb.z[p] = z;
+    tb.id[p] = t;
+    tb.u[p] = u;
+    tb.v[p] = v;
+  }
+}
+
 // Rows y0..y1 of the column range x0..x0+n-1 (n <= kTile) of one triangle.
 // col[k][i] = (px_i - ax_k) dy_k is shared by every row; per row the edge
 // values ((col - (py - ay) dx) + c) and their coverage are computed two pixels
@@ -85,17 +97,8 @@ void scan_rows(const TriSetup& s, std::int32_t t, int x0, int n, int y0, int y1,
     while (mask) {
       const int i = __builtin_ctz(mask);
       mask &= mask - 1;
-      // Depth, near/far test, then the (depth, id) key test.
       const double z = ev[0][i] * mz0 + ev[1][i] * mz1 + ev[2][i] * mz2;
-      if (s.z_test && !(z >= -1.0 && z <= 1.0)) continue;
-      const int p = row + i;
-      if (z < tb.z[p] || (z == tb.z[p] && t < tb.id[p])) {
-        tb.covered += tb.id[p] < 0;
-        tb.z[p] = z;
-        tb.id[p] = t;
-        tb.u[p] = ev[1][i] * mu1;
-        tb.v[p] = ev[2][i] * mu2;
-      }
+      resolve_pixel(s, t, row + i, z, ev[1][i] * mu1, ev[2][i] * mu2, tb);
     }
   }
 }
@@ -113,16 +116,7 @@ void scan_small(const TriSetup& s, std::int32_t t, int x0, int x1, int y0, int y
       const double px = x + 0.5;
       const double v0 = e0.eval(px, r0), v1 = e1.eval(px, r1), v2 = e2.eval(px, r2);
       if (!(e0.inside(v0) && e1.inside(v1) && e2.inside(v2))) continue;
-      const double z = v0 * e0.mz + v1 * e1.mz + v2 * e2.mz;
-      if (s.z_test && !(z >= -1.0 && z <= 1.0)) continue;
-      const int p = row + x;
-      if (z < tb.z[p] || (z == tb.z[p] && t < tb.id[p])) {
-        tb.covered += tb.id[p] < 0;
-        tb.z[p] = z;
-        tb.id[p] = t;
-        tb.u[p] = v1 * e1.mu;
-        tb.v[p] = v2 * e2.mu;
-      }
+      resolve_pixel(s, t, row + x, v0 * e0.mz + v1 * e1.mz + v2 * e2.mz, v1 * e1.mu, v2 * e2.mu, tb);
     }
   }
 }
