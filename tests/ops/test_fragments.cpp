@@ -1,5 +1,6 @@
 // Fragment mode (ops/fragments.h): the same values and gradients as the image
-// form on covered pixels, gradients through every step, empty sets, errors.
+// form on covered pixels (also on near-clipped triangles), gradients through
+// every step, empty sets, errors.
 #include <catch2/catch.hpp>
 
 #include "clip_scenes.h"
@@ -17,6 +18,28 @@ namespace {
 struct MeshScene {
   Tensor positions, colours, normals, triangles, mvp;
 };
+
+// A run returns the image followed by every gradient. Fragment mode at 1 and
+// 2 threads must equal image mode (2 threads) bit for bit.
+template <class Run>
+void require_fragment_mode_equals_image_mode(Run run) {
+  const auto image_mode = run(false, 2);
+  const auto frag_1 = run(true, 1);
+  const auto frag_2 = run(true, 2);
+  REQUIRE(image_mode.size() == frag_1.size());
+  std::int64_t differing = 0;
+  for (std::size_t i = 0; i < image_mode.size(); ++i) differing += image_mode[i] != frag_1[i];
+  CHECK(differing == 0);
+  CHECK(frag_1 == frag_2);
+}
+
+// Triangle 0: vertex 1 behind the camera, vertex 2 at w = w2 (clipped form);
+// triangle 1: in front of it, fully in front of the near plane.
+Tensor clipped_scene_clip(double w2, DType dtype) {
+  return Tensor::from_values({-0.6, -0.5, -0.8, 1.0, 0.7, -0.4, 1.3, 1.5, 0.3, -0.8, -0.6 - w2, w2,  //
+                              -0.5, 0.2, 0.1, 1.1, 0.3, 0.4, 0.2, 1.2, -0.2, 0.7, 0.1, 0.9},
+                             {6, 4}, dtype);
+}
 
 // A torus seen at an angle: partial coverage, silhouettes and occlusion.
 MeshScene torus_scene(DType dtype) {
@@ -103,14 +126,7 @@ TEST_CASE("fragments: fragment mode equals image mode bit for bit, values and gr
       REQUIRE(covered > w * h / 5);  // partial coverage: both kinds of pixels are tested
       REQUIRE(covered < w * h * 4 / 5);
     }
-    const auto image_mode = run(false, 2);
-    const auto frag_1 = run(true, 1);
-    const auto frag_2 = run(true, 2);
-    REQUIRE(image_mode.size() == frag_1.size());
-    std::int64_t differing = 0;
-    for (std::size_t i = 0; i < image_mode.size(); ++i) differing += image_mode[i] != frag_1[i];
-    CHECK(differing == 0);
-    CHECK(frag_1 == frag_2);
+    require_fragment_mode_equals_image_mode(run);
   }
 }
 
@@ -219,4 +235,61 @@ TEST_CASE("fragments: bad inputs throw errors naming the argument", "[ops][fragm
   Fragments bad_uv = fr;
   bad_uv.uv = Tensor::zeros({n, 3}, DType::Float64);
   CHECK_THROWS_WITH(interpolate(Tensor::ones({6, 3}, DType::Float64), clip, bad_uv, tris), Catch::Contains("uv"));
+}
+
+TEST_CASE("fragment mode equals image mode bit for bit on a clipped triangle with a vertex at w = 0",
+          "[ops][fragments][near]") {
+  const int w = 40, h = 32;
+  Tensor tris = Tensor::from_vector<std::int32_t>({0, 1, 2, 3, 4, 5}, {2, 3});
+  for (DType dtype : {DType::Float32, DType::Float64})
+    for (double w2 : {0.0, -0.6, 1e-7}) {
+      INFO("dtype " << dtype_name(dtype) << " w2 " << w2);
+      Tensor clip = clipped_scene_clip(w2, dtype).set_requires_grad();
+      Tensor attr = cast(random_input({6, 3}, -1, 1, 7), dtype).detach().set_requires_grad();
+      Tensor weights = Tensor::uniform({h, w, 3}, -1, 1, 9, dtype);
+      auto run = [&](bool fragment_mode, int threads) {
+        set_num_threads(threads);
+        clip.zero_grad();
+        attr.zero_grad();
+        GBuffer gb = rasterize(clip, tris, {w, h});
+        Tensor image;
+        if (fragment_mode) {
+          Fragments fr = fragments(gb);
+          image = to_image(interpolate(attr, clip, fr, tris), fr);
+        } else {
+          image = interpolate(attr, clip, gb, tris);
+        }
+        backward(sum(image * weights));
+        set_num_threads(0);
+        std::vector<double> all = image.to_vector();
+        for (double x : clip.grad().to_vector()) all.push_back(x);
+        for (double x : attr.grad().to_vector()) all.push_back(x);
+        return all;
+      };
+      require_fragment_mode_equals_image_mode(run);
+    }
+}
+
+TEST_CASE("fragment-form gradients of a clipped triangle with a vertex at w = 0 match finite differences",
+          "[ops][fragments][near][gradcheck]") {
+  Tensor tris = Tensor::from_vector<std::int32_t>({0, 1, 2, 3, 4, 5}, {2, 3});
+  Tensor attr = random_input({6, 3}, -1, 1, 43);
+  Tensor clip = clipped_scene_clip(0.0, DType::Float64).set_requires_grad();
+  GBuffer gb = rasterize(clip.detach(), tris, {20, 16});
+  Fragments fr = fragments(gb);
+  REQUIRE(fr.count() > 20);
+  std::int64_t clipped = 0;
+  for (double id : fr.tri_id.to_vector()) clipped += id == 1;
+  INFO("fragments of the clipped triangle: " << clipped);
+  REQUIRE(clipped > 10);
+  // Some of them not at item index = pixel index (so pixel_index matters).
+  REQUIRE(fr.pixel_index.to_vector().back() > fr.count());
+  fr.uv = fr.uv.detach().copy().set_requires_grad();
+  require_gradcheck("interpolate fragments clipped, w = 0",
+                    [&](const Inputs& in) {
+                      Fragments f = fr;
+                      f.uv = in[2];
+                      return interpolate(in[0], in[1], f, tris);
+                    },
+                    {attr, clip, fr.uv});
 }
