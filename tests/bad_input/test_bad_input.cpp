@@ -303,28 +303,21 @@ TEST_CASE("bad input: malformed OBJ files are an IOError naming the file and lin
   }
   require_throw<IOError>([&] { raster::load_obj(dir.file("missing.obj")); }, {"load_obj", "missing.obj"});
   require_throw<IOError>([&] { raster::load_obj(dir.file("")); }, {"load_obj"});
-  // Missing MTL file and missing texture: the mesh loads, with warnings naming them.
-  {
-    const std::string path = dir.write("nomtl.obj", "mtllib nothere.mtl\nusemtl a\n" + tri + "f 1 2 3\n");
+  // Missing MTL file and missing texture: the mesh loads, with a warning naming the file.
+  auto require_loads_with_warning = [](const std::string& path, const std::string& missing) {
     const raster::Mesh m = raster::load_obj(path);
     CHECK(m.num_triangles() == 1);
     CHECK(m.texture_path.empty());
     std::string all;
     for (const auto& w : m.warnings) all += w + "\n";
     INFO(all);
-    CHECK(all.find("nothere.mtl") != std::string::npos);
-  }
-  {
-    dir.write("tex.mtl", "newmtl a\nmap_Kd missing_texture.png\n");
-    const std::string path = dir.write("notex.obj", "mtllib tex.mtl\nusemtl a\n" + tri + "f 1 2 3\n");
-    const raster::Mesh m = raster::load_obj(path);
-    CHECK(m.num_triangles() == 1);
-    CHECK(m.texture_path.empty());
-    std::string all;
-    for (const auto& w : m.warnings) all += w + "\n";
-    INFO(all);
-    CHECK(all.find("missing_texture.png") != std::string::npos);
-  }
+    CHECK(all.find(missing) != std::string::npos);
+  };
+  require_loads_with_warning(dir.write("nomtl.obj", "mtllib nothere.mtl\nusemtl a\n" + tri + "f 1 2 3\n"),
+                             "nothere.mtl");
+  dir.write("tex.mtl", "newmtl a\nmap_Kd missing_texture.png\n");
+  require_loads_with_warning(dir.write("notex.obj", "mtllib tex.mtl\nusemtl a\n" + tri + "f 1 2 3\n"),
+                             "missing_texture.png");
 }
 
 TEST_CASE("bad input: missing, unreadable, truncated or corrupt PNG files are an IOError naming the path",
