@@ -32,6 +32,11 @@ struct ValueError : Error {
 struct TapeError : Error {
   using Error::Error;
 };
+// A request that would take gradraster's tensor memory past its limit
+// (autodiff/memory.h), or an allocation the system refused.
+struct MemoryError : Error {
+  using Error::Error;
+};
 // A file that cannot be read or written, or whose contents are malformed.
 struct IOError : Error {
   using Error::Error;

@@ -1,5 +1,8 @@
 #include "autodiff/storage.h"
 
+#include "autodiff/error.h"
+#include "autodiff/memory.h"
+
 #include <cstdlib>
 #include <map>
 #include <mutex>
@@ -29,6 +32,7 @@ struct Cache {
   std::mutex mutex;
   std::multimap<std::size_t, void*> free_buffers;
   StorageStats stats;
+  std::size_t in_use = 0;  // bytes of live and cached buffers (the memory budget's count)
 };
 
 Cache& cache() {
@@ -50,10 +54,24 @@ Storage::Storage(std::size_t bytes) : bytes_(bucket_size(bytes)) {
       c.stats.cached_bytes -= static_cast<std::int64_t>(bytes_);
       return;
     }
-    c.stats.fresh_allocations++;
+  }
+  // Cached buffers count against the limit: give them back before refusing.
+  try {
+    check_memory_request(bytes_, "a tensor buffer");
+  } catch (const MemoryError&) {
+    release_cached_storage();
+    check_memory_request(bytes_, "a tensor buffer");
   }
   ptr_ = std::aligned_alloc(kAlignment, bytes_);
-  if (!ptr_) throw std::bad_alloc();
+  if (!ptr_) {
+    release_cached_storage();
+    ptr_ = std::aligned_alloc(kAlignment, bytes_);
+  }
+  if (!ptr_)
+    throw MemoryError("a tensor buffer of " + std::to_string(bytes_) + " bytes: the system refused the allocation");
+  std::lock_guard<std::mutex> lock(c.mutex);
+  c.stats.fresh_allocations++;
+  c.in_use += bytes_;
 }
 
 Storage::~Storage() {
@@ -65,6 +83,10 @@ Storage::~Storage() {
       c.stats.cached_bytes += static_cast<std::int64_t>(bytes_);
       return;
     }
+  }
+  {
+    std::lock_guard<std::mutex> lock(c.mutex);
+    c.in_use -= bytes_;
   }
   std::free(ptr_);
 }
@@ -82,9 +104,16 @@ void release_cached_storage() {
     std::lock_guard<std::mutex> lock(c.mutex);
     for (auto& kv : c.free_buffers) to_free.push_back(kv.second);
     c.free_buffers.clear();
+    c.in_use -= static_cast<std::size_t>(c.stats.cached_bytes);
     c.stats.cached_bytes = 0;
   }
   for (void* p : to_free) std::free(p);
+}
+
+std::size_t memory_in_use() {
+  Cache& c = cache();
+  std::lock_guard<std::mutex> lock(c.mutex);
+  return c.in_use;
 }
 
 }  // namespace gr

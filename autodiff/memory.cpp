@@ -1,0 +1,87 @@
+#include "autodiff/memory.h"
+
+#include <unistd.h>
+
+#include <atomic>
+#include <cerrno>
+#include <cstdlib>
+#include <limits>
+
+#include "autodiff/error.h"
+
+namespace gr {
+namespace {
+
+std::atomic<std::size_t> g_limit{0};  // 0: not set by set_memory_limit
+
+std::string mib(std::size_t bytes) {
+  return std::to_string((bytes + (std::size_t(1) << 20) - 1) >> 20) + " MiB";
+}
+
+std::size_t physical_memory() {
+  long pages = sysconf(_SC_PHYS_PAGES);
+  long page = sysconf(_SC_PAGE_SIZE);
+  if (pages <= 0 || page <= 0) return std::size_t(8) << 30;
+  return static_cast<std::size_t>(pages) * static_cast<std::size_t>(page);
+}
+
+std::size_t default_limit() {
+  static const std::size_t value = [] {
+    if (const char* env = std::getenv("GRADRASTER_MEMORY_LIMIT"))
+      if (*env) return parse_memory_size(env, "GRADRASTER_MEMORY_LIMIT");
+    return physical_memory() / 4 * 3;
+  }();
+  return value;
+}
+
+}  // namespace
+
+std::size_t parse_memory_size(const std::string& text, const std::string& what) {
+  const std::string shown = text.size() > 40 ? text.substr(0, 40) + "..." : text;
+  auto bad = [&](const std::string& why) {
+    return ValueError(what + ": '" + shown + "' is not a memory size (" + why +
+                      "; write bytes, or a number with K, M, G or T)");
+  };
+  std::size_t i = 0;
+  unsigned long long value = 0;
+  if (text.empty() || text[0] < '0' || text[0] > '9') throw bad("no number");
+  for (; i < text.size() && text[i] >= '0' && text[i] <= '9'; ++i) {
+    if (value > (std::numeric_limits<unsigned long long>::max() - 9) / 10) throw bad("too large");
+    value = value * 10 + static_cast<unsigned>(text[i] - '0');
+  }
+  int shift = 0;
+  if (i < text.size()) {
+    switch (text[i]) {
+      case 'K': case 'k': shift = 10; break;
+      case 'M': case 'm': shift = 20; break;
+      case 'G': case 'g': shift = 30; break;
+      case 'T': case 't': shift = 40; break;
+      default: throw bad("unknown suffix");
+    }
+    ++i;
+    if (i < text.size() && (text[i] == 'B' || text[i] == 'b' || text[i] == 'i')) ++i;
+    if (i < text.size() && (text[i] == 'B' || text[i] == 'b')) ++i;
+  }
+  if (i != text.size()) throw bad("trailing characters");
+  if (shift && value > (std::numeric_limits<std::size_t>::max() >> shift)) throw bad("too large");
+  if (value == 0) throw bad("zero");
+  return static_cast<std::size_t>(value) << shift;
+}
+
+std::size_t memory_limit() {
+  std::size_t set = g_limit.load(std::memory_order_relaxed);
+  return set ? set : default_limit();
+}
+
+void set_memory_limit(std::size_t bytes) { g_limit.store(bytes, std::memory_order_relaxed); }
+
+void check_memory_request(std::size_t bytes, const std::string& what) {
+  const std::size_t limit = memory_limit();
+  const std::size_t used = memory_in_use();
+  if (bytes > limit || used > limit - bytes)
+    throw MemoryError(what + " needs " + mib(bytes) + ", but the memory limit is " + mib(limit) +
+                      " (" + mib(used) + " in use); raise it with GRADRASTER_MEMORY_LIMIT "
+                      "or gr::set_memory_limit() if the machine has the memory");
+}
+
+}  // namespace gr

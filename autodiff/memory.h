@@ -1,0 +1,32 @@
+// The memory budget: how many bytes of tensor storage gradraster may hold.
+//
+// Every tensor buffer is counted (autodiff/storage.cpp). A request that would
+// take the total past the limit throws MemoryError naming what was being
+// allocated, before anything is allocated, so a render or a fit that cannot
+// fit in memory fails at once with a clear message instead of exhausting the
+// machine. Tools call check_memory_request() with their own estimate of a
+// whole request (for example a 16384x16384 render) before starting it.
+//
+// The limit defaults to 3/4 of the machine's physical memory. The environment
+// variable GRADRASTER_MEMORY_LIMIT (bytes, or with a K/M/G/T suffix, powers of
+// 1024) overrides the default; set_memory_limit() overrides both.
+#pragma once
+
+#include <cstddef>
+#include <string>
+
+namespace gr {
+
+// The limit in force, in bytes.
+std::size_t memory_limit();
+// Sets the limit in bytes; 0 restores the default (environment, else 3/4 of RAM).
+void set_memory_limit(std::size_t bytes);
+// Bytes of tensor storage currently held (live tensors and the reuse cache).
+std::size_t memory_in_use();
+// Throws MemoryError if `bytes` more would exceed the limit. `what` names the
+// request in the message ("render 16384x16384", "texture 'wood.png'").
+void check_memory_request(std::size_t bytes, const std::string& what);
+// Parses a size such as "8G", "512M", "1048576"; throws ValueError naming `what`.
+std::size_t parse_memory_size(const std::string& text, const std::string& what);
+
+}  // namespace gr
