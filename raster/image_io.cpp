@@ -1,34 +1,22 @@
 // Image I/O over stb_image / stb_image_write (implementations live in libstb;
-// this file only includes the declarations), and the atomic file writer that
-// every gradraster writer goes through.
+// this file only includes the declarations). Files go through raster/files.h:
+// bytes are read with read_input_file, and written through an OutputSet.
 #include "raster/image_io.h"
 
 #include <stb/stb_image.h>
 #include <stb/stb_image_write.h>
 
-#include <atomic>
-#include <cerrno>
 #include <cmath>
 #include <cstdint>
-#include <cstdio>
-#include <cstring>
 #include <limits>
 #include <vector>
 
-#include <unistd.h>
-
 #include "autodiff/error.h"
+#include "autodiff/memory.h"
+#include "raster/files.h"
 
 namespace gr::raster {
 namespace {
-
-std::string errno_text() { return std::strerror(errno); }
-
-// A file name next to `path` that no other writer (thread or process) uses.
-std::string temp_name_for(const std::string& path) {
-  static std::atomic<unsigned> counter{0};
-  return path + ".tmp." + std::to_string(::getpid()) + "." + std::to_string(counter++);
-}
 
 // Converts one sample to an 8-bit level: clamp to [0, 1], NaN -> 0, round.
 std::uint8_t to_level(double x) {
@@ -40,62 +28,67 @@ std::uint8_t to_level(double x) {
 }  // namespace
 
 void write_raw(const std::string& path, const void* data, std::size_t bytes) {
-  if (path.empty()) throw IOError("write_raw: empty path");
-  const std::string tmp = temp_name_for(path);
-  // "x": fail rather than reuse an existing file; permissions follow the umask.
-  std::FILE* f = std::fopen(tmp.c_str(), "wbx");
-  if (!f) throw IOError("cannot write '" + path + "': " + errno_text());
-  bool ok = bytes == 0 || std::fwrite(data, 1, bytes, f) == bytes;
-  int saved = errno;
-  ok = (std::fflush(f) == 0) && ok;
-  if (ok) saved = errno;
-  ok = (std::fclose(f) == 0) && ok;
-  if (!ok) {
-    if (saved == 0) saved = errno;
-    std::remove(tmp.c_str());
-    throw IOError("cannot write '" + path + "': " + std::strerror(saved));
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    saved = errno;
-    std::remove(tmp.c_str());
-    throw IOError("cannot write '" + path + "': rename failed: " + std::strerror(saved));
-  }
+  OutputSet output;
+  output.stage(path, data, bytes);
+  output.commit();
 }
 
 Tensor read_image(const std::string& path, int channels) {
+  const std::string what = "cannot read image '" + path + "'";
   if (channels < 0 || channels > 4)
     throw ValueError("read_image('" + path + "'): channels must be 0..4, got " +
                      std::to_string(channels));
-  std::FILE* f = std::fopen(path.c_str(), "rb");
-  if (!f) throw IOError("cannot read image '" + path + "': " + errno_text());
+  const std::string file = read_input_file(path, what);
+  const auto* bytes = reinterpret_cast<const stbi_uc*>(file.data());
+  if (file.size() > static_cast<std::size_t>(std::numeric_limits<int>::max()))
+    throw IOError(what + ": file too large for the image decoder");
+  const int size = static_cast<int>(file.size());
+
+  // Size from the header, checked before anything is decoded.
   int w = 0, h = 0, file_c = 0;
+  if (!stbi_info_from_memory(bytes, size, &w, &h, &file_c)) {
+    const char* why = stbi_failure_reason();
+    throw IOError(what + ": " + (why && *why ? why : "not a PNG, JPEG, BMP or TGA image"));
+  }
+  if (w < 1 || h < 1 || w > kMaxImageSide || h > kMaxImageSide)
+    throw IOError(what + ": the header says " + std::to_string(w) + " x " + std::to_string(h) +
+                  " pixels; each side must lie in 1.." + std::to_string(kMaxImageSide));
+  const bool wide = stbi_is_16_bit_from_memory(bytes, size);
+  const int c = channels ? channels : file_c;
+  // The decoded samples (1 or 2 bytes each) and the float32 tensor.
+  const std::size_t samples = static_cast<std::size_t>(w) * h * c;
+  check_memory_request(samples * (wide ? 2 : 1) + samples * sizeof(float),
+                       "read_image('" + path + "') " + std::to_string(w) + " x " + std::to_string(h) +
+                           " x " + std::to_string(c));
+
   stbi_set_flip_vertically_on_load_thread(0);  // row 0 stays the top row
-  const bool wide = stbi_is_16_bit_from_file(f);  // rewinds the stream
-  void* pixels = wide ? static_cast<void*>(stbi_load_from_file_16(f, &w, &h, &file_c, channels))
-                      : static_cast<void*>(stbi_load_from_file(f, &w, &h, &file_c, channels));
-  std::fclose(f);
+  void* pixels = wide ? static_cast<void*>(stbi_load_16_from_memory(bytes, size, &w, &h, &file_c, channels))
+                      : static_cast<void*>(stbi_load_from_memory(bytes, size, &w, &h, &file_c, channels));
   if (!pixels) {
     const char* why = stbi_failure_reason();
-    throw IOError("cannot read image '" + path + "': " + (why ? why : "unknown stb_image error"));
+    throw IOError(what + ": " + (why && *why ? why : "corrupt or truncated image data"));
   }
-  const int c = channels ? channels : file_c;
-  Tensor out = Tensor::empty({h, w, c});
+  Tensor out;
+  try {
+    out = Tensor::empty({h, w, c});
+  } catch (...) {
+    stbi_image_free(pixels);
+    throw;
+  }
   float* dst = out.data<float>();
-  const std::size_t n = static_cast<std::size_t>(w) * h * c;
   // Scale the file's levels to [0, 1].
   if (wide) {
     const auto* src = static_cast<const std::uint16_t*>(pixels);
-    for (std::size_t i = 0; i < n; ++i) dst[i] = src[i] / 65535.0f;
+    for (std::size_t i = 0; i < samples; ++i) dst[i] = src[i] / 65535.0f;
   } else {
     const auto* src = static_cast<const std::uint8_t*>(pixels);
-    for (std::size_t i = 0; i < n; ++i) dst[i] = src[i] / 255.0f;
+    for (std::size_t i = 0; i < samples; ++i) dst[i] = src[i] / 255.0f;
   }
   stbi_image_free(pixels);
   return out;
 }
 
-void write_png(const std::string& path, const Tensor& image) {
-  const std::string what = "write_png('" + path + "')";
+std::vector<unsigned char> encode_png(const Tensor& image, const std::string& what) {
   if (!image.defined()) throw ValueError(what + ": image is undefined");
   if (image.dtype() != DType::Float32 && image.dtype() != DType::Float64)
     throw DTypeError(what + ": image must be float32 or float64, got " + image.describe());
@@ -118,7 +111,6 @@ void write_png(const std::string& path, const Tensor& image) {
     const double* src = image.data<double>();
     for (std::size_t i = 0; i < levels.size(); ++i) levels[i] = to_level(src[i]);
   }
-  // Encode in memory, then write atomically.
   std::vector<unsigned char> png;
   auto sink = [](void* ctx, void* data, int size) {
     auto* buf = static_cast<std::vector<unsigned char>*>(ctx);
@@ -128,6 +120,11 @@ void write_png(const std::string& path, const Tensor& image) {
   if (!stbi_write_png_to_func(sink, &png, static_cast<int>(w), static_cast<int>(h),
                               static_cast<int>(c), levels.data(), static_cast<int>(w * c)))
     throw IOError(what + ": PNG encoding failed");
+  return png;
+}
+
+void write_png(const std::string& path, const Tensor& image) {
+  const std::vector<unsigned char> png = encode_png(image, "write_png('" + path + "')");
   write_raw(path, png.data(), png.size());
 }
 

@@ -18,7 +18,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
+#include <map>
 #include <limits>
 #include <numeric>
 #include <sstream>
@@ -26,6 +26,7 @@
 #include <vector>
 
 #include "autodiff/error.h"
+#include "raster/files.h"
 #include "raster/image_io.h"
 
 namespace gr::raster {
@@ -72,6 +73,8 @@ bool parse_index(std::string_view s, long* out) {
   return !s.empty() && ec == std::errc() && end == s.data() + s.size();
 }
 
+constexpr std::size_t kMaxFaceCorners = 255;
+
 struct LineCheck {
   long num_v = 0, num_vt = 0, num_vn = 0;
   long faces = 0;
@@ -89,7 +92,7 @@ void check_corner(const std::string& path, std::size_t line, std::string_view to
   std::size_t start = 0;
   for (;;) {
     const std::size_t slash = tok.find('/', start);
-    if (nparts == 3) fail(path, line, "face corner '" + std::string(tok) + "' has more than 3 indices");
+    if (nparts == 3) fail(path, line, "face corner " + quote_for_message(std::string(tok)) + " has more than 3 indices");
     parts[nparts++] = tok.substr(start, slash == std::string::npos ? slash : slash - start);
     if (slash == std::string::npos) break;
     start = slash + 1;
@@ -100,10 +103,10 @@ void check_corner(const std::string& path, std::size_t line, std::string_view to
     if (k == 1 && parts[k].empty() && nparts == 3) continue;  // v//n
     long idx = 0;
     if (!parse_index(parts[k], &idx))
-      fail(path, line, "face corner '" + std::string(tok) + "' has a malformed " + names[k] + " index");
-    if (idx == 0) fail(path, line, "face corner '" + std::string(tok) + "' uses index 0 (OBJ is 1-based)");
+      fail(path, line, "face corner " + quote_for_message(std::string(tok)) + " has a malformed " + names[k] + " index");
+    if (idx == 0) fail(path, line, "face corner " + quote_for_message(std::string(tok)) + " uses index 0 (OBJ is 1-based)");
     if (idx < 0 && counts[k] + idx < 0)
-      fail(path, line, "face corner '" + std::string(tok) + "' refers to " + names[k] + " " +
+      fail(path, line, "face corner " + quote_for_message(std::string(tok)) + " refers to " + names[k] + " " +
                            std::to_string(idx) + " but only " + std::to_string(counts[k]) +
                            " precede it");
     if (idx > c.max_index[k]) {
@@ -139,12 +142,16 @@ LineCheck check_lines(const std::string& path, const std::string& text) {
                                 std::to_string(n) + " (truncated line?)");
       for (std::size_t i = 1; i <= n; ++i)
         if (!parse_number(tok[i]))
-          fail(path, line_no, "'" + key + "' has a bad, non-finite or out-of-float-range number '" +
-                                  std::string(tok[i]) + "'");
+          fail(path, line_no, "'" + key + "' has a bad, non-finite or out-of-float-range number " +
+                                  quote_for_message(std::string(tok[i])));
       (key == "v" ? c.num_v : key == "vt" ? c.num_vt : c.num_vn) += 1;
     } else if (key == "f") {
       if (n < 3)
         fail(path, line_no, "face has " + std::to_string(n) + " corners, needs at least 3");
+      // tinyobjloader counts a face's corners in a byte.
+      if (n > kMaxFaceCorners)
+        fail(path, line_no, "face has " + std::to_string(n) + " corners; at most " +
+                                std::to_string(kMaxFaceCorners) + " are supported (split the polygon)");
       for (std::size_t i = 1; i <= n; ++i) check_corner(path, line_no, tok[i], c);
       ++c.faces;
     }
@@ -247,19 +254,50 @@ void triangulate(const std::vector<P3>& p, std::vector<std::array<int, 3>>& out)
 }
 
 // ---------------------------------------------------------------------------
+// load_obj_text, phase by phase.
 
-std::string read_text(const std::string& path) {
-  std::error_code ec;
-  if (fs::is_directory(path, ec)) throw IOError("load_obj('" + path + "'): is a directory");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw IOError("load_obj('" + path + "'): cannot open file (missing or unreadable)");
-  in.seekg(0, std::ios::end);
-  std::string text(static_cast<std::size_t>(in.tellg()), '\0');
-  in.seekg(0, std::ios::beg);
-  in.read(text.data(), static_cast<std::streamsize>(text.size()));
-  if (!in) throw IOError("load_obj('" + path + "'): read error");
-  return text;
+// Phase 0: OBJ is text; UTF-16 (a byte-order mark or NUL bytes) and binary
+// files are refused with the line of the first NUL byte.
+void check_encoding(const std::string& path, const std::string& text) {
+  const bool bom16 = text.size() >= 2 && ((text[0] == '\xff' && text[1] == '\xfe') ||
+                                          (text[0] == '\xfe' && text[1] == '\xff'));
+  const std::size_t nul = text.find('\0');
+  if (!bom16 && nul == std::string::npos) return;
+  const std::size_t at = bom16 ? 0 : nul;
+  const std::size_t line = 1 + static_cast<std::size_t>(std::count(text.begin(), text.begin() + at, '\n'));
+  fail(path, line, std::string(bom16 ? "starts with a UTF-16 byte-order mark" : "contains a NUL byte") +
+                       ": UTF-16 (or binary) files are not supported; save the OBJ as UTF-8 or ASCII");
 }
+
+// Reads an MTL file named by an mtllib line through read_input_file (so a
+// FIFO, a device or a huge file is refused, not read). A missing MTL file is
+// a warning, as in tinyobjloader.
+class MtlReader : public tinyobj::MaterialReader {
+ public:
+  MtlReader(std::string obj_path, fs::path dir) : obj_path_(std::move(obj_path)), dir_(std::move(dir)) {}
+  bool operator()(const std::string& name, std::vector<tinyobj::material_t>* materials,
+                  std::map<std::string, int>* ids, std::string* warn, std::string* err) override {
+    const std::string path = (dir_ / name).string();
+    std::error_code ec;
+    if (!fs::exists(path, ec)) {
+      *warn += "MTL file '" + path + "' not found\n";
+      return false;
+    }
+    std::istringstream in(read_input_file(path, "load_obj('" + obj_path_ + "'): MTL file '" + path + "'"));
+    tinyobj::LoadMtl(ids, materials, &in, warn, err);
+    return true;
+  }
+
+ private:
+  std::string obj_path_;
+  fs::path dir_;
+};
+
+struct ParsedObj {
+  tinyobj::attrib_t attrib;
+  std::vector<tinyobj::shape_t> shapes;
+  std::vector<tinyobj::material_t> materials;
+};
 
 void add_warnings(const std::string& path, const std::string& text, std::vector<std::string>& out) {
   std::istringstream in(text);
@@ -268,94 +306,95 @@ void add_warnings(const std::string& path, const std::string& text, std::vector<
     if (!line.empty() && line != ".") out.push_back("load_obj('" + path + "'): " + line);
 }
 
-// Resolves a texture name from an MTL file relative to `dir`; empty if absent.
-std::string resolve_texture(const fs::path& dir, std::string name) {
-  std::error_code ec;
-  for (int attempt = 0; attempt < 2; ++attempt) {
-    const fs::path p = dir / name;
-    if (fs::is_regular_file(p, ec)) return p.lexically_normal().string();
-    std::replace(name.begin(), name.end(), '\\', '/');  // files written on Windows
-  }
-  return {};
+// Phase 2: tinyobjloader (no triangulation, no vertex colours); MTL files are
+// read from `dir` only if it is given.
+ParsedObj parse_with_tinyobj(const std::string& path, const std::string& text, const fs::path* dir,
+                             std::vector<std::string>& warnings) {
+  ParsedObj obj;
+  std::string warn, err;
+  std::istringstream stream(text);
+  MtlReader mtl_reader(path, dir ? *dir : fs::path());
+  const bool ok = tinyobj::LoadObj(&obj.attrib, &obj.shapes, &obj.materials, &warn, &err, &stream,
+                                   dir ? &mtl_reader : nullptr, /*triangulate=*/false,
+                                   /*default_vcols_fallback=*/false);
+  if (!ok) throw IOError("load_obj('" + path + "'): " + (err.empty() ? "parse error" : err));
+  check_parsed_indices(path, obj.attrib, obj.shapes);
+  add_warnings(path, warn, warnings);
+  add_warnings(path, err, warnings);  // only MTL problems reach here when ok
+  return obj;
 }
 
 using Key = std::array<int, 3>;  // (position, texcoord, normal), -1 = none
 
-// Loads OBJ `text`; `path` names it in messages. With `dir` set, MTL files and
-// textures are looked up in that folder; without it they are not read at all.
-Mesh load_obj_text(const std::string& path, const std::string& text, const fs::path* dir) {
-  const LineCheck lines = check_lines(path, text);
+struct Corners {
+  std::vector<Key> keys;          // three per output triangle
+  std::vector<int> material_of;   // per output triangle
+};
 
-  // Parse with tinyobjloader (no triangulation, no vertex colours).
-  std::string base = dir ? dir->string() : std::string();
-  if (!base.empty() && base.back() != '/') base += '/';
-  tinyobj::attrib_t attrib;
-  std::vector<tinyobj::shape_t> shapes;
-  std::vector<tinyobj::material_t> materials;
-  std::string warn, err;
-  std::istringstream stream(text);
-  tinyobj::MaterialFileReader mtl_reader(base);
-  const bool ok = tinyobj::LoadObj(&attrib, &shapes, &materials, &warn, &err, &stream,
-                                   dir ? &mtl_reader : nullptr, /*triangulate=*/false,
-                                   /*default_vcols_fallback=*/false);
-  if (!ok) throw IOError("load_obj('" + path + "'): " + (err.empty() ? "parse error" : err));
-  check_parsed_indices(path, attrib, shapes);
-  Mesh mesh;
-  add_warnings(path, warn, mesh.warnings);
-  add_warnings(path, err, mesh.warnings);  // only MTL problems reach here when ok
-
-  // Triangulate every face in file order, collecting corner keys.
-  std::vector<Key> corners;
-  std::vector<int> material_of;  // per output triangle
+// Phase 3: triangulates every face in file order, collecting corner keys.
+Corners triangulate_faces(const std::string& path, const ParsedObj& obj, long expected_faces) {
+  Corners out;
   long faces = 0;
   std::vector<P3> poly;
   std::vector<std::array<int, 3>> tris;
-  for (const tinyobj::shape_t& shape : shapes) {
+  for (const tinyobj::shape_t& shape : obj.shapes) {
     std::size_t offset = 0;
     for (std::size_t f = 0; f < shape.mesh.num_face_vertices.size(); ++f, ++faces) {
       const int nv = shape.mesh.num_face_vertices[f];
       poly.resize(nv);
       for (int i = 0; i < nv; ++i) {
         const int vi = shape.mesh.indices[offset + i].vertex_index;
-        for (int k = 0; k < 3; ++k) poly[i][k] = attrib.vertices[3 * vi + k];
+        for (int k = 0; k < 3; ++k) poly[i][k] = obj.attrib.vertices[3 * vi + k];
       }
       tris.clear();
       triangulate(poly, tris);
       for (const auto& t : tris) {
         for (int c : t) {
           const tinyobj::index_t& ix = shape.mesh.indices[offset + c];
-          corners.push_back({ix.vertex_index, ix.texcoord_index, ix.normal_index});
+          out.keys.push_back({ix.vertex_index, ix.texcoord_index, ix.normal_index});
         }
-        material_of.push_back(shape.mesh.material_ids.empty() ? -1 : shape.mesh.material_ids[f]);
+        out.material_of.push_back(shape.mesh.material_ids.empty() ? -1 : shape.mesh.material_ids[f]);
       }
       offset += nv;
     }
   }
-  if (faces != lines.faces)
+  if (faces != expected_faces)
     throw IOError("load_obj('" + path + "'): tinyobjloader returned " + std::to_string(faces) +
-                  " faces, the file has " + std::to_string(lines.faces));
-  if (corners.empty()) throw IOError("load_obj('" + path + "'): no triangles (empty mesh)");
+                  " faces, the file has " + std::to_string(expected_faces));
+  if (out.keys.empty()) throw IOError("load_obj('" + path + "'): no triangles (empty mesh)");
+  return out;
+}
 
-  // Normals / uvs only if every corner has one.
+// Phase 4: keeps uvs / normals only if every corner has one (else drops them
+// from every key, with a warning). Returns {all corners have uvs, ... normals}.
+std::array<bool, 2> keep_complete_attributes(const std::string& path, std::vector<Key>& keys,
+                                             std::vector<std::string>& warnings) {
   bool all_uv = true, any_uv = false, all_n = true, any_n = false;
-  for (const Key& k : corners) {
+  for (const Key& k : keys) {
     all_uv &= k[1] >= 0, any_uv |= k[1] >= 0;
     all_n &= k[2] >= 0, any_n |= k[2] >= 0;
   }
   if (any_uv && !all_uv)
-    mesh.warnings.push_back("load_obj('" + path + "'): some face corners lack texture "
-                            "coordinates; uvs dropped");
+    warnings.push_back("load_obj('" + path + "'): some face corners lack texture "
+                       "coordinates; uvs dropped");
   if (any_n && !all_n)
-    mesh.warnings.push_back("load_obj('" + path + "'): some face corners lack normals; "
-                            "normals dropped");
-  for (Key& k : corners) {
+    warnings.push_back("load_obj('" + path + "'): some face corners lack normals; "
+                       "normals dropped");
+  for (Key& k : keys) {
     if (!all_uv) k[1] = -1;
     if (!all_n) k[2] = -1;
   }
+  return {all_uv, all_n};
+}
 
-  // Weld: one vertex per distinct key, in key order. Corners are bucketed by
-  // position index (counting sort), then each small bucket is sorted by key.
-  const std::size_t num_positions = attrib.vertices.size() / 3;
+struct Welded {
+  std::vector<std::int32_t> vertex_of;     // per corner
+  std::vector<std::uint32_t> first_corner;  // one representative corner per vertex
+};
+
+// Phase 5: one vertex per distinct key, in key order. Corners are bucketed by
+// position index (counting sort), then each small bucket is sorted by key.
+Welded weld(const std::vector<Key>& corners, std::size_t num_positions) {
   std::vector<std::uint32_t> start(num_positions + 1, 0);
   for (const Key& k : corners) ++start[k[0] + 1];
   std::partial_sum(start.begin(), start.end(), start.begin());
@@ -368,15 +407,20 @@ Mesh load_obj_text(const std::string& path, const std::string& text, const fs::p
     if (start[v + 1] - start[v] > 1)
       std::sort(order.begin() + start[v], order.begin() + start[v + 1],
                 [&](std::uint32_t a, std::uint32_t b) { return corners[a] < corners[b]; });
-  std::vector<std::int32_t> vertex_of(corners.size());
-  std::vector<std::uint32_t> first_corner;  // one representative corner per vertex
+  Welded w;
+  w.vertex_of.resize(corners.size());
   for (std::size_t i = 0; i < order.size(); ++i) {
-    if (i == 0 || corners[order[i]] != corners[order[i - 1]]) first_corner.push_back(order[i]);
-    vertex_of[order[i]] = static_cast<std::int32_t>(first_corner.size() - 1);
+    if (i == 0 || corners[order[i]] != corners[order[i - 1]]) w.first_corner.push_back(order[i]);
+    w.vertex_of[order[i]] = static_cast<std::int32_t>(w.first_corner.size() - 1);
   }
+  return w;
+}
 
-  // Fill the tensors.
-  const auto nverts = static_cast<std::int64_t>(first_corner.size());
+// Phase 6: the mesh tensors, with a warning for positions no face uses.
+void fill_tensors(const std::string& path, const tinyobj::attrib_t& attrib, const std::vector<Key>& corners,
+                  const Welded& welded, std::array<bool, 2> complete, Mesh& mesh) {
+  const auto [all_uv, all_n] = complete;
+  const auto nverts = static_cast<std::int64_t>(welded.first_corner.size());
   const auto ntris = static_cast<std::int64_t>(corners.size() / 3);
   mesh.positions = Tensor::empty({nverts, 3});
   mesh.triangles = Tensor::empty({ntris, 3}, DType::Int32);
@@ -384,22 +428,41 @@ Mesh load_obj_text(const std::string& path, const std::string& text, const fs::p
   if (all_n) mesh.normals = Tensor::empty({nverts, 3});
   std::int64_t used_positions = 0;
   for (std::int64_t v = 0; v < nverts; ++v) {
-    const Key& k = corners[first_corner[v]];
-    if (v == 0 || k[0] != corners[first_corner[v - 1]][0]) ++used_positions;
+    const Key& k = corners[welded.first_corner[v]];
+    if (v == 0 || k[0] != corners[welded.first_corner[v - 1]][0]) ++used_positions;
     for (int c = 0; c < 3; ++c) mesh.positions.data<float>()[3 * v + c] = attrib.vertices[3 * k[0] + c];
     if (all_uv)
       for (int c = 0; c < 2; ++c) mesh.uvs.data<float>()[2 * v + c] = attrib.texcoords[2 * k[1] + c];
     if (all_n)
       for (int c = 0; c < 3; ++c) mesh.normals.data<float>()[3 * v + c] = attrib.normals[3 * k[2] + c];
   }
-  std::copy(vertex_of.begin(), vertex_of.end(), mesh.triangles.data<std::int32_t>());
+  std::copy(welded.vertex_of.begin(), welded.vertex_of.end(), mesh.triangles.data<std::int32_t>());
   const auto total_positions = static_cast<std::int64_t>(attrib.vertices.size() / 3);
   if (used_positions < total_positions)
     mesh.warnings.push_back("load_obj('" + path + "'): " +
                             std::to_string(total_positions - used_positions) +
                             " vertices are used by no face and were dropped");
+}
 
-  // Diffuse texture: the first material (in face order) that names one.
+// Resolves a texture name from an MTL file relative to `dir`; empty if absent.
+// A name that exists but is not a regular file (FIFO, device) is an IOError.
+std::string resolve_texture(const std::string& path, const fs::path& dir, std::string name) {
+  for (int attempt = 0; attempt < 2; ++attempt) {
+    const fs::path p = dir / name;
+    std::error_code ec;
+    const fs::file_status st = fs::status(p, ec);  // follows symlinks, as for every input
+    if (fs::is_regular_file(st)) return p.lexically_normal().string();
+    if (fs::exists(st))
+      throw IOError("load_obj('" + path + "'): texture '" + p.string() +
+                    "' named by the MTL file is not a regular file");
+    std::replace(name.begin(), name.end(), '\\', '/');  // files written on Windows
+  }
+  return {};
+}
+
+// Phase 7: the diffuse texture, the first material (in face order) that names one.
+void pick_texture(const std::string& path, const fs::path* dir, const std::vector<tinyobj::material_t>& materials,
+                  const std::vector<int>& material_of, Mesh& mesh) {
   std::string texname;
   std::vector<std::string> others;
   for (int m : material_of) {
@@ -411,15 +474,30 @@ Mesh load_obj_text(const std::string& path, const std::string& text, const fs::p
       others.push_back(t);
   }
   if (!texname.empty()) {
-    if (dir) mesh.texture_path = resolve_texture(*dir, texname);
+    if (dir) mesh.texture_path = resolve_texture(path, *dir, texname);
     if (mesh.texture_path.empty())
-      mesh.warnings.push_back("load_obj('" + path + "'): texture '" + texname +
-                              "' named by the MTL file not found");
+      mesh.warnings.push_back("load_obj('" + path + "'): texture " + quote_for_message(texname) +
+                              " named by the MTL file not found");
   }
   if (!others.empty())
     mesh.warnings.push_back("load_obj('" + path + "'): faces use " +
                             std::to_string(others.size() + 1) +
-                            " diffuse textures; only the first, '" + texname + "', is kept");
+                            " diffuse textures; only the first, " + quote_for_message(texname) +
+                            ", is kept");
+}
+
+// Loads OBJ `text`; `path` names it in messages. With `dir` set, MTL files and
+// textures are looked up in that folder; without it they are not read at all.
+Mesh load_obj_text(const std::string& path, const std::string& text, const fs::path* dir) {
+  check_encoding(path, text);
+  const LineCheck lines = check_lines(path, text);
+  Mesh mesh;
+  const ParsedObj obj = parse_with_tinyobj(path, text, dir, mesh.warnings);
+  Corners corners = triangulate_faces(path, obj, lines.faces);
+  const std::array<bool, 2> complete = keep_complete_attributes(path, corners.keys, mesh.warnings);
+  const Welded welded = weld(corners.keys, obj.attrib.vertices.size() / 3);
+  fill_tensors(path, obj.attrib, corners.keys, welded, complete, mesh);
+  pick_texture(path, dir, obj.materials, corners.material_of, mesh);
   mesh.validate("load_obj('" + path + "')");
   return mesh;
 }
@@ -428,7 +506,7 @@ Mesh load_obj_text(const std::string& path, const std::string& text, const fs::p
 
 Mesh load_obj(const std::string& path) {
   const fs::path dir = fs::path(path).parent_path();
-  return load_obj_text(path, read_text(path), &dir);
+  return load_obj_text(path, read_input_file(path, "load_obj('" + path + "')"), &dir);
 }
 
 Mesh load_obj_from_string(const std::string& text, const std::string& name) {

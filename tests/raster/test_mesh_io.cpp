@@ -3,6 +3,8 @@
 // trips, and Mesh::validate.
 #include <catch2/catch.hpp>
 
+#include <sys/stat.h>
+
 #include <cmath>
 #include <fstream>
 #include <sstream>
@@ -316,4 +318,29 @@ TEST_CASE("Mesh::validate names the field that is wrong", "[raster][io][mesh][er
     m.triangles.data<std::int32_t>()[7] = -1;
     CHECK_THROWS_WITH(m.validate("test"), Catch::Contains("triangles[2]"));
   }
+}
+
+TEST_CASE("load_obj: a 255-corner polygon loads, 256 corners name the limit and the line", "[raster][io][obj][errors]") {
+  auto polygon = [](int n) {
+    std::ostringstream s;
+    s << "# polygon\n";
+    for (int i = 0; i < n; ++i)
+      s << "v " << std::cos(6.283185307179586 * i / n) << " " << std::sin(6.283185307179586 * i / n) << " 0\n";
+    s << "f";
+    for (int i = 1; i <= n; ++i) s << " " << i;
+    s << "\n";
+    return s.str();
+  };
+  CHECK(gr::raster::load_obj_from_string(polygon(255)).num_triangles() == 253);
+  CHECK_THROWS_WITH(gr::raster::load_obj_from_string(polygon(256), "big.obj"),
+                    Catch::Contains("big.obj") && Catch::Contains("line 258") &&
+                        Catch::Contains("256 corners") && Catch::Contains("at most 255"));
+}
+
+TEST_CASE("load_obj: the texture named by the MTL file must be a regular file", "[raster][io][obj][mtl][errors]") {
+  TempDir dir;
+  dir.write("m.mtl", "newmtl a\nmap_Kd pipe.png\n");
+  REQUIRE(::mkfifo(dir.file("pipe.png").c_str(), 0600) == 0);
+  const std::string obj = dir.write("m.obj", "mtllib m.mtl\nusemtl a\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n");
+  CHECK_THROWS_WITH(load_obj(obj), Catch::Contains("pipe.png") && Catch::Contains("not a regular file"));
 }
