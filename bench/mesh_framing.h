@@ -6,7 +6,7 @@
 
 namespace gr::bench {
 
-// look_at + perspective (fov_y 0.7 rad, square image) framing the mesh's
+// look_at + perspective (square image) from raster::frame_mesh, framing the mesh's
 // bounding sphere from an oblique direction; returns the clip positions
 // transform_points(positions, P V) (N x 4, no gradient).
 Tensor frame_mesh(const raster::Mesh& mesh);

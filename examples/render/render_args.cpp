@@ -3,6 +3,7 @@
 // error message starts with the flag it is about.
 #include "examples/render/render_args.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -69,6 +70,15 @@ std::array<double, 3> parse_vec3(const std::string& flag, const std::string& tex
 
 double norm3(const std::array<double, 3>& a) { return std::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]); }
 
+// a / |a| without overflow for huge components; zero stays zero.
+std::array<double, 3> unit(const std::array<double, 3>& a) {
+  const double m = std::max({std::fabs(a[0]), std::fabs(a[1]), std::fabs(a[2])});
+  if (!(m > 0)) return {0, 0, 0};
+  const std::array<double, 3> s = {a[0] / m, a[1] / m, a[2] / m};
+  const double n = norm3(s);
+  return {s[0] / n, s[1] / n, s[2] / n};
+}
+
 }  // namespace
 
 std::string builtin_name(Builtin b) {
@@ -84,8 +94,8 @@ std::string builtin_name(Builtin b) {
 
 std::string usage() {
   return R"(Usage: gradraster-render (--mesh FILE.obj | --builtin cube|sphere|torus|plane)
-                         --width W --height H
-                         (--mvp "16 column-major floats" | --eye x,y,z [--target x,y,z] [--up x,y,z] [--fov DEG])
+                         [--width W] [--height H]
+                         [--mvp "16 column-major floats" | --eye x,y,z [--target x,y,z] [--up x,y,z] [--fov DEG]]
                          [--out image.png] [--out-triid FILE] [--out-depth FILE]
                          [--cull none|back|front] [--flat] [--subdiv S] [--threads N] [--repeat N]
 
@@ -100,8 +110,9 @@ Geometry
                       torus = 16*2^S x 4*2^S segments (default 4), plane = 2^S x 2^S
                       cells (default 0), cube = S 1-to-4 subdivisions (default 0)
 Image
-  --width W, --height H   image size in pixels, 1..16384 each
-Camera (exactly one of)
+  --width W, --height H   image size in pixels, 1..16384 each (default 512)
+Camera (at most one of; without either, the mesh is framed: its bounding sphere
+seen from (0.35, 0.25, 1) with a 40.1 degree vertical field of view)
   --mvp "m0 ... m15"  4x4 matrix, column-major (element (r,c) = m[4c+r]), commas or
                       spaces, applied to the model positions as given: clip = MVP * (p, 1)
   --eye x,y,z         perspective(fov, W/H, near, far) * look_at(eye, target, up);
@@ -237,21 +248,21 @@ RenderArgs parse_args(const std::vector<std::string>& args) {
     throw UsageError(a.mesh_path.empty() ? "--mesh or --builtin: one is required"
                                          : "--mesh and --builtin: give only one");
   if (has_subdiv && a.builtin == Builtin::None) fail("--subdiv", "applies only to --builtin meshes");
-  if (!seen.count("--width")) fail("--width", "required");
-  if (!seen.count("--height")) fail("--height", "required");
   if (a.has_mvp && a.has_eye) throw UsageError("--mvp and --eye: give only one camera");
-  if (!a.has_mvp && !a.has_eye) throw UsageError("--mvp or --eye: a camera is required");
-  if (a.has_mvp)
+  if (!a.has_eye)
     for (const char* f : {"--target", "--up", "--fov"})
-      if (seen.count(f)) fail(f, "applies only with --eye, not with --mvp");
+      if (seen.count(f)) fail(f, "applies only with --eye");
   if (a.has_eye) {
     const std::array<double, 3> d = {a.target[0] - a.eye[0], a.target[1] - a.eye[1], a.target[2] - a.eye[2]};
-    const double dn = norm3(d), un = norm3(a.up);
-    if (!(dn > 0)) fail("--target", "must differ from --eye");
-    if (!(un > 0)) fail("--up", "must not be the zero vector");
-    const std::array<double, 3> c = {d[1] * a.up[2] - d[2] * a.up[1], d[2] * a.up[0] - d[0] * a.up[2],
-                                     d[0] * a.up[1] - d[1] * a.up[0]};
-    if (!(norm3(c) > 1e-6 * dn * un)) fail("--up", "must not be parallel to the viewing direction (target - eye)");
+    if (!std::isfinite(d[0]) || !std::isfinite(d[1]) || !std::isfinite(d[2]))
+      fail("--eye", "too far from --target (the distance overflows)");
+    const std::array<double, 3> du = unit(d), uu = unit(a.up);
+    if (!(norm3(du) > 0)) fail("--target", "must differ from --eye");
+    if (!(norm3(uu) > 0)) fail("--up", "must not be the zero vector");
+    // On unit vectors, so that a far --eye does not overflow the test.
+    const std::array<double, 3> c = {du[1] * uu[2] - du[2] * uu[1], du[2] * uu[0] - du[0] * uu[2],
+                                     du[0] * uu[1] - du[1] * uu[0]};
+    if (!(norm3(c) > 1e-6)) fail("--up", "must not be parallel to the viewing direction (target - eye)");
   }
   return a;
 }

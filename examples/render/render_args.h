@@ -30,11 +30,12 @@ struct RenderArgs {
   Builtin builtin = Builtin::None;
   std::optional<int> subdiv;  // builtin tessellation level (see usage())
 
-  int width = 0;
-  int height = 0;
+  int width = 512;
+  int height = 512;
 
-  // Camera: either an MVP (row-major here, converted from the column-major
-  // command line) or eye / target / up / fov.
+  // Camera: an MVP (row-major here, converted from the column-major command
+  // line), or eye / target / up / fov, or neither: the mesh is framed
+  // (raster::frame_mesh).
   bool has_mvp = false;
   std::array<double, 16> mvp_row_major{};
   bool has_eye = false;

@@ -10,12 +10,12 @@
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
-#include <functional>
 #include <iomanip>
 #include <optional>
 #include <sstream>
 
 #include "autodiff/error.h"
+#include "autodiff/memory.h"
 #include "autodiff/parallel.h"
 #include "autodiff/tape.h"
 #include "examples/render/render_args.h"
@@ -23,7 +23,9 @@
 #include "ops/linalg.h"
 #include "ops/rasterize.h"
 #include "ops/transforms.h"
+#include "raster/files.h"
 #include "raster/image_io.h"
+#include "raster/mesh_framing.h"
 #include "raster/obj_io.h"
 #include "raster/procedural.h"
 
@@ -94,28 +96,72 @@ raster::Mesh load_mesh(const RenderArgs& a) {
   throw UsageError("--mesh or --builtin: one is required");
 }
 
+// The flags (or file) that made the camera; named when its numbers overflow.
+std::string camera_source(const RenderArgs& a) {
+  if (a.has_mvp) return "--mvp";
+  if (a.has_eye) return "--eye/--fov";
+  return "--mesh '" + a.mesh_path + "' (coordinates, framed camera)";
+}
+
 // The MVP as a row-major 4x4 in double, plus a description of the camera.
+// Without --mvp or --eye the mesh is framed (raster::frame_mesh).
 std::array<double, 16> camera_matrix(const RenderArgs& a, const raster::Mesh& mesh, std::string& facts) {
   if (a.has_mvp) {
     facts = "camera=mvp";
     return a.mvp_row_major;
   }
+  Vec3 eye = a.eye, target = a.target, up = a.up;
+  double fov_deg = a.fov_deg;
+  std::ostringstream s;
+  if (a.has_eye) {
+    s << "camera=look_at";
+  } else {
+    const raster::MeshFraming f = raster::frame_mesh(mesh);
+    eye = f.eye, target = f.centre, up = f.up, fov_deg = f.fov_y * 180.0 / M_PI;
+    s << "camera=framed eye=" << eye[0] << "," << eye[1] << "," << eye[2] << " target=" << target[0] << ","
+      << target[1] << "," << target[2];
+  }
   Vec3 centre;
   double radius = 0;
   bounding_sphere(mesh, centre, radius);
-  const auto nf = near_far_for_sphere(a.eye, centre, radius);
+  const auto nf = near_far_for_sphere(eye, centre, radius);
+  if (!(std::isfinite(nf[0]) && std::isfinite(nf[1]) && nf[0] < nf[1]))
+    throw RuntimeError(camera_source(a) + ": the eye is too far from the mesh (or the mesh too large): its "
+                                          "near and far planes overflow");
   // Built with the library's own (OpenGL) camera functions, in float64.
   auto vec = [](const Vec3& v) { return Tensor::from_values({v[0], v[1], v[2]}, {3}, DType::Float64); };
-  const Tensor view = look_at(vec(a.eye), vec(a.target), vec(a.up));
-  const Tensor proj = perspective(a.fov_deg * M_PI / 180.0, double(a.width) / a.height, nf[0], nf[1],
+  const Tensor view = look_at(vec(eye), vec(target), vec(up));
+  const Tensor proj = perspective(fov_deg * M_PI / 180.0, double(a.width) / a.height, nf[0], nf[1],
                                   ClipSpace::OpenGL, DType::Float64);
   const std::vector<double> m = matmul(proj, view).to_vector();
-  std::ostringstream s;
-  s << "camera=look_at fov=" << a.fov_deg << " near=" << nf[0] << " far=" << nf[1];
+  s << " fov=" << fov_deg << " near=" << nf[0] << " far=" << nf[1];
   facts = s.str();
   std::array<double, 16> r{};
   std::copy(m.begin(), m.end(), r.begin());
   return r;
+}
+
+// NaN or Inf in the camera or in the clip positions comes from extreme flag
+// values or coordinates: reported here, naming them, instead of as rasterize's
+// "clip[i]".
+void check_finite_camera(const RenderArgs& a, const std::array<double, 16>& m, const Tensor& clip) {
+  for (double x : m)
+    if (!std::isfinite(x))
+      throw RuntimeError(camera_source(a) + ": the camera matrix is not finite (the eye is too far from the mesh "
+                                          "for its size, or the field of view too small)");
+  const float* c = clip.data<float>();
+  for (std::int64_t i = 0; i < clip.numel(); ++i)
+    if (!std::isfinite(c[i]))
+      throw RuntimeError(camera_source(a) + ": vertex " + std::to_string(i / 4) +
+                       " has a non-finite clip position (matrix entries or coordinates too large for float32)");
+}
+
+// Memory the render needs, measured on this tool (peak RSS grows by ~46 bytes
+// per pixel: G-buffer, shading, the raw and PNG outputs) plus the mesh's
+// tensors and the rasterizer's per-triangle setup.
+std::size_t request_bytes(const RenderArgs& a, const raster::Mesh& mesh) {
+  const auto pixels = static_cast<std::size_t>(a.width) * static_cast<std::size_t>(a.height);
+  return 48 * pixels + 64 * static_cast<std::size_t>(mesh.num_vertices() + mesh.num_triangles());
 }
 
 // Headlight: the model-space direction towards the viewer along the view
@@ -209,14 +255,19 @@ std::vector<unsigned char> depth_bytes(const GBuffer& gb) {
   return bytes;
 }
 
-// Fails early (before loading and rendering) if an output's folder is missing.
-void check_output_folder(const std::string& flag, const std::string& path) {
+// Fails early (before loading and rendering) if an output's folder is missing
+// or its target is not a regular file.
+void check_output(const std::string& flag, const std::string& path) {
   if (path.empty()) return;
   const std::filesystem::path parent = std::filesystem::path(path).parent_path();
   std::error_code ec;
   if (!parent.empty() && !std::filesystem::is_directory(parent, ec))
     throw RuntimeError(flag + ": folder '" + parent.string() + "' does not exist");
-  if (std::filesystem::is_directory(path, ec)) throw RuntimeError(flag + ": '" + path + "' is a folder");
+  try {
+    raster::check_output_target(path);
+  } catch (const Error& e) {
+    throw RuntimeError(flag + ": " + e.what());
+  }
 }
 
 double median(std::vector<double> v) {
@@ -226,9 +277,9 @@ double median(std::vector<double> v) {
 }
 
 int render(const RenderArgs& a, std::ostream& out, std::ostream& err) {
-  check_output_folder("--out", a.out_png);
-  check_output_folder("--out-triid", a.out_triid);
-  check_output_folder("--out-depth", a.out_depth);
+  check_output("--out", a.out_png);
+  check_output("--out-triid", a.out_triid);
+  check_output("--out-depth", a.out_depth);
   ThreadLimit threads(a.threads);
   NoGradGuard no_grad;
 
@@ -236,56 +287,63 @@ int render(const RenderArgs& a, std::ostream& out, std::ostream& err) {
   mesh.validate("gradraster-render: mesh");
   for (const std::string& w : mesh.warnings) err << "gradraster-render: warning: " << w << "\n";
 
-  std::string camera;
-  const std::array<double, 16> m = camera_matrix(a, mesh, camera);
-  const Tensor mvp = Tensor::from_values(std::vector<double>(m.begin(), m.end()), {4, 4}, DType::Float32);
-  const Tensor clip = transform_points(mesh.positions, mvp);  // [N, 4] float32
+  const std::size_t estimate = request_bytes(a, mesh);
+  const std::string request = "gradraster-render " + std::to_string(a.width) + "x" + std::to_string(a.height) +
+                              " (estimated " + std::to_string(estimate >> 20) + " MiB)";
+  check_memory_request(estimate, request);
+  try {
+    std::string camera;
+    const std::array<double, 16> m = camera_matrix(a, mesh, camera);
+    const Tensor mvp = Tensor::from_values(std::vector<double>(m.begin(), m.end()), {4, 4}, DType::Float32);
+    const Tensor clip = transform_points(mesh.positions, mvp);  // [N, 4] float32
+    check_finite_camera(a, m, clip);
 
-  // Rasterize (timed alone when --repeat is given).
-  const RasterizeOptions options{a.width, a.height, a.cull};
-  GBuffer gb;
-  std::vector<double> ms;
-  for (int i = 0; i < std::max(a.repeat, 1); ++i) {
-    const auto t0 = std::chrono::steady_clock::now();
-    gb = rasterize(clip, mesh.triangles, options);
-    const auto t1 = std::chrono::steady_clock::now();
-    ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
-  }
-
-  // Facts and statistics (stdout, key=value).
-  const std::string source = a.mesh_path.empty() ? "builtin:" + builtin_name(a.builtin) : a.mesh_path;
-  out << "mesh=" << source << " vertices=" << mesh.num_vertices() << " triangles=" << mesh.num_triangles()
-      << " size=" << a.width << "x" << a.height << " threads=" << num_threads() << " " << camera << "\n";
-  const raster::RasterStats& s = gb.stats;
-  std::int64_t covered = 0;
-  const std::int32_t* id = gb.tri_id.data<std::int32_t>();
-  for (std::int64_t p = 0; p < gb.tri_id.numel(); ++p) covered += id[p] != 0;
-  out << "triangles_in=" << s.triangles_in << " rasterized=" << s.rasterized << " clipped_near=" << s.clipped_near
-      << " culled_outside=" << s.culled_outside << " culled_zero_area=" << s.culled_zero_area
-      << " culled_face=" << s.culled_face << " culled_no_pixel=" << s.culled_no_pixel
-      << " covered_pixels=" << covered << "\n";
-  if (a.repeat > 0) out << "rasterize_ms=" << std::fixed << std::setprecision(3) << median(ms) << "\n";
-  out.flush();
-
-  // Outputs; each writer is atomic (temporary file + rename).
-  auto write = [](const std::string& flag, const std::function<void()>& f) {
-    try {
-      f();
-    } catch (const Error& e) {
-      throw RuntimeError(flag + ": " + e.what());
+    // Rasterize (timed alone when --repeat is given).
+    const RasterizeOptions options{a.width, a.height, a.cull};
+    GBuffer gb;
+    std::vector<double> ms;
+    for (int i = 0; i < std::max(a.repeat, 1); ++i) {
+      const auto t0 = std::chrono::steady_clock::now();
+      gb = rasterize(clip, mesh.triangles, options);
+      const auto t1 = std::chrono::steady_clock::now();
+      ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
     }
-  };
-  if (!a.out_triid.empty()) {
-    const auto bytes = triid_bytes(gb);
-    write("--out-triid", [&] { raster::write_raw(a.out_triid, bytes.data(), bytes.size()); });
-  }
-  if (!a.out_depth.empty()) {
-    const auto bytes = depth_bytes(gb);
-    write("--out-depth", [&] { raster::write_raw(a.out_depth, bytes.data(), bytes.size()); });
-  }
-  if (!a.out_png.empty()) {
-    const Tensor image = shade(mesh, clip, gb, headlight(m), a.flat);
-    write("--out", [&] { raster::write_png(a.out_png, image); });
+
+    // Facts and statistics (stdout, key=value).
+    const std::string source = a.mesh_path.empty() ? "builtin:" + builtin_name(a.builtin) : a.mesh_path;
+    out << "mesh=" << source << " vertices=" << mesh.num_vertices() << " triangles=" << mesh.num_triangles()
+        << " size=" << a.width << "x" << a.height << " threads=" << num_threads() << " " << camera
+        << " memory_estimate_mib=" << (estimate >> 20) << "\n";
+    const raster::RasterStats& s = gb.stats;
+    std::int64_t covered = 0;
+    const std::int32_t* id = gb.tri_id.data<std::int32_t>();
+    for (std::int64_t p = 0; p < gb.tri_id.numel(); ++p) covered += id[p] != 0;
+    out << "triangles_in=" << s.triangles_in << " rasterized=" << s.rasterized << " clipped_near=" << s.clipped_near
+        << " culled_outside=" << s.culled_outside << " culled_zero_area=" << s.culled_zero_area
+        << " culled_face=" << s.culled_face << " culled_no_pixel=" << s.culled_no_pixel
+        << " covered_pixels=" << covered << "\n";
+    if (a.repeat > 0) out << "rasterize_ms=" << std::fixed << std::setprecision(3) << median(ms) << "\n";
+    out.flush();
+
+    // Outputs: all staged as temporaries, renamed together once all are written.
+    raster::OutputSet outputs;
+    auto stage = [&](const std::string& flag, const std::string& path, const std::vector<unsigned char>& bytes) {
+      try {
+        outputs.stage(path, bytes.data(), bytes.size());
+      } catch (const Error& e) {
+        throw RuntimeError(flag + ": " + e.what());
+      }
+    };
+    if (!a.out_triid.empty()) stage("--out-triid", a.out_triid, triid_bytes(gb));
+    if (!a.out_depth.empty()) stage("--out-depth", a.out_depth, depth_bytes(gb));
+    if (!a.out_png.empty()) {
+      const Tensor image = shade(mesh, clip, gb, headlight(m), a.flat);
+      stage("--out", a.out_png, raster::encode_png(image, "--out '" + a.out_png + "'"));
+    }
+    outputs.commit();
+  } catch (const std::bad_alloc&) {
+    throw MemoryError("out of memory during " + request +
+                      "; lower the size or set GRADRASTER_MEMORY_LIMIT to refuse such requests early");
   }
   return kExitOk;
 }
@@ -340,6 +398,9 @@ int run_render_tool(const std::vector<std::string>& args, std::ostream& out, std
   } catch (const UsageError& e) {
     err << "gradraster-render: " << e.what() << "\n(run gradraster-render --help for usage)\n";
     return kExitUsage;
+  } catch (const std::bad_alloc&) {
+    err << "gradraster-render: error: out of memory while loading the mesh\n";
+    return kExitRuntime;
   } catch (const std::exception& e) {
     err << "gradraster-render: error: " << e.what() << "\n";
     return kExitRuntime;

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "autodiff/memory.h"
 #include "autodiff/storage.h"
 #include "examples/render/render_tool.h"
 #include "ops/ops.h"
@@ -381,4 +382,108 @@ TEST_CASE("bad input: a failed write leaves no partial file and keeps an existin
                                                  out2, err2);
   CHECK(code2 != render_tool::kExitOk);
   CHECK(!exists(dir.file("big.png")));
+}
+
+TEST_CASE("bad input: FIFOs, devices and /proc files as OBJ, MTL or image inputs are refused naming the file, without hanging",
+          "[bad_input][files]") {
+  TempDir dir;
+  REQUIRE(::mkfifo(dir.file("mesh.obj").c_str(), 0600) == 0);
+  require_throw<IOError>([&] { raster::load_obj(dir.file("mesh.obj")); }, {"mesh.obj", "FIFO"});
+  REQUIRE(::mkfifo(dir.file("tex.png").c_str(), 0600) == 0);
+  require_throw<IOError>([&] { raster::read_image(dir.file("tex.png")); }, {"tex.png", "FIFO"});
+  // An mtllib that resolves to /dev/zero or /dev/urandom (read to exhaustion before).
+  const std::string tri = "usemtl m\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+  for (const char* device : {"/dev/zero", "/dev/urandom"}) {
+    INFO(device);
+    const std::string mtl = dir.file("dev.mtl");
+    ::unlink(mtl.c_str());
+    REQUIRE(::symlink(device, mtl.c_str()) == 0);
+    const std::string obj = dir.write("dev.obj", "mtllib dev.mtl\n" + tri);
+    require_throw<IOError>([&] { raster::load_obj(obj); }, {"dev.obj", "dev.mtl", "character device"});
+  }
+  // A /proc file (regular, size 0) as the mesh: read with a limit, then an ordinary OBJ error.
+  require_throw<IOError>([&] { raster::load_obj("/proc/self/status"); }, {"/proc/self/status", "no triangles"});
+  // ... and through the render tool: exit 1 naming --mesh and the file.
+  std::ostringstream out, err;
+  CHECK(render_tool::run_render_tool({"--mesh", dir.file("mesh.obj"), "--width", "8", "--height", "8"}, out, err) ==
+        render_tool::kExitRuntime);
+  CHECK(err.str().find("--mesh") != std::string::npos);
+  CHECK(err.str().find("FIFO") != std::string::npos);
+}
+
+TEST_CASE("bad input: an image whose header needs more than the memory budget is refused before decoding",
+          "[bad_input][memory]") {
+  TempDir dir;
+  // A PNG signature and an IHDR for 16384 x 16384 RGB, no pixel data: 4.2 GB decoded.
+  std::vector<unsigned char> png = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n', 0, 0, 0, 13, 'I', 'H', 'D', 'R',
+                                    0, 0, 0x40, 0, 0, 0, 0x40, 0, 8, 2, 0, 0, 0, 0, 0, 0, 0};
+  write_bytes(dir.file("huge.png"), png);
+  set_memory_limit(memory_in_use() + (std::size_t(64) << 20));
+  require_throw<MemoryError>([&] { raster::read_image(dir.file("huge.png")); }, {"huge.png", "16384 x 16384"});
+  set_memory_limit(0);
+  // Sides beyond the decoder's limit are an IOError naming the size.
+  png[18] = 0x80, png[19] = 0x01, png[22] = 0, png[23] = 8;  // 32769 x 8
+  write_bytes(dir.file("wide.png"), png);
+  require_throw<IOError>([&] { raster::read_image(dir.file("wide.png")); }, {"wide.png", "1..32768"});
+}
+
+TEST_CASE("bad input: a truncated PNG names the decoder's reason and the path", "[bad_input]") {
+  TempDir dir;
+  raster::write_png(dir.file("full.png"), Tensor::full({64, 64, 3}, 0.5));
+  const std::vector<unsigned char> good = read_bytes(dir.file("full.png"));
+  write_bytes(dir.file("cut.png"), std::vector<unsigned char>(good.begin(), good.begin() + good.size() / 2));
+  try {
+    raster::read_image(dir.file("cut.png"));
+    FAIL("no error");
+  } catch (const IOError& e) {
+    const std::string msg = e.what();
+    INFO(msg);
+    const std::size_t colon = msg.find("cut.png': ");
+    REQUIRE(colon != std::string::npos);
+    CHECK(msg.size() > colon + 12);  // a reason follows the path
+  }
+}
+
+TEST_CASE("bad input: OBJ messages quote a bounded, printable prefix of a bad token and name UTF-16",
+          "[bad_input][obj]") {
+  const std::string huge(1 << 20, '7');
+  try {
+    raster::load_obj_from_string("v 0 0 0\nv 1 0 0\nv 0 1 x" + huge + "\nf 1 2 3\n", "big.obj");
+    FAIL("no error");
+  } catch (const IOError& e) {
+    const std::string msg = e.what();
+    CHECK(msg.size() < 300);
+    CHECK(msg.find("line 3") != std::string::npos);
+    CHECK(msg.find("...") != std::string::npos);
+  }
+  // UTF-16 text (with or without a byte-order mark) and NUL bytes.
+  std::string utf16 = "\xff\xfe";
+  for (char c : std::string("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")) utf16 += std::string{c, '\0'};
+  require_throw<IOError>([&] { raster::load_obj_from_string(utf16, "wide.obj"); }, {"wide.obj", "UTF-16", "UTF-8"});
+  require_throw<IOError>([&] { raster::load_obj_from_string(utf16.substr(2), "wide.obj"); }, {"line 1", "UTF-16"});
+  require_throw<IOError>([&] { raster::load_obj_from_string(std::string("v 0 0 0\nf 1\0 2 3\n", 17)); },
+                         {"line 2", "NUL byte"});
+}
+
+TEST_CASE("bad input: an output path naming a symlink, FIFO or folder is refused and left untouched",
+          "[bad_input][files]") {
+  TempDir dir;
+  const std::string victim = dir.write("victim.txt", "keep");
+  REQUIRE(::symlink(victim.c_str(), dir.file("link.png").c_str()) == 0);
+  REQUIRE(::mkfifo(dir.file("fifo.png").c_str(), 0600) == 0);
+  for (const char* name : {"link.png", "fifo.png"}) {
+    INFO(name);
+    require_throw<IOError>([&] { raster::write_png(dir.file(name), Tensor::zeros({2, 2, 3})); }, {name, "refusing"});
+    std::ostringstream out, err;
+    CHECK(render_tool::run_render_tool({"--builtin", "cube", "--width", "8", "--height", "8", "--out-triid",
+                                        dir.file("ok.tri"), "--out", dir.file(name)},
+                                       out, err) == render_tool::kExitRuntime);
+    CHECK(err.str().find(name) != std::string::npos);
+  }
+  CHECK(read_bytes(victim) == std::vector<unsigned char>{'k', 'e', 'e', 'p'});
+  struct stat st {};
+  CHECK((::lstat(dir.file("link.png").c_str(), &st) == 0 && S_ISLNK(st.st_mode)));
+  CHECK((::lstat(dir.file("fifo.png").c_str(), &st) == 0 && S_ISFIFO(st.st_mode)));
+  CHECK(!exists(dir.file("ok.tri")));  // the run's other output did not appear either
+  CHECK(dir.count() == 3);
 }

@@ -16,11 +16,13 @@
 #include <string>
 #include <vector>
 
+#include "autodiff/memory.h"
 #include "autodiff/parallel.h"
 #include "examples/render/render_tool.h"
 #include "ops/linalg.h"
 #include "ops/transforms.h"
 #include "raster/image_io.h"
+#include "raster/obj_io.h"
 #include "raster/procedural.h"
 #include "raster/temp_dir.h"
 
@@ -234,14 +236,12 @@ TEST_CASE("render tool: bad arguments exit with 2 and a message naming the flag,
   const std::vector<Case> cases = {
       {{"--bogus", "1"}, false, "--bogus"},
       {{"--width", "12"}, false, "--width"},  // given twice
-      {{"--builtin", "cube", "--height", "16", "--eye", "3,2,4"}, true, "--width"},
-      {{"--builtin", "cube", "--width", "16", "--eye", "3,2,4"}, true, "--height"},
       {{"--builtin", "cube", "--width", "0x10", "--height", "16", "--eye", "3,2,4"}, true, "--width"},
       {{"--builtin", "cube", "--width", "16", "--height", "-3", "--eye", "3,2,4"}, true, "--height"},
       {{"--builtin", "cube", "--width", "16", "--height", "16385", "--eye", "3,2,4"}, true, "--height"},
       {{"--builtin", "cone", "--width", "16", "--height", "16", "--eye", "3,2,4"}, true, "--builtin"},
       {{"--width", "16", "--height", "16", "--eye", "3,2,4"}, true, "--mesh or --builtin"},
-      {{"--builtin", "cube", "--width", "16", "--height", "16"}, true, "--mvp or --eye"},
+      {{"--builtin", "cube", "--width", "16", "--height", "16", "--fov", "30"}, true, "--fov"},  // without --eye
       {{"--builtin", "cube", "--width", "16", "--height", "16", "--eye", "1,2"}, true, "--eye"},
       {{"--builtin", "cube", "--width", "16", "--height", "16", "--eye", "1,2,nan"}, true, "--eye"},
       {{"--builtin", "cube", "--width", "16", "--height", "16", "--eye"}, true, "--eye"},
@@ -311,4 +311,54 @@ TEST_CASE("render tool: --repeat prints the median rasterize time, --threads is 
   CHECK(help.code == 0);
   CHECK(help.out.find("Usage: gradraster-render") != std::string::npos);
   CHECK(help.out.find("--out-depth") != std::string::npos);
+}
+
+TEST_CASE("render tool: --mesh without a camera frames the whole mesh", "[examples][render]") {
+  TempDir dir;
+  gr::raster::Mesh mesh = gr::raster::make_torus(32, 8);
+  for (std::int64_t i = 0; i < mesh.positions.numel(); ++i) mesh.positions.data<float>()[i] = 40 + 7 * mesh.positions.data<float>()[i];
+  gr::raster::save_obj(dir.file("torus.obj"), mesh);
+  const Run r = render({"--mesh", dir.file("torus.obj"), "--out", dir.file("torus.png")});
+  INFO(r.err);
+  REQUIRE(r.code == 0);
+  CHECK(r.out.find("camera=framed") != std::string::npos);
+  CHECK(value_of(r.out, "culled_outside") == "0");
+  CHECK(std::stoi(value_of(r.out, "covered_pixels")) > 0);
+  CHECK(std::filesystem::exists(dir.file("torus.png")));
+}
+
+TEST_CASE("render tool: NaN or Inf clip positions from extreme flags name the flag", "[examples][render]") {
+  const std::vector<std::string> base = {"--builtin", "cube", "--width", "8", "--height", "8"};
+  auto run = [&](std::vector<std::string> extra) {
+    extra.insert(extra.begin(), base.begin(), base.end());
+    return render(extra);
+  };
+  const Run fov = run({"--eye", "0,0,3", "--fov", "1e-300"});
+  CHECK(fov.code == 1);
+  CHECK(fov.err.find("--eye/--fov") != std::string::npos);
+  const Run mvp = run({"--mvp", "1e38 1e38 1e38 1e38 1e38 1e38 1e38 1e38 1e38 1e38 1e38 1e38 1e38 1e38 1e38 1e38"});
+  CHECK(mvp.code == 1);
+  CHECK(mvp.err.find("--mvp") != std::string::npos);
+  // A far --eye is not reported as "--up parallel".
+  const Run far = run({"--eye", "1e300,0,0"});
+  INFO(far.err);
+  CHECK(far.code == 1);
+  CHECK(far.err.find("--eye") != std::string::npos);
+  CHECK(far.err.find("parallel") == std::string::npos);
+  const Run overflow = run({"--eye", "1e308,0,0", "--target", "-1e308,0,0"});
+  CHECK(overflow.code == 2);
+  CHECK(overflow.err.find("--eye: too far") != std::string::npos);
+}
+
+TEST_CASE("render tool: a request over the memory budget is refused before rendering, naming the estimate",
+          "[examples][render][memory]") {
+  TempDir dir;
+  gr::set_memory_limit(gr::memory_in_use() + (std::size_t(16) << 20));
+  const Run r = render({"--builtin", "cube", "--width", "4096", "--height", "4096", "--out", dir.file("big.png")});
+  gr::set_memory_limit(0);
+  INFO(r.err);
+  CHECK(r.code == 1);
+  CHECK(r.err.find("gradraster-render 4096x4096 (estimated 768 MiB)") != std::string::npos);
+  CHECK(r.out.empty());
+  CHECK(dir.count() == 0);
 }
