@@ -1,12 +1,10 @@
-// Argument parsing for gradraster-render: flags take their value as the next
-// argument or after '=' (--width=512); every value is checked here, and every
-// error message starts with the flag it is about.
+// Argument parsing for gradraster-render over the examples' common flag
+// handling (examples/common/cli_args.h); every value is checked here, and
+// every error message starts with the flag it is about.
 #include "examples/render/render_args.h"
 
 #include <algorithm>
-#include <cerrno>
 #include <cmath>
-#include <cstdlib>
 #include <functional>
 #include <map>
 #include <set>
@@ -14,35 +12,10 @@
 namespace gr::render_tool {
 namespace {
 
-[[noreturn]] void fail(const std::string& flag, const std::string& what) {
-  throw UsageError(flag + ": " + what);
-}
-
-std::string quoted(const std::string& s) { return "'" + s + "'"; }
-
-// A finite number filling the whole string.
-double parse_number(const std::string& flag, const std::string& text) {
-  const char* begin = text.c_str();
-  char* end = nullptr;
-  errno = 0;
-  const double v = std::strtod(begin, &end);
-  if (text.empty() || end == begin || *end != '\0' || errno == ERANGE || !std::isfinite(v))
-    fail(flag, "expected a finite number, got " + quoted(text));
-  return v;
-}
-
-// An integer in [lo, hi] filling the whole string.
-int parse_int(const std::string& flag, const std::string& text, long lo, long hi) {
-  const char* begin = text.c_str();
-  char* end = nullptr;
-  errno = 0;
-  const long v = std::strtol(begin, &end, 10);
-  if (text.empty() || end == begin || *end != '\0' || errno == ERANGE)
-    fail(flag, "expected an integer, got " + quoted(text));
-  if (v < lo || v > hi)
-    fail(flag, "must lie in " + std::to_string(lo) + ".." + std::to_string(hi) + ", got " + text);
-  return static_cast<int>(v);
-}
+using cli::fail;
+using cli::parse_int;
+using cli::parse_number;
+using cli::quoted;
 
 // Numbers separated by commas and/or whitespace.
 std::vector<double> parse_list(const std::string& flag, const std::string& text) {
@@ -213,34 +186,18 @@ RenderArgs parse_args(const std::vector<std::string>& args) {
       {"--repeat", [&](const std::string& f, const std::string& v) { a.repeat = parse_int(f, v, 1, 100000); }},
   };
 
-  for (std::size_t i = 0; i < args.size(); ++i) {
-    const std::string& arg = args[i];
-    if (arg == "--help" || arg == "-h") {
-      a.help = true;
-      return a;
-    }
-    if (arg.rfind("--", 0) != 0 || arg.size() == 2) throw UsageError("unexpected argument " + quoted(arg));
-    // --flag=value or --flag value.
-    const std::size_t eq = arg.find('=');
-    const std::string flag = arg.substr(0, eq);
-    if (!seen.insert(flag).second) fail(flag, "given more than once");
-    if (flag == "--flat") {
-      if (eq != std::string::npos) fail(flag, "takes no value");
-      a.flat = true;
-      continue;
-    }
-    const auto it = valued.find(flag);
-    if (it == valued.end()) throw UsageError("unknown option " + quoted(flag));
-    std::string value;
-    if (eq != std::string::npos) {
-      value = arg.substr(eq + 1);
-    } else {
-      // A following "--..." is the next flag, not a value; negative numbers
-      // ("-1,0,0") start with a single dash and are fine.
-      if (i + 1 >= args.size() || args[i + 1].rfind("--", 0) == 0) fail(flag, "missing value");
-      value = args[++i];
-    }
-    it->second(flag, value);
+  cli::Flags flags{{}, {"--flat"}};
+  for (const auto& entry : valued) flags.valued.insert(entry.first);
+  const bool run = cli::for_each_flag(
+      args, flags,
+      [&](const std::string& flag, const std::string& value) {
+        if (flag == "--flat") a.flat = true;
+        else valued.at(flag)(flag, value);
+      },
+      seen);
+  if (!run) {
+    a.help = true;
+    return a;
   }
 
   // Required and conflicting flags.

@@ -7,18 +7,16 @@
 
 #include <array>
 #include <optional>
-#include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "examples/common/cli_args.h"
 #include "raster/rasterize.h"
 
 namespace gr::render_tool {
 
 // A command-line mistake: reported with the usage hint, exit code 2.
-struct UsageError : std::runtime_error {
-  using std::runtime_error::runtime_error;
-};
+using UsageError = cli::UsageError;
 
 enum class Builtin { None, Cube, Sphere, Torus, Plane };
 

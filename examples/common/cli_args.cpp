@@ -1,0 +1,67 @@
+#include "examples/common/cli_args.h"
+
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+
+#include "raster/files.h"
+
+namespace gr::cli {
+
+void fail(const std::string& flag, const std::string& what) { throw UsageError(flag + ": " + what); }
+
+std::string quoted(const std::string& text) { return raster::quote_for_message(text); }
+
+double parse_number(const std::string& flag, const std::string& text) {
+  const char* begin = text.c_str();
+  char* end = nullptr;
+  errno = 0;
+  const double v = std::strtod(begin, &end);
+  if (text.empty() || end != begin + text.size() || errno == ERANGE || !std::isfinite(v))
+    fail(flag, "expected a finite number, got " + quoted(text));
+  return v;
+}
+
+int parse_int(const std::string& flag, const std::string& text, long lo, long hi) {
+  const char* begin = text.c_str();
+  char* end = nullptr;
+  errno = 0;
+  const long v = std::strtol(begin, &end, 10);
+  if (text.empty() || end != begin + text.size() || errno == ERANGE)
+    fail(flag, "expected an integer, got " + quoted(text));
+  if (v < lo || v > hi)
+    fail(flag, "must lie in " + std::to_string(lo) + ".." + std::to_string(hi) + ", got " + text);
+  return static_cast<int>(v);
+}
+
+bool for_each_flag(const std::vector<std::string>& args, const Flags& flags,
+                   const std::function<void(const std::string& flag, const std::string& value)>& on_flag,
+                   std::set<std::string>& seen) {
+  for (std::size_t i = 0; i < args.size(); ++i) {
+    const std::string& arg = args[i];
+    if (arg == "--help" || arg == "-h") return false;
+    if (arg.rfind("--", 0) != 0 || arg.size() == 2) throw UsageError("unexpected argument " + quoted(arg));
+    // --flag=value or --flag value.
+    const std::size_t eq = arg.find('=');
+    const std::string flag = arg.substr(0, eq);
+    const bool is_switch = flags.switches.count(flag) > 0;
+    if (!is_switch && !flags.valued.count(flag)) throw UsageError("unknown option " + quoted(flag));
+    if (!seen.insert(flag).second) fail(flag, "given more than once");
+    if (is_switch) {
+      if (eq != std::string::npos) fail(flag, "takes no value");
+      on_flag(flag, "");
+      continue;
+    }
+    if (eq != std::string::npos) {
+      on_flag(flag, arg.substr(eq + 1));
+      continue;
+    }
+    // A following "--..." is the next flag, not a value; negative numbers
+    // ("-1,0,0") start with a single dash and are fine.
+    if (i + 1 >= args.size() || args[i + 1].rfind("--", 0) == 0) fail(flag, "missing value");
+    on_flag(flag, args[++i]);
+  }
+  return true;
+}
+
+}  // namespace gr::cli
