@@ -6,6 +6,7 @@
 
 #include "examples/fit/cli.h"
 #include "examples/fit/fit.h"
+#include "examples/fit/fit_outputs.h"
 #include "examples/fit/progress.h"
 #include "examples/fit/snapshot.h"
 
@@ -38,7 +39,7 @@ int main(int argc, char** argv) {
               << (o.fit_camera ? ", a rigid correction per camera" : "")
               << ". The loss is the MSE of colour and alpha mask over all pixels;\nantialiasing gives silhouette edges their gradient.\n";
   try {
-    const fit::FitResult r = fit::run_fit(o, std::cout);
+    const fit::FitResult r = fit::run_fit_with_outputs(o, std::cout);
     std::cout << std::setprecision(4) << "\nobject:          " << r.scene_name << " (fitted mesh: " << r.points
               << " points, " << r.triangles << " triangles)\n"
               << "loss:            " << std::scientific << r.initial_loss << " -> " << r.final_loss << std::fixed
@@ -57,7 +58,7 @@ int main(int argc, char** argv) {
               << (pose ? "" : ", one row per view") << "), loss.png, " << (pose ? "posed.obj" : "fitted.obj")
               << (o.appearance == fit::Appearance::Texture && !pose ? " (+ fitted.mtl, fitted_texture.png)" : "")
               << " in " << o.out_dir << "/\n";
-  } catch (const std::exception& e) {  // gr::Error (bad mesh, unwritable file) or std::filesystem_error
+  } catch (const std::exception& e) {  // gr::Error (bad mesh, memory, unwritable file) or std::filesystem_error
     std::cerr << program << ": " << e.what() << "\n";
     return 1;
   }

@@ -1,0 +1,60 @@
+#include "examples/fit/fit_outputs.h"
+
+#include <unistd.h>
+
+#include <filesystem>
+#include <new>
+
+#include "autodiff/error.h"
+#include "autodiff/memory.h"
+#include "examples/common/output_folder.h"
+#include "raster/files.h"
+
+namespace fit {
+namespace fs = std::filesystem;
+
+std::size_t fit_request_bytes(const FitOptions& o) {
+  const std::size_t views = o.mode == Mode::Pose ? 1 : static_cast<std::size_t>(o.views);
+  const auto pixels = static_cast<std::size_t>(o.size) * static_cast<std::size_t>(o.size);
+  return 288 * pixels * views + (std::size_t(16) << 20);
+}
+
+FitResult run_fit_with_outputs(const FitOptions& options, std::ostream& log) {
+  const std::size_t estimate = fit_request_bytes(options);
+  const std::string request = "gradraster-fit --size " + std::to_string(options.size) + " with " +
+                              std::to_string(options.mode == Mode::Pose ? 1 : options.views) + " views (estimated " +
+                              std::to_string(estimate >> 20) + " MiB)";
+  gr::check_memory_request(estimate, request);
+
+  gr::cli::OutputFolder folder(options.out_dir);
+  folder.create();
+  FitOptions staged = options;
+  staged.out_dir = (fs::path(options.out_dir) / (".gr" + std::to_string(::getpid()) + ".staging")).string();
+  // Removes the staging folder whatever happens.
+  struct Cleanup {
+    std::string path;
+    ~Cleanup() {
+      std::error_code ec;
+      fs::remove_all(path, ec);
+    }
+  } cleanup{staged.out_dir};
+
+  FitResult result;
+  try {
+    result = run_fit(staged, log);
+  } catch (const std::bad_alloc&) {
+    throw gr::MemoryError("out of memory during " + request);
+  }
+  // Every file first, then the renames: a bad target moves nothing.
+  std::vector<std::string> targets;
+  for (const std::string& file : result.files) {
+    targets.push_back((fs::path(options.out_dir) / fs::path(file).filename()).string());
+    gr::raster::check_output_target(targets.back());
+  }
+  for (std::size_t i = 0; i < targets.size(); ++i) fs::rename(result.files[i], targets[i]);
+  result.files = targets;
+  folder.keep();
+  return result;
+}
+
+}  // namespace fit
