@@ -65,8 +65,10 @@ Tensor read_image(const std::string& path, int channels) {
   void* pixels = wide ? static_cast<void*>(stbi_load_16_from_memory(bytes, size, &w, &h, &file_c, channels))
                       : static_cast<void*>(stbi_load_from_memory(bytes, size, &w, &h, &file_c, channels));
   if (!pixels) {
+    // stb's reasons are terse and sometimes empty or a chunk-name fragment.
     const char* why = stbi_failure_reason();
-    throw IOError(what + ": " + (why && *why ? why : "corrupt or truncated image data"));
+    throw IOError(what + ": truncated or corrupt image data (decoder: " + (why && *why ? why : "no reason given") +
+                  ")");
   }
   Tensor out;
   try {

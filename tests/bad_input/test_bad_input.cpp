@@ -431,16 +431,11 @@ TEST_CASE("bad input: a truncated PNG names the decoder's reason and the path", 
   TempDir dir;
   raster::write_png(dir.file("full.png"), Tensor::full({64, 64, 3}, 0.5));
   const std::vector<unsigned char> good = read_bytes(dir.file("full.png"));
-  write_bytes(dir.file("cut.png"), std::vector<unsigned char>(good.begin(), good.begin() + good.size() / 2));
-  try {
-    raster::read_image(dir.file("cut.png"));
-    FAIL("no error");
-  } catch (const IOError& e) {
-    const std::string msg = e.what();
-    INFO(msg);
-    const std::size_t colon = msg.find("cut.png': ");
-    REQUIRE(colon != std::string::npos);
-    CHECK(msg.size() > colon + 12);  // a reason follows the path
+  // Cut inside the last chunk (IEND) or in the middle: stb gave an empty reason for the first.
+  for (const std::size_t keep : {good.size() - 12, good.size() - 16, good.size() / 2}) {
+    INFO("first " << keep << " bytes");
+    write_bytes(dir.file("cut.png"), std::vector<unsigned char>(good.begin(), good.begin() + long(keep)));
+    require_throw<IOError>([&] { raster::read_image(dir.file("cut.png")); }, {"cut.png': truncated or corrupt"});
   }
 }
 

@@ -17,6 +17,9 @@ namespace {
 
 // Runs `body`; swallows gr::Error, turns any other exception into a
 // FuzzContractViolation naming it. Clears the thread's tape either way.
+// The longest error message the OBJ body accepts.
+constexpr std::size_t kMaxMessageBytes = 512;
+
 template <class F>
 void run_checked(const char* target, F&& body) {
   struct TapeReset {
@@ -153,7 +156,20 @@ void put_value(std::vector<std::uint8_t>& out, double v, bool float64) {
 void fuzz_obj_loader(const std::uint8_t* data, std::size_t size) {
   run_checked("fuzz_obj_loader", [&] {
     const std::string text(reinterpret_cast<const char*>(data), size);
-    const raster::Mesh mesh = raster::load_obj_from_string(text, "fuzz");
+    raster::Mesh mesh;
+    try {
+      mesh = raster::load_obj_from_string(text, "fuzz");
+    } catch (const Error& e) {
+      // Messages quote a bounded, printable prefix of what they complain about.
+      const std::string msg = e.what();
+      if (msg.size() > kMaxMessageBytes)
+        throw FuzzContractViolation("fuzz_obj_loader: a " + std::to_string(msg.size()) + "-byte message");
+      for (const char c : msg)
+        if (static_cast<unsigned char>(c) < 0x20 && c != '\n')
+          throw FuzzContractViolation("fuzz_obj_loader: a message with control byte " +
+                                      std::to_string(static_cast<unsigned char>(c)));
+      throw;
+    }
     // load_obj validates before returning; a loaded mesh must pass again and
     // hold at least one triangle.
     mesh.validate("fuzz_obj_loader");

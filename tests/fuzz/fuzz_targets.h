@@ -22,7 +22,8 @@ struct FuzzContractViolation : std::logic_error {
   using std::logic_error::logic_error;
 };
 
-// The bytes are OBJ text for raster::load_obj_from_string.
+// The bytes are OBJ text for raster::load_obj_from_string. Its error messages
+// must also be short (at most 512 bytes) and free of control bytes.
 void fuzz_obj_loader(const std::uint8_t* data, std::size_t size);
 
 // The bytes encode a small scene (see RasterCase) that goes through
