@@ -26,8 +26,8 @@
 #include <vector>
 
 #include "autodiff/error.h"
+#include "autodiff/memory.h"
 #include "raster/files.h"
-#include "raster/image_io.h"
 
 namespace gr::raster {
 namespace fs = std::filesystem;
@@ -299,11 +299,19 @@ struct ParsedObj {
   std::vector<tinyobj::material_t> materials;
 };
 
+// tinyobjloader's warnings, one per line, each cut to a readable length (they
+// can quote whole lines of the file).
 void add_warnings(const std::string& path, const std::string& text, std::vector<std::string>& out) {
+  constexpr std::size_t kMaxWarning = 200;
   std::istringstream in(text);
   std::string line;
-  while (std::getline(in, line))
-    if (!line.empty() && line != ".") out.push_back("load_obj('" + path + "'): " + line);
+  while (std::getline(in, line)) {
+    if (line.empty() || line == ".") continue;
+    if (line.size() > kMaxWarning) line = line.substr(0, kMaxWarning) + "...";
+    for (char& c : line)
+      if (static_cast<unsigned char>(c) < 0x20) c = '?';
+    out.push_back("load_obj('" + path + "'): " + line);
+  }
 }
 
 // Phase 2: tinyobjloader (no triangulation, no vertex colours); MTL files are
@@ -489,6 +497,9 @@ void pick_texture(const std::string& path, const fs::path* dir, const std::vecto
 // Loads OBJ `text`; `path` names it in messages. With `dir` set, MTL files and
 // textures are looked up in that folder; without it they are not read at all.
 Mesh load_obj_text(const std::string& path, const std::string& text, const fs::path* dir) {
+  // Parsing holds the text's numbers several times over (tinyobjloader's
+  // arrays, corner keys, the weld): at most ~16 bytes per byte of text.
+  check_memory_request(16 * text.size(), "load_obj('" + path + "') of " + std::to_string(text.size()) + " bytes");
   check_encoding(path, text);
   const LineCheck lines = check_lines(path, text);
   Mesh mesh;
@@ -555,6 +566,7 @@ void append_corner(std::string& out, long i, bool uv, bool normal) {
 
 void save_obj(const std::string& path, const Mesh& mesh) {
   mesh.validate("save_obj('" + path + "')");
+  OutputSet outputs;
   std::string out = "# written by gradraster\n";
 
   // Material file for the texture, next to the OBJ.
@@ -568,7 +580,7 @@ void save_obj(const std::string& path, const Mesh& mesh) {
     if (ec) tex = fs::absolute(mesh.texture_path);
     const std::string m = "# written by gradraster\nnewmtl material0\nKd 1 1 1\nmap_Kd " +
                           tex.generic_string() + "\n";
-    write_raw(mtl.string(), m.data(), m.size());
+    outputs.stage(mtl.string(), m.data(), m.size());
     out += "mtllib " + mtl.filename().string() + "\nusemtl material0\n";
   }
 
@@ -592,7 +604,8 @@ void save_obj(const std::string& path, const Mesh& mesh) {
       append_corner(out, tri[3 * f + c] + 1L, mesh.has_uvs(), mesh.has_normals());
     out += '\n';
   }
-  write_raw(path, out.data(), out.size());
+  outputs.stage(path, out.data(), out.size());
+  outputs.commit();
 }
 
 }  // namespace gr::raster

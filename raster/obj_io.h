@@ -26,10 +26,16 @@ namespace gr::raster {
 //  - texture_path: the map_Kd of the first material (in face order) that has
 //    one, resolved relative to the OBJ's folder; set only if the file exists.
 //    A missing MTL file or texture is a warning in Mesh::warnings, not an error.
-// Throws IOError naming the path (and line) for a missing/unreadable file,
+// Files (the OBJ, its MTL files) are read with raster::read_input_file: regular
+// files only (a symlink to one is fine), at most kMaxInputFileBytes; a texture
+// that exists but is not a regular file is an error.
+// Throws IOError naming the path (and line) for a missing/unreadable file or
+// one that is not a regular file or too large, UTF-16 text or NUL bytes,
 // malformed `v`/`vt`/`vn`/`f` lines (bad or missing numbers, non-finite or
-// beyond-float values, faces with fewer than 3 corners, indices that are 0,
-// malformed or refer to missing vertices), and for a file without any triangle.
+// beyond-float values, faces with fewer than 3 or more than 255 corners,
+// indices that are 0, malformed or refer to missing vertices), and for a file
+// without any triangle. Bad tokens are quoted by their first 40 bytes.
+// MemoryError if parsing the text could exceed the memory budget.
 Mesh load_obj(const std::string& path);
 
 // load_obj on OBJ text held in memory, with the same rules and errors; `name`
@@ -39,8 +45,9 @@ Mesh load_obj_from_string(const std::string& text, const std::string& name = "<s
 
 // Writes `mesh` as v / vt / vn / f lines (float values printed to round-trip
 // exactly). If mesh.texture_path is set, also writes "<stem>.mtl" next to the
-// OBJ with one material whose map_Kd points at the texture. Files are written
-// through a temporary and renamed, so an error leaves no partial file.
+// OBJ with one material whose map_Kd points at the texture. Both files are
+// written as one raster::OutputSet: an error leaves neither, and a target that
+// is not a regular file is refused.
 // Validates the mesh first (ShapeError/DTypeError/ValueError/IndexError).
 void save_obj(const std::string& path, const Mesh& mesh);
 

@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "autodiff/error.h"
+#include "autodiff/memory.h"
 #include "raster/image_io.h"
 #include "raster/obj_io.h"
 #include "raster/procedural.h"
@@ -343,4 +344,14 @@ TEST_CASE("load_obj: the texture named by the MTL file must be a regular file", 
   REQUIRE(::mkfifo(dir.file("pipe.png").c_str(), 0600) == 0);
   const std::string obj = dir.write("m.obj", "mtllib m.mtl\nusemtl a\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n");
   CHECK_THROWS_WITH(load_obj(obj), Catch::Contains("pipe.png") && Catch::Contains("not a regular file"));
+}
+
+TEST_CASE("load_obj: text whose parsing could exceed the memory budget is refused before parsing", "[raster][io][obj][memory]") {
+  std::string text;
+  for (int i = 0; i < 20000; ++i) text += "v 0 0 0\n";
+  text += "f 1 2 3\n";
+  gr::set_memory_limit(gr::memory_in_use() + 100000);
+  CHECK_THROWS_WITH(load_obj_from_string(text, "big.obj"), Catch::Contains("load_obj('big.obj') of 160008 bytes"));
+  gr::set_memory_limit(0);
+  CHECK(load_obj_from_string(text, "big.obj").num_triangles() == 1);
 }
