@@ -291,60 +291,55 @@ int render(const RenderArgs& a, std::ostream& out, std::ostream& err) {
   const std::string request = "gradraster-render " + std::to_string(a.width) + "x" + std::to_string(a.height) +
                               " (estimated " + std::to_string(estimate >> 20) + " MiB)";
   check_memory_request(estimate, request);
-  try {
-    std::string camera;
-    const std::array<double, 16> m = camera_matrix(a, mesh, camera);
-    const Tensor mvp = Tensor::from_values(std::vector<double>(m.begin(), m.end()), {4, 4}, DType::Float32);
-    const Tensor clip = transform_points(mesh.positions, mvp);  // [N, 4] float32
-    check_finite_camera(a, m, clip);
+  std::string camera;
+  const std::array<double, 16> m = camera_matrix(a, mesh, camera);
+  const Tensor mvp = Tensor::from_values(std::vector<double>(m.begin(), m.end()), {4, 4}, DType::Float32);
+  const Tensor clip = transform_points(mesh.positions, mvp);  // [N, 4] float32
+  check_finite_camera(a, m, clip);
 
-    // Rasterize (timed alone when --repeat is given).
-    const RasterizeOptions options{a.width, a.height, a.cull};
-    GBuffer gb;
-    std::vector<double> ms;
-    for (int i = 0; i < std::max(a.repeat, 1); ++i) {
-      const auto t0 = std::chrono::steady_clock::now();
-      gb = rasterize(clip, mesh.triangles, options);
-      const auto t1 = std::chrono::steady_clock::now();
-      ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
-    }
-
-    // Facts and statistics (stdout, key=value).
-    const std::string source = a.mesh_path.empty() ? "builtin:" + builtin_name(a.builtin) : a.mesh_path;
-    out << "mesh=" << source << " vertices=" << mesh.num_vertices() << " triangles=" << mesh.num_triangles()
-        << " size=" << a.width << "x" << a.height << " threads=" << num_threads() << " " << camera
-        << " memory_estimate_mib=" << (estimate >> 20) << "\n";
-    const raster::RasterStats& s = gb.stats;
-    std::int64_t covered = 0;
-    const std::int32_t* id = gb.tri_id.data<std::int32_t>();
-    for (std::int64_t p = 0; p < gb.tri_id.numel(); ++p) covered += id[p] != 0;
-    out << "triangles_in=" << s.triangles_in << " rasterized=" << s.rasterized << " clipped_near=" << s.clipped_near
-        << " culled_outside=" << s.culled_outside << " culled_zero_area=" << s.culled_zero_area
-        << " culled_face=" << s.culled_face << " culled_no_pixel=" << s.culled_no_pixel
-        << " covered_pixels=" << covered << "\n";
-    if (a.repeat > 0) out << "rasterize_ms=" << std::fixed << std::setprecision(3) << median(ms) << "\n";
-    out.flush();
-
-    // Outputs: all staged as temporaries, renamed together once all are written.
-    raster::OutputSet outputs;
-    auto stage = [&](const std::string& flag, const std::string& path, const std::vector<unsigned char>& bytes) {
-      try {
-        outputs.stage(path, bytes.data(), bytes.size());
-      } catch (const Error& e) {
-        throw RuntimeError(flag + ": " + e.what());
-      }
-    };
-    if (!a.out_triid.empty()) stage("--out-triid", a.out_triid, triid_bytes(gb));
-    if (!a.out_depth.empty()) stage("--out-depth", a.out_depth, depth_bytes(gb));
-    if (!a.out_png.empty()) {
-      const Tensor image = shade(mesh, clip, gb, headlight(m), a.flat);
-      stage("--out", a.out_png, raster::encode_png(image, "--out '" + a.out_png + "'"));
-    }
-    outputs.commit();
-  } catch (const std::bad_alloc&) {
-    throw MemoryError("out of memory during " + request +
-                      "; lower the size or set GRADRASTER_MEMORY_LIMIT to refuse such requests early");
+  // Rasterize (timed alone when --repeat is given).
+  const RasterizeOptions options{a.width, a.height, a.cull};
+  GBuffer gb;
+  std::vector<double> ms;
+  for (int i = 0; i < std::max(a.repeat, 1); ++i) {
+    const auto t0 = std::chrono::steady_clock::now();
+    gb = rasterize(clip, mesh.triangles, options);
+    const auto t1 = std::chrono::steady_clock::now();
+    ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
   }
+
+  // Facts and statistics (stdout, key=value).
+  const std::string source = a.mesh_path.empty() ? "builtin:" + builtin_name(a.builtin) : a.mesh_path;
+  out << "mesh=" << source << " vertices=" << mesh.num_vertices() << " triangles=" << mesh.num_triangles()
+      << " size=" << a.width << "x" << a.height << " threads=" << num_threads() << " " << camera
+      << " memory_estimate_mib=" << (estimate >> 20) << "\n";
+  const raster::RasterStats& s = gb.stats;
+  std::int64_t covered = 0;
+  const std::int32_t* id = gb.tri_id.data<std::int32_t>();
+  for (std::int64_t p = 0; p < gb.tri_id.numel(); ++p) covered += id[p] != 0;
+  out << "triangles_in=" << s.triangles_in << " rasterized=" << s.rasterized << " clipped_near=" << s.clipped_near
+      << " culled_outside=" << s.culled_outside << " culled_zero_area=" << s.culled_zero_area
+      << " culled_face=" << s.culled_face << " culled_no_pixel=" << s.culled_no_pixel
+      << " covered_pixels=" << covered << "\n";
+  if (a.repeat > 0) out << "rasterize_ms=" << std::fixed << std::setprecision(3) << median(ms) << "\n";
+  out.flush();
+
+  // Outputs: all staged as temporaries, renamed together once all are written.
+  raster::OutputSet outputs;
+  auto stage = [&](const std::string& flag, const std::string& path, const std::vector<unsigned char>& bytes) {
+    try {
+      outputs.stage(path, bytes.data(), bytes.size());
+    } catch (const Error& e) {
+      throw RuntimeError(flag + ": " + e.what());
+    }
+  };
+  if (!a.out_triid.empty()) stage("--out-triid", a.out_triid, triid_bytes(gb));
+  if (!a.out_depth.empty()) stage("--out-depth", a.out_depth, depth_bytes(gb));
+  if (!a.out_png.empty()) {
+    const Tensor image = shade(mesh, clip, gb, headlight(m), a.flat);
+    stage("--out", a.out_png, raster::encode_png(image, "--out '" + a.out_png + "'"));
+  }
+  outputs.commit();
   return kExitOk;
 }
 
@@ -399,7 +394,8 @@ int run_render_tool(const std::vector<std::string>& args, std::ostream& out, std
     err << "gradraster-render: " << e.what() << "\n(run gradraster-render --help for usage)\n";
     return kExitUsage;
   } catch (const std::bad_alloc&) {
-    err << "gradraster-render: error: out of memory while loading the mesh\n";
+    err << "gradraster-render: error: out of memory during gradraster-render " << a.width << "x" << a.height
+        << "; lower the size or set GRADRASTER_MEMORY_LIMIT to refuse such requests early\n";
     return kExitRuntime;
   } catch (const std::exception& e) {
     err << "gradraster-render: error: " << e.what() << "\n";
