@@ -22,16 +22,20 @@ double parse_number(const std::string& flag, const std::string& text) {
   return v;
 }
 
-int parse_int(const std::string& flag, const std::string& text, long lo, long hi) {
+long long parse_integer(const std::string& flag, const std::string& text, long long lo, long long hi) {
   const char* begin = text.c_str();
   char* end = nullptr;
   errno = 0;
-  const long v = std::strtol(begin, &end, 10);
+  const long long v = std::strtoll(begin, &end, 10);
   if (text.empty() || end != begin + text.size() || errno == ERANGE)
     fail(flag, "expected an integer, got " + quoted(text));
   if (v < lo || v > hi)
     fail(flag, "must lie in " + std::to_string(lo) + ".." + std::to_string(hi) + ", got " + text);
-  return static_cast<int>(v);
+  return v;
+}
+
+int parse_int(const std::string& flag, const std::string& text, int lo, int hi) {
+  return static_cast<int>(parse_integer(flag, text, lo, hi));
 }
 
 bool for_each_flag(const std::vector<std::string>& args, const Flags& flags,

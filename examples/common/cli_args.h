@@ -1,5 +1,5 @@
 // Command-line handling shared by the example tools (gradraster-render,
-// gradraster-ssr): flags take their value as the next argument or after '='
+// gradraster-ssr, gradraster-fit): flags take their value as the next argument or after '='
 // (--width=512), every value is checked whole ("64abc" is not 64), a flag
 // given twice, an unknown flag or a stray argument is an error, and every
 // message starts with the flag it is about.
@@ -26,7 +26,8 @@ std::string quoted(const std::string& text);
 // A finite number filling the whole string.
 double parse_number(const std::string& flag, const std::string& text);
 // An integer in [lo, hi] filling the whole string.
-int parse_int(const std::string& flag, const std::string& text, long lo, long hi);
+long long parse_integer(const std::string& flag, const std::string& text, long long lo, long long hi);
+int parse_int(const std::string& flag, const std::string& text, int lo, int hi);
 
 struct Flags {
   std::set<std::string> valued;    // flags that take a value

@@ -1,26 +1,13 @@
-// parse_command_line: --flag VALUE pairs (or --flag=VALUE), strict integers.
+// parse_command_line over the examples' common flag handling
+// (examples/common/cli_args.h): --flag VALUE or --flag=VALUE, whole numbers.
 #include "examples/fit/cli.h"
 
-#include <algorithm>
-#include <cerrno>
-#include <iterator>
-#include <cstdlib>
+#include <set>
 #include <sstream>
 
+#include "examples/common/cli_args.h"
+
 namespace fit {
-
-namespace {
-
-// Parses a whole string as an integer in [lo, hi].
-bool parse_int(const std::string& text, long long lo, long long hi, long long& value) {
-  if (text.empty()) return false;
-  char* end = nullptr;
-  errno = 0;
-  value = std::strtoll(text.c_str(), &end, 10);
-  return errno == 0 && *end == '\0' && value >= lo && value <= hi;
-}
-
-}  // namespace
 
 std::string usage(const std::string& program) {
   std::ostringstream s;
@@ -55,74 +42,38 @@ std::string usage(const std::string& program) {
 
 CommandLine parse_command_line(const std::vector<std::string>& args) {
   CommandLine cl;
-  auto fail = [&](const std::string& message) {
-    cl.action = CommandLine::Action::Error;
-    cl.error = message;
-    return cl;
-  };
-  for (std::size_t i = 0; i < args.size(); ++i) {
-    std::string flag = args[i], value;
-    bool has_value = false;
-    if (const auto eq = flag.find('='); flag.rfind("--", 0) == 0 && eq != std::string::npos) {
-      value = flag.substr(eq + 1), flag = flag.substr(0, eq), has_value = true;
-    }
-    if (flag == "--help" || flag == "-h") {
-      cl.action = CommandLine::Action::Help;
-      return cl;
-    }
-    if (flag == "--fit-camera") {
-      if (has_value) return fail("--fit-camera takes no value");
-      cl.options.fit_camera = true;
-      continue;
-    }
-    static const char* const kValueFlags[] = {"--iterations", "--size", "--views", "--threads", "--seed", "--out",
-                                              "--mesh", "--texture", "--mode", "--fit", "--subdivisions"};
-    if (std::find(std::begin(kValueFlags), std::end(kValueFlags), flag) == std::end(kValueFlags))
-      return fail(flag.rfind("--", 0) == 0 ? "unknown option '" + flag + "'" : "unexpected argument '" + flag + "'");
-    if (!has_value) {
-      if (i + 1 >= args.size()) return fail(flag + " needs a value");
-      value = args[++i];
-    }
-    long long n = 0;
-    FitOptions& o = cl.options;
-    if (flag == "--iterations") {
-      if (!parse_int(value, 1, 1000000, n)) return fail("--iterations wants an integer in [1, 1000000], got '" + value + "'");
-      o.iterations = int(n);
-    } else if (flag == "--size") {
-      if (!parse_int(value, 16, 4096, n)) return fail("--size wants an integer in [16, 4096], got '" + value + "'");
-      o.size = int(n);
-    } else if (flag == "--views") {
-      if (!parse_int(value, 1, 64, n)) return fail("--views wants an integer in [1, 64], got '" + value + "'");
-      o.views = int(n);
-    } else if (flag == "--threads") {
-      if (!parse_int(value, 0, 1024, n)) return fail("--threads wants an integer in [0, 1024], got '" + value + "'");
-      o.threads = int(n);
-    } else if (flag == "--seed") {
-      if (!parse_int(value, 0, (1LL << 62), n)) return fail("--seed wants a non-negative integer, got '" + value + "'");
-      o.seed = static_cast<std::uint64_t>(n);
-    } else if (flag == "--out") {
-      if (value.empty()) return fail("--out wants a folder");
-      o.out_dir = value;
-    } else if (flag == "--mesh") {
-      if (value.empty()) return fail("--mesh wants an OBJ file");
-      o.mesh_path = value;
-    } else if (flag == "--texture") {
-      if (value.empty()) return fail("--texture wants an image file");
-      o.texture_path = value;
+  FitOptions& o = cl.options;
+  using gr::cli::fail;
+  using gr::cli::parse_int;
+  auto set = [&](const std::string& flag, const std::string& v) {
+    if (flag == "--fit-camera") o.fit_camera = true;
+    else if (flag == "--iterations") o.iterations = parse_int(flag, v, 1, 1000000);
+    else if (flag == "--size") o.size = parse_int(flag, v, 16, 4096);
+    else if (flag == "--views") o.views = parse_int(flag, v, 1, 64);
+    else if (flag == "--threads") o.threads = parse_int(flag, v, 0, 1024);
+    else if (flag == "--seed") o.seed = static_cast<std::uint64_t>(gr::cli::parse_integer(flag, v, 0, 1LL << 62));
+    else if (flag == "--subdivisions") o.start_subdivisions = parse_int(flag, v, 0, 6);
+    else if (flag == "--out" || flag == "--mesh" || flag == "--texture") {
+      if (v.empty()) fail(flag, flag == "--out" ? "expected a folder" : "expected a file name");
+      (flag == "--out" ? o.out_dir : flag == "--mesh" ? o.mesh_path : o.texture_path) = v;
     } else if (flag == "--mode") {
-      if (value == "shape") o.mode = Mode::Shape;
-      else if (value == "pose") o.mode = Mode::Pose;
-      else return fail("--mode wants shape or pose, got '" + value + "'");
-    } else if (flag == "--fit") {
-      if (value == "colours" || value == "colors") o.appearance = Appearance::Colours;
-      else if (value == "texture") o.appearance = Appearance::Texture;
-      else return fail("--fit wants colours or texture, got '" + value + "'");
-    } else if (flag == "--subdivisions") {
-      if (!parse_int(value, 0, 6, n)) return fail("--subdivisions wants an integer in [0, 6], got '" + value + "'");
-      o.start_subdivisions = int(n);
-    } else {
-      return fail("unknown option '" + flag + "'");
+      if (v != "shape" && v != "pose") fail(flag, "expected shape or pose, got " + gr::cli::quoted(v));
+      o.mode = v == "shape" ? Mode::Shape : Mode::Pose;
+    } else {  // --fit
+      if (v != "colours" && v != "colors" && v != "texture")
+        fail(flag, "expected colours or texture, got " + gr::cli::quoted(v));
+      o.appearance = v == "texture" ? Appearance::Texture : Appearance::Colours;
     }
+  };
+  const gr::cli::Flags flags{{"--iterations", "--size", "--views", "--threads", "--seed", "--out", "--mesh",
+                              "--texture", "--mode", "--fit", "--subdivisions"},
+                             {"--fit-camera"}};
+  try {
+    std::set<std::string> seen;
+    if (!gr::cli::for_each_flag(args, flags, set, seen)) cl.action = CommandLine::Action::Help;
+  } catch (const gr::cli::UsageError& e) {
+    cl.action = CommandLine::Action::Error;
+    cl.error = e.what();
   }
   return cl;
 }
