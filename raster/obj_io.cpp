@@ -90,9 +90,11 @@ void check_corner(const std::string& path, std::size_t line, std::string_view to
   std::array<std::string_view, 3> parts;
   int nparts = 0;
   std::size_t start = 0;
+  // Built only for a message: the token quoted by a bounded prefix.
+  const auto corner = [&] { return "face corner " + quote_for_message(std::string(tok)); };
   for (;;) {
     const std::size_t slash = tok.find('/', start);
-    if (nparts == 3) fail(path, line, "face corner " + quote_for_message(std::string(tok)) + " has more than 3 indices");
+    if (nparts == 3) fail(path, line, corner() + " has more than 3 indices");
     parts[nparts++] = tok.substr(start, slash == std::string::npos ? slash : slash - start);
     if (slash == std::string::npos) break;
     start = slash + 1;
@@ -103,10 +105,10 @@ void check_corner(const std::string& path, std::size_t line, std::string_view to
     if (k == 1 && parts[k].empty() && nparts == 3) continue;  // v//n
     long idx = 0;
     if (!parse_index(parts[k], &idx))
-      fail(path, line, "face corner " + quote_for_message(std::string(tok)) + " has a malformed " + names[k] + " index");
-    if (idx == 0) fail(path, line, "face corner " + quote_for_message(std::string(tok)) + " uses index 0 (OBJ is 1-based)");
+      fail(path, line, corner() + " has a malformed " + names[k] + " index");
+    if (idx == 0) fail(path, line, corner() + " uses index 0 (OBJ is 1-based)");
     if (idx < 0 && counts[k] + idx < 0)
-      fail(path, line, "face corner " + quote_for_message(std::string(tok)) + " refers to " + names[k] + " " +
+      fail(path, line, corner() + " refers to " + names[k] + " " +
                            std::to_string(idx) + " but only " + std::to_string(counts[k]) +
                            " precede it");
     if (idx > c.max_index[k]) {
