@@ -12,6 +12,8 @@ void fail(const std::string& flag, const std::string& what) { throw UsageError(f
 
 std::string quoted(const std::string& text) { return raster::quote_for_message(text); }
 
+std::string mib(std::size_t bytes) { return std::to_string((bytes + (std::size_t(1) << 20) - 1) >> 20) + " MiB"; }
+
 double parse_number(const std::string& flag, const std::string& text) {
   const char* begin = text.c_str();
   char* end = nullptr;

@@ -5,6 +5,7 @@
 // message starts with the flag it is about.
 #pragma once
 
+#include <cstddef>
 #include <functional>
 #include <set>
 #include <stdexcept>
@@ -28,6 +29,9 @@ double parse_number(const std::string& flag, const std::string& text);
 // An integer in [lo, hi] filling the whole string.
 long long parse_integer(const std::string& flag, const std::string& text, long long lo, long long hi);
 int parse_int(const std::string& flag, const std::string& text, int lo, int hi);
+
+// Bytes as "N MiB", rounded up (so a small request is not shown as 0 MiB).
+std::string mib(std::size_t bytes);
 
 struct Flags {
   std::set<std::string> valued;    // flags that take a value

@@ -7,6 +7,7 @@
 
 #include "autodiff/error.h"
 #include "autodiff/memory.h"
+#include "examples/common/cli_args.h"
 #include "examples/common/output_folder.h"
 #include "raster/files.h"
 
@@ -23,8 +24,9 @@ FitResult run_fit_with_outputs(const FitOptions& options, std::ostream& log) {
   const std::size_t estimate = fit_request_bytes(options);
   const std::string request = "gradraster-fit --size " + std::to_string(options.size) + " with " +
                               std::to_string(options.mode == Mode::Pose ? 1 : options.views) + " views (estimated " +
-                              std::to_string(estimate >> 20) + " MiB)";
+                              gr::cli::mib(estimate) + ")";
   gr::check_memory_request(estimate, request);
+  log << "memory estimate: " << gr::cli::mib(estimate) << " (limit " << gr::cli::mib(gr::memory_limit()) << ")\n";
 
   gr::cli::OutputFolder folder(options.out_dir);
   folder.create();

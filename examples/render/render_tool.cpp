@@ -289,7 +289,7 @@ int render(const RenderArgs& a, std::ostream& out, std::ostream& err) {
 
   const std::size_t estimate = request_bytes(a, mesh);
   const std::string request = "gradraster-render " + std::to_string(a.width) + "x" + std::to_string(a.height) +
-                              " (estimated " + std::to_string(estimate >> 20) + " MiB)";
+                              " (estimated " + cli::mib(estimate) + ")";
   check_memory_request(estimate, request);
   std::string camera;
   const std::array<double, 16> m = camera_matrix(a, mesh, camera);
@@ -312,7 +312,7 @@ int render(const RenderArgs& a, std::ostream& out, std::ostream& err) {
   const std::string source = a.mesh_path.empty() ? "builtin:" + builtin_name(a.builtin) : a.mesh_path;
   out << "mesh=" << source << " vertices=" << mesh.num_vertices() << " triangles=" << mesh.num_triangles()
       << " size=" << a.width << "x" << a.height << " threads=" << num_threads() << " " << camera
-      << " memory_estimate_mib=" << (estimate >> 20) << "\n";
+      << " memory_estimate_mib=" << (estimate + (1 << 20) - 1) / (1 << 20) << "\n";
   const raster::RasterStats& s = gb.stats;
   std::int64_t covered = 0;
   const std::int32_t* id = gb.tri_id.data<std::int32_t>();

@@ -145,9 +145,10 @@ int run_ssr_tool(const std::vector<std::string>& args, std::ostream& out, std::o
     return kExitOk;
   }
   const std::string request = "gradraster-ssr " + std::to_string(a.width) + "x" + std::to_string(a.height) +
-                              " (estimated " + std::to_string(request_bytes(a) >> 20) + " MiB)";
+                              " (estimated " + cli::mib(request_bytes(a)) + ")";
   try {
     check_memory_request(request_bytes(a), request);
+    out << "memory estimate: " << cli::mib(request_bytes(a)) << " (limit " << cli::mib(memory_limit()) << ")\n";
     render(a, out);
   } catch (const std::bad_alloc&) {
     err << "gradraster-ssr: error: out of memory during " << request << "\n";
