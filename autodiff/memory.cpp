@@ -15,7 +15,8 @@ namespace {
 std::atomic<std::size_t> g_limit{0};  // 0: not set by set_memory_limit
 
 std::string mib(std::size_t bytes) {
-  return std::to_string((bytes + (std::size_t(1) << 20) - 1) >> 20) + " MiB";
+  if (bytes < (std::size_t(1) << 20)) return std::to_string(bytes) + " bytes";
+  return std::to_string((bytes >> 20) + ((bytes & ((std::size_t(1) << 20) - 1)) != 0)) + " MiB";
 }
 
 std::size_t physical_memory() {
@@ -59,10 +60,10 @@ std::size_t parse_memory_size(const std::string& text, const std::string& what) 
       default: throw bad("unknown suffix");
     }
     ++i;
-    if (i < text.size() && (text[i] == 'B' || text[i] == 'b' || text[i] == 'i')) ++i;
-    if (i < text.size() && (text[i] == 'B' || text[i] == 'b')) ++i;
   }
-  if (i != text.size()) throw bad("trailing characters");
+  const std::string unit = text.substr(i);  // "8G", "8GB" and "8GiB" are all 8 * 2^30
+  if (!(unit.empty() || (shift && (unit == "B" || unit == "b" || unit == "iB" || unit == "ib"))))
+    throw bad("trailing characters");
   if (shift && value > (std::numeric_limits<std::size_t>::max() >> shift)) throw bad("too large");
   if (value == 0) throw bad("zero");
   return static_cast<std::size_t>(value) << shift;
@@ -75,13 +76,17 @@ std::size_t memory_limit() {
 
 void set_memory_limit(std::size_t bytes) { g_limit.store(bytes, std::memory_order_relaxed); }
 
+MemoryError detail::memory_limit_error(std::size_t bytes, const std::string& what, std::size_t used,
+                                       std::size_t limit) {
+  return MemoryError(what + " needs " + mib(bytes) + ", but the memory limit is " + mib(limit) + " (" + mib(used) +
+                     " in use); raise it with GRADRASTER_MEMORY_LIMIT or gr::set_memory_limit() if the machine "
+                     "has the memory");
+}
+
 void check_memory_request(std::size_t bytes, const std::string& what) {
   const std::size_t limit = memory_limit();
   const std::size_t used = memory_in_use();
-  if (bytes > limit || used > limit - bytes)
-    throw MemoryError(what + " needs " + mib(bytes) + ", but the memory limit is " + mib(limit) +
-                      " (" + mib(used) + " in use); raise it with GRADRASTER_MEMORY_LIMIT "
-                      "or gr::set_memory_limit() if the machine has the memory");
+  if (bytes > limit || used > limit - bytes) throw detail::memory_limit_error(bytes, what, used, limit);
 }
 
 }  // namespace gr

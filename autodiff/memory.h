@@ -15,6 +15,8 @@
 #include <cstddef>
 #include <string>
 
+#include "autodiff/error.h"
+
 namespace gr {
 
 // The limit in force, in bytes.
@@ -28,5 +30,10 @@ std::size_t memory_in_use();
 void check_memory_request(std::size_t bytes, const std::string& what);
 // Parses a size such as "8G", "512M", "1048576"; throws ValueError naming `what`.
 std::size_t parse_memory_size(const std::string& text, const std::string& what);
+
+namespace detail {
+// The error check_memory_request throws (also used by the storage cache).
+MemoryError memory_limit_error(std::size_t bytes, const std::string& what, std::size_t used, std::size_t limit);
+}  // namespace detail
 
 }  // namespace gr

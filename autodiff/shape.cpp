@@ -3,6 +3,26 @@
 #include "autodiff/error.h"
 
 namespace gr {
+namespace {
+
+std::string too_large(const std::string& what, const std::string& detail) {
+  return what + ": " + detail + " exceeds the largest tensor of " +
+         std::to_string(Shape::kMaxElements) + " elements (2^60 - 1)";
+}
+
+}  // namespace
+
+std::int64_t add_extents(std::int64_t a, std::int64_t b, const std::string& what) {
+  if (a > Shape::kMaxElements - b)
+    throw ShapeError(too_large(what, std::to_string(a) + " + " + std::to_string(b)));
+  return a + b;
+}
+
+std::int64_t multiply_extents(std::int64_t a, std::int64_t b, const std::string& what) {
+  if (a != 0 && b > Shape::kMaxElements / a)
+    throw ShapeError(too_large(what, std::to_string(a) + " * " + std::to_string(b)));
+  return a * b;
+}
 
 Shape::Shape(std::initializer_list<std::int64_t> dims) { init(dims.begin(), dims.size()); }
 Shape::Shape(const std::vector<std::int64_t>& dims) { init(dims.data(), dims.size()); }
@@ -11,10 +31,18 @@ void Shape::init(const std::int64_t* d, std::size_t n) {
   if (n > static_cast<std::size_t>(kMaxRank))
     throw ShapeError("shape: rank " + std::to_string(n) + " exceeds the maximum rank 4");
   rank_ = static_cast<int>(n);
+  std::int64_t nonzero_product = 1;
+  bool too_large = false;
   for (std::size_t i = 0; i < n; ++i) {
     if (d[i] < 0) throw ShapeError("shape: negative extent " + std::to_string(d[i]));
     dims_[i] = d[i];
+    if (d[i] == 0) continue;
+    too_large = too_large || d[i] > kMaxElements / nonzero_product;
+    if (!too_large) nonzero_product *= d[i];
   }
+  if (too_large)
+    throw ShapeError("shape " + str() + ": the product of its extents exceeds the largest tensor of " +
+                     std::to_string(kMaxElements) + " elements (2^60 - 1)");
 }
 
 std::int64_t Shape::numel() const {

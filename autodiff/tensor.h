@@ -40,7 +40,10 @@ class Tensor {
   Tensor() = default;  // an undefined tensor (defined() == false)
   explicit Tensor(std::shared_ptr<TensorImpl> impl) : impl_(std::move(impl)) {}
 
-  // Factories. Contents of empty() are unspecified.
+  // Factories. Contents of empty() are unspecified. Every factory's storage counts
+  // against the memory budget (autodiff/memory.h): MemoryError names the dtype and
+  // shape of a request past the limit. Values stored as int32 must be finite and in
+  // the int32 range (ValueError otherwise).
   static Tensor empty(const Shape& shape, DType dtype = DType::Float32);
   static Tensor zeros(const Shape& shape, DType dtype = DType::Float32);
   static Tensor ones(const Shape& shape, DType dtype = DType::Float32);
@@ -52,6 +55,7 @@ class Tensor {
   template <class T>
   static Tensor from_vector(const std::vector<T>& values, const Shape& shape);
   // Uniform random values in [lo, hi) from a fixed-seed generator (reproducible).
+  // lo and hi must be finite with lo <= hi (ValueError otherwise).
   static Tensor uniform(const Shape& shape, double lo, double hi, std::uint64_t seed,
                         DType dtype = DType::Float32);
 
