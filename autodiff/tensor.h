@@ -28,10 +28,12 @@ struct TensorImpl {
   bool requires_grad = false;
   // Produced by a recorded op (false for user-created tensors: leaves).
   bool recorded = false;
-  // For recorded tensors: which tape generation and gradient slot they belong to.
+  // For recorded tensors: which tape (Tape::id), generation and gradient slot they belong to.
+  std::uint64_t tape_id = 0;
   std::uint64_t tape_generation = 0;
   std::int64_t grad_slot = -1;
-  // Accumulated gradient of a leaf that requires grad.
+  // Accumulated gradient of a leaf that requires grad (written under
+  // accumulate_leaf_grad's lock; read it when no backward() is running).
   std::shared_ptr<TensorImpl> grad;
 };
 
