@@ -8,6 +8,7 @@
 #include <limits>
 
 #include "autodiff/error.h"
+#include "autodiff/storage.h"
 
 namespace gr {
 namespace {
@@ -81,6 +82,13 @@ MemoryError detail::memory_limit_error(std::size_t bytes, const std::string& wha
   return MemoryError(what + " needs " + mib(bytes) + ", but the memory limit is " + mib(limit) + " (" + mib(used) +
                      " in use); raise it with GRADRASTER_MEMORY_LIMIT or gr::set_memory_limit() if the machine "
                      "has the memory");
+}
+
+void detail::throw_allocation_failure(const std::string& what) {
+  release_cached_storage();
+  throw MemoryError(what + ": the system refused to allocate scratch memory (" + mib(memory_in_use()) +
+                    " of tensor storage in use, memory limit " + mib(memory_limit()) +
+                    "); make the request smaller or free memory");
 }
 
 void check_memory_request(std::size_t bytes, const std::string& what) {

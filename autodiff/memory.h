@@ -34,6 +34,9 @@ std::size_t parse_memory_size(const std::string& text, const std::string& what);
 namespace detail {
 // The error check_memory_request throws (also used by the storage cache).
 MemoryError memory_limit_error(std::size_t bytes, const std::string& what, std::size_t used, std::size_t limit);
+// Gives the cached tensor buffers back and throws MemoryError: `what` (an op)
+// could not allocate scratch memory. Called by dispatch_float (autodiff/dtype.h).
+[[noreturn]] void throw_allocation_failure(const std::string& what);
 }  // namespace detail
 
 }  // namespace gr

@@ -104,3 +104,18 @@ TEST_CASE("memory: a direct storage request near SIZE_MAX is refused, not rounde
   CHECK_THROWS_AS(Storage(SIZE_MAX), MemoryError);
   CHECK_THROWS_AS(Storage(SIZE_MAX / 2 + 1), MemoryError);
 }
+
+TEST_CASE("memory: an allocation failure inside an op's kernel becomes a MemoryError naming the op",
+          "[autodiff][memory][errors]") {
+  // Every op runs its kernels through dispatch_float: a std::bad_alloc (or a
+  // std::vector's length_error) from kernel scratch memory leaves it as a gr::Error.
+  auto refused = [](auto) -> int { throw std::bad_alloc(); };
+  CHECK_THROWS_AS(dispatch_float(DType::Float32, "rasterize", refused), MemoryError);
+  CHECK_THROWS_WITH(dispatch_float(DType::Float64, "rasterize", refused),
+                    Catch::StartsWith("rasterize: ") && Catch::Contains("refused to allocate"));
+  auto too_long = [](auto tag) { return std::vector<decltype(tag)>(SIZE_MAX / 2).size(); };
+  CHECK_THROWS_AS(dispatch_float(DType::Float32, "antialias", too_long), MemoryError);
+  // Other errors pass through unchanged.
+  auto value_error = [](auto) -> int { throw ValueError("texture: tex[3] is NaN or Inf"); };
+  CHECK_THROWS_AS(dispatch_float(DType::Float32, "texture", value_error), ValueError);
+}
