@@ -40,6 +40,15 @@ Cache& cache() {
   return *c;
 }
 
+// Empties the cache (c.mutex held) and returns its buffers, to be freed after unlocking.
+std::vector<void*> take_cached_locked(Cache& c) {
+  std::vector<void*> taken;
+  for (auto& kv : c.free_buffers) taken.push_back(kv.second);
+  c.free_buffers.clear();
+  c.in_use -= static_cast<std::size_t>(c.stats.cached_bytes);
+  c.stats.cached_bytes = 0;
+  return taken;
+}
 
 // Counts `bytes` against the memory budget, giving the cached buffers back
 // first when that makes room. Checking and counting under one lock keeps two
@@ -51,12 +60,7 @@ void reserve(Cache& c, std::size_t bytes) {
   std::size_t used = 0;
   {
     std::lock_guard<std::mutex> lock(c.mutex);
-    if (!fits()) {
-      for (auto& kv : c.free_buffers) released.push_back(kv.second);
-      c.free_buffers.clear();
-      c.in_use -= static_cast<std::size_t>(c.stats.cached_bytes);
-      c.stats.cached_bytes = 0;
-    }
+    if (!fits()) released = take_cached_locked(c);
     used = c.in_use;
     if (fits()) c.in_use += bytes;
   }
@@ -127,10 +131,7 @@ void release_cached_storage() {
   std::vector<void*> to_free;
   {
     std::lock_guard<std::mutex> lock(c.mutex);
-    for (auto& kv : c.free_buffers) to_free.push_back(kv.second);
-    c.free_buffers.clear();
-    c.in_use -= static_cast<std::size_t>(c.stats.cached_bytes);
-    c.stats.cached_bytes = 0;
+    to_free = take_cached_locked(c);
   }
   for (void* p : to_free) std::free(p);
 }
