@@ -13,7 +13,7 @@
 namespace gr {
 namespace {
 
-std::atomic<std::size_t> g_limit{0};  // 0: not set by set_memory_limit
+std::atomic<std::size_t> g_limit{0};  // 0: the default, not computed yet
 
 std::string mib(std::size_t bytes) {
   if (bytes < (std::size_t(1) << 20)) return std::to_string(bytes) + " bytes";
@@ -27,13 +27,12 @@ std::size_t physical_memory() {
   return static_cast<std::size_t>(pages) * static_cast<std::size_t>(page);
 }
 
+// Read when the limit is first needed and on set_memory_limit(0), so a
+// malformed variable is reported (ValueError) every time it would be used.
 std::size_t default_limit() {
-  static const std::size_t value = [] {
-    if (const char* env = std::getenv("GRADRASTER_MEMORY_LIMIT"))
-      if (*env) return parse_memory_size(env, "GRADRASTER_MEMORY_LIMIT");
-    return physical_memory() / 4 * 3;
-  }();
-  return value;
+  const char* env = std::getenv("GRADRASTER_MEMORY_LIMIT");
+  if (env && *env) return parse_memory_size(env, "GRADRASTER_MEMORY_LIMIT");
+  return physical_memory() / 4 * 3;
 }
 
 }  // namespace
@@ -71,11 +70,17 @@ std::size_t parse_memory_size(const std::string& text, const std::string& what) 
 }
 
 std::size_t memory_limit() {
-  std::size_t set = g_limit.load(std::memory_order_relaxed);
-  return set ? set : default_limit();
+  std::size_t limit = g_limit.load(std::memory_order_relaxed);
+  if (limit == 0) {  // two threads may both compute it: same value
+    limit = default_limit();
+    g_limit.store(limit, std::memory_order_relaxed);
+  }
+  return limit;
 }
 
-void set_memory_limit(std::size_t bytes) { g_limit.store(bytes, std::memory_order_relaxed); }
+void set_memory_limit(std::size_t bytes) {
+  g_limit.store(bytes ? bytes : default_limit(), std::memory_order_relaxed);
+}
 
 MemoryError detail::memory_limit_error(std::size_t bytes, const std::string& what, std::size_t used,
                                        std::size_t limit) {

@@ -9,7 +9,9 @@
 //
 // The limit defaults to 3/4 of the machine's physical memory. The environment
 // variable GRADRASTER_MEMORY_LIMIT (bytes, or with a K/M/G/T suffix, powers of
-// 1024) overrides the default; set_memory_limit() overrides both.
+// 1024, optionally followed by B or iB) overrides the default; it is read when
+// the limit is first needed and by set_memory_limit(0), and a malformed value
+// throws ValueError naming it. set_memory_limit(bytes) overrides both.
 #pragma once
 
 #include <cstddef>
@@ -21,7 +23,7 @@ namespace gr {
 
 // The limit in force, in bytes.
 std::size_t memory_limit();
-// Sets the limit in bytes; 0 restores the default (environment, else 3/4 of RAM).
+// Sets the limit in bytes; 0 restores the default (environment, read again, else 3/4 of RAM).
 void set_memory_limit(std::size_t bytes);
 // Bytes of tensor storage currently held (live tensors and the reuse cache).
 std::size_t memory_in_use();

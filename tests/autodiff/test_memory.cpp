@@ -1,5 +1,10 @@
 #include <catch2/catch.hpp>
 
+#include <cstdlib>
+#include <new>
+#include <string>
+#include <vector>
+
 #include "autodiff/memory.h"
 #include "ops/ops.h"
 
@@ -118,4 +123,21 @@ TEST_CASE("memory: an allocation failure inside an op's kernel becomes a MemoryE
   // Other errors pass through unchanged.
   auto value_error = [](auto) -> int { throw ValueError("texture: tex[3] is NaN or Inf"); };
   CHECK_THROWS_AS(dispatch_float(DType::Float32, "texture", value_error), ValueError);
+}
+
+TEST_CASE("memory: GRADRASTER_MEMORY_LIMIT sets the default limit, read again by set_memory_limit(0)",
+          "[autodiff][memory]") {
+  const char* old = std::getenv("GRADRASTER_MEMORY_LIMIT");
+  const std::string saved = old ? old : "";
+  setenv("GRADRASTER_MEMORY_LIMIT", "123M", 1);
+  set_memory_limit(0);
+  CHECK(memory_limit() == 123 * kMiB);
+  setenv("GRADRASTER_MEMORY_LIMIT", "12 parsecs", 1);
+  CHECK_THROWS_WITH(set_memory_limit(0), Catch::Contains("GRADRASTER_MEMORY_LIMIT") && Catch::Contains("12 parsecs"));
+  if (old)
+    setenv("GRADRASTER_MEMORY_LIMIT", saved.c_str(), 1);
+  else
+    unsetenv("GRADRASTER_MEMORY_LIMIT");
+  set_memory_limit(0);
+  CHECK(memory_limit() != 123 * kMiB);
 }
