@@ -1,8 +1,10 @@
 #include <catch2/catch.hpp>
 
+#include <atomic>
 #include <cstdlib>
 #include <new>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "autodiff/memory.h"
@@ -140,4 +142,39 @@ TEST_CASE("memory: GRADRASTER_MEMORY_LIMIT sets the default limit, read again by
     unsetenv("GRADRASTER_MEMORY_LIMIT");
   set_memory_limit(0);
   CHECK(memory_limit() != 123 * kMiB);
+}
+
+TEST_CASE("memory: threads allocating against a tight limit keep memory_in_use consistent",
+          "[autodiff][memory][parallel]") {
+  // Each thread holds up to two buffers of 1..4 MiB against a 6 MiB budget, so
+  // requests are refused now and then: the count never passes the limit, and
+  // once all buffers are gone (cache included) it is back where it started.
+  release_cached_storage();
+  const std::size_t before = memory_in_use();
+  const std::size_t budget = before + 6 * kMiB;
+  std::atomic<int> over_limit{0};
+  {
+    ScopedMemoryLimit limit(budget);
+    std::atomic<int> ready{0};
+    std::vector<std::thread> pool;
+    for (int t = 0; t < 4; ++t)
+      pool.emplace_back([&, t] {
+        for (ready++; ready.load() < 4;) {
+        }
+        Tensor held[2];
+        for (int i = 0; i < 200; ++i) {
+          held[i % 2] = Tensor();
+          release_cached_storage();  // every request below is a fresh allocation
+          try {
+            held[i % 2] = Tensor::empty({std::int64_t((1 + (i + t) % 4) << 18)});
+            over_limit += memory_in_use() > budget;
+          } catch (const MemoryError&) {
+          }
+        }
+      });
+    for (std::thread& t : pool) t.join();
+  }
+  release_cached_storage();
+  CHECK(memory_in_use() == before);
+  CHECK(over_limit.load() == 0);
 }
