@@ -4,16 +4,15 @@
 // holding its inputs, the values its adjoint needs (captured by the closure)
 // and the adjoint itself. backward() walks the list once in reverse: no
 // recursion, no topological sort. Each node's closure and saved inputs are
-// released as soon as the sweep has passed it; once every node has been
-// swept, the tape empties itself for the next iteration (keeping its capacity,
-// so a loop that builds the same graph stops allocating).
+// released as soon as the sweep has passed it.
 //
-// The rule: backward() ends a recording. When it returns, the tape is empty,
-// including the nodes recorded after the output (a psnr = -10 log(loss) logged
-// before backward(loss)); such tensors keep their values, but using them in a
-// new recorded op or in backward() throws TapeError. So a training loop's tape
-// never grows from one iteration to the next. Compute what you only log under
-// NoGradGuard, or after backward from detach()ed values.
+// The rule: backward() ends a recording. When it returns, the tape is empty
+// (keeping its capacity, so a loop that builds the same graph stops
+// allocating), including the nodes recorded after the output (a psnr =
+// -10 log(loss) logged before backward(loss)); such tensors keep their values,
+// but using them in a new recorded op or in backward() throws TapeError. So a
+// training loop's tape never grows from one iteration to the next. Compute what
+// you only log under NoGradGuard, or after backward from detach()ed values.
 //
 // Threads: each thread records on its own tape, each tape has a process-unique
 // id, and every recorded tensor remembers it. A graph is recorded and

@@ -438,22 +438,25 @@ Tensor cast(const Tensor& a, DType dtype) {
   // range have no int32 (converting them is undefined behaviour): the first such
   // element, found the same way for any thread count, is refused.
   std::atomic<std::int64_t> first_bad{n};
+  auto note_bad = [&](std::int64_t i) {  // keeps the smallest index
+    std::int64_t seen = first_bad.load();
+    while (i < seen && !first_bad.compare_exchange_weak(seen, i)) {
+    }
+  };
   auto convert = [&](auto src_tag, auto dst_tag) {
     using S = decltype(src_tag);
     using D = decltype(dst_tag);
+    constexpr bool to_int = std::is_same<D, std::int32_t>::value && std::is_floating_point<S>::value;
     const S* s = a.data<S>();
     D* d = out.data<D>();
     parallel_for(0, n, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
       for (std::int64_t i = lo; i < hi; ++i) {
-        if (std::is_same<D, std::int32_t>::value && std::is_floating_point<S>::value &&
-            !(double(s[i]) >= -2147483648.0 && double(s[i]) < 2147483648.0)) {
-          std::int64_t seen = first_bad.load();
-          while (i < seen && !first_bad.compare_exchange_weak(seen, i)) {
-          }
+        if (to_int && !(double(s[i]) >= -2147483648.0 && double(s[i]) < 2147483648.0)) {
+          note_bad(i);
           d[i] = D(0);
-          continue;
+        } else {
+          d[i] = static_cast<D>(s[i]);
         }
-        d[i] = static_cast<D>(s[i]);
       }
     });
   };
