@@ -1,5 +1,9 @@
 #include "autodiff/accumulate.h"
 
+#include <array>
+#include <functional>
+#include <mutex>
+
 #include "autodiff/parallel.h"
 
 namespace gr {
@@ -27,6 +31,26 @@ void accumulate_into(Tensor& dst, const Tensor& src) {
     add_arrays(out.data<T>(), dst.data<T>(), src.data<T>(), dst.numel());
   });
   dst = out;
+}
+
+void accumulate_leaf_grad(TensorImpl& leaf, const Tensor& grad) {
+  // Striped locks: a leaf's stripe guards its grad pointer. The sum itself runs
+  // outside the lock (it may use parallel_for, whose waiting thread can pick up
+  // another thread's task): take the leaf's gradient out, add, and put the sum
+  // back if the slot is still empty; if another thread put its own sum there
+  // meanwhile, take that out too and add again.
+  static std::array<std::mutex, 64> stripes;
+  std::mutex& m = stripes[std::hash<const TensorImpl*>()(&leaf) / alignof(TensorImpl) % stripes.size()];
+  Tensor sum = grad.detach();
+  std::unique_lock<std::mutex> lock(m);
+  while (leaf.grad) {
+    Tensor g(std::move(leaf.grad));
+    lock.unlock();
+    accumulate_into(g, sum);
+    sum = g;
+    lock.lock();
+  }
+  leaf.grad = sum.impl_ptr();
 }
 
 }  // namespace gr

@@ -8,4 +8,9 @@ namespace gr {
 
 void accumulate_into(Tensor& dst, const Tensor& src);
 
+// leaf.grad += grad, safe when several threads backpropagate into the same leaf:
+// no contribution is lost, but their order (hence the float rounding) is the
+// order in which the threads arrive.
+void accumulate_leaf_grad(TensorImpl& leaf, const Tensor& grad);
+
 }  // namespace gr

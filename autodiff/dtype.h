@@ -3,9 +3,12 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <new>
+#include <stdexcept>
 #include <string>
 
 #include "autodiff/error.h"
+#include "autodiff/memory.h"
 
 namespace gr {
 
@@ -31,12 +34,21 @@ template <> struct dtype_of<std::int32_t> { static constexpr DType value = DType
 
 // Calls f(T{}) with T = float or double matching `t`; throws DTypeError for int32.
 // `what` names the op and argument for the message, e.g. "exp: argument 'a'".
+// Every op runs its kernels through here, so this is also where an allocation
+// failure of a kernel's scratch memory (std::bad_alloc, or std::length_error
+// from a std::vector) becomes a MemoryError naming the op.
 template <class F>
 decltype(auto) dispatch_float(DType t, const std::string& what, F&& f) {
-  switch (t) {
-    case DType::Float32: return f(float{});
-    case DType::Float64: return f(double{});
-    default: break;
+  try {
+    switch (t) {
+      case DType::Float32: return f(float{});
+      case DType::Float64: return f(double{});
+      default: break;
+    }
+  } catch (const std::bad_alloc&) {
+    detail::throw_allocation_failure(what);
+  } catch (const std::length_error&) {
+    detail::throw_allocation_failure(what);
   }
   throw DTypeError(what + " must be float32 or float64, got " + dtype_name(t));
 }

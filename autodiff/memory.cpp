@@ -8,14 +8,16 @@
 #include <limits>
 
 #include "autodiff/error.h"
+#include "autodiff/storage.h"
 
 namespace gr {
 namespace {
 
-std::atomic<std::size_t> g_limit{0};  // 0: not set by set_memory_limit
+std::atomic<std::size_t> g_limit{0};  // 0: the default, not computed yet
 
 std::string mib(std::size_t bytes) {
-  return std::to_string((bytes + (std::size_t(1) << 20) - 1) >> 20) + " MiB";
+  if (bytes < (std::size_t(1) << 20)) return std::to_string(bytes) + " bytes";
+  return std::to_string((bytes >> 20) + ((bytes & ((std::size_t(1) << 20) - 1)) != 0)) + " MiB";
 }
 
 std::size_t physical_memory() {
@@ -25,13 +27,12 @@ std::size_t physical_memory() {
   return static_cast<std::size_t>(pages) * static_cast<std::size_t>(page);
 }
 
+// Read when the limit is first needed and on set_memory_limit(0), so a
+// malformed variable is reported (ValueError) every time it would be used.
 std::size_t default_limit() {
-  static const std::size_t value = [] {
-    if (const char* env = std::getenv("GRADRASTER_MEMORY_LIMIT"))
-      if (*env) return parse_memory_size(env, "GRADRASTER_MEMORY_LIMIT");
-    return physical_memory() / 4 * 3;
-  }();
-  return value;
+  const char* env = std::getenv("GRADRASTER_MEMORY_LIMIT");
+  if (env && *env) return parse_memory_size(env, "GRADRASTER_MEMORY_LIMIT");
+  return physical_memory() / 4 * 3;
 }
 
 }  // namespace
@@ -59,29 +60,46 @@ std::size_t parse_memory_size(const std::string& text, const std::string& what) 
       default: throw bad("unknown suffix");
     }
     ++i;
-    if (i < text.size() && (text[i] == 'B' || text[i] == 'b' || text[i] == 'i')) ++i;
-    if (i < text.size() && (text[i] == 'B' || text[i] == 'b')) ++i;
   }
-  if (i != text.size()) throw bad("trailing characters");
+  const std::string unit = text.substr(i);  // "8G", "8GB" and "8GiB" are all 8 * 2^30
+  if (!(unit.empty() || (shift && (unit == "B" || unit == "b" || unit == "iB" || unit == "ib"))))
+    throw bad("trailing characters");
   if (shift && value > (std::numeric_limits<std::size_t>::max() >> shift)) throw bad("too large");
   if (value == 0) throw bad("zero");
   return static_cast<std::size_t>(value) << shift;
 }
 
 std::size_t memory_limit() {
-  std::size_t set = g_limit.load(std::memory_order_relaxed);
-  return set ? set : default_limit();
+  std::size_t limit = g_limit.load(std::memory_order_relaxed);
+  if (limit == 0) {  // two threads may both compute it: same value
+    limit = default_limit();
+    g_limit.store(limit, std::memory_order_relaxed);
+  }
+  return limit;
 }
 
-void set_memory_limit(std::size_t bytes) { g_limit.store(bytes, std::memory_order_relaxed); }
+void set_memory_limit(std::size_t bytes) {
+  g_limit.store(bytes ? bytes : default_limit(), std::memory_order_relaxed);
+}
+
+MemoryError detail::memory_limit_error(std::size_t bytes, const std::string& what, std::size_t used,
+                                       std::size_t limit) {
+  return MemoryError(what + " needs " + mib(bytes) + ", but the memory limit is " + mib(limit) + " (" + mib(used) +
+                     " in use); raise it with GRADRASTER_MEMORY_LIMIT or gr::set_memory_limit() if the machine "
+                     "has the memory");
+}
+
+void detail::throw_allocation_failure(const std::string& what) {
+  release_cached_storage();
+  throw MemoryError(what + ": the system refused to allocate scratch memory (" + mib(memory_in_use()) +
+                    " of tensor storage in use, memory limit " + mib(memory_limit()) +
+                    "); make the request smaller or free memory");
+}
 
 void check_memory_request(std::size_t bytes, const std::string& what) {
   const std::size_t limit = memory_limit();
   const std::size_t used = memory_in_use();
-  if (bytes > limit || used > limit - bytes)
-    throw MemoryError(what + " needs " + mib(bytes) + ", but the memory limit is " + mib(limit) +
-                      " (" + mib(used) + " in use); raise it with GRADRASTER_MEMORY_LIMIT "
-                      "or gr::set_memory_limit() if the machine has the memory");
+  if (bytes > limit || used > limit - bytes) throw detail::memory_limit_error(bytes, what, used, limit);
 }
 
 }  // namespace gr

@@ -9,17 +9,21 @@
 //
 // The limit defaults to 3/4 of the machine's physical memory. The environment
 // variable GRADRASTER_MEMORY_LIMIT (bytes, or with a K/M/G/T suffix, powers of
-// 1024) overrides the default; set_memory_limit() overrides both.
+// 1024, optionally followed by B or iB) overrides the default; it is read when
+// the limit is first needed and by set_memory_limit(0), and a malformed value
+// throws ValueError naming it. set_memory_limit(bytes) overrides both.
 #pragma once
 
 #include <cstddef>
 #include <string>
 
+#include "autodiff/error.h"
+
 namespace gr {
 
 // The limit in force, in bytes.
 std::size_t memory_limit();
-// Sets the limit in bytes; 0 restores the default (environment, else 3/4 of RAM).
+// Sets the limit in bytes; 0 restores the default (environment, read again, else 3/4 of RAM).
 void set_memory_limit(std::size_t bytes);
 // Bytes of tensor storage currently held (live tensors and the reuse cache).
 std::size_t memory_in_use();
@@ -28,5 +32,13 @@ std::size_t memory_in_use();
 void check_memory_request(std::size_t bytes, const std::string& what);
 // Parses a size such as "8G", "512M", "1048576"; throws ValueError naming `what`.
 std::size_t parse_memory_size(const std::string& text, const std::string& what);
+
+namespace detail {
+// The error check_memory_request throws (also used by the storage cache).
+MemoryError memory_limit_error(std::size_t bytes, const std::string& what, std::size_t used, std::size_t limit);
+// Gives the cached tensor buffers back and throws MemoryError: `what` (an op)
+// could not allocate scratch memory. Called by dispatch_float (autodiff/dtype.h).
+[[noreturn]] void throw_allocation_failure(const std::string& what);
+}  // namespace detail
 
 }  // namespace gr

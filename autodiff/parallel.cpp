@@ -12,6 +12,9 @@
 
 #include <memory>
 #include <mutex>
+#include <string>
+
+#include "autodiff/error.h"
 
 // ThreadSanitizer does not see TBB's own synchronization (libtbb is not
 // instrumented), so it would take every hand-over of data between the caller
@@ -122,10 +125,13 @@ void parallel_for(std::int64_t begin, std::int64_t end, std::int64_t grain,
 }
 
 void set_num_threads(int n) {
+  if (n < 0 || n > kMaxThreads)
+    throw ValueError("set_num_threads: n = " + std::to_string(n) + " is outside 0.." + std::to_string(kMaxThreads) +
+                     " (0 = all hardware threads)");
   std::lock_guard<std::mutex> lock(g_mutex);
   g_arena.reset();
   g_control.reset();
-  g_threads = n > 0 ? n : 0;
+  g_threads = n;
   if (g_threads == 0) return;
   // Also for n = 1: no workers at all, so a TBB loop anywhere stays serial.
   g_control = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,

@@ -22,9 +22,13 @@ constexpr std::int64_t kElementwiseGrain = 16384;
 void parallel_for(std::int64_t begin, std::int64_t end, std::int64_t grain,
                   const std::function<void(std::int64_t, std::int64_t)>& body);
 
+// Largest n set_num_threads accepts.
+constexpr int kMaxThreads = 1024;
+
 // Runs every later parallel_for on up to n threads (0 = all hardware
 // threads, the default), also more than the machine has cores: n = 8 on two
 // cores really starts 8 threads (useful to test determinism and races).
+// n < 0 or n > kMaxThreads throws ValueError (the setting is unchanged).
 // Call it between parallel regions, not from inside a parallel_for body.
 void set_num_threads(int n);
 // The n of set_num_threads, or the hardware thread count for 0.

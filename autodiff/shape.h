@@ -1,4 +1,9 @@
 // Shape of a tensor: rank 0 to 4, each extent >= 0.
+//
+// Construction checks the products: the element count (zero extents aside,
+// so strides never overflow either) is at most kMaxElements, which keeps the
+// byte count of any dtype within int64. A larger shape throws ShapeError
+// naming it, so no tensor, stride or loop bound can wrap around.
 #pragma once
 
 #include <array>
@@ -12,6 +17,8 @@ namespace gr {
 class Shape {
  public:
   static constexpr int kMaxRank = 4;
+  // 2^60 - 1: times 8 bytes (float64) still fits in int64.
+  static constexpr std::int64_t kMaxElements = INT64_MAX / 8;
 
   Shape() = default;  // rank 0: a scalar
   Shape(std::initializer_list<std::int64_t> dims);
@@ -36,5 +43,10 @@ class Shape {
   std::array<std::int64_t, kMaxRank> dims_{};
   int rank_ = 0;
 };
+
+// a + b for extents (concat's sum along an axis); ShapeError naming `what` past kMaxElements.
+std::int64_t add_extents(std::int64_t a, std::int64_t b, const std::string& what);
+// a * b for extents or element counts (reshape's known extents); ShapeError naming `what` past kMaxElements.
+std::int64_t multiply_extents(std::int64_t a, std::int64_t b, const std::string& what);
 
 }  // namespace gr

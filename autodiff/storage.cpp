@@ -40,9 +40,46 @@ Cache& cache() {
   return *c;
 }
 
+// Empties the cache (c.mutex held) and returns its buffers, to be freed after unlocking.
+std::vector<void*> take_cached_locked(Cache& c) {
+  std::vector<void*> taken;
+  for (auto& kv : c.free_buffers) taken.push_back(kv.second);
+  c.free_buffers.clear();
+  c.in_use -= static_cast<std::size_t>(c.stats.cached_bytes);
+  c.stats.cached_bytes = 0;
+  return taken;
+}
+
+// Counts `bytes` against the memory budget, giving the cached buffers back
+// first when that makes room. Checking and counting under one lock keeps two
+// threads from both passing the check with room for one.
+void reserve(Cache& c, std::size_t bytes) {
+  const std::size_t limit = memory_limit();
+  auto fits = [&] { return bytes <= limit && c.in_use <= limit - bytes; };
+  std::vector<void*> released;
+  std::size_t used = 0;
+  {
+    std::lock_guard<std::mutex> lock(c.mutex);
+    if (!fits()) released = take_cached_locked(c);
+    used = c.in_use;
+    if (fits()) c.in_use += bytes;
+  }
+  for (void* p : released) std::free(p);
+  if (bytes > limit || used > limit - bytes) throw detail::memory_limit_error(bytes, "a tensor buffer", used, limit);
+}
+
+void unreserve(Cache& c, std::size_t bytes) {
+  std::lock_guard<std::mutex> lock(c.mutex);
+  c.in_use -= bytes;
+}
+
 }  // namespace
 
-Storage::Storage(std::size_t bytes) : bytes_(bucket_size(bytes)) {
+Storage::Storage(std::size_t bytes) {
+  // Refuse before rounding to a bucket: a request near SIZE_MAX cannot be rounded.
+  if (bytes > memory_limit())
+    throw detail::memory_limit_error(bytes, "a tensor buffer", memory_in_use(), memory_limit());
+  bytes_ = bucket_size(bytes);
   Cache& c = cache();
   {
     std::lock_guard<std::mutex> lock(c.mutex);
@@ -55,23 +92,18 @@ Storage::Storage(std::size_t bytes) : bytes_(bucket_size(bytes)) {
       return;
     }
   }
-  // Cached buffers count against the limit: give them back before refusing.
-  try {
-    check_memory_request(bytes_, "a tensor buffer");
-  } catch (const MemoryError&) {
-    release_cached_storage();
-    check_memory_request(bytes_, "a tensor buffer");
-  }
+  reserve(c, bytes_);
   ptr_ = std::aligned_alloc(kAlignment, bytes_);
-  if (!ptr_) {
+  if (!ptr_) {  // the system refused (overcommit off, ulimit): retry without the cache
     release_cached_storage();
     ptr_ = std::aligned_alloc(kAlignment, bytes_);
   }
-  if (!ptr_)
+  if (!ptr_) {
+    unreserve(c, bytes_);
     throw MemoryError("a tensor buffer of " + std::to_string(bytes_) + " bytes: the system refused the allocation");
+  }
   std::lock_guard<std::mutex> lock(c.mutex);
   c.stats.fresh_allocations++;
-  c.in_use += bytes_;
 }
 
 Storage::~Storage() {
@@ -84,10 +116,7 @@ Storage::~Storage() {
       return;
     }
   }
-  {
-    std::lock_guard<std::mutex> lock(c.mutex);
-    c.in_use -= bytes_;
-  }
+  unreserve(c, bytes_);
   std::free(ptr_);
 }
 
@@ -102,10 +131,7 @@ void release_cached_storage() {
   std::vector<void*> to_free;
   {
     std::lock_guard<std::mutex> lock(c.mutex);
-    for (auto& kv : c.free_buffers) to_free.push_back(kv.second);
-    c.free_buffers.clear();
-    c.in_use -= static_cast<std::size_t>(c.stats.cached_bytes);
-    c.stats.cached_bytes = 0;
+    to_free = take_cached_locked(c);
   }
   for (void* p : to_free) std::free(p);
 }

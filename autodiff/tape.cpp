@@ -1,5 +1,6 @@
 #include "autodiff/tape.h"
 
+#include <atomic>
 #include <cstring>
 
 #include "autodiff/accumulate.h"
@@ -7,7 +8,10 @@
 namespace gr {
 namespace {
 thread_local bool g_grad_mode = true;
-}
+std::atomic<std::uint64_t> g_next_tape_id{1};
+}  // namespace
+
+Tape::Tape() : id_(g_next_tape_id.fetch_add(1, std::memory_order_relaxed)) {}
 
 NoGradGuard::NoGradGuard() : previous_(g_grad_mode) { g_grad_mode = false; }
 NoGradGuard::~NoGradGuard() { g_grad_mode = previous_; }
@@ -39,13 +43,22 @@ bool should_record(std::initializer_list<Tensor> inputs) {
   return false;
 }
 
+void Tape::check_recorded_here(const TensorImpl& t, const std::string& what) const {
+  if (t.tape_id != id_)
+    throw TapeError(what + " was recorded on tape " + std::to_string(t.tape_id) +
+                    " (another thread's), but this thread's tape is " + std::to_string(id_) +
+                    ": record and backpropagate a graph on one thread, or detach() the tensor to use its values "
+                    "here as a constant");
+  if (t.tape_generation != generation_)
+    throw TapeError(what + " was recorded on a tape that has since been freed by backward() or Tape::clear() "
+                    "(backward frees every node, also those recorded after its output); recompute it, or detach() "
+                    "it to use it as a constant");
+}
+
 void Tape::append(const char* name, std::vector<Tensor> inputs, const std::vector<Tensor*>& outputs, Adjoint adjoint) {
   for (std::size_t i = 0; i < inputs.size(); ++i) {
     const TensorImpl* in = inputs[i].impl();
-    if (in && in->recorded && in->requires_grad && in->tape_generation != generation_)
-      throw TapeError(std::string(name) + ": input " + std::to_string(i) +
-                      " was computed on a tape that has since been cleared or swept by backward(); "
-                      "recompute it, or detach() it to use it as a constant");
+    if (in && in->recorded && in->requires_grad) check_recorded_here(*in, std::string(name) + ": input " + std::to_string(i));
   }
   Node node;
   node.name = name;
@@ -70,6 +83,7 @@ void Tape::append(const char* name, std::vector<Tensor> inputs, const std::vecto
     TensorImpl* o = out->impl();
     o->requires_grad = true;
     o->recorded = true;
+    o->tape_id = id_;
     o->tape_generation = generation_;
     o->grad_slot = static_cast<std::int64_t>(node_of_slot_.size());
     node_of_slot_.push_back(static_cast<std::int64_t>(nodes_.size()));
@@ -103,11 +117,8 @@ void AdjointContext::accumulate(std::size_t input, const Tensor& grad) {
                     std::to_string(input) + " " + dtype_name(in.dtype) + in.shape.str());
   if (in.slot >= 0)
     accumulate_into(tape_.slot_grads_[static_cast<std::size_t>(in.slot)], grad);
-  else {
-    Tensor g(std::move(in.leaf->grad));
-    accumulate_into(g, grad);
-    in.leaf->grad = g.impl_ptr();
-  }
+  else
+    accumulate_leaf_grad(*in.leaf, grad);
 }
 
 void Tape::run_backward(const Tensor& output, const Tensor& upstream) {
@@ -119,14 +130,10 @@ void Tape::run_backward(const Tensor& output, const Tensor& upstream) {
     throw TapeError("backward: upstream gradient " + upstream.describe() + " does not match output " + output.describe());
   TensorImpl* out = output.impl();
   if (!out->recorded) {  // a leaf: its gradient is the upstream itself
-    Tensor g(std::move(out->grad));
-    accumulate_into(g, upstream);
-    out->grad = g.impl_ptr();
+    accumulate_leaf_grad(*out, upstream);
     return;
   }
-  if (out->tape_generation != generation_ || !nodes_[node_of_slot_[out->grad_slot]].adjoint)
-    throw TapeError("backward: the tape holding this tensor's history has been freed (by an earlier backward() or "
-                    "Tape::clear()); run the forward computation again before calling backward()");
+  check_recorded_here(*out, "backward: the output");
 
   NoGradGuard no_grad;  // adjoints compute with ops but record nothing
   slot_grads_.assign(node_of_slot_.size(), Tensor());
@@ -148,10 +155,10 @@ void Tape::run_backward(const Tensor& output, const Tensor& upstream) {
     node.inputs.clear();
     for (std::int64_t s : node.output_slots) slot_grads_[s] = Tensor();
   }
-  // Every node swept: reset for the next iteration (capacity is kept).
-  bool all_swept = true;
-  for (std::size_t i = start + 1; i < nodes_.size() && all_swept; ++i) all_swept = !nodes_[i].adjoint;
-  if (all_swept) clear();
+  // The sweep reached node 0: empty the tape for the next iteration (capacity is
+  // kept). Nodes recorded after the output go too (a logged psnr = -10 log(loss)),
+  // or a loop that never backpropagates them would grow the tape without bound.
+  clear();
 }
 
 void backward(const Tensor& output, const Tensor& upstream_grad) {

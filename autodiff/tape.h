@@ -4,9 +4,24 @@
 // holding its inputs, the values its adjoint needs (captured by the closure)
 // and the adjoint itself. backward() walks the list once in reverse: no
 // recursion, no topological sort. Each node's closure and saved inputs are
-// released as soon as the sweep has passed it; once every node has been
-// swept, the tape empties itself for the next iteration (keeping its capacity,
-// so a loop that builds the same graph stops allocating).
+// released as soon as the sweep has passed it.
+//
+// The rule: backward() ends a recording. When it returns, the tape is empty
+// (keeping its capacity, so a loop that builds the same graph stops
+// allocating), including the nodes recorded after the output (a psnr =
+// -10 log(loss) logged before backward(loss)); such tensors keep their values,
+// but using them in a new recorded op or in backward() throws TapeError. So a
+// training loop's tape never grows from one iteration to the next. Compute what
+// you only log under NoGradGuard, or after backward from detach()ed values.
+//
+// Threads: each thread records on its own tape, each tape has a process-unique
+// id, and every recorded tensor remembers it. A graph is recorded and
+// backpropagated on one thread: a recorded tensor given to another thread's
+// recorded op or backward() throws TapeError naming both tapes (detach() it to
+// pass its values as a constant). Leaves may be shared: two threads may
+// backpropagate into the same parameter at once; its gradient then receives
+// both contributions (accumulate_leaf_grad locks the leaf), in an order, and so
+// with a float rounding, that depends on the threads' timing.
 //
 // Writing an op:
 //   Tensor out = ...forward kernel...;
@@ -34,6 +49,10 @@ using Adjoint = std::function<void(AdjointContext&)>;
 
 class Tape {
  public:
+  Tape();
+  Tape(const Tape&) = delete;
+  Tape& operator=(const Tape&) = delete;
+
   // The calling thread's tape.
   static Tape& current();
 
@@ -44,6 +63,8 @@ class Tape {
   // new recorded op, throws TapeError).
   void clear();
   std::uint64_t generation() const { return generation_; }
+  // Process-unique: no two tapes (threads) share one.
+  std::uint64_t id() const { return id_; }
 
   // Internal: used by record() and backward().
   void append(const char* name, std::vector<Tensor> inputs, const std::vector<Tensor*>& outputs, Adjoint adjoint);
@@ -68,6 +89,10 @@ class Tape {
     Adjoint adjoint;  // empty once swept
   };
   friend class AdjointContext;
+  // Throws TapeError (naming `what`) unless recorded tensor `t` belongs to this
+  // tape's current recording.
+  void check_recorded_here(const TensorImpl& t, const std::string& what) const;
+  const std::uint64_t id_;
   std::vector<Node> nodes_;
   std::vector<std::int64_t> node_of_slot_;
   std::vector<Tensor> slot_grads_;

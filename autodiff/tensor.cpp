@@ -1,15 +1,33 @@
 #include "autodiff/tensor.h"
 
+#include <cmath>
 #include <cstring>
 #include <random>
 
 namespace gr {
+namespace {
+
+// A double stored as int32: NaN, Inf and values outside the int32 range have no
+// int32 (the conversion would be undefined behaviour), so they are refused.
+std::int32_t to_int32(double v, const char* what, std::int64_t index) {
+  if (!(v >= -2147483648.0 && v < 2147483648.0))
+    throw ValueError(std::string(what) + ": value " + std::to_string(v) + (index >= 0 ? " at index " + std::to_string(index) : "") +
+                     " is NaN, infinite or outside the int32 range");
+  return static_cast<std::int32_t>(v);
+}
+
+}  // namespace
 
 Tensor Tensor::empty(const Shape& shape, DType dtype) {
   auto impl = std::make_shared<TensorImpl>();
   impl->shape = shape;
   impl->dtype = dtype;
-  impl->storage = std::make_shared<Storage>(static_cast<std::size_t>(shape.numel()) * dtype_size(dtype));
+  try {
+    // Cannot overflow: a Shape holds at most 2^60 - 1 elements (autodiff/shape.h).
+    impl->storage = std::make_shared<Storage>(static_cast<std::size_t>(shape.numel()) * dtype_size(dtype));
+  } catch (const MemoryError& e) {
+    throw MemoryError("tensor " + std::string(dtype_name(dtype)) + shape.str() + ": " + e.what());
+  }
   return Tensor(std::move(impl));
 }
 
@@ -25,7 +43,12 @@ Tensor Tensor::full(const Shape& shape, double value, DType dtype) {
   switch (dtype) {
     case DType::Float32: { float* d = t.data<float>(); for (std::int64_t i = 0; i < n; ++i) d[i] = float(value); break; }
     case DType::Float64: { double* d = t.data<double>(); for (std::int64_t i = 0; i < n; ++i) d[i] = value; break; }
-    case DType::Int32: { std::int32_t* d = t.data<std::int32_t>(); for (std::int64_t i = 0; i < n; ++i) d[i] = std::int32_t(value); break; }
+    case DType::Int32: {
+      const std::int32_t v = to_int32(value, "Tensor::full", -1);
+      std::int32_t* d = t.data<std::int32_t>();
+      for (std::int64_t i = 0; i < n; ++i) d[i] = v;
+      break;
+    }
   }
   return t;
 }
@@ -42,19 +65,30 @@ Tensor Tensor::from_values(const std::vector<double>& values, const Shape& shape
     switch (dtype) {
       case DType::Float32: t.data<float>()[i] = float(values[i]); break;
       case DType::Float64: t.data<double>()[i] = values[i]; break;
-      case DType::Int32: t.data<std::int32_t>()[i] = std::int32_t(values[i]); break;
+      case DType::Int32: t.data<std::int32_t>()[i] = to_int32(values[i], "Tensor::from_values", static_cast<std::int64_t>(i)); break;
     }
   }
   return t;
 }
 
 Tensor Tensor::uniform(const Shape& shape, double lo, double hi, std::uint64_t seed, DType dtype) {
+  if (!std::isfinite(lo) || !std::isfinite(hi) || !std::isfinite(hi - lo) || lo > hi)
+    throw ValueError("Tensor::uniform: the range [lo, hi) = [" + std::to_string(lo) + ", " + std::to_string(hi) +
+                     ") must be finite with lo <= hi");
+  Tensor t = empty(shape, dtype);
   std::mt19937_64 rng(seed);
-  std::vector<double> v(static_cast<std::size_t>(shape.numel()));
-  // Map 53 random bits to [0, 1) ourselves: std::uniform_real_distribution's
-  // output is implementation-defined, and results must not depend on the library.
-  for (double& x : v) x = lo + (hi - lo) * (double(rng() >> 11) * 0x1.0p-53);
-  return from_values(v, shape, dtype);
+  const std::int64_t n = shape.numel();
+  for (std::int64_t i = 0; i < n; ++i) {
+    // Map 53 random bits to [0, 1) ourselves: std::uniform_real_distribution's
+    // output is implementation-defined, and results must not depend on the library.
+    const double x = lo + (hi - lo) * (double(rng() >> 11) * 0x1.0p-53);
+    switch (dtype) {
+      case DType::Float32: t.data<float>()[i] = float(x); break;
+      case DType::Float64: t.data<double>()[i] = x; break;
+      case DType::Int32: t.data<std::int32_t>()[i] = to_int32(x, "Tensor::uniform", i); break;
+    }
+  }
+  return t;
 }
 
 const TensorImpl& Tensor::checked() const {

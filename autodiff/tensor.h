@@ -28,10 +28,12 @@ struct TensorImpl {
   bool requires_grad = false;
   // Produced by a recorded op (false for user-created tensors: leaves).
   bool recorded = false;
-  // For recorded tensors: which tape generation and gradient slot they belong to.
+  // For recorded tensors: which tape (Tape::id), generation and gradient slot they belong to.
+  std::uint64_t tape_id = 0;
   std::uint64_t tape_generation = 0;
   std::int64_t grad_slot = -1;
-  // Accumulated gradient of a leaf that requires grad.
+  // Accumulated gradient of a leaf that requires grad (written under
+  // accumulate_leaf_grad's lock; read it when no backward() is running).
   std::shared_ptr<TensorImpl> grad;
 };
 
@@ -40,7 +42,10 @@ class Tensor {
   Tensor() = default;  // an undefined tensor (defined() == false)
   explicit Tensor(std::shared_ptr<TensorImpl> impl) : impl_(std::move(impl)) {}
 
-  // Factories. Contents of empty() are unspecified.
+  // Factories. Contents of empty() are unspecified. Every factory's storage counts
+  // against the memory budget (autodiff/memory.h): MemoryError names the dtype and
+  // shape of a request past the limit. Values stored as int32 must be finite and in
+  // the int32 range (ValueError otherwise).
   static Tensor empty(const Shape& shape, DType dtype = DType::Float32);
   static Tensor zeros(const Shape& shape, DType dtype = DType::Float32);
   static Tensor ones(const Shape& shape, DType dtype = DType::Float32);
@@ -52,6 +57,7 @@ class Tensor {
   template <class T>
   static Tensor from_vector(const std::vector<T>& values, const Shape& shape);
   // Uniform random values in [lo, hi) from a fixed-seed generator (reproducible).
+  // lo and hi must be finite with lo <= hi (ValueError otherwise).
   static Tensor uniform(const Shape& shape, double lo, double hi, std::uint64_t seed,
                         DType dtype = DType::Float32);
 

@@ -10,7 +10,10 @@
 // Full/scalar loops stay flat, contiguous and vectorizable.
 #include "ops/elementwise.h"
 
+#include <atomic>
 #include <cmath>
+#include <cstdio>
+#include <type_traits>
 
 #include "autodiff/parallel.h"
 #include "autodiff/tape.h"
@@ -431,13 +434,30 @@ Tensor cast(const Tensor& a, DType dtype) {
   if (a.dtype() == dtype) return a;
   Tensor out = Tensor::empty(a.shape(), dtype);
   const std::int64_t n = a.numel();
+  // Float to int32 truncates toward zero; NaN, Inf and values outside the int32
+  // range have no int32 (converting them is undefined behaviour): the first such
+  // element, found the same way for any thread count, is refused.
+  std::atomic<std::int64_t> first_bad{n};
+  auto note_bad = [&](std::int64_t i) {  // keeps the smallest index
+    std::int64_t seen = first_bad.load();
+    while (i < seen && !first_bad.compare_exchange_weak(seen, i)) {
+    }
+  };
   auto convert = [&](auto src_tag, auto dst_tag) {
     using S = decltype(src_tag);
     using D = decltype(dst_tag);
+    constexpr bool to_int = std::is_same<D, std::int32_t>::value && std::is_floating_point<S>::value;
     const S* s = a.data<S>();
     D* d = out.data<D>();
     parallel_for(0, n, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
-      for (std::int64_t i = lo; i < hi; ++i) d[i] = static_cast<D>(s[i]);
+      for (std::int64_t i = lo; i < hi; ++i) {
+        if (to_int && !(double(s[i]) >= -2147483648.0 && double(s[i]) < 2147483648.0)) {
+          note_bad(i);
+          d[i] = D(0);
+        } else {
+          d[i] = static_cast<D>(s[i]);
+        }
+      }
     });
   };
   auto with_dst = [&](auto src_tag) {
@@ -451,6 +471,13 @@ Tensor cast(const Tensor& a, DType dtype) {
     case DType::Float32: with_dst(float{}); break;
     case DType::Float64: with_dst(double{}); break;
     case DType::Int32: with_dst(std::int32_t{}); break;
+  }
+  if (first_bad.load() < n) {
+    const std::int64_t i = first_bad.load();
+    char value[32];
+    std::snprintf(value, sizeof value, "%.17g", a.dtype() == DType::Float32 ? double(a.data<float>()[i]) : a.data<double>()[i]);
+    throw ValueError("cast: a[" + std::to_string(i) + "] = " + value +
+                     " has no int32 value (NaN, infinite or outside [-2147483648, 2147483647])");
   }
   // Gradients flow between float dtypes only; an int32 result is a constant.
   if (is_floating(a.dtype()) && is_floating(dtype) && should_record({a})) {

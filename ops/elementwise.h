@@ -66,6 +66,8 @@ Tensor where(const Tensor& mask, const Tensor& a, const Tensor& b);
 
 // Converts between float32 and float64 (differentiable: the gradient is cast
 // back); casting to or from int32 is allowed only for tensors that need no gradient.
+// Float to int32 truncates toward zero; NaN, Inf or a value outside the int32 range
+// throws ValueError naming the element's index and value.
 Tensor cast(const Tensor& a, DType dtype);
 
 // A scalar tensor of a's dtype (for mixing tensors and numbers).

@@ -215,7 +215,7 @@ Tensor reshape(const Tensor& a, const std::vector<std::int64_t>& shape) {
     } else if (dims[i] < 0) {
       throw ShapeError("reshape: target shape " + vec_str(shape) + " has a negative extent");
     } else {
-      known *= dims[i];
+      known = multiply_extents(known, dims[i], "reshape: target shape " + vec_str(shape));
     }
   }
   if (infer >= 0) {
@@ -320,7 +320,7 @@ Tensor concat(const std::vector<Tensor>& tensors, int axis) {
       throw ShapeError("concat: tensors[" + std::to_string(i) + "] has shape " + t.shape().str() +
                        ", incompatible with tensors[0] " + t0.shape().str() + " (all extents must match except axis " +
                        std::to_string(ax) + ")");
-    dims[static_cast<std::size_t>(ax)] += t.size(ax);
+    dims[static_cast<std::size_t>(ax)] = add_extents(dims[static_cast<std::size_t>(ax)], t.size(ax), "concat: the extents along axis " + std::to_string(ax));
   }
   const std::int64_t outer = prod(t0.shape(), 0, ax);
   std::vector<std::int64_t> chunk;

@@ -135,13 +135,16 @@ double texture_lod(double du_dx, double dv_dx, double du_dy, double dv_dy, int w
 template <class T>
 void texture_forward(const TextureParams<T>& p, T* out) {
   check_params(p, "texture");
+  const std::int64_t C = p.channels;
+  const std::int64_t base_texels = std::int64_t(p.layout.levels[0].height) * p.layout.levels[0].width;
+  // A NaN texel would turn every sample whose footprint touches it (and, through
+  // the mip pyramid, whole regions of coarser levels) into NaN.
+  detail::check_finite(p.tex, base_texels * C, "tex", "texture");
   detail::check_finite(p.uv, 2 * p.num_samples, "uv", "texture");
   if (p.filter == Filter::Trilinear) {
     detail::check_finite(p.uv_dx, 2 * p.num_samples, "uv_dx", "texture");
     detail::check_finite(p.uv_dy, 2 * p.num_samples, "uv_dy", "texture");
   }
-  const std::int64_t C = p.channels;
-  const std::int64_t base_texels = std::int64_t(p.layout.levels[0].height) * p.layout.levels[0].width;
   parallel_for(0, p.num_samples, 4096, [&](std::int64_t lo, std::int64_t hi) {
     for (std::int64_t s = lo; s < hi; ++s) {
       const Taps t = sample_taps<T, false>(p, s);

@@ -49,8 +49,8 @@ struct TextureParams {
 double texture_lod(double du_dx, double dv_dx, double du_dy, double dv_dy, int width, int height,
                    int levels);
 
-// out: num_samples x channels. Throws ValueError naming the element if uv (or,
-// for trilinear, uv_dx / uv_dy) holds NaN or Inf.
+// out: num_samples x channels. Throws ValueError naming the element if the
+// texture, uv (or, for trilinear, uv_dx / uv_dy) holds NaN or Inf.
 template <class T>
 void texture_forward(const TextureParams<T>& p, T* out);
 

@@ -51,8 +51,14 @@ TEST_CASE("parallel: num_threads reports the count that was set", "[autodiff][pa
   }
   set_num_threads(0);
   CHECK(num_threads() >= 1);
-  set_num_threads(-3);  // negative = default
-  CHECK(num_threads() >= 1);
+}
+
+TEST_CASE("parallel: a negative or absurd thread count is refused and changes nothing", "[autodiff][parallel][errors]") {
+  ThreadCount count(3);
+  CHECK_THROWS_AS(set_num_threads(-3), ValueError);
+  CHECK_THROWS_WITH(set_num_threads(-3), Catch::Contains("set_num_threads") && Catch::Contains("-3"));
+  CHECK_THROWS_AS(set_num_threads(kMaxThreads + 1), ValueError);
+  CHECK(num_threads() == 3);
 }
 
 TEST_CASE("parallel: 8 threads run on 8 threads even with fewer cores", "[autodiff][parallel]") {

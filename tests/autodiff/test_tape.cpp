@@ -1,5 +1,7 @@
 #include <catch2/catch.hpp>
 
+#include <cmath>
+
 #include "ops/ops.h"
 #include "test_support.h"
 
@@ -150,4 +152,47 @@ TEST_CASE("tape: an input whose values the adjoint does not need is not kept ali
   backward(loss);
   REQUIRE(x.grad().defined());
   for (double g : x.grad().to_vector()) CHECK(g == 2.0);
+}
+
+TEST_CASE("tape: a loop that logs a value computed after the loss keeps a flat tape", "[autodiff][tape]") {
+  // psnr = -10 log10(loss) is recorded after the loss and never backpropagated;
+  // backward(loss) frees its nodes too, so the tape does not grow.
+  Tensor w = Tensor::uniform({64}, -1, 1, 3).set_requires_grad();
+  const Tensor target = Tensor::uniform({64}, -1, 1, 4);
+  std::size_t nodes_first = 0;
+  std::int64_t fresh_after_warmup = 0;
+  std::size_t grown = 0, not_emptied = 0;
+  for (int i = 0; i < 10000; ++i) {
+    Tensor loss = mean(pow(w - target, 2.0));
+    Tensor psnr = -10.0 * log(loss) / std::log(10.0);
+    if (i == 0) nodes_first = Tape::current().size();
+    grown += Tape::current().size() != nodes_first;
+    backward(loss);
+    not_emptied += Tape::current().size() != 0;
+    {
+      NoGradGuard no_grad;
+      float* pw = w.data<float>();
+      const float* pg = w.grad().data<float>();
+      for (std::int64_t k = 0; k < w.numel(); ++k) pw[k] -= 0.01f * pg[k];
+    }
+    w.zero_grad();
+    if (i == 10) fresh_after_warmup = storage_stats().fresh_allocations;
+  }
+  CHECK(nodes_first > 0);
+  CHECK(grown == 0);
+  CHECK(not_emptied == 0);
+  CHECK(storage_stats().fresh_allocations == fresh_after_warmup);
+}
+
+TEST_CASE("tape: a tensor recorded after the loss is unusable once backward(loss) ran", "[autodiff][tape][errors]") {
+  Tensor w = Tensor::ones({3}).set_requires_grad();
+  Tensor loss = sum(w * w);
+  Tensor psnr = -10.0 * log(loss);
+  backward(loss);
+  CHECK(std::isfinite(psnr.item()));  // its value stays readable
+  CHECK_THROWS_AS(backward(psnr), TapeError);
+  CHECK_THROWS_WITH(psnr * w, Catch::Contains("freed by backward()"));
+  Tensor ok = psnr.detach() * w;  // detached: a constant
+  CHECK(ok.requires_grad());
+  Tape::current().clear();
 }

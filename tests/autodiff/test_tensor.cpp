@@ -1,5 +1,8 @@
 #include <catch2/catch.hpp>
 
+#include <cmath>
+#include <limits>
+
 #include "autodiff/tensor.h"
 
 using namespace gr;
@@ -47,4 +50,22 @@ TEST_CASE("tensor: uniform is reproducible from its seed", "[autodiff][tensor]")
   Tensor b = Tensor::uniform({100}, -1, 1, 42, DType::Float64);
   CHECK(a.to_vector() == b.to_vector());
   for (double x : a.to_vector()) CHECK((x >= -1 && x < 1));
+}
+
+TEST_CASE("tensor: uniform refuses an empty or non-finite range", "[autodiff][tensor][errors]") {
+  CHECK_THROWS_AS(Tensor::uniform({4}, 1, 0, 1), ValueError);
+  CHECK_THROWS_WITH(Tensor::uniform({4}, 1, 0, 1), Catch::Contains("Tensor::uniform") && Catch::Contains("lo <= hi"));
+  const double inf = std::numeric_limits<double>::infinity(), nan = std::nan("");
+  CHECK_THROWS_AS(Tensor::uniform({4}, 0, inf, 1), ValueError);
+  CHECK_THROWS_AS(Tensor::uniform({4}, nan, 1, 1), ValueError);
+  CHECK_THROWS_AS(Tensor::uniform({4}, -1e308, 1e308, 1), ValueError);  // hi - lo overflows
+  for (double x : Tensor::uniform({3}, 2, 2, 1).to_vector()) CHECK(x == 2.0);  // lo == hi: a constant
+}
+
+TEST_CASE("tensor: int32 factories refuse values that have no int32", "[autodiff][tensor][errors]") {
+  CHECK_THROWS_AS(Tensor::full({2}, std::nan(""), DType::Int32), ValueError);
+  CHECK_THROWS_AS(Tensor::scalar(3e9, DType::Int32), ValueError);
+  CHECK_THROWS_WITH(Tensor::from_values({1, 2, 1e10}, {3}, DType::Int32), Catch::Contains("index 2"));
+  CHECK(Tensor::from_values({-2147483648.0, 2147483647.0, -1.5}, {3}, DType::Int32).to_vector() ==
+        std::vector<double>{-2147483648.0, 2147483647.0, -1.0});
 }

@@ -428,3 +428,23 @@ TEST_CASE("texture: a rendered floor samples coarser levels farther away and pas
   require_gradcheck("texture trilinear rendered floor",
                     [&](const Inputs& in) { return texture(in[0], r.values, opt, r.d_dx, r.d_dy); }, {tex}, go);
 }
+
+TEST_CASE("texture: NaN or Inf texels are refused with the texel named", "[ops][texture][errors]") {
+  TextureOptions tri;
+  tri.filter = Filter::Trilinear;
+  for (double bad : {std::nan(""), std::numeric_limits<double>::infinity()})
+    for (DType dtype : {DType::Float32, DType::Float64}) {
+      Tensor tex = Tensor::ones({4, 4, 3}, dtype);
+      Tensor uv_d = Tensor::full({2, 3, 2}, 0.5, dtype);
+      Tensor zero_d = Tensor::zeros({2, 3, 2}, dtype);
+      Tensor tex_bad = tex.copy();
+      if (dtype == DType::Float32)
+        tex_bad.data<float>()[29] = float(bad);
+      else
+        tex_bad.data<double>()[29] = bad;
+      CHECK_THROWS_AS(texture(tex_bad, uv_d), ValueError);
+      CHECK_THROWS_WITH(texture(tex_bad, uv_d), Catch::Contains("texture") && Catch::Contains("tex[29]"));
+      CHECK_THROWS_AS(texture(tex_bad, uv_d, tri, zero_d, zero_d), ValueError);
+      CHECK_NOTHROW(texture(tex, uv_d));
+    }
+}
