@@ -67,6 +67,7 @@ class Tape {
     std::vector<std::int64_t> output_slots;
     Adjoint adjoint;  // empty once swept
   };
+  void give_zero_grads(Node& node);
   friend class AdjointContext;
   std::vector<Node> nodes_;
   std::vector<std::int64_t> node_of_slot_;
