@@ -20,7 +20,8 @@ void check_lr(double lr, const std::string& where) {
 
 }  // namespace
 
-Adam::Adam(std::vector<Tensor> params, AdamOptions options) : Adam(std::vector<AdamGroup>{{std::move(params), options}}) {}
+Adam::Adam(std::vector<Tensor> params, AdamOptions options)
+    : Adam(std::vector<AdamGroup>{{std::move(params), options}}) {}
 
 Adam::Adam(std::vector<AdamGroup> groups) {
   std::vector<const TensorImpl*> seen;

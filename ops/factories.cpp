@@ -14,7 +14,8 @@ const Tensor& checked_like(const Tensor& like, const char* op) {
 template <class I>
 Tensor indices_to_int32(const std::vector<I>& values, const Shape& shape, const char* op) {
   if (static_cast<std::int64_t>(values.size()) != shape.numel())
-    throw ShapeError(std::string(op) + ": " + std::to_string(values.size()) + " values do not fill shape " + shape.str());
+    throw ShapeError(std::string(op) + ": " + std::to_string(values.size()) + " values do not fill shape " +
+                     shape.str());
   constexpr std::int64_t kMax = std::numeric_limits<std::int32_t>::max();
   Tensor out = Tensor::empty(shape, DType::Int32);
   std::int32_t* d = out.data<std::int32_t>();

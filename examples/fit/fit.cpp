@@ -8,7 +8,6 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <memory>
 #include <ostream>
 #include <random>
 
@@ -177,8 +176,10 @@ Targets render_targets(const Scene& scene, int size) {
 class SmoothedPositions {
  public:
   SmoothedPositions(const SurfaceMesh& mesh, int passes)
-      : offsets(Tensor::zeros({mesh.num_points(), 3}).set_requires_grad()), laplacian(mesh.point_triangles, mesh.num_points()),
-        mesh_(mesh), passes_(passes) {}
+      : offsets(Tensor::zeros({mesh.num_points(), 3}).set_requires_grad()),
+        laplacian(mesh.point_triangles, mesh.num_points()),
+        mesh_(mesh),
+        passes_(passes) {}
 
   Tensor evaluate() const {
     Tensor x = offsets;
@@ -276,8 +277,9 @@ ViewsLoss render_views(const Scene& scene, const Targets& targets, const Tensor&
   ViewsLoss out;
   Tensor total;
   for (std::size_t v = 0; v < views; ++v) {
+    const Camera& camera = scene.cameras[v];
     const Render r =
-        render(scene.start, positions, material, cameras.view_projection(v), scene.cameras[v].light, scene.background, size);
+        render(scene.start, positions, material, cameras.view_projection(v), camera.light, scene.background, size);
     // Colour MSE plus the alpha masks' MSE: a flap of the surface that takes
     // the background's colour is invisible to the first term, not the second.
     const Tensor view_loss = mean(pow(r.image - targets.images[v], 2.0)) + mean(pow(r.alpha - targets.alpha[v], 2.0));

@@ -22,7 +22,8 @@ Tensor offscreen_clip() {
 
 }  // namespace
 
-TEST_CASE("grad contract: a leaf the loss does not depend on has no gradient, one it depends on has zeros at a flat spot",
+TEST_CASE("grad contract: a leaf the loss does not depend on has no gradient, one it depends on has zeros at a flat "
+          "spot",
           "[autodiff][grad]") {
   Tensor used = Tensor::from_values({5.0, -5.0}, {2}, DType::Float64).set_requires_grad();
   Tensor unused = Tensor::ones({2}, DType::Float64).set_requires_grad();
