@@ -4,7 +4,7 @@
 // float32 operands go through a recorded cast(), so their gradients come back
 // as float32. A double scalar still takes the tensor's dtype (x * 0.5 stays
 // float32). Other ops (rasterize, interpolate, texture, concat...) require one
-// dtype and name cast() in their error. See docs/decisions.md.
+// dtype; cast() converts. See docs/decisions.md.
 #pragma once
 
 #include <initializer_list>
