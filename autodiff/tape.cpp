@@ -121,6 +121,22 @@ void AdjointContext::accumulate(std::size_t input, const Tensor& grad) {
     accumulate_leaf_grad(*in.leaf, grad);
 }
 
+// The grad() contract (autodiff/tensor.h): every input of a node the sweep ran
+// that requires a gradient ends up with one, zeros if the adjoint gave none
+// (e.g. a nearest-filter texture's uv). So whether a leaf has a gradient
+// depends only on whether the loss depends on it, never on which op it met.
+void Tape::give_zero_grads(Node& node) {
+  for (const InputRef& in : node.inputs) {
+    if (!in.defined || !in.requires_grad) continue;
+    if (in.slot >= 0) {
+      Tensor& g = slot_grads_[static_cast<std::size_t>(in.slot)];
+      if (!g.defined()) g = Tensor::zeros(in.shape, in.dtype);
+    } else if (!in.leaf->grad) {
+      in.leaf->grad = Tensor::zeros(in.shape, in.dtype).impl_ptr();
+    }
+  }
+}
+
 void Tape::run_backward(const Tensor& output, const Tensor& upstream) {
   if (!output.defined()) throw TapeError("backward: the output tensor is undefined");
   if (!output.requires_grad())
@@ -149,6 +165,7 @@ void Tape::run_backward(const Tensor& output, const Tensor& upstream) {
                         "', whose saved values were freed by an earlier backward(); run the forward computation again");
       AdjointContext ctx(*this, node);
       node.adjoint(ctx);
+      give_zero_grads(node);
     }
     // Release what the sweep has passed: saved values, inputs, output grads.
     node.adjoint = nullptr;

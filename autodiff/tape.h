@@ -88,6 +88,7 @@ class Tape {
     std::vector<std::int64_t> output_slots;
     Adjoint adjoint;  // empty once swept
   };
+  void give_zero_grads(Node& node);
   friend class AdjointContext;
   // Throws TapeError (naming `what`) unless recorded tensor `t` belongs to this
   // tape's current recording.

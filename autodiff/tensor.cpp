@@ -155,6 +155,7 @@ Tensor& Tensor::set_requires_grad(bool on) {
 bool Tensor::is_leaf() const { return !checked().recorded; }
 
 Tensor Tensor::grad() const { return Tensor(checked().grad); }
+bool Tensor::has_grad() const { return checked().grad != nullptr; }
 
 void Tensor::zero_grad() { checked(); impl_->grad.reset(); }
 

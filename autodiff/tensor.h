@@ -84,8 +84,15 @@ class Tensor {
   Tensor& set_requires_grad(bool on = true);
   // True if the tensor was not produced by a recorded op.
   bool is_leaf() const;
-  // Accumulated gradient of a leaf (undefined until a backward pass reaches it).
+  // Accumulated gradient of a leaf that requires grad. Undefined (has_grad()
+  // false) until a backward() whose loss depends on the leaf through recorded
+  // ops; from then on defined, with zeros wherever the derivative is zero (an
+  // uncovered pixel, a clamped value, a nearest-filter texture's uv), the same
+  // for every op. Each backward() adds to it; zero_grad() makes it undefined
+  // again. A leaf the loss does not depend on (unused, or used only under
+  // NoGradGuard or in a comparison mask) keeps an undefined grad.
   Tensor grad() const;
+  bool has_grad() const;
   void zero_grad();
   // Same storage, cut from the tape: no gradient flows through the result.
   Tensor detach() const;

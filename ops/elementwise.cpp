@@ -18,6 +18,7 @@
 #include "autodiff/parallel.h"
 #include "autodiff/tape.h"
 #include "ops/broadcast.h"
+#include "ops/promote.h"
 
 namespace gr {
 namespace {
@@ -153,7 +154,8 @@ Tensor unary(const char* name, const Tensor& a, Fwd fwd, Bwd df) {
 // y = f(a, b) with broadcasting; dL/da = da(g, a, b, y), dL/db = db(g, a, b, y).
 // The output y is kept for the adjoint only when `uses_y` (else it is passed as 0).
 template <class Fwd, class DA, class DB>
-Tensor binary(const char* name, const Tensor& a, const Tensor& b, bool uses_y, Fwd fwd, DA da, DB db) {
+Tensor binary(const char* name, Tensor a, Tensor b, bool uses_y, Fwd fwd, DA da, DB db) {
+  detail::promote_floats({&a, &b});
   const Operands o = broadcast_operands(name, a, b);
   Tensor out = map_operands(name, o, fwd);
   if (should_record({a, b})) {
@@ -193,7 +195,8 @@ Tensor binary(const char* name, const Tensor& a, const Tensor& b, bool uses_y, F
 
 // add/sub: the adjoint is +-g summed back to each operand's shape (g itself
 // for a full operand of a's shape).
-Tensor add_or_sub(const char* name, const Tensor& a, const Tensor& b, bool subtract) {
+Tensor add_or_sub(const char* name, Tensor a, Tensor b, bool subtract) {
+  detail::promote_floats({&a, &b});
   const Operands o = broadcast_operands(name, a, b);
   Tensor out = subtract ? map_operands(name, o, [](auto x, auto z) { return x - z; })
                         : map_operands(name, o, [](auto x, auto z) { return x + z; });
@@ -212,7 +215,8 @@ Tensor add_or_sub(const char* name, const Tensor& a, const Tensor& b, bool subtr
 
 // A comparison mask: 1 where rel(a, b), else 0. No gradient.
 template <class Rel>
-Tensor compare(const char* name, const Tensor& a, const Tensor& b, Rel rel) {
+Tensor compare(const char* name, Tensor a, Tensor b, Rel rel) {
+  detail::promote_floats({&a, &b});
   return map_operands(name, broadcast_operands(name, a, b),
                       [&](auto x, auto z) { return rel(x, z) ? decltype(x)(1) : decltype(x)(0); });
 }
@@ -382,7 +386,9 @@ Tensor greater_equal(const Tensor& a, const Tensor& b) { return compare("greater
 Tensor equal(const Tensor& a, const Tensor& b) { return compare("equal", a, b, [](auto x, auto z) { return x == z; }); }
 Tensor not_equal(const Tensor& a, const Tensor& b) { return compare("not_equal", a, b, [](auto x, auto z) { return x != z; }); }
 
-Tensor where(const Tensor& mask, const Tensor& a, const Tensor& b) {
+Tensor where(const Tensor& mask_in, const Tensor& a_in, const Tensor& b_in) {
+  Tensor mask = mask_in, a = a_in, b = b_in;
+  detail::promote_floats({&mask, &a, &b});
   check_float(mask, "where", "mask");
   check_same_float(a, b, "where");
   if (mask.dtype() != a.dtype())

@@ -1,8 +1,9 @@
 // Elementwise ops with NumPy broadcasting, recorded on the gradient tape.
 //
 // Binary ops broadcast their operands (shapes are aligned at the last axis; an
-// extent of 1 stretches). Both operands must have the same float dtype; a
-// double scalar operand takes the tensor's dtype. Adjoints of broadcast
+// extent of 1 stretches). Float32 with float64 computes in float64 (the
+// float32 operand's gradient comes back as float32; ops/promote.h); a double
+// scalar operand takes the tensor's dtype. Adjoints of broadcast
 // operands are summed back to the operand's shape.
 //
 // Derivatives at points where the true derivative is infinite or undefined
@@ -88,5 +89,39 @@ inline Tensor operator/(const Tensor& a, double s) { return div(a, scalar_like(a
 inline Tensor operator/(double s, const Tensor& a) { return div(scalar_like(a, s), a); }
 inline Tensor minimum(const Tensor& a, double s) { return minimum(a, scalar_like(a, s)); }
 inline Tensor maximum(const Tensor& a, double s) { return maximum(a, scalar_like(a, s)); }
+
+}  // namespace gr
+
+// ---- Conveniences: comparisons with a number, comparison operators ----
+// (Same masks as above. A double takes the tensor's dtype, as in arithmetic.)
+namespace gr {
+
+inline Tensor less(const Tensor& a, double s) { return less(a, scalar_like(a, s)); }
+inline Tensor less_equal(const Tensor& a, double s) { return less_equal(a, scalar_like(a, s)); }
+inline Tensor greater(const Tensor& a, double s) { return greater(a, scalar_like(a, s)); }
+inline Tensor greater_equal(const Tensor& a, double s) { return greater_equal(a, scalar_like(a, s)); }
+inline Tensor equal(const Tensor& a, double s) { return equal(a, scalar_like(a, s)); }
+inline Tensor not_equal(const Tensor& a, double s) { return not_equal(a, scalar_like(a, s)); }
+
+// Operators compare values elementwise and return masks, like NumPy's: a == b
+// is a tensor, not a bool (Tensor::same() asks whether two handles are one tensor).
+inline Tensor operator<(const Tensor& a, const Tensor& b) { return less(a, b); }
+inline Tensor operator<=(const Tensor& a, const Tensor& b) { return less_equal(a, b); }
+inline Tensor operator>(const Tensor& a, const Tensor& b) { return greater(a, b); }
+inline Tensor operator>=(const Tensor& a, const Tensor& b) { return greater_equal(a, b); }
+inline Tensor operator==(const Tensor& a, const Tensor& b) { return equal(a, b); }
+inline Tensor operator!=(const Tensor& a, const Tensor& b) { return not_equal(a, b); }
+inline Tensor operator<(const Tensor& a, double s) { return less(a, s); }
+inline Tensor operator<=(const Tensor& a, double s) { return less_equal(a, s); }
+inline Tensor operator>(const Tensor& a, double s) { return greater(a, s); }
+inline Tensor operator>=(const Tensor& a, double s) { return greater_equal(a, s); }
+inline Tensor operator==(const Tensor& a, double s) { return equal(a, s); }
+inline Tensor operator!=(const Tensor& a, double s) { return not_equal(a, s); }
+inline Tensor operator<(double s, const Tensor& a) { return greater(a, s); }
+inline Tensor operator<=(double s, const Tensor& a) { return greater_equal(a, s); }
+inline Tensor operator>(double s, const Tensor& a) { return less(a, s); }
+inline Tensor operator>=(double s, const Tensor& a) { return less_equal(a, s); }
+inline Tensor operator==(double s, const Tensor& a) { return equal(a, s); }
+inline Tensor operator!=(double s, const Tensor& a) { return not_equal(a, s); }
 
 }  // namespace gr

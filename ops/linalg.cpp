@@ -18,6 +18,7 @@
 #include "autodiff/parallel.h"
 #include "autodiff/tape.h"
 #include "ops/broadcast.h"
+#include "ops/promote.h"
 
 namespace gr {
 namespace {
@@ -268,7 +269,9 @@ Tensor transpose(const Tensor& a) {
   return out;
 }
 
-Tensor matmul(const Tensor& a, const Tensor& b) {
+Tensor matmul(const Tensor& a_in, const Tensor& b_in) {
+  Tensor a = a_in, b = b_in;
+  detail::promote_floats({&a, &b});
   const MatmulPlan p = plan_matmul(a, b);
   Tensor out = Tensor::empty(p.out, a.dtype());
   dispatch_float(a.dtype(), "matmul", [&](auto tag) {
@@ -374,7 +377,9 @@ Tensor to_homogeneous(const Tensor& points) {
   return out;
 }
 
-Tensor transform_points(const Tensor& points, const Tensor& matrix) {
+Tensor transform_points(const Tensor& points_in, const Tensor& matrix_in) {
+  Tensor points = points_in, matrix = matrix_in;
+  detail::promote_floats({&points, &matrix});
   detail::check_float(points, "transform_points", "points");
   detail::check_float(matrix, "transform_points", "matrix");
   if (points.dtype() != matrix.dtype())

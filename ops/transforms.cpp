@@ -4,6 +4,8 @@
 #include "ops/transforms.h"
 
 #include <cmath>
+#include <string>
+#include <vector>
 
 #include "ops/elementwise.h"
 #include "ops/linalg.h"
@@ -182,5 +184,43 @@ Tensor orthographic(double left, double right, double bottom, double top, double
   const double tz = convention == ClipSpace::OpenGL ? -(far + near) / (far - near) : -near / (far - near);
   return Tensor::from_values({sx, 0, 0, tx, 0, sy, 0, ty, 0, 0, sz, tz, 0, 0, 0, 1}, {4, 4}, dtype);
 }
+
+// ---- OpenGL column-major float[16] ----
+
+namespace {
+
+template <class S>
+Tensor from_column_major(const S* m, DType dtype) {
+  if (m == nullptr) throw ValueError("mat4_from_column_major: argument 'm' is a null pointer");
+  std::vector<double> rows(16);
+  for (int c = 0; c < 4; ++c)
+    for (int r = 0; r < 4; ++r) {
+      const double x = m[4 * c + r];
+      if (!std::isfinite(x))
+        throw ValueError("mat4_from_column_major: element " + std::to_string(4 * c + r) + " (row " + std::to_string(r) +
+                         ", column " + std::to_string(c) + ") is " + std::to_string(x));
+      rows[4 * r + c] = x;
+    }
+  return Tensor::from_values(rows, {4, 4}, dtype);
+}
+
+template <class D>
+std::array<D, 16> to_column_major(const Tensor& matrix) {
+  detail::check_float(matrix, "mat4_to_column_major", "matrix");
+  if (matrix.shape() != Shape{4, 4})
+    throw ShapeError("mat4_to_column_major: argument 'matrix' must have shape [4, 4], got " + matrix.describe());
+  const std::vector<double> rows = matrix.to_vector();
+  std::array<D, 16> m;
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) m[4 * c + r] = static_cast<D>(rows[4 * r + c]);
+  return m;
+}
+
+}  // namespace
+
+Tensor mat4_from_column_major(const float* m, DType dtype) { return from_column_major(m, dtype); }
+Tensor mat4_from_column_major(const double* m, DType dtype) { return from_column_major(m, dtype); }
+std::array<float, 16> mat4_to_column_major(const Tensor& matrix) { return to_column_major<float>(matrix); }
+std::array<double, 16> mat4_to_column_major_f64(const Tensor& matrix) { return to_column_major<double>(matrix); }
 
 }  // namespace gr

@@ -12,6 +12,8 @@
 //    [0, 1] (the vertex-shader notes' projection); use with look_at_lh().
 #pragma once
 
+#include <array>
+
 #include "autodiff/tensor.h"
 
 namespace gr {
@@ -53,5 +55,15 @@ Tensor perspective(double fov_y, double aspect, double near, double far,
 // (distances along the viewing direction) to NDC.
 Tensor orthographic(double left, double right, double bottom, double top, double near, double far,
                     ClipSpace convention = ClipSpace::OpenGL, DType dtype = DType::Float32);
+
+// 4 x 4 matrices to and from the column-major float[16] that OpenGL (and
+// glTF, GLM) hold: element (row r, column c) sits at m[4 c + r], so a
+// translation's t is at m[12], m[13], m[14]. `from` copies into a new leaf of
+// `dtype`; a null pointer or a NaN/Inf element is a ValueError naming it.
+// `to` reads any float [4, 4] tensor (ShapeError / DTypeError otherwise).
+Tensor mat4_from_column_major(const float* m, DType dtype = DType::Float32);
+Tensor mat4_from_column_major(const double* m, DType dtype = DType::Float32);
+std::array<float, 16> mat4_to_column_major(const Tensor& matrix);
+std::array<double, 16> mat4_to_column_major_f64(const Tensor& matrix);
 
 }  // namespace gr

@@ -8,7 +8,6 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <memory>
 #include <ostream>
 #include <random>
 
@@ -137,18 +136,178 @@ void write_mesh(const std::string& path, const SurfaceMesh& mesh, const Tensor& 
   raster::save_obj(path, out);
 }
 
-FitResult run_shape(const FitOptions& options, std::ostream& log) {
-  const auto start = Clock::now();
-  const int iterations = options.iterations > 0 ? options.iterations : kDefaultShapeIterations;
+// ---- run_shape, phase by phase ----
+
+Scene shape_scene(const FitOptions& options) {
   SceneOptions scene_options;
   scene_options.views = options.views;
   scene_options.mesh_path = options.mesh_path;
   scene_options.texture_path = options.texture_path;
   scene_options.reference_subdivisions = options.reference_subdivisions > 0 ? options.reference_subdivisions : 5;
   scene_options.start_subdivisions = options.start_subdivisions;
-  const Scene scene = make_scene(scene_options);
-  const SurfaceMesh& mesh = scene.start;
+  return make_scene(scene_options);
+}
+
+// What every view of the reference looks like: colour, coverage and alpha.
+struct Targets {
+  std::vector<Tensor> images, coverage, alpha;
+};
+
+Targets render_targets(const Scene& scene, int size) {
+  NoGradGuard no_grad;
+  Targets targets;
+  for (const Camera& camera : scene.cameras) {
+    const Render r = render(scene.reference, scene.reference.positions, scene.reference_material,
+                            matmul(camera.projection, camera.view), camera.light, scene.background, size);
+    targets.images.push_back(r.image);
+    targets.coverage.push_back(r.coverage);
+    targets.alpha.push_back(r.alpha);
+  }
+  return targets;
+}
+
+// Positions are free 3-D points: start + S^k(u) with one offset u per point
+// and S = I - L/2 (a half step towards the neighbours' mean), k =
+// smoothing_passes. S^k is invertible, so any positions can be reached, but a
+// gradient on one vertex moves its neighbourhood: a cheap stand-in for the
+// "large steps" preconditioner of Nicolet et al. 2021. Without it (k = 0) the
+// silhouette gradients, which reach only edge vertices, pull single vertices
+// into spikes and folds (measured: IoU 0.96 and a crumpled waist vs 0.99).
+class SmoothedPositions {
+ public:
+  SmoothedPositions(const SurfaceMesh& mesh, int passes)
+      : offsets(Tensor::zeros({mesh.num_points(), 3}).set_requires_grad()),
+        laplacian(mesh.point_triangles, mesh.num_points()),
+        mesh_(mesh),
+        passes_(passes) {}
+
+  Tensor evaluate() const {
+    Tensor x = offsets;
+    for (int k = 0; k < passes_; ++k) x = x - 0.5 * laplacian.apply(x);
+    return mesh_.positions + x;
+  }
+
+  Tensor offsets;  // the parameter u
+  const UniformLaplacian laplacian;
+
+ private:
+  const SurfaceMesh& mesh_;
+  int passes_;
+};
+
+// Vertex colours or a texture, starting grey; `parameter` is what Adam fits.
+struct FittedAppearance {
+  Tensor parameter;
+  Material material;
+};
+
+FittedAppearance grey_appearance(const FitOptions& options, const SurfaceMesh& mesh) {
+  FittedAppearance a;
+  if (options.appearance == Appearance::Texture) {
+    a.parameter = Tensor::full({options.texture_size, 2 * options.texture_size, 3}, 0.5).set_requires_grad();
+    a.material.texture = a.parameter;
+  } else {
+    a.parameter = Tensor::full({mesh.num_points(), 3}, 0.5).set_requires_grad();
+    a.material.point_colours = a.parameter;
+  }
+  return a;
+}
+
+// --fit-camera: every camera starts off by a random rigid error in view space
+// (about 2 degrees and 0.03 units), and a correction (q, t) per view is fitted:
+// view = (translate(t) rotate(q)) * error * true view. Without the flag the
+// cameras are exact and nothing is fitted.
+class CameraCorrections {
+ public:
+  CameraCorrections(const FitOptions& options, const Scene& scene) : scene_(scene) {
+    if (!options.fit_camera) return;
+    std::mt19937_64 rng(options.seed);
+    for (std::size_t v = 0; v < scene.cameras.size(); ++v) {
+      const Quaternion qe = axis_angle(random_unit(rng), 2.0);
+      const auto te = random_unit(rng);
+      errors_.push_back(rigid(Tensor::from_values({qe[0], qe[1], qe[2], qe[3]}, {4}),
+                              Tensor::from_values({0.03 * te[0], 0.03 * te[1], 0.03 * te[2]}, {3})));
+      q_.push_back(Tensor::from_values({1, 0, 0, 0}, {4}).set_requires_grad());
+      t_.push_back(Tensor::zeros({3}).set_requires_grad());
+    }
+  }
+
+  bool fitted() const { return !errors_.empty(); }
+
+  std::vector<Tensor> parameters() const {
+    std::vector<Tensor> p;
+    for (std::size_t v = 0; v < q_.size(); ++v) p.insert(p.end(), {q_[v], t_[v]});
+    return p;
+  }
+
+  Tensor view_projection(std::size_t v) const {
+    const Camera& c = scene_.cameras[v];
+    if (!fitted()) return matmul(c.projection, c.view);
+    return matmul(c.projection, matmul(rigid(q_[v], t_[v]), matmul(errors_[v], c.view)));
+  }
+
+  // Mean over views of what remains of the error after the correction.
+  void mean_error(double& degrees, double& distance) const {
+    NoGradGuard no_grad;
+    const std::size_t views = errors_.size();
+    degrees = distance = 0;
+    for (std::size_t v = 0; v < views; ++v) {
+      double d, t;
+      rigid_error(matmul(rigid(q_[v], t_[v]), errors_[v]), identity4(), d, t);
+      degrees += d / views, distance += t / views;
+    }
+  }
+
+ private:
+  const Scene& scene_;
+  std::vector<Tensor> errors_, q_, t_;
+};
+
+// One pass over the views: the loss (mean over views of the per-pixel
+// colour MSE plus alpha-mask MSE), the current images and the mean silhouette IoU.
+struct ViewsLoss {
+  Tensor loss;
+  std::vector<Tensor> images;
+  double iou = 0;
+};
+
+ViewsLoss render_views(const Scene& scene, const Targets& targets, const Tensor& positions, const Material& material,
+                       const CameraCorrections& cameras, int size) {
   const std::size_t views = scene.cameras.size();
+  ViewsLoss out;
+  Tensor total;
+  for (std::size_t v = 0; v < views; ++v) {
+    const Camera& camera = scene.cameras[v];
+    const Render r =
+        render(scene.start, positions, material, cameras.view_projection(v), camera.light, scene.background, size);
+    // Colour MSE plus the alpha masks' MSE: a flap of the surface that takes
+    // the background's colour is invisible to the first term, not the second.
+    const Tensor view_loss = mean(pow(r.image - targets.images[v], 2.0)) + mean(pow(r.alpha - targets.alpha[v], 2.0));
+    total = total.defined() ? total + view_loss : view_loss;
+    out.images.push_back(r.image.detach());
+    out.iou += coverage_iou(r.coverage, targets.coverage[v]) / views;
+  }
+  out.loss = total / double(views);
+  return out;
+}
+
+// Writes fitted.obj (with fitted.mtl and fitted_texture.png for a texture).
+void write_fitted_mesh(const FitOptions& options, const SurfaceMesh& mesh, const Tensor& positions,
+                       const Material& material, FitResult& result) {
+  result.files.push_back(in_dir(options.out_dir, "fitted.obj"));
+  const std::string texture_file = in_dir(options.out_dir, "fitted_texture.png");
+  write_mesh(result.files.back(), mesh, positions, material.texture, texture_file);
+  if (material.texture.defined()) {
+    result.files.push_back(in_dir(options.out_dir, "fitted.mtl"));
+    result.files.push_back(texture_file);
+  }
+}
+
+FitResult run_shape(const FitOptions& options, std::ostream& log) {
+  const auto start = Clock::now();
+  const int iterations = options.iterations > 0 ? options.iterations : kDefaultShapeIterations;
+  const Scene scene = shape_scene(options);
+  const SurfaceMesh& mesh = scene.start;
 
   FitResult result;
   result.mode = Mode::Shape;
@@ -157,152 +316,57 @@ FitResult run_shape(const FitOptions& options, std::ostream& log) {
   result.triangles = mesh.num_triangles();
   result.iterations = iterations;
 
-  std::vector<Tensor> target_images, target_coverage, target_alpha;
-  {
-    NoGradGuard no_grad;
-    for (const Camera& camera : scene.cameras) {
-      const Render r = render(scene.reference, scene.reference.positions, scene.reference_material,
-                              matmul(camera.projection, camera.view), camera.light, scene.background, options.size);
-      target_images.push_back(r.image);
-      target_coverage.push_back(r.coverage);
-      target_alpha.push_back(r.alpha);
-    }
-  }
+  const Targets targets = render_targets(scene, options.size);
+  const SmoothedPositions smoothed(mesh, options.smoothing_passes);
+  const FittedAppearance appearance = grey_appearance(options, mesh);
+  const CameraCorrections cameras(options, scene);
+  if (cameras.fitted()) cameras.mean_error(result.initial_rotation_error, result.initial_translation_error);
 
-  // Parameters: free point positions, and vertex colours or a texture, all starting grey.
-  // Positions are free 3-D points: start + S^k(u) with one offset u per point
-  // and S = I - L/2 (a half step towards the neighbours' mean), k =
-  // smoothing_passes. S^k is invertible, so any positions can be reached, but a
-  // gradient on one vertex moves its neighbourhood: a cheap stand-in for the
-  // "large steps" preconditioner of Nicolet et al. 2021. Without it (k = 0) the
-  // silhouette gradients, which reach only edge vertices, pull single vertices
-  // into spikes and folds (measured: IoU 0.96 and a crumpled waist vs 0.99).
-  Tensor offsets = Tensor::zeros({mesh.num_points(), 3}).set_requires_grad();
-  const UniformLaplacian laplacian(mesh.point_triangles, mesh.num_points());
-  auto positions_from = [&](const Tensor& u) {
-    Tensor x = u;
-    for (int k = 0; k < options.smoothing_passes; ++k) x = x - 0.5 * laplacian.apply(x);
-    return mesh.positions + x;
-  };
-  Tensor positions = positions_from(offsets);
-  Material material;
-  Tensor appearance;
-  if (options.appearance == Appearance::Texture) {
-    appearance = Tensor::full({options.texture_size, 2 * options.texture_size, 3}, 0.5).set_requires_grad();
-    material.texture = appearance;
-  } else {
-    appearance = Tensor::full({mesh.num_points(), 3}, 0.5).set_requires_grad();
-    material.point_colours = appearance;
-  }
-  Adam position_optimizer({offsets}, AdamOptions{options.position_lr});
-  Adam appearance_optimizer({appearance}, AdamOptions{options.colour_lr});
-
-  // --fit-camera: every camera starts off by a random rigid error in view space
-  // (about 2 degrees and 0.03 units), and a correction (q, t) per view is fitted:
-  // view = (translate(t) rotate(q)) * error * true view.
-  std::vector<Tensor> camera_errors, camera_q, camera_t;
-  std::vector<Tensor> camera_params;
-  if (options.fit_camera) {
-    std::mt19937_64 rng(options.seed);
-    for (std::size_t v = 0; v < views; ++v) {
-      const Quaternion qe = axis_angle(random_unit(rng), 2.0);
-      const auto te = random_unit(rng);
-      camera_errors.push_back(rigid(Tensor::from_values({qe[0], qe[1], qe[2], qe[3]}, {4}),
-                                    Tensor::from_values({0.03 * te[0], 0.03 * te[1], 0.03 * te[2]}, {3})));
-      camera_q.push_back(Tensor::from_values({1, 0, 0, 0}, {4}).set_requires_grad());
-      camera_t.push_back(Tensor::zeros({3}).set_requires_grad());
-      camera_params.push_back(camera_q.back());
-      camera_params.push_back(camera_t.back());
-    }
-  }
-  std::unique_ptr<Adam> camera_optimizer;
-  if (options.fit_camera) camera_optimizer = std::make_unique<Adam>(camera_params, AdamOptions{options.camera_lr});
-  auto view_projection = [&](std::size_t v) {
-    const Camera& c = scene.cameras[v];
-    if (!options.fit_camera) return matmul(c.projection, c.view);
-    return matmul(c.projection, matmul(rigid(camera_q[v], camera_t[v]), matmul(camera_errors[v], c.view)));
-  };
-  auto camera_error = [&](double& degrees, double& distance) {
-    NoGradGuard no_grad;
-    degrees = distance = 0;
-    for (std::size_t v = 0; v < views; ++v) {
-      double d, t;
-      rigid_error(matmul(rigid(camera_q[v], camera_t[v]), camera_errors[v]), identity4(), d, t);
-      degrees += d / views, distance += t / views;
-    }
-  };
-  if (options.fit_camera) camera_error(result.initial_rotation_error, result.initial_translation_error);
-
-  // One pass over the views: the loss (mean over views of the per-pixel
-  // colour MSE plus alpha-mask MSE), the current images and the mean silhouette IoU.
-  auto image_loss = [&](std::vector<Tensor>& current, double& iou) {
-    Tensor total;
-    iou = 0;
-    for (std::size_t v = 0; v < views; ++v) {
-      const Camera& c = scene.cameras[v];
-      const Render r = render(mesh, positions, material, view_projection(v), c.light, scene.background, options.size);
-      // Colour MSE plus the alpha masks' MSE: a flap of the surface that takes
-      // the background's colour is invisible to the first term, not the second.
-      const Tensor view_loss = mean(pow(r.image - target_images[v], 2.0)) + mean(pow(r.alpha - target_alpha[v], 2.0));
-      total = total.defined() ? total + view_loss : view_loss;
-      current.push_back(r.image.detach());
-      iou += coverage_iou(r.coverage, target_coverage[v]) / views;
-    }
-    return total / double(views);
-  };
+  // One optimizer, one parameter group per kind of unknown (the cameras' group only with --fit-camera).
+  std::vector<AdamGroup> groups{{{smoothed.offsets}, AdamOptions{options.position_lr}},
+                                {{appearance.parameter}, AdamOptions{options.colour_lr}}};
+  if (cameras.fitted()) groups.push_back({cameras.parameters(), AdamOptions{options.camera_lr}});
+  Adam adam(groups);
 
   Run run(options, iterations, log, result);
   const auto loop_start = Clock::now();
   for (int it = 0; it < iterations; ++it) {
     // Learning rates and the Laplacian weight decay geometrically to 10% at the end.
     const double decay = std::pow(0.1, double(it) / iterations);
-    position_optimizer.set_lr(options.position_lr * decay);
-    appearance_optimizer.set_lr(options.colour_lr * decay);
-    if (camera_optimizer) camera_optimizer->set_lr(options.camera_lr * decay);
+    for (std::size_t g = 0; g < groups.size(); ++g) adam.set_lr(g, groups[g].options.lr * decay);
 
-    std::vector<Tensor> current;
-    double iou = 0;
-    positions = positions_from(offsets);
-    const Tensor loss_image = image_loss(current, iou);
-    if (it == 0) result.initial_iou = iou;
-    const Tensor loss = loss_image + options.laplacian_weight * decay * laplacian.penalty(positions);
-    const double loss_value = loss_image.item();
+    const Tensor positions = smoothed.evaluate();
+    const ViewsLoss views = render_views(scene, targets, positions, appearance.material, cameras, options.size);
+    if (it == 0) result.initial_iou = views.iou;
+    const Tensor loss = views.loss + options.laplacian_weight * decay * smoothed.laplacian.penalty(positions);
+    const double loss_value = views.loss.item();
     if (!std::isfinite(loss_value)) throw ValueError("fit: the loss became " + std::to_string(loss_value));
     backward(loss);
-    position_optimizer.step();
-    appearance_optimizer.step();
-    if (camera_optimizer) camera_optimizer->step();
-    position_optimizer.zero_grad();
-    appearance_optimizer.zero_grad();
-    if (camera_optimizer) camera_optimizer->zero_grad();
+    adam.step();
+    adam.zero_grad();
 
-    run.snapshot(it, target_images, current);
+    run.snapshot(it, targets.images, views.images);
     run.step_done(it + 1, loss_value);
   }
   const double loop_seconds = seconds_since(loop_start);
   run.finish_loop();
 
   // Final state: one more render without gradient.
+  Tensor positions;
   {
     NoGradGuard no_grad;
-    positions = positions_from(offsets);
-    std::vector<Tensor> current;
-    result.losses.push_back(image_loss(current, result.final_iou).item());
-    run.snapshot(iterations, target_images, current);
+    positions = smoothed.evaluate();
+    const ViewsLoss views = render_views(scene, targets, positions, appearance.material, cameras, options.size);
+    result.losses.push_back(views.loss.item());
+    result.final_iou = views.iou;
+    run.snapshot(iterations, targets.images, views.images);
   }
-  if (options.fit_camera) camera_error(result.final_rotation_error, result.final_translation_error);
+  if (cameras.fitted()) cameras.mean_error(result.final_rotation_error, result.final_translation_error);
   run.write_plot();
-
-  result.files.push_back(in_dir(options.out_dir, "fitted.obj"));
-  const std::string texture_file = in_dir(options.out_dir, "fitted_texture.png");
-  write_mesh(result.files.back(), mesh, positions, material.texture, texture_file);
-  if (material.texture.defined()) {
-    result.files.push_back(in_dir(options.out_dir, "fitted.mtl"));
-    result.files.push_back(texture_file);
-  }
+  write_fitted_mesh(options, mesh, positions, appearance.material, result);
 
   result.positions = positions.detach();
-  (options.appearance == Appearance::Texture ? result.texture : result.colours) = appearance.detach();
+  (options.appearance == Appearance::Texture ? result.texture : result.colours) = appearance.parameter.detach();
   result.initial_loss = result.losses.front();
   result.final_loss = result.losses.back();
   result.iterations_per_second = loop_seconds > 0 ? iterations / loop_seconds : 0;

@@ -46,7 +46,7 @@ struct FitOptions {
   int start_subdivisions = 4;      // start icosphere: 20 * 4^s triangles
   int reference_subdivisions = 0;  // built-in reference icosphere; 0: 5 (shape), 4 (pose renders it every step)
   int texture_size = 128;          // fitted texture: texture_size x 2 texture_size
-  // Adam learning rates (one Adam per parameter group), decayed geometrically to 10% over the run.
+  // Adam learning rates (one parameter group each), decayed geometrically to 10% over the run.
   double position_lr = 0.02;
   double colour_lr = 0.03;
   double camera_lr = 0.003;

@@ -177,8 +177,6 @@ TEST_CASE("elementwise errors name both shapes, the dtype or the bad argument", 
   Tensor b = Tensor::ones({4});
   CHECK_THROWS_AS(a + b, ShapeError);
   CHECK_THROWS_WITH(a * b, Catch::Contains("[2, 3]") && Catch::Contains("[4]") && Catch::Contains("mul"));
-  Tensor d = Tensor::ones({2, 3}, DType::Float64);
-  CHECK_THROWS_AS(a + d, DTypeError);
   Tensor i = Tensor::ones({2, 3}, DType::Int32);
   CHECK_THROWS_AS(exp(i), DTypeError);
   CHECK_THROWS_AS(a - i, DTypeError);
@@ -203,4 +201,86 @@ TEST_CASE("elementwise results are bit-identical for 1 and 2 threads", "[ops][el
   const auto one = eval(1), two = eval(2);
   set_num_threads(0);
   CHECK(one == two);
+}
+
+// ---- Conveniences: scalar comparisons, comparison operators, dtype promotion ----
+
+TEST_CASE("comparisons with a number give the same masks as comparisons with a scalar tensor", "[ops][compare]") {
+  const Tensor t = Tensor::from_values({-1, 0, 2}, {3});
+  CHECK(greater(t, 0.0).to_vector() == std::vector<double>{0, 0, 1});
+  CHECK(greater_equal(t, 0.0).to_vector() == std::vector<double>{0, 1, 1});
+  CHECK(less(t, 0.0).to_vector() == std::vector<double>{1, 0, 0});
+  CHECK(less_equal(t, 0.0).to_vector() == std::vector<double>{1, 1, 0});
+  CHECK(equal(t, 2.0).to_vector() == std::vector<double>{0, 0, 1});
+  CHECK(not_equal(t, 2.0).to_vector() == std::vector<double>{1, 1, 0});
+  CHECK(greater(t, 0.0).dtype() == DType::Float32);
+}
+
+TEST_CASE("comparison operators give masks for tensor-tensor, tensor-number and number-tensor", "[ops][compare]") {
+  const Tensor a = Tensor::from_values({1, 2, 3}, {3}, DType::Float64);
+  const Tensor b = Tensor::from_values({3, 2, 1}, {3}, DType::Float64);
+  using V = std::vector<double>;
+  CHECK((a < b).to_vector() == V{1, 0, 0});
+  CHECK((a <= b).to_vector() == V{1, 1, 0});
+  CHECK((a > b).to_vector() == V{0, 0, 1});
+  CHECK((a >= b).to_vector() == V{0, 1, 1});
+  CHECK((a == b).to_vector() == V{0, 1, 0});
+  CHECK((a != b).to_vector() == V{1, 0, 1});
+  CHECK((a < 2.0).to_vector() == V{1, 0, 0});
+  CHECK((a >= 2.0).to_vector() == V{0, 1, 1});
+  CHECK((a == 3.0).to_vector() == V{0, 0, 1});
+  CHECK((2.0 < a).to_vector() == V{0, 0, 1});  // reads as "2 < a"
+  CHECK((2.0 >= a).to_vector() == V{1, 1, 0});
+  CHECK((2.0 != a).to_vector() == V{1, 0, 1});
+  // A mask drives where() with no gradient through the comparison.
+  Tensor x = Tensor::from_values({-2, 3}, {2}, DType::Float64).set_requires_grad();
+  const Tensor relu = where(x > 0.0, x, zeros_like(x));
+  CHECK(relu.to_vector() == V{0, 3});
+}
+
+TEST_CASE("float32 with float64 computes in float64, and the float32 operand's gradient comes back as float32",
+          "[ops][promote]") {
+  const Tensor a32 = Tensor::from_values({1.5, -2}, {2}, DType::Float32);
+  const Tensor b64 = Tensor::from_values({0.25, 4}, {2}, DType::Float64);
+  CHECK(promote_types(DType::Float32, DType::Float64) == DType::Float64);
+  CHECK(promote_types(DType::Float32, DType::Float32) == DType::Float32);
+  CHECK_THROWS_AS(promote_types(DType::Int32, DType::Float64), DTypeError);
+  for (const Tensor& r : {a32 + b64, b64 - a32, a32 * b64, a32 / b64, pow(b64, a32), minimum(a32, b64),
+                          maximum(b64, a32), greater(a32, b64), where(greater(a32, b64), a32, b64)})
+    CHECK(r.dtype() == DType::Float64);
+  CHECK((a32 * b64).to_vector() == std::vector<double>{0.375, -8});
+  CHECK(matmul(reshape(a32, {1, 2}), reshape(b64, {2, 1})).dtype() == DType::Float64);
+  CHECK((a32 * 0.5).dtype() == DType::Float32);  // a number does not promote
+
+  Tensor p = Tensor::from_values({1.5, -2}, {2}).set_requires_grad();
+  backward(sum(p * b64));
+  REQUIRE(p.grad().dtype() == DType::Float32);
+  CHECK(p.grad().to_vector() == std::vector<double>{0.25, 4});
+  CHECK_THROWS_AS(add(a32, Tensor::ones({2}, DType::Int32)), DTypeError);
+}
+
+TEST_CASE("mixed-dtype ops have correct gradients for both operands (gradcheck)", "[ops][promote][gradcheck]") {
+  // gradcheck perturbs float64 inputs; casting one of them to float32 inside f
+  // makes the op see a float32 operand (the checks' tolerances allow for its rounding).
+  GradcheckOptions o;
+  o.eps = 1e-2;
+  o.atol = 1e-4;
+  o.rtol = 1e-3;
+  const Tensor a = Tensor::uniform({3, 4}, 0.5, 2, 1, DType::Float64).set_requires_grad();
+  const Tensor b = Tensor::uniform({4}, 0.5, 2, 2, DType::Float64).set_requires_grad();
+  const Tensor m = Tensor::uniform({4, 2}, -1, 1, 3, DType::Float64).set_requires_grad();
+  auto f32 = [](const Tensor& t) { return cast(t, DType::Float32); };
+  for (auto& [name, f] : std::vector<std::pair<const char*, GradcheckFn>>{
+           {"mul", [&](const std::vector<Tensor>& x) { return f32(x[0]) * x[1]; }},
+           {"div", [&](const std::vector<Tensor>& x) { return x[0] / f32(x[1]); }},
+           {"sub", [&](const std::vector<Tensor>& x) { return f32(x[0]) - x[1]; }},
+           {"pow", [&](const std::vector<Tensor>& x) { return pow(f32(x[0]), x[1]); }},
+           {"maximum", [&](const std::vector<Tensor>& x) { return maximum(x[0], f32(x[1])); }},
+           {"where", [&](const std::vector<Tensor>& x) { return where(x[0] > 1.0, f32(x[0]), x[1]); }},
+           {"matmul", [&](const std::vector<Tensor>& x) { return matmul(f32(x[0]), x[2]); }}}) {
+    INFO(name);
+    const GradcheckResult r = gradcheck(f, {a, b, m}, o);
+    INFO(r.report());
+    CHECK(r.passed);
+  }
 }

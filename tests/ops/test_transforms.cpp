@@ -400,3 +400,35 @@ TEST_CASE("orthographic rejects a box of zero extent, naming the equal bounds", 
   // Mirrored boxes (left > right) are allowed: they flip the axis.
   CHECK_NOTHROW(orthographic(1, -1, -1, 1, 0.1, 10));
 }
+
+TEST_CASE("matrices round-trip through OpenGL's column-major float[16], translation at elements 12, 13, 14",
+          "[ops][transforms][gl]") {
+  // glTranslatef(2, 3, 4) as OpenGL stores it.
+  const float gl[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 2, 3, 4, 1};
+  const Tensor m = mat4_from_column_major(gl);
+  CHECK(m.dtype() == DType::Float32);
+  CHECK(m.to_vector() == translate(Tensor::from_values({2, 3, 4}, {3})).to_vector());
+  const Tensor p = transform_points(Tensor::from_values({1, 1, 1}, {1, 3}), m);
+  CHECK(p.to_vector() == std::vector<double>{3, 4, 5, 1});
+  const std::array<float, 16> back = mat4_to_column_major(m);
+  CHECK(std::vector<float>(back.begin(), back.end()) == std::vector<float>(gl, gl + 16));
+
+  // A general matrix: element (r, c) at 4c + r, both ways, in float64 too.
+  double d[16];
+  for (int i = 0; i < 16; ++i) d[i] = i + 0.25;
+  const Tensor md = mat4_from_column_major(d, DType::Float64);
+  CHECK(md.at({1, 2}) == d[4 * 2 + 1]);
+  CHECK(md.at({3, 0}) == d[3]);
+  const std::array<double, 16> dback = mat4_to_column_major_f64(md);
+  CHECK(std::vector<double>(dback.begin(), dback.end()) == std::vector<double>(d, d + 16));
+}
+
+TEST_CASE("OpenGL matrix conversion rejects null pointers, NaN elements and non-4x4 tensors",
+          "[ops][transforms][gl][errors]") {
+  float gl[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+  gl[13] = std::nanf("");
+  CHECK_THROWS_WITH(mat4_from_column_major(gl), Catch::Contains("element 13 (row 1, column 3)"));
+  CHECK_THROWS_AS(mat4_from_column_major(static_cast<const float*>(nullptr)), ValueError);
+  CHECK_THROWS_AS(mat4_to_column_major(Tensor::ones({3, 3})), ShapeError);
+  CHECK_THROWS_AS(mat4_to_column_major(Tensor::ones({4, 4}, DType::Int32)), DTypeError);
+}
