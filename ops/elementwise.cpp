@@ -382,8 +382,7 @@ Tensor not_equal(const Tensor& a, const Tensor& b) { return compare("not_equal",
 Tensor where(const Tensor& mask, const Tensor& a, const Tensor& b) {
   check_float(mask, "where", "mask");
   check_same_float(a, b, "where");
-  if (mask.dtype() != a.dtype())
-    throw DTypeError("where: mask " + mask.describe() + " must have the dtype of the operands " + a.describe());
+  detail::check_same_dtype(mask, a, "where", "mask", "a");
   const Shape shape = detail::broadcast_shapes(mask.shape(), detail::broadcast_shapes(a.shape(), b.shape(), "where"), "where");
   const std::int64_t n = shape.numel();
   const Tensor em = expand_raw(mask, shape), ea = expand_raw(a, shape), eb = expand_raw(b, shape);
