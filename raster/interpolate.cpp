@@ -149,12 +149,15 @@ void clip_weights_backward(const PixelWeights& pw, int width, int height, const 
   }
 }
 
-// The image and fragment forms share these loops: "items" are the pixels of
+}  // namespace
+
+// The image and fragment forms run the same loops: "items" are the pixels of
 // an image (tri_id 0 = background) or the covered pixels of a fragment list
 // (tri_id never 0); item p reads tri_id[p], uv[2p, 2p+1] and writes or reads
 // C values at p * C; `items` gives its pixel (for clipped triangles' weights).
 template <class T>
-void forward_items(const InterpolateParams<T>& prm, T* out) {
+void interpolate_forward(const InterpolateParams<T>& prm, T* out) {
+  assert(prm.width >= 1 && prm.height >= 1 && prm.channels >= 0 && prm.count >= 0);
   const T *attr = prm.attr, *clip = prm.clip, *uv = prm.uv, *background = prm.background;
   const std::int32_t *tris = prm.tris, *tri_id = prm.tri_id;
   const std::int64_t C = prm.channels, P = prm.items();
@@ -181,7 +184,11 @@ void forward_items(const InterpolateParams<T>& prm, T* out) {
 }
 
 template <class T>
-void backward_items(const InterpolateParams<T>& prm, const T* grad_out, T* grad_attr, T* grad_clip, T* grad_uv) {
+void interpolate_backward(const InterpolateParams<T>& prm, const T* grad_out, const InterpolateGrads<T>& grads) {
+  assert(prm.width >= 1 && prm.height >= 1 && prm.channels >= 0 && prm.count >= 0);
+  T* const grad_attr = grads.attr;
+  T* grad_clip = grads.clip;
+  T* const grad_uv = grads.uv;
   const T *attr = prm.attr, *clip = prm.clip, *uv = prm.uv;
   const std::int32_t *tris = prm.tris, *tri_id = prm.tri_id;
   const std::int64_t N = prm.num_vertices, C = prm.channels, P = prm.items();
@@ -295,20 +302,6 @@ void backward_items(const InterpolateParams<T>& prm, const T* grad_out, T* grad_
       }
     });
   }
-}
-
-}  // namespace
-
-template <class T>
-void interpolate_forward(const InterpolateParams<T>& p, T* out) {
-  assert(p.width >= 1 && p.height >= 1 && p.channels >= 0 && p.count >= 0);
-  forward_items(p, out);
-}
-
-template <class T>
-void interpolate_backward(const InterpolateParams<T>& p, const T* grad_out, const InterpolateGrads<T>& grads) {
-  assert(p.width >= 1 && p.height >= 1 && p.channels >= 0 && p.count >= 0);
-  backward_items(p, grad_out, grads.attr, grads.clip, grads.uv);
 }
 
 template <class T>
