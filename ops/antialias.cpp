@@ -19,6 +19,20 @@ AntialiasTopology make_topology(const Tensor& triangles, std::int64_t n, const T
       raster::build_edge_topology(triangles.data<std::int32_t>(), triangles.size(0), n, positions, dims));
 }
 
+// What the adjoint reads: the image [H, W, C], its size and clip. The forward
+// adds the G-buffer, the triangles and the topology.
+template <class T>
+raster::AntialiasParams<T> image_params(const Tensor& image, const Tensor& clip) {
+  raster::AntialiasParams<T> p;
+  p.image = image.data<T>();
+  p.height = int(image.size(0));
+  p.width = int(image.size(1));
+  p.channels = int(image.size(2));
+  p.clip = clip.data<T>();
+  p.num_vertices = clip.size(0);
+  return p;
+}
+
 }  // namespace
 
 AntialiasTopology antialias_topology(const Tensor& triangles, const Tensor& positions) {
@@ -82,41 +96,29 @@ Tensor antialias(const Tensor& image, const GBuffer& gbuffer, const Tensor& clip
     using T = decltype(tag);
     // Default topology: weld vertices with equal clip rows.
     if (!topology) topology = make_topology(triangles, n, clip.data<T>(), 4);
-    raster::AntialiasParams<T> p;
-    p.image = image.data<T>();
-    p.channels = int(c);
-    p.width = int(w);
-    p.height = int(h);
+    raster::AntialiasParams<T> p = image_params<T>(image, clip);
     p.tri_id = gbuffer.tri_id.data<std::int32_t>();
     p.depth = gbuffer.depth.data<T>();
-    p.clip = clip.data<T>();
-    p.num_vertices = n;
     p.tris = triangles.data<std::int32_t>();
     p.num_tris = m;
     p.topology = topology.get();
     raster::antialias_forward(p, out.data<T>(), rec ? pairs.get() : nullptr, options.stats);
   });
   if (rec) {
-    record("antialias", {image, clip}, {&out}, [image = image.detach(), clip = clip.detach(), pairs, w, h](AdjointContext& ctx) {
-      const Tensor& g = ctx.grad_output();
-      Tensor g_image = ctx.needs_grad(0) ? Tensor::zeros(image.shape(), image.dtype()) : Tensor();
-      Tensor g_clip = ctx.needs_grad(1) ? Tensor::zeros(clip.shape(), clip.dtype()) : Tensor();
-      dispatch_float(image.dtype(), "antialias", [&](auto tag) {
-        using T = decltype(tag);
-        auto ptr = [](Tensor& t) { return t.defined() ? t.data<T>() : nullptr; };
-        // The adjoint reads the image, its size and clip only.
-        raster::AntialiasParams<T> p;
-        p.image = image.data<T>();
-        p.channels = int(image.size(2));
-        p.width = int(w);
-        p.height = int(h);
-        p.clip = clip.data<T>();
-        p.num_vertices = clip.size(0);
-        raster::antialias_backward(p, *pairs, g.data<T>(), {ptr(g_image), ptr(g_clip)});
-      });
-      if (g_image.defined()) ctx.accumulate(0, g_image);
-      if (g_clip.defined()) ctx.accumulate(1, g_clip);
-    });
+    record("antialias", {image, clip}, {&out},
+           [image = image.detach(), clip = clip.detach(), pairs](AdjointContext& ctx) {
+             const Tensor& g = ctx.grad_output();
+             Tensor g_image = ctx.needs_grad(0) ? Tensor::zeros(image.shape(), image.dtype()) : Tensor();
+             Tensor g_clip = ctx.needs_grad(1) ? Tensor::zeros(clip.shape(), clip.dtype()) : Tensor();
+             dispatch_float(image.dtype(), "antialias", [&](auto tag) {
+               using T = decltype(tag);
+               auto ptr = [](Tensor& t) { return t.defined() ? t.data<T>() : nullptr; };
+               raster::antialias_backward(image_params<T>(image, clip), *pairs, g.data<T>(),
+                                          {ptr(g_image), ptr(g_clip)});
+             });
+             if (g_image.defined()) ctx.accumulate(0, g_image);
+             if (g_clip.defined()) ctx.accumulate(1, g_clip);
+           });
   }
   return out;
 }
