@@ -7,6 +7,7 @@
 namespace gr {
 namespace {
 
+// The kernels' view of validated tensors (forward and adjoint alike).
 template <class T>
 raster::RasterParams<T> params(const Tensor& clip, const Tensor& triangles, const raster::RasterSettings& settings) {
   return {clip.data<T>(), clip.size(0), triangles.data<std::int32_t>(), triangles.size(0), settings};
@@ -33,19 +34,20 @@ GBuffer rasterize(const Tensor& clip, const Tensor& triangles, const RasterizeOp
   if (should_record({clip})) {
     // The backward trusts what the forward checked: same clip, triangles and
     // settings, and the forward's own tri_id.
-    record(
-        "rasterize", {clip}, {&gb.uv, &gb.depth}, [clip, triangles, settings, tri_id = gb.tri_id](AdjointContext& ctx) {
-          const Tensor& g_uv = ctx.grad_output(0);
-          const Tensor& g_depth = ctx.grad_output(1);
-          Tensor uv_grad = g_uv.defined() ? g_uv : Tensor::zeros({tri_id.size(0), tri_id.size(1), 2}, clip.dtype());
-          Tensor g = Tensor::zeros(clip.shape(), clip.dtype());
-          dispatch_float(clip.dtype(), "rasterize", [&](auto tag) {
-            using T = decltype(tag);
-            raster::rasterize_backward(params<T>(clip, triangles, settings), tri_id.data<std::int32_t>(),
-                                       uv_grad.data<T>(), g_depth.defined() ? g_depth.data<T>() : nullptr, g.data<T>());
-          });
-          ctx.accumulate(0, g);
-        });
+    record("rasterize", {clip}, {&gb.uv, &gb.depth},
+           [clip, triangles, settings, tri_id = gb.tri_id](AdjointContext& ctx) {
+             const Tensor& g_uv = ctx.grad_output(0);
+             const Tensor& g_depth = ctx.grad_output(1);
+             Tensor uv_grad = g_uv.defined() ? g_uv : Tensor::zeros({tri_id.size(0), tri_id.size(1), 2}, clip.dtype());
+             Tensor g = Tensor::zeros(clip.shape(), clip.dtype());
+             dispatch_float(clip.dtype(), "rasterize", [&](auto tag) {
+               using T = decltype(tag);
+               raster::rasterize_backward(params<T>(clip, triangles, settings), tri_id.data<std::int32_t>(),
+                                          uv_grad.data<T>(), g_depth.defined() ? g_depth.data<T>() : nullptr,
+                                          g.data<T>());
+             });
+             ctx.accumulate(0, g);
+           });
   }
   return gb;
 }

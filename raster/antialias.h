@@ -98,8 +98,9 @@ struct AntialiasGrads {
   T* clip = nullptr;
 };
 
-// Adjoint of antialias_forward, ACCUMULATED (+=) into `grads`. With g = grad_out, per pair
-// (target = the pixel written, source = the other, w = |t - 1/2|):
+// Adjoint of antialias_forward, ACCUMULATED (+=) into `grads`. With g =
+// grad_out, per pair (target = the pixel written, source = the other,
+// w = |t - 1/2|):
 //   dL/dimage += g;  dL/dimage[target] -= w g[target];  dL/dimage[source] += w g[target]
 //   dL/dt = g[target] . (image[inside] - image[outside])
 //   t = E_i / (E_i - E_o), E_* = E(centre; a, b) (screen edge function):

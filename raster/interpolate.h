@@ -96,8 +96,7 @@ void interpolate_backward(const InterpolateParams<T>& p, const T* grad_out, cons
 //   perspective: dA/dx = sum_k (dq_k/dx) (A_k - A) / s,  dq_k/dx = c_k.x / D
 //                (not divided by w_k, so exact at w_k = 0);
 //   linear:      dA/dx = sum_k (dlambda_k/dx) A_k;
-// likewise for y. Background pixels get zeros.
-// Image form only.
+// likewise for y. Background pixels get zeros. Image form only.
 template <class T>
 void interpolate_derivatives(const InterpolateParams<T>& p, T* d_dx, T* d_dy);
 

@@ -232,7 +232,7 @@ void fill_bins(std::int64_t num_tris, const Grid& g, ForwardScratch& sc) {
   });
 }
 
-// Phase 5a: background everywhere (one parallel pass).
+// Phase 5: background everywhere (one parallel pass).
 template <class T>
 void clear_background(std::int64_t pixels, std::int32_t* tri_id, T* uv, T* depth) {
   parallel_for(0, pixels, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
@@ -242,7 +242,7 @@ void clear_background(std::int64_t pixels, std::int32_t* tri_id, T* uv, T* depth
   });
 }
 
-// Phase 5b (parallel over the non-empty tiles): scan each tile's triangles
+// Phase 6 (parallel over the non-empty tiles): scan each tile's triangles
 // and write its covered pixels; each tile writes only its own pixels.
 template <class T>
 void scan_tiles(const RasterParams<T>& p, const Grid& g, const ForwardScratch& sc, std::int32_t* tri_id, T* uv,
@@ -281,7 +281,7 @@ void rasterize_forward(const RasterParams<T>& p, std::int32_t* tri_id, T* uv, T*
   assert(W >= 1 && H >= 1 && p.num_vertices >= 0 && p.num_tris >= 0);
   auto lease = g_forward_pool.take();
   ForwardScratch& sc = *lease;
-  detail::project_vertices_into(p.clip, p.num_vertices, W, H, &sc.v);  // phase 1
+  detail::project_vertices_into(p.clip, p.num_vertices, W, H, &sc.v);  // phase 1: per-vertex projection
   const Grid g = make_grid(p.num_tris, W, H);
   const RasterStats st = classify_and_count(p, g, sc);
   if (stats) *stats = st;

@@ -62,7 +62,7 @@ void rasterize_forward(const RasterParams<T>& p, std::int32_t* tri_id, T* uv, T*
 
 // Adjoint of rasterize_forward for a fixed coverage (tri_id, each in
 // [0, num_tris]), ACCUMULATED (+=) into grad_clip (N x 4). grad_uv: H*W*2;
-// grad_depth: H*W or null.
+// grad_depth: H*W or a null const T*.
 // Per covered pixel p of triangle (P0, P1, P2) (screen positions, z_k = z_ndc):
 //   u = E_20(p)/2A, v = E_01(p)/2A, depth = (1-u-v) z0 + u z1 + v z2,
 //   g_u' = g_u + g_d (z1 - z0), g_v' = g_v + g_d (z2 - z0),
