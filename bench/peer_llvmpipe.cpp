@@ -155,12 +155,12 @@ int main(int argc, char** argv) {
     const float* clip = scene.clip.data<float>();
     const std::int64_t nv = scene.clip.size(0), nt = scene.triangles.size(0);
     const std::int32_t* tris = scene.triangles.data<std::int32_t>();
+    const gr::raster::RasterParams<float> params{clip, nv, tris, nt, settings};
     OurBuffers ours(size);
     auto run_kernel = [&](int threads) {
       gr::set_num_threads(threads);
       return time_ms([&] {
-        gr::raster::rasterize_forward(clip, nv, tris, nt, settings, ours.tri_id.data(), ours.uv.data(),
-                                      ours.depth.data());
+        gr::raster::rasterize_forward(params, ours.tri_id.data(), ours.uv.data(), ours.depth.data());
       });
     };
     auto run_op = [&](int threads) {
@@ -178,8 +178,7 @@ int main(int argc, char** argv) {
       for (int r = 0; r < opt.profile; ++r) {
         CALLGRIND_START_INSTRUMENTATION;
         const double ms = time_ms([&] {
-          gr::raster::rasterize_forward(clip, nv, tris, nt, settings, ours.tri_id.data(), ours.uv.data(),
-                                        ours.depth.data());
+          gr::raster::rasterize_forward(params, ours.tri_id.data(), ours.uv.data(), ours.depth.data());
         });
         CALLGRIND_STOP_INSTRUMENTATION;
         std::printf("  profile %s (%lld triangles): ours kernel 2 threads %.2f ms\n", scene.name.c_str(),

@@ -7,31 +7,54 @@
 #include <vector>
 
 #include "autodiff/tape.h"
-#include "ops/broadcast.h"
-#include "raster/rasterize_setup.h"  // detail::check_finite
+#include "ops/check.h"
 
 namespace gr {
+namespace {
+
+// Topology of validated triangles (indices in [0, n)); positions may be null.
+template <class T>
+AntialiasTopology make_topology(const Tensor& triangles, std::int64_t n, const T* positions, int dims) {
+  return std::make_shared<const raster::EdgeTopology>(
+      raster::build_edge_topology(triangles.data<std::int32_t>(), triangles.size(0), n, positions, dims));
+}
+
+// What the adjoint reads: the image [H, W, C], its size and clip. The forward
+// adds the G-buffer, the triangles and the topology.
+template <class T>
+raster::AntialiasParams<T> image_params(const Tensor& image, const Tensor& clip) {
+  raster::AntialiasParams<T> p;
+  p.image = image.data<T>();
+  p.height = int(image.size(0));
+  p.width = int(image.size(1));
+  p.channels = int(image.size(2));
+  p.clip = clip.data<T>();
+  p.num_vertices = clip.size(0);
+  return p;
+}
+
+}  // namespace
 
 AntialiasTopology antialias_topology(const Tensor& triangles, const Tensor& positions) {
   const std::string op = "antialias_topology";
-  if (!triangles.defined() || triangles.dtype() != DType::Int32)
-    throw DTypeError(op + ": argument 'triangles' must be an int32 tensor, got " + triangles.describe());
-  if (triangles.rank() != 2 || triangles.size(1) != 3)
-    throw ShapeError(op + ": argument 'triangles' must have shape [M, 3], got " + triangles.describe());
-  const std::int32_t* tris = triangles.data<std::int32_t>();
-  const std::int64_t m = triangles.size(0);
   if (!positions.defined()) {
-    std::int64_t n = 0;  // vertex count implied by the indices (negatives are rejected inside)
-    for (std::int64_t i = 0; i < 3 * m; ++i) n = std::max<std::int64_t>(n, std::int64_t(tris[i]) + 1);
-    return std::make_shared<const raster::EdgeTopology>(raster::build_edge_topology(tris, m, n));
+    detail::check_dtype(triangles, DType::Int32, op, "triangles");
+    detail::check_columns(triangles, 3, op, "triangles", "M");
+    // Vertex count implied by the indices; a negative index fails the range check.
+    const std::int32_t* tris = triangles.data<std::int32_t>();
+    std::int64_t n = 0;
+    for (std::int64_t i = 0; i < triangles.numel(); ++i) n = std::max<std::int64_t>(n, std::int64_t(tris[i]) + 1);
+    detail::check_triangles(triangles, n, op);
+    return make_topology<double>(triangles, n, nullptr, 0);
   }
   detail::check_float(positions, op, "positions");
   if (positions.rank() != 2 || positions.size(1) < 1)
     throw ShapeError(op + ": argument 'positions' must have shape [N, D], got " + positions.describe());
+  detail::check_triangles(triangles, positions.size(0), op);
+  detail::check_finite(positions, op, "positions");
   return dispatch_float(positions.dtype(), op, [&](auto tag) {
     using T = decltype(tag);
-    return std::make_shared<const raster::EdgeTopology>(raster::build_edge_topology(
-        tris, m, positions.size(0), positions.data<T>(), static_cast<int>(positions.size(1))));
+    return make_topology(triangles, positions.size(0), positions.data<T>(), static_cast<int>(positions.size(1)));
   });
 }
 
@@ -42,9 +65,7 @@ Tensor antialias(const Tensor& image, const GBuffer& gbuffer, const Tensor& clip
   detail::check_float(image, op, "image");
   if (image.rank() != 3 || image.size(2) < 1)
     throw ShapeError(op + ": argument 'image' must have shape [H, W, C], got " + image.describe());
-  if (image.dtype() != clip.dtype())
-    throw DTypeError(op + ": argument 'image' " + image.describe() + " and 'clip' " + clip.describe() +
-                     " must have the same dtype");
+  detail::check_same_dtype(image, clip, op, "image", "clip");
   if (!gbuffer.tri_id.defined() || gbuffer.tri_id.dtype() != DType::Int32 || gbuffer.tri_id.rank() != 2)
     throw ShapeError(op + ": argument 'gbuffer' has no [H, W] int32 tri_id (pass the result of rasterize)");
   const std::int64_t h = image.size(0), w = image.size(1), c = image.size(2);
@@ -57,9 +78,14 @@ Tensor antialias(const Tensor& image, const GBuffer& gbuffer, const Tensor& clip
                      std::to_string(h) + ", " + std::to_string(w) + "] with the dtype of 'clip'");
   if (c > (std::int64_t(1) << 20))
     throw ShapeError(op + ": argument 'image' has too many channels: " + image.describe());
+  detail::check_image_size(w, h, op);
   const std::int64_t m = triangles.size(0), n = clip.size(0);
+  detail::check_tri_ids(gbuffer.tri_id, m, op);
+  // NaN/Inf clip rows are refused here, naming 'clip' (the default topology
+  // below welds by clip rows).
+  detail::check_finite(clip, op, "clip");
   AntialiasTopology topology = options.topology;
-  if (topology && topology->num_tris != m)
+  if (topology && (topology->num_tris != m || std::int64_t(topology->neighbour.size()) != 3 * m))
     throw ValueError(op + ": option 'topology' was built for " + std::to_string(topology->num_tris) +
                      " triangles but 'triangles' has " + std::to_string(m));
 
@@ -68,28 +94,27 @@ Tensor antialias(const Tensor& image, const GBuffer& gbuffer, const Tensor& clip
   auto pairs = std::make_shared<std::vector<raster::AntialiasPair>>();
   dispatch_float(clip.dtype(), op, [&](auto tag) {
     using T = decltype(tag);
-    // NaN/Inf clip rows are refused here, naming 'clip' (the default topology
-    // below would otherwise report them as its 'positions').
-    raster::detail::check_finite(clip.data<T>(), 4 * n, "clip", op.c_str());
-    // Default topology: weld vertices with equal clip rows (indices are checked there).
-    if (!topology)
-      topology = std::make_shared<const raster::EdgeTopology>(
-          raster::build_edge_topology(triangles.data<std::int32_t>(), m, n, clip.data<T>(), 4));
-    raster::antialias_forward(image.data<T>(), int(c), gbuffer.tri_id.data<std::int32_t>(), gbuffer.depth.data<T>(),
-                              int(w), int(h), clip.data<T>(), n, triangles.data<std::int32_t>(), m, *topology,
-                              out.data<T>(), rec ? pairs.get() : nullptr, options.stats);
+    // Default topology: weld vertices with equal clip rows.
+    if (!topology) topology = make_topology(triangles, n, clip.data<T>(), 4);
+    raster::AntialiasParams<T> p = image_params<T>(image, clip);
+    p.tri_id = gbuffer.tri_id.data<std::int32_t>();
+    p.depth = gbuffer.depth.data<T>();
+    p.tris = triangles.data<std::int32_t>();
+    p.num_tris = m;
+    p.topology = topology.get();
+    raster::antialias_forward(p, out.data<T>(), rec ? pairs.get() : nullptr, options.stats);
   });
   if (rec) {
     record("antialias", {image, clip}, {&out},
-           [image = image.detach(), clip = clip.detach(), pairs, w, h](AdjointContext& ctx) {
+           [image = image.detach(), clip = clip.detach(), pairs](AdjointContext& ctx) {
              const Tensor& g = ctx.grad_output();
              Tensor g_image = ctx.needs_grad(0) ? Tensor::zeros(image.shape(), image.dtype()) : Tensor();
              Tensor g_clip = ctx.needs_grad(1) ? Tensor::zeros(clip.shape(), clip.dtype()) : Tensor();
              dispatch_float(image.dtype(), "antialias", [&](auto tag) {
                using T = decltype(tag);
                auto ptr = [](Tensor& t) { return t.defined() ? t.data<T>() : nullptr; };
-               raster::antialias_backward(image.data<T>(), int(image.size(2)), int(w), int(h), clip.data<T>(),
-                                          clip.size(0), *pairs, g.data<T>(), ptr(g_image), ptr(g_clip));
+               raster::antialias_backward(image_params<T>(image, clip), *pairs, g.data<T>(),
+                                          {ptr(g_image), ptr(g_clip)});
              });
              if (g_image.defined()) ctx.accumulate(0, g_image);
              if (g_clip.defined()) ctx.accumulate(1, g_clip);

@@ -212,28 +212,4 @@ Tensor reduce_raw(const Tensor& g, const Shape& target) {
   return r;
 }
 
-void check_float(const Tensor& t, const std::string& op, const char* name) {
-  if (!t.defined()) throw ValueError(op + ": argument '" + name + "' is an undefined tensor");
-  if (!is_floating(t.dtype()))
-    throw DTypeError(op + ": argument '" + name + "' must be float32 or float64, got " + t.describe());
-}
-
-void check_same_float(const Tensor& a, const Tensor& b, const std::string& op) {
-  check_float(a, op, "a");
-  check_float(b, op, "b");
-  if (a.dtype() != b.dtype())
-    throw DTypeError(op + ": operands have different dtypes " + a.describe() + " and " + b.describe() +
-                     " (use cast() to convert)");
-}
-
-void check_clip_and_triangles(const Tensor& clip, const Tensor& triangles, const std::string& op) {
-  check_float(clip, op, "clip");
-  if (clip.rank() != 2 || clip.size(1) != 4)
-    throw ShapeError(op + ": argument 'clip' must have shape [N, 4], got " + clip.describe());
-  if (!triangles.defined() || triangles.dtype() != DType::Int32)
-    throw DTypeError(op + ": argument 'triangles' must be an int32 tensor, got " + triangles.describe());
-  if (triangles.rank() != 2 || triangles.size(1) != 3)
-    throw ShapeError(op + ": argument 'triangles' must have shape [M, 3], got " + triangles.describe());
-}
-
 }  // namespace gr::detail

@@ -1,6 +1,6 @@
 // Internal helpers shared by the op implementations: broadcasting rules,
-// materializing a broadcast, summing a gradient back to an operand's shape,
-// and argument checks. Nothing here records on the tape.
+// materializing a broadcast and summing a gradient back to an operand's shape
+// (the argument checks are in ops/check.h). Nothing here records on the tape.
 #pragma once
 
 #include <algorithm>
@@ -9,6 +9,7 @@
 
 #include "autodiff/parallel.h"
 #include "autodiff/tensor.h"
+#include "ops/check.h"  // the argument checks every op uses
 
 namespace gr::detail {
 
@@ -102,13 +103,5 @@ void sum_into_operand(const RowView& v, Term term, T* out) {
     }
   }
 }
-
-// Throws unless `t` is defined and float32/float64 ("op: argument 'name' ...").
-void check_float(const Tensor& t, const std::string& op, const char* name);
-// Throws unless a and b are float tensors of the same dtype.
-void check_same_float(const Tensor& a, const Tensor& b, const std::string& op);
-
-// Throws unless clip is a float [N, 4] tensor and triangles an int32 [M, 3] one.
-void check_clip_and_triangles(const Tensor& clip, const Tensor& triangles, const std::string& op);
 
 }  // namespace gr::detail

@@ -391,8 +391,7 @@ Tensor where(const Tensor& mask_in, const Tensor& a_in, const Tensor& b_in) {
   detail::promote_floats({&mask, &a, &b});
   check_float(mask, "where", "mask");
   check_same_float(a, b, "where");
-  if (mask.dtype() != a.dtype())
-    throw DTypeError("where: mask " + mask.describe() + " must have the dtype of the operands " + a.describe());
+  detail::check_same_dtype(mask, a, "where", "mask", "a");
   const Shape shape = detail::broadcast_shapes(mask.shape(), detail::broadcast_shapes(a.shape(), b.shape(), "where"), "where");
   const std::int64_t n = shape.numel();
   const Tensor em = expand_raw(mask, shape), ea = expand_raw(a, shape), eb = expand_raw(b, shape);

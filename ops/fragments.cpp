@@ -105,9 +105,7 @@ Tensor to_image(const Tensor& values, const Fragments& fr, const Tensor& backgro
   const bool per_pixel = background.defined() && background.shape() == image_shape;
   if (background.defined()) {
     detail::check_float(background, "to_image", "background");
-    if (background.dtype() != values.dtype())
-      throw DTypeError("to_image: argument 'background' " + background.describe() + " must have the values' dtype " +
-                       dtype_name(values.dtype()));
+    detail::check_same_dtype(background, values, "to_image", "background", "values");
     if (!per_pixel && (background.rank() != 1 || background.size(0) != c))
       throw ShapeError("to_image: argument 'background' " + background.describe() + " must be [" + std::to_string(c) +
                        "] or " + image_shape.str());

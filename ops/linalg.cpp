@@ -254,7 +254,7 @@ Offsets contiguous_offsets(std::size_t count, std::int64_t s) {
 }  // namespace
 
 Tensor transpose(const Tensor& a) {
-  if (!a.defined()) throw ValueError("transpose: argument 'a' is an undefined tensor");
+  detail::check_defined(a, "transpose", "a");
   if (a.rank() < 2)
     throw ShapeError("transpose: argument 'a' must have rank >= 2 (swaps the last two axes), got " + a.describe());
   Tensor out = transpose_raw(a);

@@ -2,7 +2,7 @@
 #include "ops/project.h"
 
 #include "autodiff/tape.h"
-#include "ops/broadcast.h"
+#include "ops/check.h"
 #include "raster/project.h"
 
 namespace gr {
@@ -10,9 +10,7 @@ namespace {
 
 void check_rows(const Tensor& t, std::int64_t cols, const char* op, const char* name) {
   detail::check_float(t, op, name);
-  if (t.rank() != 2 || t.size(1) != cols)
-    throw ShapeError(std::string(op) + ": argument '" + name + "' must have shape [N, " + std::to_string(cols) +
-                     "], got " + t.describe());
+  detail::check_columns(t, cols, op, name);
 }
 
 }  // namespace

@@ -2,28 +2,38 @@
 #include "ops/rasterize.h"
 
 #include "autodiff/tape.h"
-#include "ops/broadcast.h"
+#include "ops/check.h"
 
 namespace gr {
+namespace {
+
+// The kernels' view of validated tensors (forward and adjoint alike).
+template <class T>
+raster::RasterParams<T> params(const Tensor& clip, const Tensor& triangles, const raster::RasterSettings& settings) {
+  return {clip.data<T>(), clip.size(0), triangles.data<std::int32_t>(), triangles.size(0), settings};
+}
+
+}  // namespace
 
 GBuffer rasterize(const Tensor& clip, const Tensor& triangles, const RasterizeOptions& options) {
-  detail::check_clip_and_triangles(clip, triangles, "rasterize");
+  const char* op = "rasterize";
+  detail::check_image_size(options.width, options.height, op);
+  detail::check_clip_and_triangles(clip, triangles, op);
+  detail::check_finite(clip, op, "clip");
   const raster::RasterSettings settings{options.width, options.height, options.cull, options.front_to_back};
   const std::int64_t h = options.height, w = options.width;
-  if (h <= 0 || w <= 0 || h > 16384 || w > 16384 || h * w > (std::int64_t(1) << 28))
-    throw ValueError("rasterize: image size " + std::to_string(w) + " x " + std::to_string(h) +
-                     " is outside 1..16384 per side (at most 2^28 pixels)");
   GBuffer gb;
   gb.tri_id = Tensor::empty({h, w}, DType::Int32);
   gb.uv = Tensor::empty({h, w, 2}, clip.dtype());
   gb.depth = Tensor::empty({h, w}, clip.dtype());
-  dispatch_float(clip.dtype(), "rasterize", [&](auto tag) {
+  dispatch_float(clip.dtype(), op, [&](auto tag) {
     using T = decltype(tag);
-    raster::rasterize_forward(clip.data<T>(), clip.size(0), triangles.data<std::int32_t>(), triangles.size(0),
-                              settings, gb.tri_id.data<std::int32_t>(), gb.uv.data<T>(), gb.depth.data<T>(),
-                              &gb.stats);
+    raster::rasterize_forward(params<T>(clip, triangles, settings), gb.tri_id.data<std::int32_t>(), gb.uv.data<T>(),
+                              gb.depth.data<T>(), &gb.stats);
   });
   if (should_record({clip})) {
+    // The backward trusts what the forward checked: same clip, triangles and
+    // settings, and the forward's own tri_id.
     record("rasterize", {clip}, {&gb.uv, &gb.depth},
            [clip, triangles, settings, tri_id = gb.tri_id](AdjointContext& ctx) {
              const Tensor& g_uv = ctx.grad_output(0);
@@ -32,8 +42,7 @@ GBuffer rasterize(const Tensor& clip, const Tensor& triangles, const RasterizeOp
              Tensor g = Tensor::zeros(clip.shape(), clip.dtype());
              dispatch_float(clip.dtype(), "rasterize", [&](auto tag) {
                using T = decltype(tag);
-               raster::rasterize_backward(clip.data<T>(), clip.size(0), triangles.data<std::int32_t>(),
-                                          triangles.size(0), settings, tri_id.data<std::int32_t>(),
+               raster::rasterize_backward(params<T>(clip, triangles, settings), tri_id.data<std::int32_t>(),
                                           uv_grad.data<T>(), g_depth.defined() ? g_depth.data<T>() : nullptr,
                                           g.data<T>());
              });

@@ -19,7 +19,7 @@ namespace gr {
 namespace {
 
 void require_shape(const Tensor& t, std::initializer_list<std::int64_t> dims, const char* name) {
-  if (!t.defined()) throw ValueError(std::string("ssr_trace: argument '") + name + "' is undefined");
+  detail::check_defined(t, "ssr_trace", name);
   bool ok = t.rank() == static_cast<int>(dims.size());
   int a = 0;
   for (std::int64_t d : dims) {
@@ -116,15 +116,15 @@ SsrTrace ssr_trace(const Tensor& position, const Tensor& normal, const Tensor& m
   require_shape(projection, {4, 4}, "projection");
   detail::check_float(position, "ssr_trace", "position");
   detail::check_same_float(position, normal, "ssr_trace");
-  if (mask.dtype() != DType::Int32) throw DTypeError("ssr_trace: argument 'mask' must be int32, got " + mask.describe());
+  detail::check_dtype(mask, DType::Int32, "ssr_trace", "mask");
   detail::check_float(projection, "ssr_trace", "projection");
   if (back_z.defined() != back_mask.defined())
     throw ValueError("ssr_trace: back_z and back_mask must be given together");
   if (back_z.defined()) {
     require_shape(back_z, {H, W}, "back_z");
     require_shape(back_mask, {H, W}, "back_mask");
-    if (back_z.dtype() != position.dtype()) throw DTypeError("ssr_trace: back_z must have position's dtype");
-    if (back_mask.dtype() != DType::Int32) throw DTypeError("ssr_trace: back_mask must be int32");
+    detail::check_same_dtype(back_z, position, "ssr_trace", "back_z", "position");
+    detail::check_dtype(back_mask, DType::Int32, "ssr_trace", "back_mask");
   }
   // The search is a stop-gradient: read the values, record nothing.
   if (position.dtype() == DType::Float64)
@@ -172,8 +172,7 @@ SsrComposite ssr_composite(const Tensor& colour, const SsrTrace& t, const Tensor
   if (colour.rank() != 3 || colour.size(0) != t.height || colour.size(1) != t.width)
     throw ShapeError("ssr_composite: colour must be [" + std::to_string(t.height) + ", " + std::to_string(t.width) +
                      ", C], got " + colour.describe());
-  if (colour.dtype() != t.hit.dtype())
-    throw DTypeError("ssr_composite: colour must have the trace's dtype, got " + colour.describe());
+  detail::check_same_dtype(colour, t.hit, "ssr_composite", "colour", "trace.hit");
   TextureOptions topt;
   topt.filter = Filter::Bilinear;
   topt.wrap = Wrap::Clamp;

@@ -19,12 +19,8 @@ void check_derivative(const Tensor& d, const Tensor& uv, const char* name) {
     throw ValueError(std::string("texture: trilinear filtering needs argument '") + name +
                      "' (d(uv)/dx and d(uv)/dy per pixel, same shape as uv)");
   detail::check_float(d, "texture", name);
-  if (d.dtype() != uv.dtype())
-    throw DTypeError(std::string("texture: argument '") + name + "' " + d.describe() + " must have uv's dtype " +
-                     dtype_name(uv.dtype()));
-  if (d.shape() != uv.shape())
-    throw ShapeError(std::string("texture: argument '") + name + "' must have uv's shape " + uv.shape().str() +
-                     ", got " + d.describe());
+  detail::check_same_dtype(d, uv, "texture", name, "uv");
+  detail::check_shape(d, uv.shape(), "texture", name);
 }
 
 // The kernel's view of one call.
@@ -58,9 +54,7 @@ Tensor texture(const Tensor& tex, const Tensor& uv, const TextureOptions& option
     throw ValueError("texture: argument 'tex' " + tex.describe() + " is larger than " +
                      std::to_string(kMaxTextureSize) + " texels per side");
   detail::check_float(uv, "texture", "uv");
-  if (uv.dtype() != tex.dtype())
-    throw DTypeError("texture: argument 'uv' " + uv.describe() + " must have the texture's dtype " +
-                     dtype_name(tex.dtype()));
+  detail::check_same_dtype(uv, tex, "texture", "uv", "tex");
   if (uv.rank() < 1 || uv.size(uv.rank() - 1) != 2)
     throw ShapeError("texture: argument 'uv' must have shape [..., 2], got " + uv.describe());
   if (options.max_mip_level < -1)

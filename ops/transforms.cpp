@@ -32,9 +32,7 @@ Tensor scalar_arg(const Tensor& t, const char* op, const char* name) {
 
 void check_vector(const Tensor& t, std::int64_t n, const char* op, const char* name) {
   detail::check_float(t, op, name);
-  if (t.rank() != 1 || t.size(0) != n)
-    throw ShapeError(std::string(op) + ": argument '" + name + "' must have shape [" + std::to_string(n) +
-                     "], got " + t.describe());
+  detail::check_shape(t, {n}, op, name);
 }
 
 Tensor constant(double v, DType dtype) { return Tensor::scalar(v, dtype); }
@@ -93,7 +91,7 @@ Tensor rotate_z(const Tensor& angle) {
 Tensor rotation_axis_angle(const Tensor& axis, const Tensor& angle) {
   check_vector(axis, 3, "rotation_axis_angle", "axis");
   Tensor a = scalar_arg(angle, "rotation_axis_angle", "angle");
-  if (axis.dtype() != a.dtype()) throw DTypeError("rotation_axis_angle: axis and angle have different dtypes");
+  detail::check_same_dtype(axis, a, "rotation_axis_angle", "axis", "angle");
   Tensor k = normalize(axis);
   Tensor x = component(k, 0), y = component(k, 1), z = component(k, 2);
   Tensor c = cos(a), s = sin(a), t = 1.0 - c;

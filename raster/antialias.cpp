@@ -6,12 +6,11 @@
 #include "raster/antialias.h"
 
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 #include <limits>
 #include <numeric>
-#include <string>
 
-#include "autodiff/error.h"
 #include "autodiff/parallel.h"
 #include "raster/guarded_math.h"
 #include "raster/project.h"
@@ -62,10 +61,6 @@ bool pair_owns_edge(bool horizontal, const detail::Vertices& v, std::int32_t a, 
 template <class T>
 EdgeTopology build_edge_topology(const std::int32_t* tris, std::int64_t num_tris, std::int64_t num_vertices,
                                  const T* pos, int dims) {
-  const char* op = "antialias topology";
-  detail::check_triangles(tris, num_tris, num_vertices, op);
-  if (pos && dims > 0) detail::check_finite(pos, num_vertices * dims, "positions", op);
-
   // Canonical vertex ids: the smallest index among vertices with equal rows.
   std::vector<std::int32_t> canon(static_cast<std::size_t>(num_vertices));
   std::iota(canon.begin(), canon.end(), 0);
@@ -152,22 +147,16 @@ EdgeTopology build_edge_topology(const std::int32_t* tris, std::int64_t num_tris
 // Forward
 
 template <class T>
-void antialias_forward(const T* image, int channels, const std::int32_t* tri_id, const T* depth, int width,
-                       int height, const T* clip, std::int64_t num_vertices, const std::int32_t* tris,
-                       std::int64_t num_tris, const EdgeTopology& topology, T* out,
-                       std::vector<AntialiasPair>* pairs_out, AntialiasStats* stats) {
-  const char* op = "antialias";
-  detail::check_image_size(width, height, op);
-  if (channels < 1) throw ValueError("antialias: channel count must be >= 1, got " + std::to_string(channels));
-  detail::check_triangles(tris, num_tris, num_vertices, op);
-  detail::check_finite(clip, 4 * num_vertices, "clip", op);
-  const int W = width, H = height, C = channels;
+void antialias_forward(const AntialiasParams<T>& prm, T* out, std::vector<AntialiasPair>* pairs_out,
+                       AntialiasStats* stats) {
+  assert(prm.width >= 1 && prm.height >= 1 && prm.channels >= 1 && prm.topology &&
+         prm.topology->num_tris == prm.num_tris);
+  const T *image = prm.image, *depth = prm.depth;
+  const std::int32_t *tri_id = prm.tri_id, *tris = prm.tris;
+  const EdgeTopology& topology = *prm.topology;
+  const int W = prm.width, H = prm.height, C = prm.channels;
   const std::int64_t P = static_cast<std::int64_t>(W) * H;
-  detail::check_tri_ids(tri_id, P, num_tris, op);
-  if (topology.num_tris != num_tris || static_cast<std::int64_t>(topology.neighbour.size()) != 3 * num_tris)
-    throw ValueError("antialias: the edge topology was built for " + std::to_string(topology.num_tris) +
-                     " triangles, but " + std::to_string(num_tris) + " were given");
-  const detail::Vertices v = detail::project_vertices(clip, num_vertices, W, H);
+  const detail::Vertices v = detail::project_vertices(prm.clip, prm.num_vertices, W, H);
 
   // Unchanged pixels: a plain copy.
   parallel_for(0, P * C, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
@@ -282,10 +271,13 @@ void antialias_forward(const T* image, int channels, const std::int32_t* tri_id,
 // Adjoint
 
 template <class T>
-void antialias_backward(const T* image, int channels, int width, int height, const T* clip,
-                        std::int64_t num_vertices, const std::vector<AntialiasPair>& pairs, const T* grad_out,
-                        T* grad_image, T* grad_clip) {
-  const int W = width, H = height, C = channels;
+void antialias_backward(const AntialiasParams<T>& prm, const std::vector<AntialiasPair>& pairs, const T* grad_out,
+                        const AntialiasGrads<T>& grads) {
+  T* grad_image = grads.image;
+  T* grad_clip = grads.clip;
+  const T *image = prm.image, *clip = prm.clip;
+  const std::int64_t num_vertices = prm.num_vertices;
+  const int W = prm.width, H = prm.height, C = prm.channels;
   const std::int64_t P = static_cast<std::int64_t>(W) * H;
   const std::int64_t n_pairs = static_cast<std::int64_t>(pairs.size());
   auto target_of = [](const AntialiasPair& pr, std::int64_t* target, std::int64_t* source, double* w) {
@@ -368,11 +360,9 @@ void antialias_backward(const T* image, int channels, int width, int height, con
 
 #define GR_INSTANTIATE(T)                                                                                      \
   template EdgeTopology build_edge_topology<T>(const std::int32_t*, std::int64_t, std::int64_t, const T*, int); \
-  template void antialias_forward<T>(const T*, int, const std::int32_t*, const T*, int, int, const T*,        \
-                                     std::int64_t, const std::int32_t*, std::int64_t, const EdgeTopology&, T*, \
-                                     std::vector<AntialiasPair>*, AntialiasStats*);                            \
-  template void antialias_backward<T>(const T*, int, int, int, const T*, std::int64_t,                         \
-                                      const std::vector<AntialiasPair>&, const T*, T*, T*);
+  template void antialias_forward<T>(const AntialiasParams<T>&, T*, std::vector<AntialiasPair>*, AntialiasStats*); \
+  template void antialias_backward<T>(const AntialiasParams<T>&, const std::vector<AntialiasPair>&, const T*, \
+                                      const AntialiasGrads<T>&);
 GR_INSTANTIATE(float)
 GR_INSTANTIATE(double)
 #undef GR_INSTANTIATE

@@ -38,8 +38,8 @@ struct EdgeTopology {
   std::vector<std::int64_t> neighbour;  // 3 * num_tris
 };
 
-// tris: M x 3 int32 (validated against num_vertices, IndexError naming the
-// triangle). weld_positions: num_vertices x dims row-major, or null (no welding).
+// tris: M x 3 int32, each index in [0, num_vertices) (not checked here).
+// weld_positions: num_vertices x dims row-major, finite, or null (no welding).
 template <class T>
 EdgeTopology build_edge_topology(const std::int32_t* tris, std::int64_t num_tris, std::int64_t num_vertices,
                                  const T* weld_positions, int dims);
@@ -59,24 +59,48 @@ struct AntialiasStats {
   std::int64_t blended_pairs = 0;    // of those, crossed by a silhouette edge their axis owns
 };
 
-// image, out: H x W x C row-major (out may not alias image). tri_id, depth:
-// H x W, the G-buffer of rasterize_forward on the same clip, tris, W, H.
-// clip: N x 4. For each blended pair (a silhouette edge a-b crossed between the
-// centres; horizontal pairs only when |dy| >= |dx| of a-b, vertical pairs only
-// when |dx| > |dy|), with t the crossing position:
+// Inputs of one antialias call, shared by the forward and the adjoint (which
+// reads only image, channels, width, height, clip and num_vertices). The
+// kernels trust them (the op validates, ops/check.h): tri_id and depth are
+// the G-buffer of rasterize_forward on the same clip, tris, width, height;
+// clip is finite; the topology was built for these triangles.
+template <class T>
+struct AntialiasParams {
+  const T* image = nullptr;  // height x width x channels row-major
+  int channels = 0;
+  int width = 0, height = 0;
+  const std::int32_t* tri_id = nullptr;  // height x width
+  const T* depth = nullptr;              // height x width
+  const T* clip = nullptr;               // num_vertices x 4
+  std::int64_t num_vertices = 0;
+  const std::int32_t* tris = nullptr;  // num_tris x 3
+  std::int64_t num_tris = 0;
+  const EdgeTopology* topology = nullptr;
+};
+
+// out: H x W x C row-major (may not alias image). For each blended pair (a
+// silhouette edge a-b crossed between the centres; horizontal pairs only when
+// |dy| >= |dx| of a-b, vertical pairs only when |dx| > |dy|), with t the
+// crossing position:
 //   t > 1/2: out[outside] += (t - 1/2) (image[inside] - image[outside])
 //   t <= 1/2: out[inside] += (1/2 - t) (image[outside] - image[inside])
 // (every other pixel is copied). Pairs are appended to *pairs if non-null
-// (the backward needs them). Throws ValueError / IndexError on bad input.
+// (the backward needs them).
 template <class T>
-void antialias_forward(const T* image, int channels, const std::int32_t* tri_id, const T* depth, int width,
-                       int height, const T* clip, std::int64_t num_vertices, const std::int32_t* tris,
-                       std::int64_t num_tris, const EdgeTopology& topology, T* out,
-                       std::vector<AntialiasPair>* pairs = nullptr, AntialiasStats* stats = nullptr);
+void antialias_forward(const AntialiasParams<T>& p, T* out, std::vector<AntialiasPair>* pairs = nullptr,
+                       AntialiasStats* stats = nullptr);
 
-// Adjoint of antialias_forward, ACCUMULATED (+=) into grad_image (H x W x C)
-// and grad_clip (N x 4); either may be null. With g = grad_out, per pair
-// (target = the pixel written, source = the other, w = |t - 1/2|):
+// Where an adjoint accumulates: dL/dimage (H x W x C) and dL/dclip (N x 4);
+// either may be null (not needed).
+template <class T>
+struct AntialiasGrads {
+  T* image = nullptr;
+  T* clip = nullptr;
+};
+
+// Adjoint of antialias_forward, ACCUMULATED (+=) into `grads`. With g =
+// grad_out, per pair (target = the pixel written, source = the other,
+// w = |t - 1/2|):
 //   dL/dimage += g;  dL/dimage[target] -= w g[target];  dL/dimage[source] += w g[target]
 //   dL/dt = g[target] . (image[inside] - image[outside])
 //   t = E_i / (E_i - E_o), E_* = E(centre; a, b) (screen edge function):
@@ -85,8 +109,7 @@ void antialias_forward(const T* image, int channels, const std::int32_t* tri_id,
 // then viewport_backward and wdivide_backward per vertex. Contributions are
 // added in pair order: bit-identical for any thread count.
 template <class T>
-void antialias_backward(const T* image, int channels, int width, int height, const T* clip,
-                        std::int64_t num_vertices, const std::vector<AntialiasPair>& pairs, const T* grad_out,
-                        T* grad_image, T* grad_clip);
+void antialias_backward(const AntialiasParams<T>& p, const std::vector<AntialiasPair>& pairs, const T* grad_out,
+                        const AntialiasGrads<T>& grads);
 
 }  // namespace gr::raster

@@ -7,11 +7,10 @@
 #include "raster/interpolate.h"
 
 #include <algorithm>
+#include <cassert>
 #include <cmath>
-#include <string>
 #include <vector>
 
-#include "autodiff/error.h"
 #include "autodiff/parallel.h"
 #include "raster/guarded_math.h"
 #include "raster/rasterize_setup.h"
@@ -60,8 +59,8 @@ struct Items {
 };
 
 template <class T>
-Items make_items(const T* clip, std::int64_t num_vertices, int width, int height, const std::int32_t* pixel_index) {
-  return {width, height, pixel_index, any_vertex_behind(clip, num_vertices)};
+Items make_items(const InterpolateParams<T>& p) {
+  return {p.width, p.height, p.pixel_index, any_vertex_behind(p.clip, p.num_vertices)};
 }
 
 // Homogeneous screen vertices V_k = (W/2 (x_k + w_k), H/2 (w_k - y_k), w_k).
@@ -150,45 +149,20 @@ void clip_weights_backward(const PixelWeights& pw, int width, int height, const 
   }
 }
 
-void check_args(std::int64_t num_vertices, std::int64_t channels, const std::int32_t* tris,
-                std::int64_t num_tris, const std::int32_t* tri_id, int width, int height,
-                const char* op) {
-  detail::check_image_size(width, height, op);
-  if (channels < 0) throw ShapeError(std::string(op) + ": attribute channel count is negative");
-  detail::check_triangles(tris, num_tris, num_vertices, op);
-  detail::check_tri_ids(tri_id, static_cast<std::int64_t>(width) * height, num_tris, op);
-}
+}  // namespace
 
-// Fragments are covered pixels: every tri_id must lie in [1, num_tris], every
-// pixel_index in [0, width * height).
-void check_fragment_args(std::int64_t num_vertices, std::int64_t channels, const std::int32_t* tris,
-                         std::int64_t num_tris, const std::int32_t* tri_id, const std::int32_t* pixel_index,
-                         std::int64_t count, int width, int height, const char* op) {
-  if (count < 0) throw ShapeError(std::string(op) + ": fragment count is negative");
-  if (channels < 0) throw ShapeError(std::string(op) + ": attribute channel count is negative");
-  detail::check_image_size(width, height, op);
-  detail::check_triangles(tris, num_tris, num_vertices, op);
-  const std::int64_t pixels = static_cast<std::int64_t>(width) * height;
-  for (std::int64_t f = 0; f < count; ++f) {
-    if (tri_id[f] < 1 || tri_id[f] > num_tris)
-      throw IndexError(std::string(op) + ": fragment " + std::to_string(f) + " has tri_id " +
-                       std::to_string(tri_id[f]) + ", outside [1, " + std::to_string(num_tris) +
-                       "] (fragments must be covered pixels)");
-    if (pixel_index[f] < 0 || pixel_index[f] >= pixels)
-      throw IndexError(std::string(op) + ": fragment " + std::to_string(f) + " has pixel_index " +
-                       std::to_string(pixel_index[f]) + ", outside [0, " + std::to_string(pixels) + ")");
-  }
-}
-
-// The image and fragment forms share these loops: "items" are the pixels of
+// The image and fragment forms run the same loops: "items" are the pixels of
 // an image (tri_id 0 = background) or the covered pixels of a fragment list
 // (tri_id never 0); item p reads tri_id[p], uv[2p, 2p+1] and writes or reads
 // C values at p * C; `items` gives its pixel (for clipped triangles' weights).
-// Arguments are checked by the callers.
 template <class T>
-void forward_items(const T* attr, std::int64_t C, const T* clip, const std::int32_t* tris,
-                   const std::int32_t* tri_id, const T* uv, std::int64_t P, const Items& items,
-                   bool perspective, const T* background, T* out) {
+void interpolate_forward(const InterpolateParams<T>& prm, T* out) {
+  assert(prm.width >= 1 && prm.height >= 1 && prm.channels >= 0 && prm.count >= 0);
+  const T *attr = prm.attr, *clip = prm.clip, *uv = prm.uv, *background = prm.background;
+  const std::int32_t *tris = prm.tris, *tri_id = prm.tri_id;
+  const std::int64_t C = prm.channels, P = prm.items();
+  const bool perspective = prm.perspective;
+  const Items items = make_items(prm);
   parallel_for(0, P, 4096, [&](std::int64_t lo, std::int64_t hi) {
     for (std::int64_t p = lo; p < hi; ++p) {
       T* o = out + p * C;
@@ -210,9 +184,15 @@ void forward_items(const T* attr, std::int64_t C, const T* clip, const std::int3
 }
 
 template <class T>
-void backward_items(const T* attr, std::int64_t N, std::int64_t C, const T* clip, const std::int32_t* tris,
-                    const std::int32_t* tri_id, const T* uv, std::int64_t P, const Items& items,
-                    bool perspective, const T* grad_out, T* grad_attr, T* grad_clip, T* grad_uv) {
+void interpolate_backward(const InterpolateParams<T>& prm, const T* grad_out, const InterpolateGrads<T>& grads) {
+  assert(prm.width >= 1 && prm.height >= 1 && prm.channels >= 0 && prm.count >= 0);
+  T* const grad_attr = grads.attr;
+  T* grad_clip = grads.clip;
+  T* const grad_uv = grads.uv;
+  const T *attr = prm.attr, *clip = prm.clip, *uv = prm.uv;
+  const std::int32_t *tris = prm.tris, *tri_id = prm.tri_id;
+  const std::int64_t N = prm.num_vertices, C = prm.channels, P = prm.items();
+  const bool perspective = prm.perspective;
   if (!grad_attr && !grad_clip && !grad_uv) return;
   // Only the perspective mode has a gradient to clip.
   if (!perspective) grad_clip = nullptr;
@@ -220,6 +200,7 @@ void backward_items(const T* attr, std::int64_t N, std::int64_t C, const T* clip
   // One vertex range per thread for the scatter (any count gives the same bits).
   const std::int64_t vertex_groups = std::max<std::int64_t>(1, std::min<std::int64_t>(num_threads(), N));
   const std::int64_t per_group = (N + vertex_groups - 1) / vertex_groups;
+  const Items items = make_items(prm);
 
   // Items in chunks: per-item terms in parallel, per-vertex sums in item order.
   // live: 0 skip, 1 gradient to w (grad_w), 2 to x, y, w (grad_xyw; clipped triangle).
@@ -323,65 +304,15 @@ void backward_items(const T* attr, std::int64_t N, std::int64_t C, const T* clip
   }
 }
 
-}  // namespace
-
 template <class T>
-void interpolate_forward(const T* attr, std::int64_t num_vertices, std::int64_t C, const T* clip,
-                         const std::int32_t* tris, std::int64_t num_tris, const std::int32_t* tri_id,
-                         const T* uv, int width, int height, bool perspective,
-                         const typename detail::NoDeduce<T>::type* background, T* out) {
-  check_args(num_vertices, C, tris, num_tris, tri_id, width, height, "interpolate");
-  forward_items(attr, C, clip, tris, tri_id, uv, static_cast<std::int64_t>(width) * height,
-                make_items(clip, num_vertices, width, height, nullptr), perspective, background, out);
-}
-
-template <class T>
-void interpolate_backward(const T* attr, std::int64_t num_vertices, std::int64_t C, const T* clip,
-                          const std::int32_t* tris, std::int64_t num_tris,
-                          const std::int32_t* tri_id, const T* uv, int width, int height,
-                          bool perspective, const T* grad_out,
-                          typename detail::NoDeduce<T>::type* grad_attr,
-                          typename detail::NoDeduce<T>::type* grad_clip,
-                          typename detail::NoDeduce<T>::type* grad_uv) {
-  check_args(num_vertices, C, tris, num_tris, tri_id, width, height, "interpolate backward");
-  backward_items(attr, num_vertices, C, clip, tris, tri_id, uv, static_cast<std::int64_t>(width) * height,
-                 make_items(clip, num_vertices, width, height, nullptr), perspective, grad_out, grad_attr, grad_clip,
-                 grad_uv);
-}
-
-template <class T>
-void interpolate_fragments_forward(const T* attr, std::int64_t num_vertices, std::int64_t C, const T* clip,
-                                   const std::int32_t* tris, std::int64_t num_tris,
-                                   const std::int32_t* tri_id, const T* uv, const std::int32_t* pixel_index,
-                                   std::int64_t count, int width, int height, bool perspective, T* out) {
-  check_fragment_args(num_vertices, C, tris, num_tris, tri_id, pixel_index, count, width, height,
-                      "interpolate (fragments)");
-  forward_items(attr, C, clip, tris, tri_id, uv, count, make_items(clip, num_vertices, width, height, pixel_index),
-                perspective, static_cast<const T*>(nullptr), out);
-}
-
-template <class T>
-void interpolate_fragments_backward(const T* attr, std::int64_t num_vertices, std::int64_t C, const T* clip,
-                                    const std::int32_t* tris, std::int64_t num_tris,
-                                    const std::int32_t* tri_id, const T* uv, const std::int32_t* pixel_index,
-                                    std::int64_t count, int width, int height, bool perspective,
-                                    const T* grad_out, typename detail::NoDeduce<T>::type* grad_attr,
-                                    typename detail::NoDeduce<T>::type* grad_clip,
-                                    typename detail::NoDeduce<T>::type* grad_uv) {
-  check_fragment_args(num_vertices, C, tris, num_tris, tri_id, pixel_index, count, width, height,
-                      "interpolate (fragments) backward");
-  backward_items(attr, num_vertices, C, clip, tris, tri_id, uv, count,
-                 make_items(clip, num_vertices, width, height, pixel_index), perspective, grad_out, grad_attr,
-                 grad_clip, grad_uv);
-}
-
-template <class T>
-void interpolate_derivatives(const T* attr, std::int64_t num_vertices, std::int64_t C, const T* clip,
-                             const std::int32_t* tris, std::int64_t num_tris, const std::int32_t* tri_id,
-                             const T* uv, int width, int height, bool perspective, T* d_dx, T* d_dy) {
-  check_args(num_vertices, C, tris, num_tris, tri_id, width, height, "interpolate derivatives");
-  const std::int64_t P = static_cast<std::int64_t>(width) * height;
-  const Items items = make_items(clip, num_vertices, width, height, nullptr);
+void interpolate_derivatives(const InterpolateParams<T>& prm, T* d_dx, T* d_dy) {
+  assert(!prm.pixel_index && prm.width >= 1 && prm.height >= 1);
+  const T *attr = prm.attr, *clip = prm.clip, *uv = prm.uv;
+  const std::int32_t *tris = prm.tris, *tri_id = prm.tri_id;
+  const std::int64_t C = prm.channels, P = prm.items();
+  const int width = prm.width, height = prm.height;
+  const bool perspective = prm.perspective;
+  const Items items = make_items(prm);
   parallel_for(0, P, 4096, [&](std::int64_t lo, std::int64_t hi) {
     for (std::int64_t p = lo; p < hi; ++p) {
       T* ox = d_dx + p * C;
@@ -434,26 +365,10 @@ void interpolate_derivatives(const T* attr, std::int64_t num_vertices, std::int6
   });
 }
 
-#define GR_INSTANTIATE(T)                                                                          \
-  template void interpolate_forward<T>(const T*, std::int64_t, std::int64_t, const T*,            \
-                                       const std::int32_t*, std::int64_t, const std::int32_t*,    \
-                                       const T*, int, int, bool, const T*, T*);                   \
-  template void interpolate_backward<T>(const T*, std::int64_t, std::int64_t, const T*,           \
-                                        const std::int32_t*, std::int64_t, const std::int32_t*,   \
-                                        const T*, int, int, bool, const T*, T*, T*, T*);   \
-  template void interpolate_derivatives<T>(const T*, std::int64_t, std::int64_t, const T*,        \
-                                           const std::int32_t*, std::int64_t, const std::int32_t*,\
-                                           const T*, int, int, bool, T*, T*);                      \
-  template void interpolate_fragments_forward<T>(const T*, std::int64_t, std::int64_t, const T*,  \
-                                                 const std::int32_t*, std::int64_t,               \
-                                                 const std::int32_t*, const T*,                   \
-                                                 const std::int32_t*, std::int64_t, int, int,     \
-                                                 bool, T*);                                       \
-  template void interpolate_fragments_backward<T>(const T*, std::int64_t, std::int64_t, const T*, \
-                                                  const std::int32_t*, std::int64_t,              \
-                                                  const std::int32_t*, const T*,                  \
-                                                  const std::int32_t*, std::int64_t, int, int,    \
-                                                  bool, const T*, T*, T*, T*);
+#define GR_INSTANTIATE(T)                                                                   \
+  template void interpolate_forward<T>(const InterpolateParams<T>&, T*);                    \
+  template void interpolate_backward<T>(const InterpolateParams<T>&, const T*, const InterpolateGrads<T>&); \
+  template void interpolate_derivatives<T>(const InterpolateParams<T>&, T*, T*);
 GR_INSTANTIATE(float)
 GR_INSTANTIATE(double)
 #undef GR_INSTANTIATE

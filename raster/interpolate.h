@@ -17,26 +17,58 @@
 
 #include <cstdint>
 
-#include "raster/rasterize.h"  // detail::NoDeduce
-
 namespace gr::raster {
 
-// out (H*W*C): per pixel,
+// Inputs of one interpolate call, shared by the forward, the adjoint and the
+// derivatives. Image form (pixel_index null): the items are the width x
+// height pixels, tri_id and uv hold H*W and H*W*2 values (tri_id 0 =
+// background). Fragment form (pixel_index set): the items are `count`
+// covered pixels (e.g. gr::Fragments), tri_id (count, each >= 1), uv
+// (count x 2), pixel_index (count: the row-major pixel whose centre the
+// clipped triangles' weights use). The kernels trust them (the op validates,
+// ops/check.h): indices in range, tri_id in [0, num_tris] (fragments: from 1),
+// pixel_index in [0, W*H), the image size within RasterSettings' limits.
+template <class T>
+struct InterpolateParams {
+  const T* attr = nullptr;  // num_vertices x channels
+  std::int64_t num_vertices = 0;
+  std::int64_t channels = 0;
+  const T* clip = nullptr;             // num_vertices x 4 (z, w read; x, y too for clipped triangles)
+  const std::int32_t* tris = nullptr;  // num_tris x 3
+  std::int64_t num_tris = 0;
+  const std::int32_t* tri_id = nullptr;
+  const T* uv = nullptr;
+  int width = 0, height = 0;
+  const std::int32_t* pixel_index = nullptr;  // fragment form only
+  std::int64_t count = 0;                     // fragment form only
+  bool perspective = true;
+  const T* background = nullptr;  // image form: C values for tri_id 0 (null = zeros)
+  // Pixels (image form) or fragments.
+  std::int64_t items() const { return pixel_index ? count : static_cast<std::int64_t>(width) * height; }
+};
+
+// out (items x C): per item,
 //   perspective: A = sum_k q_k A_k / s,  s = sum_k q_k,  q_k = lambda_k / w_k
 //                (F_k / D on clipped triangles, above);
 //   linear:      A = sum_k lambda_k A_k.
-// Background pixels (tri_id 0) get `background` (C values; null = zeros).
-// attr: N x C; clip: N x 4 (z, w read; x, y too for clipped triangles);
-// tris: M x 3; uv: H*W*2.
+// Background pixels (tri_id 0) get `background`. The fragment form gives the
+// image form's values at the fragments' pixels bit for bit (same loops, same
+// summation order) when the fragments are in ascending pixel order.
 template <class T>
-void interpolate_forward(const T* attr, std::int64_t num_vertices, std::int64_t channels,
-                         const T* clip, const std::int32_t* tris, std::int64_t num_tris,
-                         const std::int32_t* tri_id, const T* uv, int width, int height,
-                         bool perspective, const typename detail::NoDeduce<T>::type* background,
-                         T* out);
+void interpolate_forward(const InterpolateParams<T>& p, T* out);
+
+// Where the adjoint accumulates: dL/dattr (N x C), dL/dclip (N x 4: column 3,
+// plus columns 0 and 1 for the vertices of clipped triangles), dL/duv
+// (items x 2); any may be null (not needed).
+template <class T>
+struct InterpolateGrads {
+  T* attr = nullptr;
+  T* clip = nullptr;
+  T* uv = nullptr;
+};
 
 // Adjoint of interpolate_forward, ACCUMULATED (+=). With g = dL/dA (C values)
-// at a covered pixel and q_k = lambda_k / w_k:
+// at a covered item and q_k = lambda_k / w_k:
 //   perspective: dL/dA_k += g q_k / s,
 //                G_k = dL/dq_k = g . (A_k - A) / s,  dL/dlambda_k = G_k / w_k,
 //                dL/dw_k -= G_k q_k / w_k;
@@ -45,43 +77,12 @@ void interpolate_forward(const T* attr, std::int64_t num_vertices, std::int64_t 
 //                dF_k/dV_k+2 = e x V_k+1, then V -> x, y, w of clip;
 //   linear:      dL/dA_k += g lambda_k,  dL/dlambda_k = g . A_k;
 //   dL/du += dL/dlambda_1 - dL/dlambda_0,  dL/dv += dL/dlambda_2 - dL/dlambda_0.
-// grad_attr (N x C), grad_clip (N x 4: column 3, plus columns 0 and 1 for
-// the vertices of clipped triangles), grad_uv
-// (H*W*2): any may be null (not needed). Background pixels and pixels whose
-// incoming gradient is zero contribute nothing. Per-vertex sums are added in
-// pixel order, so results are bit-identical for any thread count. Divisions
-// by s and w_k are guarded so the result stays finite.
+// grad_out: items x C. Background pixels and items whose incoming
+// gradient is zero contribute nothing. Per-vertex sums are added in item
+// order, so results are bit-identical for any thread count. Divisions by s
+// and w_k are guarded so the result stays finite.
 template <class T>
-void interpolate_backward(const T* attr, std::int64_t num_vertices, std::int64_t channels,
-                          const T* clip, const std::int32_t* tris, std::int64_t num_tris,
-                          const std::int32_t* tri_id, const T* uv, int width, int height,
-                          bool perspective, const T* grad_out,
-                          typename detail::NoDeduce<T>::type* grad_attr,
-                          typename detail::NoDeduce<T>::type* grad_clip,
-                          typename detail::NoDeduce<T>::type* grad_uv);
-
-// Fragment form: the same per-pixel math over `count` fragments (covered
-// pixels, e.g. gr::Fragments) of a width x height image instead of the whole
-// image. tri_id (count, each in [1, num_tris]), uv (count x 2), pixel_index
-// (count, each in [0, W*H): the fragment's row-major pixel, whose centre the
-// clipped triangles' weights use), out / grad_out (count x C), grad_uv
-// (count x 2). Results equal interpolate_forward / interpolate_backward at the
-// fragments' pixels bit for bit (same loops, same summation order) when the
-// fragments are in ascending pixel order.
-template <class T>
-void interpolate_fragments_forward(const T* attr, std::int64_t num_vertices, std::int64_t channels,
-                                   const T* clip, const std::int32_t* tris, std::int64_t num_tris,
-                                   const std::int32_t* tri_id, const T* uv, const std::int32_t* pixel_index,
-                                   std::int64_t count, int width, int height, bool perspective, T* out);
-template <class T>
-void interpolate_fragments_backward(const T* attr, std::int64_t num_vertices, std::int64_t channels,
-                                    const T* clip, const std::int32_t* tris, std::int64_t num_tris,
-                                    const std::int32_t* tri_id, const T* uv, const std::int32_t* pixel_index,
-                                    std::int64_t count, int width, int height, bool perspective,
-                                    const T* grad_out,
-                                    typename detail::NoDeduce<T>::type* grad_attr,
-                                    typename detail::NoDeduce<T>::type* grad_clip,
-                                    typename detail::NoDeduce<T>::type* grad_uv);
+void interpolate_backward(const InterpolateParams<T>& p, const T* grad_out, const InterpolateGrads<T>& grads);
 
 // Screen-space derivatives of interpolate_forward's output (not differentiated
 // further): d_dx, d_dy (H*W*C each) get dA/dx and dA/dy per pixel, x to the
@@ -95,11 +96,8 @@ void interpolate_fragments_backward(const T* attr, std::int64_t num_vertices, st
 //   perspective: dA/dx = sum_k (dq_k/dx) (A_k - A) / s,  dq_k/dx = c_k.x / D
 //                (not divided by w_k, so exact at w_k = 0);
 //   linear:      dA/dx = sum_k (dlambda_k/dx) A_k;
-// likewise for y. Background pixels get zeros.
+// likewise for y. Background pixels get zeros. Image form only.
 template <class T>
-void interpolate_derivatives(const T* attr, std::int64_t num_vertices, std::int64_t channels,
-                             const T* clip, const std::int32_t* tris, std::int64_t num_tris,
-                             const std::int32_t* tri_id, const T* uv, int width, int height,
-                             bool perspective, T* d_dx, T* d_dy);
+void interpolate_derivatives(const InterpolateParams<T>& p, T* d_dx, T* d_dy);
 
 }  // namespace gr::raster

@@ -12,6 +12,7 @@
 #include "raster/rasterize.h"
 
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 #include <limits>
 #include <memory>
@@ -118,46 +119,47 @@ void scan_tile(const detail::Vertices& v, const std::int32_t* tris, const Forwar
   }
 }
 
-}  // namespace
+// The tile grid and triangle chunks of one forward call. Chunks depend on the
+// triangle and tile counts only, never on the thread count.
+struct Grid {
+  int width, height, tiles_x, tiles;
+  std::int64_t chunk, chunks;
+};
 
+Grid make_grid(std::int64_t num_tris, int width, int height) {
+  Grid g;
+  g.width = width;
+  g.height = height;
+  g.tiles_x = (width + kTile - 1) / kTile;
+  g.tiles = g.tiles_x * ((height + kTile - 1) / kTile);
+  g.chunk = bin_chunk(num_tris, g.tiles);
+  g.chunks = (num_tris + g.chunk - 1) / g.chunk;
+  return g;
+}
+
+// Phase 2 (parallel over the triangle chunks): classify every triangle,
+// keep its pixel box (and, front to back, its depth lower bound), and count
+// each chunk's triangles per tile. Returns the summed triangle counts.
 template <class T>
-void rasterize_forward(const T* clip, std::int64_t num_vertices, const std::int32_t* tris,
-                       std::int64_t num_tris, const RasterSettings& s, std::int32_t* tri_id,
-                       T* uv, T* depth, RasterStats* stats) {
-  const char* op = "rasterize";
-  // Validate before allocating anything.
-  detail::check_image_size(s.width, s.height, op);
-  detail::check_triangles(tris, num_tris, num_vertices, op);
-  detail::check_finite(clip, 4 * num_vertices, "clip", op);
-  const int W = s.width, H = s.height;
-  auto lease = g_forward_pool.take();
-  ForwardScratch& sc = *lease;
-
-  // Per-vertex projection, then per-triangle classification and binning.
-  detail::project_vertices_into(clip, num_vertices, W, H, &sc.v);
+RasterStats classify_and_count(const RasterParams<T>& p, const Grid& g, ForwardScratch& sc) {
   const detail::Vertices& v = sc.v;
-  const int cull = s.cull == Cull::Back ? 1 : s.cull == Cull::Front ? -1 : 0;
-  const int tiles_x = (W + kTile - 1) / kTile, tiles_y = (H + kTile - 1) / kTile;
-  const int tiles = tiles_x * tiles_y;
-  const std::int64_t chunk = bin_chunk(num_tris, tiles);
-  const std::int64_t chunks = (num_tris + chunk - 1) / chunk;
-  sc.box.resize(static_cast<std::size_t>(num_tris));
-  if (s.front_to_back) sc.zmin.resize(static_cast<std::size_t>(num_tris));
-  sc.count.resize(static_cast<std::size_t>(chunks) * tiles);
-  sc.chunk_stats.assign(static_cast<std::size_t>(chunks), RasterStats{});
-
-  // Pass 1 (parallel over fixed triangle chunks): classify, and count each
-  // chunk's triangles per tile. Chunks depend on num_tris and tiles only.
-  parallel_for(0, chunks, 1, [&](std::int64_t c0, std::int64_t c1) {
+  const Cull cull_mode = p.settings.cull;
+  const int cull = cull_mode == Cull::Back ? 1 : cull_mode == Cull::Front ? -1 : 0;
+  const bool f2b = p.settings.front_to_back;
+  sc.box.resize(static_cast<std::size_t>(p.num_tris));
+  if (f2b) sc.zmin.resize(static_cast<std::size_t>(p.num_tris));
+  sc.count.resize(static_cast<std::size_t>(g.chunks) * g.tiles);
+  sc.chunk_stats.assign(static_cast<std::size_t>(g.chunks), RasterStats{});
+  parallel_for(0, g.chunks, 1, [&](std::int64_t c0, std::int64_t c1) {
     for (std::int64_t c = c0; c < c1; ++c) {
-      std::int32_t* cnt = &sc.count[static_cast<std::size_t>(c) * tiles];
-      std::fill(cnt, cnt + tiles, 0);
+      std::int32_t* cnt = &sc.count[static_cast<std::size_t>(c) * g.tiles];
+      std::fill(cnt, cnt + g.tiles, 0);
       RasterStats& st = sc.chunk_stats[c];
-      const std::int64_t t1 = std::min(num_tris, (c + 1) * chunk);
-      for (std::int64_t t = c * chunk; t < t1; ++t) {
-        const std::int32_t* tri = tris + 3 * t;
+      const std::int64_t t1 = std::min(p.num_tris, (c + 1) * g.chunk);
+      for (std::int64_t t = c * g.chunk; t < t1; ++t) {
+        const std::int32_t* tri = p.tris + 3 * t;
         detail::PixelBox& b = sc.box[t];
-        const detail::TriClass k = detail::classify_triangle(v, tri, W, H, cull, &b);
+        const detail::TriClass k = detail::classify_triangle(v, tri, g.width, g.height, cull, &b);
         switch (k) {
           case detail::TriClass::Outside: ++st.culled_outside; break;
           case detail::TriClass::ZeroArea: ++st.culled_zero_area; break;
@@ -170,16 +172,16 @@ void rasterize_forward(const T* clip, std::int64_t num_vertices, const std::int3
           b = {1, 1, 0, 0};  // not binned
           continue;
         }
-        if (s.front_to_back)
+        if (f2b)
           sc.zmin[t] = k == detail::TriClass::Clipped ? -std::numeric_limits<double>::infinity()
                                                       : depth_lower_bound(v, tri);
         for (int ty = b.y0 / kTile; ty <= b.y1 / kTile; ++ty)
-          for (int tx = b.x0 / kTile; tx <= b.x1 / kTile; ++tx) ++cnt[ty * tiles_x + tx];
+          for (int tx = b.x0 / kTile; tx <= b.x1 / kTile; ++tx) ++cnt[ty * g.tiles_x + tx];
       }
     }
   });
   RasterStats st;
-  st.triangles_in = num_tris;
+  st.triangles_in = p.num_tris;
   for (const RasterStats& c : sc.chunk_stats) {
     st.culled_outside += c.culled_outside;
     st.culled_zero_area += c.culled_zero_area;
@@ -188,74 +190,105 @@ void rasterize_forward(const T* clip, std::int64_t num_vertices, const std::int3
     st.clipped_near += c.clipped_near;
     st.rasterized += c.rasterized;
   }
-  if (stats) *stats = st;
+  return st;
+}
 
-  // Offsets tile by tile, chunks in order within a tile: each tile's list is
-  // in ascending triangle order. Counts become each (chunk, tile) cursor.
-  sc.offset.resize(static_cast<std::size_t>(tiles) + 1);
-  {
-    std::int64_t run = 0;
-    for (int i = 0; i < tiles; ++i) {
-      sc.offset[i] = run;
-      for (std::int64_t c = 0; c < chunks; ++c) {
-        std::int32_t& a = sc.count[static_cast<std::size_t>(c) * tiles + i];
-        const std::int64_t n = a;
-        a = static_cast<std::int32_t>(run - sc.offset[i]);  // cursor relative to the tile start
-        run += n;
-      }
+// Phase 3: offsets tile by tile, chunks in order within a tile, so each
+// tile's list is in ascending triangle order. Counts become each (chunk,
+// tile) cursor; the bin array is sized.
+void bin_offsets(const Grid& g, ForwardScratch& sc) {
+  sc.offset.resize(static_cast<std::size_t>(g.tiles) + 1);
+  std::int64_t run = 0;
+  for (int i = 0; i < g.tiles; ++i) {
+    sc.offset[i] = run;
+    for (std::int64_t c = 0; c < g.chunks; ++c) {
+      std::int32_t& a = sc.count[static_cast<std::size_t>(c) * g.tiles + i];
+      const std::int64_t n = a;
+      a = static_cast<std::int32_t>(run - sc.offset[i]);  // cursor relative to the tile start
+      run += n;
     }
-    sc.offset[tiles] = run;
   }
-  sc.bin.resize(static_cast<std::size_t>(sc.offset[tiles]));
+  sc.offset[g.tiles] = run;
+  sc.bin.resize(static_cast<std::size_t>(run));
+}
 
-  // Pass 2 (parallel over the same chunks): fill, each chunk into its own slots.
-  parallel_for(0, chunks, 1, [&](std::int64_t c0, std::int64_t c1) {
+// Phase 4 (parallel over the same chunks): each chunk writes its triangle ids
+// into its own slots of the tiles it touches.
+void fill_bins(std::int64_t num_tris, const Grid& g, ForwardScratch& sc) {
+  parallel_for(0, g.chunks, 1, [&](std::int64_t c0, std::int64_t c1) {
     for (std::int64_t c = c0; c < c1; ++c) {
-      std::int32_t* fill = &sc.count[static_cast<std::size_t>(c) * tiles];
-      const std::int64_t t1 = std::min(num_tris, (c + 1) * chunk);
-      for (std::int64_t t = c * chunk; t < t1; ++t) {
+      std::int32_t* fill = &sc.count[static_cast<std::size_t>(c) * g.tiles];
+      const std::int64_t t1 = std::min(num_tris, (c + 1) * g.chunk);
+      for (std::int64_t t = c * g.chunk; t < t1; ++t) {
         const detail::PixelBox& b = sc.box[t];
         if (b.x0 > b.x1) continue;
         for (int ty = b.y0 / kTile; ty <= b.y1 / kTile; ++ty)
           for (int tx = b.x0 / kTile; tx <= b.x1 / kTile; ++tx) {
-            const int i = ty * tiles_x + tx;
+            const int i = ty * g.tiles_x + tx;
             sc.bin[sc.offset[i] + fill[i]++] = static_cast<std::int32_t>(t);
           }
       }
     }
   });
+}
 
-  // Background everywhere (one parallel pass); the non-empty tiles then
-  // overwrite their covered pixels, each tile writing only its own pixels.
-  const std::int64_t P = static_cast<std::int64_t>(W) * H;
-  parallel_for(0, P, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
+// Phase 5: background everywhere (one parallel pass).
+template <class T>
+void clear_background(std::int64_t pixels, std::int32_t* tri_id, T* uv, T* depth) {
+  parallel_for(0, pixels, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
     std::fill(tri_id + lo, tri_id + hi, 0);
     std::fill(uv + 2 * lo, uv + 2 * hi, T(0));
     std::fill(depth + lo, depth + hi, T(kBackgroundDepth));
   });
+}
+
+// Phase 6 (parallel over the non-empty tiles): scan each tile's triangles
+// and write its covered pixels; each tile writes only its own pixels.
+template <class T>
+void scan_tiles(const RasterParams<T>& p, const Grid& g, const ForwardScratch& sc, std::int32_t* tri_id, T* uv,
+                T* depth) {
   std::vector<int> busy;
-  for (int i = 0; i < tiles; ++i)
+  for (int i = 0; i < g.tiles; ++i)
     if (sc.offset[i + 1] > sc.offset[i]) busy.push_back(i);
+  const int W = g.width, H = g.height;
   parallel_for(0, static_cast<std::int64_t>(busy.size()), 1, [&](std::int64_t lo, std::int64_t hi) {
     std::unique_ptr<TileBuffer> tb(new TileBuffer);
     std::vector<std::int32_t> order;
     for (std::int64_t n = lo; n < hi; ++n) {
       const int tile = busy[n];
-      scan_tile(v, tris, sc, tiles_x, tile, W, H, s.front_to_back, order, *tb);
-      const int tx0 = (tile % tiles_x) * kTile, ty0 = (tile / tiles_x) * kTile;
+      scan_tile(sc.v, p.tris, sc, g.tiles_x, tile, W, H, p.settings.front_to_back, order, *tb);
+      const int tx0 = (tile % g.tiles_x) * kTile, ty0 = (tile / g.tiles_x) * kTile;
       const int tw = std::min(kTile, W - tx0), th = std::min(kTile, H - ty0);
       for (int y = 0; y < th; ++y)
         for (int x = 0; x < tw; ++x) {
           const int q = y * kTile + x;
           if (tb->id[q] < 0) continue;
-          const std::int64_t p = static_cast<std::int64_t>(ty0 + y) * W + tx0 + x;
-          tri_id[p] = tb->id[q] + 1;
-          uv[2 * p] = static_cast<T>(tb->u[q]);
-          uv[2 * p + 1] = static_cast<T>(tb->v[q]);
-          depth[p] = static_cast<T>(tb->z[q]);
+          const std::int64_t px = static_cast<std::int64_t>(ty0 + y) * W + tx0 + x;
+          tri_id[px] = tb->id[q] + 1;
+          uv[2 * px] = static_cast<T>(tb->u[q]);
+          uv[2 * px + 1] = static_cast<T>(tb->v[q]);
+          depth[px] = static_cast<T>(tb->z[q]);
         }
     }
   });
+}
+
+}  // namespace
+
+template <class T>
+void rasterize_forward(const RasterParams<T>& p, std::int32_t* tri_id, T* uv, T* depth, RasterStats* stats) {
+  const int W = p.settings.width, H = p.settings.height;
+  assert(W >= 1 && H >= 1 && p.num_vertices >= 0 && p.num_tris >= 0);
+  auto lease = g_forward_pool.take();
+  ForwardScratch& sc = *lease;
+  detail::project_vertices_into(p.clip, p.num_vertices, W, H, &sc.v);  // phase 1: per-vertex projection
+  const Grid g = make_grid(p.num_tris, W, H);
+  const RasterStats st = classify_and_count(p, g, sc);
+  if (stats) *stats = st;
+  bin_offsets(g, sc);
+  fill_bins(p.num_tris, g, sc);
+  clear_background(static_cast<std::int64_t>(W) * H, tri_id, uv, depth);
+  scan_tiles(p, g, sc, tri_id, uv, depth);
 }
 
 namespace {
@@ -371,17 +404,13 @@ void parallel_fill(double* data, std::int64_t n) {
 }  // namespace
 
 template <class T>
-void rasterize_backward(const T* clip, std::int64_t num_vertices, const std::int32_t* tris,
-                        std::int64_t num_tris, const RasterSettings& s, const std::int32_t* tri_id,
-                        const T* grad_uv, const typename detail::NoDeduce<T>::type* grad_depth,
+void rasterize_backward(const RasterParams<T>& p, const std::int32_t* tri_id, const T* grad_uv, const T* grad_depth,
                         T* grad_clip) {
-  const char* op = "rasterize backward";
-  detail::check_image_size(s.width, s.height, op);
-  detail::check_triangles(tris, num_tris, num_vertices, op);
-  detail::check_finite(clip, 4 * num_vertices, "clip", op);
-  const int W = s.width, H = s.height;
+  const T* clip = p.clip;
+  const std::int64_t num_vertices = p.num_vertices;
+  const std::int32_t* tris = p.tris;
+  const int W = p.settings.width, H = p.settings.height;
   const std::int64_t P = static_cast<std::int64_t>(W) * H;
-  detail::check_tri_ids(tri_id, P, num_tris, op);
   auto lease = g_backward_pool.take();
   BackwardScratch& sc = *lease;
   detail::project_vertices_into(clip, num_vertices, W, H, &sc.v);
@@ -461,12 +490,9 @@ void rasterize_backward(const T* clip, std::int64_t num_vertices, const std::int
     });
 }
 
-#define GR_INSTANTIATE(T)                                                                         \
-  template void rasterize_forward<T>(const T*, std::int64_t, const std::int32_t*, std::int64_t,  \
-                                     const RasterSettings&, std::int32_t*, T*, T*, RasterStats*); \
-  template void rasterize_backward<T>(const T*, std::int64_t, const std::int32_t*, std::int64_t, \
-                                      const RasterSettings&, const std::int32_t*, const T*,       \
-                                      const T*, T*);
+#define GR_INSTANTIATE(T)                                                                                \
+  template void rasterize_forward<T>(const RasterParams<T>&, std::int32_t*, T*, T*, RasterStats*); \
+  template void rasterize_backward<T>(const RasterParams<T>&, const std::int32_t*, const T*, const T*, T*);
 GR_INSTANTIATE(float)
 GR_INSTANTIATE(double)
 #undef GR_INSTANTIATE

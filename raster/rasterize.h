@@ -12,14 +12,6 @@
 
 namespace gr::raster {
 
-namespace detail {
-// Keeps nullable pointer arguments out of template deduction (so nullptr works).
-template <class T>
-struct NoDeduce {
-  using type = T;
-};
-}  // namespace detail
-
 // Which faces to drop. Front face = counter-clockwise in NDC (OpenGL default),
 // i.e. 2A > 0 in screen coordinates (y down).
 enum class Cull { None, Back, Front };
@@ -50,17 +42,27 @@ struct RasterStats {
 // Depth written to background pixels (the far plane).
 constexpr double kBackgroundDepth = 1.0;
 
-// clip: N x 4 row-major (x, y, z, w); tris: M x 3 int32 vertex indices.
+// Inputs of one rasterize call, shared by the forward and the adjoint. The
+// kernels trust them (the op validates, ops/check.h): the image size within
+// RasterSettings' limits, every index in [0, num_vertices), clip finite.
+template <class T>
+struct RasterParams {
+  const T* clip = nullptr;  // num_vertices x 4 row-major (x, y, z, w)
+  std::int64_t num_vertices = 0;
+  const std::int32_t* tris = nullptr;  // num_tris x 3 vertex indices
+  std::int64_t num_tris = 0;
+  RasterSettings settings;
+};
+
 // Writes tri_id (H*W), uv (H*W*2, interleaved u, v), depth (H*W); row-major,
 // row 0 at the top. Background: tri_id 0, uv (0, 0), depth kBackgroundDepth.
-// Throws ValueError (bad size, NaN/Inf position), IndexError (bad index).
 template <class T>
-void rasterize_forward(const T* clip, std::int64_t num_vertices, const std::int32_t* tris,
-                       std::int64_t num_tris, const RasterSettings& settings,
-                       std::int32_t* tri_id, T* uv, T* depth, RasterStats* stats = nullptr);
+void rasterize_forward(const RasterParams<T>& p, std::int32_t* tri_id, T* uv, T* depth,
+                       RasterStats* stats = nullptr);
 
-// Adjoint of rasterize_forward for a fixed coverage (tri_id), ACCUMULATED
-// (+=) into grad_clip (N x 4). grad_uv: H*W*2; grad_depth: H*W or null.
+// Adjoint of rasterize_forward for a fixed coverage (tri_id, each in
+// [0, num_tris]), ACCUMULATED (+=) into grad_clip (N x 4). grad_uv: H*W*2;
+// grad_depth: H*W or a null const T*.
 // Per covered pixel p of triangle (P0, P1, P2) (screen positions, z_k = z_ndc):
 //   u = E_20(p)/2A, v = E_01(p)/2A, depth = (1-u-v) z0 + u z1 + v z2,
 //   g_u' = g_u + g_d (z1 - z0), g_v' = g_v + g_d (z2 - z0),
@@ -75,9 +77,7 @@ void rasterize_forward(const T* clip, std::int64_t num_vertices, const std::int3
 // Contributions are added in pixel order, so the result is bit-identical for
 // any thread count and any triangle order.
 template <class T>
-void rasterize_backward(const T* clip, std::int64_t num_vertices, const std::int32_t* tris,
-                        std::int64_t num_tris, const RasterSettings& settings,
-                        const std::int32_t* tri_id, const T* grad_uv,
-                        const typename detail::NoDeduce<T>::type* grad_depth, T* grad_clip);
+void rasterize_backward(const RasterParams<T>& p, const std::int32_t* tri_id, const T* grad_uv,
+                        const T* grad_depth, T* grad_clip);
 
 }  // namespace gr::raster

@@ -1,5 +1,5 @@
-// Validation, vertex projection, triangle classification and watertight edge
-// setup for the rasterizer (see rasterize_setup.h for the edge scheme).
+// Input scans for the ops' checks, vertex projection, triangle classification
+// and watertight edge setup for the rasterizer (see rasterize_setup.h).
 #include "raster/rasterize_setup.h"
 
 #include <algorithm>
@@ -11,13 +11,6 @@
 #include "autodiff/parallel.h"
 
 namespace gr::raster::detail {
-
-void check_image_size(int width, int height, const char* op) {
-  if (width < 1 || height < 1 || width > 16384 || height > 16384 ||
-      static_cast<std::int64_t>(width) * height > (std::int64_t(1) << 28))
-    throw ValueError(std::string(op) + ": width/height must be in 1..16384 with width*height <= 2^28, got " +
-                     std::to_string(width) + "x" + std::to_string(height));
-}
 
 namespace {
 

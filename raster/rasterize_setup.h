@@ -1,6 +1,7 @@
-// Internal to the raster kernels: input validation, per-vertex projection,
-// per-triangle classification (frustum / area / facing / pixel bounding box)
-// and the watertight edge setup shared by the rasterizer's tiles.
+// Internal to the raster kernels: array scans for the ops' input checks (used by
+// ops/check.cpp), per-vertex projection, per-triangle classification (frustum /
+// area / facing / pixel bounding box) and the watertight edge setup shared by the
+// rasterizer's tiles.
 //
 // Edge values are evaluated as e(p) = ((px - ax) dy - (py - ay) dx) + c from
 // data that depend only on the edge's two vertices taken in a canonical order,
@@ -15,8 +16,6 @@
 
 namespace gr::raster::detail {
 
-// Throws ValueError unless 1 <= width, height <= 16384 and width*height <= 2^28.
-void check_image_size(int width, int height, const char* op);
 // Throws IndexError naming the triangle if an index is < 0 or >= num_vertices.
 void check_triangles(const std::int32_t* tris, std::int64_t num_tris, std::int64_t num_vertices,
                      const char* op);

@@ -335,4 +335,21 @@ TEST_CASE("antialias: bad arguments throw with messages naming the argument", "[
   throws([&] { antialias(image, gb, clip, tris, opt); }, "'topology'");
   CHECK_THROWS_AS(antialias(image, gb, clip, tris, opt), ValueError);
   CHECK_THROWS_AS(antialias_topology(tris, Tensor::zeros({4}, DType::Float64)), ShapeError);
+  // A G-buffer whose ids go beyond the triangles, an empty image, bad indices for the topology.
+  GBuffer bad_ids = gb;
+  bad_ids.tri_id = gb.tri_id.copy();
+  bad_ids.tri_id.data<std::int32_t>()[3] = int(tris.size(0)) + 1;
+  throws([&] { antialias(image, bad_ids, clip, tris); }, "tri_id[3]");
+  CHECK_THROWS_AS(antialias(image, bad_ids, clip, tris), IndexError);
+  GBuffer empty = gb;
+  empty.tri_id = Tensor::zeros({20, 0}, DType::Int32);
+  empty.depth = Tensor::zeros({20, 0}, DType::Float64);
+  CHECK_THROWS_AS(antialias(Tensor::zeros({20, 0, 3}, DType::Float64), empty, clip, tris), ValueError);
+  const Tensor bad_tri = Tensor::from_vector<std::int32_t>({0, 1, 7}, {1, 3});
+  CHECK_THROWS_AS(antialias_topology(bad_tri, Tensor::zeros({3, 2}, DType::Float64)), IndexError);
+  CHECK_THROWS_AS(antialias_topology(Tensor::from_vector<std::int32_t>({0, -1, 2}, {1, 3})), IndexError);
+  Tensor nan_positions = Tensor::zeros({3, 2}, DType::Float64);
+  nan_positions.data<double>()[4] = std::nan("");
+  throws([&] { antialias_topology(Tensor::from_vector<std::int32_t>({0, 1, 2}, {1, 3}), nan_positions); },
+         "positions[4]");
 }

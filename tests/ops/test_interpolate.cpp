@@ -86,4 +86,17 @@ TEST_CASE("interpolate op: mismatched shapes and dtypes throw with clear message
   opt.background = Tensor::ones({2}, DType::Float64);
   CHECK_THROWS_AS(interpolate(Tensor::ones({6, 3}, DType::Float64), clip, gb, tris, opt), ShapeError);
   CHECK_THROWS_AS(interpolate(Tensor::ones({6, 3}, DType::Float64), clip, GBuffer{}, tris), ShapeError);
+  const Tensor attr = Tensor::ones({6, 3}, DType::Float64);
+  GBuffer bad_ids = gb;
+  bad_ids.tri_id = gb.tri_id.copy();
+  bad_ids.tri_id.data<std::int32_t>()[3] = 3;
+  CHECK_THROWS_AS(interpolate(attr, clip, bad_ids, tris), IndexError);
+  CHECK_THROWS_WITH(interpolate(attr, clip, bad_ids, tris), Catch::Contains("tri_id[3]"));
+  const Tensor bad_tris = Tensor::from_vector<std::int32_t>({0, 1, 2, 3, 6, 5}, {2, 3});
+  CHECK_THROWS_AS(interpolate(attr, clip, gb, bad_tris), IndexError);
+  CHECK_THROWS_WITH(interpolate(attr, clip, gb, bad_tris), Catch::Contains("tris[1][1]"));
+  GBuffer empty;
+  empty.tri_id = Tensor::zeros({0, 8}, DType::Int32);
+  empty.uv = Tensor::zeros({0, 8, 2}, DType::Float64);
+  CHECK_THROWS_AS(interpolate(attr, clip, empty, tris), ValueError);
 }

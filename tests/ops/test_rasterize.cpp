@@ -52,14 +52,18 @@ TEST_CASE("rasterize op: bad inputs throw with messages naming the argument", "[
   Tensor tris = two_triangles();
   CHECK_THROWS_AS(rasterize(clip, tris, {0, 10}), ValueError);
   CHECK_THROWS_AS(rasterize(clip, tris, {100000, 100000}), ValueError);
+  CHECK_THROWS_AS(rasterize(clip, tris, {20000, 1}), ValueError);
+  CHECK_THROWS_AS(rasterize(clip, tris, {16, -1}), ValueError);
+  CHECK_THROWS_WITH(rasterize(clip, tris, {0, 16}), Catch::Contains("image size 0 x 16"));
   CHECK_THROWS_AS(rasterize(Tensor::ones({6, 3}, DType::Float64), tris, {8, 8}), ShapeError);
   CHECK_THROWS_AS(rasterize(clip, cast(tris, DType::Float32), {8, 8}), DTypeError);
   CHECK_THROWS_WITH(rasterize(clip, Tensor::from_vector<std::int32_t>({0, 1, 6}, {1, 3}), {8, 8}),
-                    Catch::Contains("6"));
+                    Catch::Contains("tris[0][2] = 6"));
   CHECK_THROWS_AS(rasterize(clip, Tensor::from_vector<std::int32_t>({0, -1, 2}, {1, 3}), {8, 8}), IndexError);
   Tensor bad = clip.copy();
   bad.data<double>()[5] = std::nan("");
   CHECK_THROWS_AS(rasterize(bad, tris, {8, 8}), ValueError);
+  CHECK_THROWS_WITH(rasterize(bad, tris, {8, 8}), Catch::Contains("clip[5]"));
   bad.data<double>()[5] = INFINITY;
   CHECK_THROWS_AS(rasterize(bad, tris, {8, 8}), ValueError);
 }

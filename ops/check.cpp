@@ -1,0 +1,85 @@
+// Argument checks for ops (see check.h). The element scans (finiteness,
+// index ranges) are the raster layer's parallel, thread-count independent
+// ones, so the reported element never depends on the thread count.
+#include "ops/check.h"
+
+#include "autodiff/error.h"
+#include "raster/rasterize_setup.h"
+
+namespace gr::detail {
+namespace {
+
+std::string arg(const std::string& op, const char* name) { return op + ": argument '" + name + "' "; }
+
+}  // namespace
+
+void check_defined(const Tensor& t, const std::string& op, const char* name) {
+  if (!t.defined()) throw ValueError(arg(op, name) + "is an undefined tensor");
+}
+
+void check_float(const Tensor& t, const std::string& op, const char* name) {
+  check_defined(t, op, name);
+  if (!is_floating(t.dtype())) throw DTypeError(arg(op, name) + "must be float32 or float64, got " + t.describe());
+}
+
+void check_dtype(const Tensor& t, DType dtype, const std::string& op, const char* name) {
+  if (!t.defined() || t.dtype() != dtype)
+    throw DTypeError(arg(op, name) + "must be an " + dtype_name(dtype) + " tensor, got " + t.describe());
+}
+
+void check_same_dtype(const Tensor& t, const Tensor& ref, const std::string& op, const char* name,
+                      const char* ref_name) {
+  if (t.dtype() != ref.dtype())
+    throw DTypeError(arg(op, name) + t.describe() + " must have the dtype of '" + ref_name + "' " + ref.describe());
+}
+
+void check_same_float(const Tensor& a, const Tensor& b, const std::string& op) {
+  check_float(a, op, "a");
+  check_float(b, op, "b");
+  if (a.dtype() != b.dtype())
+    throw DTypeError(op + ": operands have different dtypes " + a.describe() + " and " + b.describe() +
+                     " (use cast() to convert)");
+}
+
+void check_shape(const Tensor& t, const Shape& shape, const std::string& op, const char* name) {
+  if (!t.defined() || t.shape() != shape)
+    throw ShapeError(arg(op, name) + "must have shape " + shape.str() + ", got " + t.describe());
+}
+
+void check_columns(const Tensor& t, std::int64_t cols, const std::string& op, const char* name,
+                   const char* rows_name) {
+  if (!t.defined() || t.rank() != 2 || t.size(1) != cols)
+    throw ShapeError(arg(op, name) + "must have shape [" + rows_name + ", " + std::to_string(cols) + "], got " +
+                     t.describe());
+}
+
+void check_finite(const Tensor& t, const std::string& op, const char* name) {
+  dispatch_float(t.dtype(), op, [&](auto tag) {
+    using T = decltype(tag);
+    raster::detail::check_finite(t.data<T>(), t.numel(), name, op.c_str());
+  });
+}
+
+void check_image_size(std::int64_t width, std::int64_t height, const std::string& op) {
+  if (width < 1 || height < 1 || width > 16384 || height > 16384 || width * height > (std::int64_t(1) << 28))
+    throw ValueError(op + ": image size " + std::to_string(width) + " x " + std::to_string(height) +
+                     " is outside 1..16384 per side (at most 2^28 pixels)");
+}
+
+void check_triangles(const Tensor& triangles, std::int64_t num_vertices, const std::string& op) {
+  check_dtype(triangles, DType::Int32, op, "triangles");
+  check_columns(triangles, 3, op, "triangles", "M");
+  raster::detail::check_triangles(triangles.data<std::int32_t>(), triangles.size(0), num_vertices, op.c_str());
+}
+
+void check_clip_and_triangles(const Tensor& clip, const Tensor& triangles, const std::string& op) {
+  check_float(clip, op, "clip");
+  check_columns(clip, 4, op, "clip");
+  check_triangles(triangles, clip.size(0), op);
+}
+
+void check_tri_ids(const Tensor& tri_id, std::int64_t num_tris, const std::string& op) {
+  raster::detail::check_tri_ids(tri_id.data<std::int32_t>(), tri_id.numel(), num_tris, op.c_str());
+}
+
+}  // namespace gr::detail
