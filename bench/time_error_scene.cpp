@@ -113,6 +113,21 @@ Tensor TimeErrorScene::render(const Tensor& points, const Tensor& colours, const
   return s == 1 ? image : downsample_box(image, s);
 }
 
+Tensor TimeErrorScene::clip_positions(const Tensor& points) const {
+  NoGradGuard no_grad;
+  const Tensor view_projection = points.dtype() == DType::Float64 ? view_projection_ : cast(view_projection_, points.dtype());
+  return transform_points(gather(points, render_index_), view_projection);
+}
+
+Tensor TimeErrorScene::vertex_colours(const Tensor& colours) const {
+  NoGradGuard no_grad;
+  return gather(colours, render_index_);
+}
+
+Tensor TimeErrorScene::background() const {
+  return Tensor::from_values({kBackground[0], kBackground[1], kBackground[2]}, {3}, DType::Float64);
+}
+
 Tensor TimeErrorScene::loss(const Tensor& points, const Tensor& colours, const Tensor& target,
                             const RenderSettings& settings) const {
   return mean(pow(render(points, colours, settings) - target, 2.0));
