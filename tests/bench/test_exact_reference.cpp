@@ -135,6 +135,28 @@ TEST_CASE("exact reference: two planes intersecting along a known line each show
   }
 }
 
+TEST_CASE("exact reference: the near and far planes cut a surface along z_ndc = -1 and z_ndc = 1",
+          "[exact_reference]") {
+  // z_ndc = 0.4 (x - 2.3 - 0.1 (y - 2)) - 1 on a quad over the whole 8 x 4
+  // image: the near plane cuts it along x = 2.3 + 0.1 (y - 2) (pixel column 2)
+  // and the far plane along x = 7.3 + 0.1 (y - 2) (column 7), as the rasterizer
+  // clips -1 <= z_ndc <= 1 per pixel.
+  const int width = 8, height = 4;
+  const auto z = [](double x, double y) { return 0.4 * (x - 2.3 - 0.1 * (y - 2)) - 1; };
+  std::vector<ScreenVertex> v;
+  const double corners[4][2] = {{-1, -1}, {9, -1}, {9, 5}, {-1, 5}};
+  for (int k = 0; k < 4; ++k) v.push_back({corners[k][0], corners[k][1], z(corners[k][0], corners[k][1]), 0.5 + k});
+  const ExactImage r = exact_box_filtered(clip_of(v, width, height), tris({0, 1, 2, 0, 2, 3}), column({1, 1, 1, 1}),
+                                          width, height, scalar_background(0));
+  for (int py = 0; py < height; ++py) {
+    const double shift = 0.1 * (py + 0.5 - 2);
+    CHECK(at(r.coverage, py, 1) == 0.0);
+    CHECK(at(r.coverage, py, 2) == Approx(3 - (2.3 + shift)).margin(1e-13));
+    CHECK(at(r.coverage, py, 5) == Approx(1.0).margin(1e-13));
+    CHECK(at(r.coverage, py, 7) == Approx(7.3 + shift - 7).margin(1e-13));
+  }
+}
+
 TEST_CASE("exact reference: the perspective-correct attribute integral matches a fine tensor Gauss rule",
           "[exact_reference]") {
   // One strongly perspective triangle (w from 0.3 to 4) over a 4 x 4 image.
