@@ -346,6 +346,51 @@ TEST_CASE("exact reference: agrees with the supersampled render, closer at 16x16
   CHECK(rms16 < 2e-3);
 }
 
+TEST_CASE("exact reference: degenerate and grazing configurations give finite images and coverage at most 1",
+          "[exact_reference]") {
+  const int size = 8;
+  std::vector<ScreenVertex> v;
+  std::vector<std::int32_t> t;
+  // 0-1: a full-screen quad; 2-3: the same quad with its corners in another
+  // order (so its depth plane is rounded differently): coplanar, index 0-1 wins.
+  add_quad(v, t, -1, -1, 9, 9, 0.3, 1.7);
+  v.push_back(v[2]), v.push_back(v[3]), v.push_back(v[0]), v.push_back(v[1]);
+  for (int k : {0, 1, 2, 0, 2, 3}) t.push_back(4 + k);
+  // 4-5: a plane crossing the first one at a grazing angle along x = 4.2
+  // (depth slope 1e-9 per pixel).
+  for (const auto& p : {std::array<double, 2>{-1, -1}, {9, -1}, {9, 9}, {-1, 9}})
+    v.push_back({p[0], p[1], 0.3 + 1e-9 * (p[0] - 4.2), 1.0});
+  for (int k : {0, 1, 2, 0, 2, 3}) t.push_back(8 + k);
+  // A zero-area triangle and a sliver, both in front.
+  v.push_back({1, 1, 0.1, 1}), v.push_back({2, 2, 0.1, 1}), v.push_back({3, 3, 0.1, 1});
+  v.push_back({1, 5, 0.1, 1}), v.push_back({7, 5 + 1e-12, 0.1, 1}), v.push_back({4, 5, 0.1, 1});
+  for (int k = 12; k < 18; ++k) t.push_back(k);
+  std::vector<double> colour(v.size(), 0.0);
+  for (int k = 0; k < 4; ++k) colour[k] = 1;     // the winning coplanar quad
+  for (int k = 4; k < 8; ++k) colour[k] = 5;     // its hidden twin
+  for (int k = 8; k < 12; ++k) colour[k] = -1;   // the grazing plane
+  Tensor clip = clip_of(v, size, size);
+  // One more triangle through w = 0 exactly at a vertex, and one wholly behind the eye.
+  std::vector<double> extra = clip.to_vector();
+  for (double x : {0.2, 0.1, 0.5, 0.0, -0.5, 0.5, 0.5, 1.0, 0.5, -0.5, 0.5, 1.0,  //
+                   0.1, 0.1, 0.1, -1.0, 0.3, 0.1, 0.1, -2.0, 0.1, 0.4, 0.1, -1.0})
+    extra.push_back(x);
+  const auto n = static_cast<std::int32_t>(v.size());
+  for (std::int32_t k = 0; k < 6; ++k) t.push_back(n + k), colour.push_back(2.0);
+  clip = Tensor::from_values(extra, {n + 6, 4}, DType::Float64);
+  const ExactImage r = exact_box_filtered(clip, tris(t), column(colour), size, size, scalar_background(0));
+  for (double c : r.coverage.to_vector()) {
+    CHECK(std::isfinite(c));
+    CHECK(c <= 1 + 1e-12);
+  }
+  for (double x : r.image.to_vector()) CHECK(std::isfinite(x));
+  // The grazing plane is in front left of x = 4.2; right of it the coplanar
+  // winner shows (colour 1, never its twin's 5); pixel column 4 holds both.
+  CHECK(at(r.image, 1, 0) == Approx(-1.0).margin(1e-12));
+  CHECK(at(r.image, 7, 7) == Approx(1.0).margin(1e-12));
+  CHECK(at(r.image, 2, 4) == Approx(0.2 * -1.0 + 0.8 * 1.0).margin(1e-6));
+}
+
 TEST_CASE("exact reference: bad inputs are refused naming the input", "[exact_reference]") {
   const Tensor clip = Tensor::from_values({0, 0, 0, 1, 1, 0, 0, 1, 0, 1, 0, 1}, {3, 4}, DType::Float64);
   const Tensor triangles = tris({0, 1, 2});
