@@ -83,15 +83,19 @@ bool prepare(const double* clip, const std::int32_t* tri, std::int64_t t, int wi
   }
   for (int k = 0; k < 3; ++k) p.cross[k] = cross(v[(k + 1) % 3], v[(k + 2) % 3]);
   const double d = dot(v[0], p.cross[0]);
-  if (!std::isfinite(d) || !std::isfinite(p.cross[0][0] + p.cross[1][1] + p.cross[2][2]))
-    throw ValueError("exact_box_filtered: triangle " + std::to_string(t) +
-                     " has clip coordinates too large for double arithmetic (its setup overflows)");
   if (d == 0) return false;
   const bool front = d < 0;  // = 2A > 0 in screen space when every w > 0
   if ((cull == raster::Cull::Back && !front) || (cull == raster::Cull::Front && front)) return false;
   Vec3 z{};
+  bool finite = std::isfinite(d);
   for (int k = 0; k < 3; ++k)
-    for (int i = 0; i < 3; ++i) z[i] += poly[k][2] * p.cross[k][i] / d;
+    for (int i = 0; i < 3; ++i) {
+      z[i] += poly[k][2] * p.cross[k][i] / d;
+      finite = finite && std::isfinite(p.cross[k][i]) && std::isfinite(z[i]);
+    }
+  if (!finite)
+    throw ValueError("exact_box_filtered: triangle " + std::to_string(t) +
+                     " has clip coordinates too large for double arithmetic (its set-up overflows)");
   p.depth = {z[0], z[1], z[2]};
 
   // The visible volume: -w <= z <= w (near and far planes, as the rasterizer
@@ -104,8 +108,8 @@ bool prepare(const double* clip, const std::int32_t* tri, std::int64_t t, int wi
   for (const Vec4& q : poly)
     p.shape.push_back({0.5 * width * (1 + q[0] / q[3]), 0.5 * height * (1 - q[1] / q[3])});
   const double area = exact::signed_area(p.shape);
-  if (area < 0) std::reverse(p.shape.begin(), p.shape.end());
   if (!(std::abs(area) > 0)) return false;
+  if (area < 0) std::reverse(p.shape.begin(), p.shape.end());
   p.edges = exact::inward_edges(p.shape);
   p.x0 = p.x1 = p.shape[0].x;
   p.y0 = p.y1 = p.shape[0].y;
@@ -162,8 +166,8 @@ struct PixelScratch {
   std::vector<double> value;
 };
 
-// Adds the visible part of triangle i inside the square to coverage and to
-// the attribute integrals.
+// Adds the visible part of `tri` inside s.square to coverage and its
+// attribute integral to sum.
 void integrate_visible(const Prepared& tri, const double* attributes, std::int64_t channels,
                        const std::vector<exact::TriangleNode>& rule, PixelScratch& s, double& coverage, double* sum) {
   const Point corners[4] = {s.square[0], s.square[1], s.square[2], s.square[3]};
@@ -200,10 +204,10 @@ void integrate_visible(const Prepared& tri, const double* attributes, std::int64
         const Vec3 q{a.x + node.s * (b.x - a.x) + node.t * (c.x - a.x), a.y + node.s * (b.y - a.y) + node.t * (c.y - a.y),
                      1.0};
         double f[3], total = 0;
-        for (int k3 = 0; k3 < 3; ++k3) total += f[k3] = dot(q, tri.cross[k3]);
-        for (int k3 = 0; k3 < 3; ++k3) {
-          const double wk = node.weight * f[k3] / total;
-          const double* attr = attributes + tri.vertex[k3] * channels;
+        for (int m = 0; m < 3; ++m) total += f[m] = dot(q, tri.cross[m]);
+        for (int m = 0; m < 3; ++m) {
+          const double wk = node.weight * f[m] / total;  // perspective-correct barycentric x weight
+          const double* attr = attributes + tri.vertex[m] * channels;
           for (std::int64_t ch = 0; ch < channels; ++ch) s.value[ch] += wk * attr[ch];
         }
       }
@@ -219,6 +223,7 @@ ExactImage exact_box_filtered(const Tensor& clip, const Tensor& triangles, const
   validate(clip, triangles, attributes, width, height, background, options);
   const std::int64_t channels = attributes.size(1), pixels = static_cast<std::int64_t>(width) * height;
   const std::int64_t num_triangles = triangles.size(0);
+  // The outputs plus a rough bound on the set-up and bins per triangle.
   check_memory_request(static_cast<std::size_t>(pixels * (channels + 1) * 8 + num_triangles * 512),
                        "exact reference " + std::to_string(width) + "x" + std::to_string(height));
 
@@ -234,10 +239,12 @@ ExactImage exact_box_filtered(const Tensor& clip, const Tensor& triangles, const
   const int tiles_x = (width + kTile - 1) / kTile, tiles_y = (height + kTile - 1) / kTile;
   std::vector<std::vector<const Prepared*>> bins(static_cast<std::size_t>(tiles_x) * tiles_y);
   for (const Prepared& p : prepared) {
-    const int tx0 = std::max(0, static_cast<int>(std::floor(p.x0)) / kTile);
-    const int tx1 = std::min(tiles_x - 1, static_cast<int>(std::min<double>(p.x1, width - 1)) / kTile);
-    const int ty0 = std::max(0, static_cast<int>(std::floor(p.y0)) / kTile);
-    const int ty1 = std::min(tiles_y - 1, static_cast<int>(std::min<double>(p.y1, height - 1)) / kTile);
+    // The box is clamped to the image before the integer casts (a clipped
+    // triangle can project far outside it).
+    const int tx0 = static_cast<int>(std::max(0.0, p.x0)) / kTile;
+    const int tx1 = static_cast<int>(std::min<double>(p.x1, width - 1)) / kTile;
+    const int ty0 = static_cast<int>(std::max(0.0, p.y0)) / kTile;
+    const int ty1 = static_cast<int>(std::min<double>(p.y1, height - 1)) / kTile;
     for (int ty = ty0; ty <= ty1; ++ty)
       for (int tx = tx0; tx <= tx1; ++tx) bins[static_cast<std::size_t>(ty) * tiles_x + tx].push_back(&p);
   }
