@@ -94,23 +94,37 @@ TimeErrorScene::TimeErrorScene() {
 Tensor TimeErrorScene::render(const Tensor& points, const Tensor& colours, const RenderSettings& settings) const {
   const DType dt = points.dtype();
   const int s = settings.supersample, w = s * kSize, h = s * kSize;
-  Tensor view_projection, background;
+  Tensor background;
   {
     NoGradGuard no_grad;
-    view_projection = dt == DType::Float64 ? view_projection_ : cast(view_projection_, dt);
     background = Tensor::from_values({kBackground[0], kBackground[1], kBackground[2]}, {3}, dt);
   }
-  const Tensor clip = transform_points(gather(points, render_index_), view_projection);
+  const Tensor clip = clip_positions(points);
   const GBuffer gb = rasterize(clip, triangles_, {w, h});
   InterpolateOptions interpolation;
   interpolation.background = background;  // a constant: coverage has no gradient
-  Tensor image = interpolate(gather(colours, render_index_), clip, gb, triangles_, interpolation);
+  Tensor image = interpolate(vertex_colours(colours), clip, gb, triangles_, interpolation);
   if (settings.antialias) {
     AntialiasOptions options;
     options.topology = topology_;
     image = antialias(image, gb, clip, triangles_, options);
   }
   return s == 1 ? image : downsample_box(image, s);
+}
+
+Tensor TimeErrorScene::clip_positions(const Tensor& points) const {
+  Tensor view_projection;
+  {
+    NoGradGuard no_grad;
+    view_projection = points.dtype() == DType::Float64 ? view_projection_ : cast(view_projection_, points.dtype());
+  }
+  return transform_points(gather(points, render_index_), view_projection);
+}
+
+Tensor TimeErrorScene::vertex_colours(const Tensor& colours) const { return gather(colours, render_index_); }
+
+Tensor TimeErrorScene::background() const {
+  return Tensor::from_values({kBackground[0], kBackground[1], kBackground[2]}, {3}, DType::Float64);
 }
 
 Tensor TimeErrorScene::loss(const Tensor& points, const Tensor& colours, const Tensor& target,

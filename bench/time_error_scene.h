@@ -41,6 +41,15 @@ class TimeErrorScene {
   // mean((render - target)^2) over all pixels and channels (a rank-0 tensor).
   Tensor loss(const Tensor& points, const Tensor& colours, const Tensor& target, const RenderSettings& settings) const;
 
+  // The render's inputs, also for other renderers (bench/exact_reference/):
+  // clip positions [N, 4] and per-vertex colours [N, 3] of the render
+  // vertices (recorded on the tape like render), their triangles [M, 3]
+  // int32, the background [3] float64.
+  Tensor clip_positions(const Tensor& points) const;
+  Tensor vertex_colours(const Tensor& colours) const;
+  const Tensor& triangles() const { return triangles_; }
+  Tensor background() const;
+
  private:
   static constexpr int kSize = 128;
   Tensor points_, colours_, target_points_;  // welded torus points (the torus' seam copies share one point)

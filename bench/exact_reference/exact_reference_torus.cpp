@@ -1,0 +1,98 @@
+// The exact reference on the time_error torus (128 x 128, 2304 triangles):
+// its wall time and its agreement with the 16 x 16 supersampled render
+// (no antialias), per pixel and channel, and the change from quadrature
+// order 8 (the default) to 16; then position derivatives of the loss
+// mean((image - target)^2) by finite differences along time_error's random
+// directions, of the exact image and of the 16 x 16 supersampled one, with
+// each one's spread (second-order differences at steps h and 2h).
+//   build/bench/exact_reference_torus [threads]
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <vector>
+
+#include "autodiff/parallel.h"
+#include "autodiff/tape.h"
+#include "bench/exact_reference/exact_reference.h"
+#include "ops/ops.h"
+#include "bench/time_error_reference.h"
+#include "bench/time_error_scene.h"
+
+int main(int argc, char** argv) {
+  using namespace gr;
+  if (argc > 1) set_num_threads(std::atoi(argv[1]));
+  const bench::TimeErrorScene scene;
+  NoGradGuard no_grad;
+  const auto exact_image = [&](const Tensor& points, int order) {
+    bench::ExactReferenceOptions options;
+    options.quadrature_order = order;
+    return bench::exact_box_filtered(scene.clip_positions(points), scene.triangles(), scene.vertex_colours(scene.colours()),
+                                     scene.width(), scene.height(), scene.background(), options);
+  };
+  const auto start = std::chrono::steady_clock::now();
+  const bench::ExactImage exact = exact_image(scene.points(), 8);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  std::printf("exact reference, torus %dx%d, %lld triangles, %d threads: %.3f s\n", scene.width(), scene.height(),
+              static_cast<long long>(scene.triangles().size(0)), num_threads(), seconds);
+  const std::vector<double> a8 = exact.image.to_vector(), a16 = exact_image(scene.points(), 16).image.to_vector();
+  double order_diff = 0;
+  for (std::size_t i = 0; i < a8.size(); ++i) order_diff = std::max(order_diff, std::abs(a8[i] - a16[i]));
+  std::printf("quadrature order 8 vs 16: max |diff| %.3g\n", order_diff);
+
+  for (int s : {4, 16}) {
+    const Tensor ss = scene.render(scene.points(), scene.colours(), {DType::Float64, false, s});
+    const double* a = exact.image.data<double>();
+    const double* b = ss.data<double>();
+    double max_diff = 0, sum_sq = 0, sum_sq_ref = 0;
+    for (std::int64_t i = 0; i < ss.numel(); ++i) {
+      max_diff = std::max(max_diff, std::abs(a[i] - b[i]));
+      sum_sq += (a[i] - b[i]) * (a[i] - b[i]);
+      sum_sq_ref += a[i] * a[i];
+    }
+    std::printf("vs %dx%d supersampling: max |diff| %.3g, RMS diff %.3g, relative L2 %.3g\n", s, s, max_diff,
+                std::sqrt(sum_sq / ss.numel()), std::sqrt(sum_sq / sum_sq_ref));
+  }
+  double covered = 0;
+  for (std::int64_t i = 0; i < exact.coverage.numel(); ++i) covered += exact.coverage.data<double>()[i];
+  std::printf("covered area %.6f px^2\n", covered);
+
+  // Finite differences as bench/time_error_reference.cpp takes them (fourth-order
+  // stencil), 8 fixed-seed smooth directions, at three steps.
+  const bench::Directions directions = bench::random_directions(scene.points(), 8, 0, 20240613);
+  const Tensor exact_target = exact_image(scene.target_points(), 8).image;
+  const auto exact_loss = [&](const Tensor& points) {
+    const std::vector<double> a = exact_image(points, 8).image.to_vector(), b = exact_target.to_vector();
+    double sum = 0;
+    for (std::size_t i = 0; i < a.size(); ++i) sum += (a[i] - b[i]) * (a[i] - b[i]);
+    return sum / a.size();
+  };
+  std::printf("finite differences along %zu directions (relative L2; spread = h vs 2h second-order differences):\n",
+              directions.position.size());
+  std::vector<double> coarsest;
+  for (double step_px : {0.25, 0.05, 0.01}) {
+    bench::FiniteDifferenceOptions fd{{DType::Float64, false, 16}};
+    fd.position_step_px = step_px;
+    const double h = step_px / (std::sqrt(2.0) * scene.pixels_per_unit());  // as finite_difference_reference
+    std::vector<double> exact_d, exact_h, exact_2h;
+    const auto fd_start = std::chrono::steady_clock::now();
+    for (const Tensor& v : directions.position) {
+      const Tensor& x = scene.points();
+      const double l1 = exact_loss(x + h * v), lm1 = exact_loss(x - h * v);
+      const double l2 = exact_loss(x + 2 * h * v), lm2 = exact_loss(x - 2 * h * v);
+      exact_d.push_back((8 * (l1 - lm1) - (l2 - lm2)) / (12 * h));
+      exact_h.push_back((l1 - lm1) / (2 * h));
+      exact_2h.push_back((l2 - lm2) / (4 * h));
+    }
+    const double exact_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - fd_start).count();
+    const Tensor ss_target = scene.render(scene.target_points(), scene.colours(), fd.settings);
+    const bench::ReferenceDerivatives ss = bench::finite_difference_reference(scene, ss_target, directions, fd);
+    if (coarsest.empty()) coarsest = exact_d;
+    std::printf("  step %.2f px: exact spread %.3g (%.2f s), 16x16 spread %.3g (%.2f s), exact vs 16x16 %.3g, "
+                "exact vs exact at 0.25 px %.3g\n",
+                step_px, bench::relative_l2(exact_h, exact_2h), exact_seconds,
+                bench::relative_l2(ss.position_h, ss.position_2h), ss.seconds, bench::relative_l2(ss.position, exact_d),
+                bench::relative_l2(exact_d, coarsest));
+  }
+  return 0;
+}
