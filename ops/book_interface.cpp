@@ -91,6 +91,12 @@ void rasterizer_cpu_backward(const Vertex* vertices, int num_vertices, const std
   Scene scene = to_scene(fn, vertices, num_vertices, indices, num_triangles, model_view_proj_4x4, width, height);
   require(geometry != nullptr && dL_d_frame != nullptr, fn, "geometry and dL_d_frame must not be null");
   require(vertex_grad != nullptr || num_vertices == 0, fn, "vertex_grad is null");
+  // It records on, sweeps and so empties the calling thread's tape.
+  if (!grad_mode_enabled())
+    throw TapeError(std::string(fn) + ": gradient recording is off (a NoGradGuard is active)");
+  if (Tape::current().size() != 0)
+    throw TapeError(std::string(fn) + ": the thread's tape holds a recorded graph, which this call would clear; "
+                    "run it before recording or after backward()");
   scene.positions.set_requires_grad();
   scene.colors.set_requires_grad();
   const Rendered r = render(scene);
@@ -103,12 +109,17 @@ void rasterizer_cpu_backward(const Vertex* vertices, int num_vertices, const std
   std::vector<float> upstream(3 * pixels);
   for (std::int64_t p = 0; p < pixels; ++p) {
     const GeometryPixel& g = geometry[p];
-    require(g.tri_id == tri[p] && g.u == uv[2 * p] && g.v == uv[2 * p + 1] && g.depth == depth[p], fn,
-            "geometry differs from what rasterizer_cpu_forward gives for these vertices, indices and MVP "
-            "(first at pixel " + std::to_string(p) + ")");
     for (int c = 0; c < 3; ++c) upstream[3 * p + c] = dL_d_frame[p].color[c];
+    const bool same = g.tri_id == tri[p] && g.u == uv[2 * p] && g.v == uv[2 * p + 1] && g.depth == depth[p];
+    const bool finite = std::isfinite(upstream[3 * p]) && std::isfinite(upstream[3 * p + 1]) &&
+                        std::isfinite(upstream[3 * p + 2]);
+    if (!same || !finite) {
+      Tape::current().clear();  // only this call's nodes are on it
+      require(same, fn, "geometry differs from what rasterizer_cpu_forward gives for these vertices, indices and "
+                        "MVP (first at pixel " + std::to_string(p) + ")");
+      require(finite, fn, "dL_d_frame has a non-finite colour gradient at pixel " + std::to_string(p));
+    }
   }
-  for (float x : upstream) require(std::isfinite(x), fn, "dL_d_frame has a non-finite colour gradient");
 
   backward(r.color, Tensor::from_vector(upstream, {height, width, 3}));
   if (num_vertices == 0) return;

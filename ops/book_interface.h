@@ -54,7 +54,9 @@ void rasterizer_cpu_forward(const Vertex* vertices, int num_vertices, const std:
 
 // The same scene as the forward call, its geometry (checked: a different one
 // throws ValueError), dL_d_frame (width * height entries); adds into
-// vertex_grad (num_vertices entries).
+// vertex_grad (num_vertices entries). Runs a backward pass on the calling
+// thread's tape, so it throws TapeError when that tape holds a graph (which
+// it would clear) or a NoGradGuard is active.
 void rasterizer_cpu_backward(const Vertex* vertices, int num_vertices, const std::int32_t* indices,
                              int num_triangles, const float* model_view_proj_4x4, int width, int height,
                              const GeometryPixel* geometry, const FramePixel* dL_d_frame,

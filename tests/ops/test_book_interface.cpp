@@ -183,6 +183,17 @@ TEST_CASE("book interface: bad arguments throw ValueError naming them", "[ops][b
     }
   CHECK_THROWS_WITH(backward_with(other), Catch::Contains("geometry differs"));
   CHECK_THROWS_AS(backward_with(other), ValueError);
+  CHECK(Tape::current().size() == 0);  // the failed call left nothing recorded
+  {
+    Tensor pending = Tensor::ones({2}).set_requires_grad() * 2.0;
+    CHECK_THROWS_AS(backward_with(book.geometry), TapeError);
+    CHECK(Tape::current().size() == 1);  // the caller's graph is still there
+    Tape::current().clear();
+  }
+  {
+    NoGradGuard off;
+    CHECK_THROWS_WITH(backward_with(book.geometry), Catch::Contains("NoGradGuard"));
+  }
   CHECK_THROWS_WITH(book::rasterizer_cpu_forward(kVertices.data(), int(kVertices.size()), kIndices.data(), kTriangles,
                                                  nullptr, kWidth, kHeight, book.geometry.data(), book.frame.data()),
                     Catch::Contains("model_view_proj_4x4 is null"));
