@@ -1,7 +1,7 @@
 // ssr_tradeoff: run time against hit error for both SSR tracers on the SSR scene
 // (320 x 240, float32 G-buffer), measured against the dense reference tracer.
 // Prints a Markdown table and writes a log-log scatter plot (PNG, drawn with
-// bench/plot_png.h, no plotting library): x = trace time (ms), y = mean hit error (px);
+// examples/common/plot_canvas.h, no plotting library): x = trace time (ms), y = mean hit error (px);
 // view-space march in orange, DDA in blue, the reference as a black square at
 // its time on the bottom axis.
 //   ssr_tradeoff [plot.png] [repeats]
@@ -15,7 +15,7 @@
 #include <vector>
 
 #include "autodiff/tape.h"
-#include "bench/plot_png.h"
+#include "examples/common/plot_canvas.h"
 #include "ops/ssr.h"
 #include "ops/transforms.h"
 #include "raster/image_io.h"
@@ -33,17 +33,17 @@ struct Row {
   std::int64_t samples = 0;
 };
 
-using bench::Rgb;
+using plot::Rgb;
 
-bench::LogLogPlot plot(const std::vector<Row>& rows, double ref_ms) {
+plot::LogLogPlot make_plot(const std::vector<Row>& rows, double ref_ms) {
   double tmin = ref_ms, tmax = ref_ms, emin = 1e9, emax = 0;
   for (const Row& r : rows) {
     tmin = std::min(tmin, r.ms), tmax = std::max(tmax, r.ms);
     if (r.mean_err > 0) emin = std::min(emin, r.mean_err), emax = std::max(emax, r.mean_err);
   }
-  bench::LogLogPlot p(tmin, tmax, std::max(emin, 1e-6), std::max(emax, 1e-5), "ms", "px");
-  bench::Canvas& c = p.canvas();
-  const bench::PlotFrame& f = p.frame();
+  plot::LogLogPlot p(tmin, tmax, std::max(emin, 1e-6), std::max(emax, 1e-5), "ms", "px");
+  plot::Canvas& c = p.canvas();
+  const plot::PlotFrame& f = p.frame();
   const Rgb orange{0.9f, 0.5f, 0.1f}, blue{0.15f, 0.35f, 0.85f}, black{0, 0, 0};
   for (const Row& r : rows) {
     if (!(r.mean_err > 0)) continue;
@@ -139,7 +139,7 @@ int main(int argc, char** argv) {
   for (const Row& r : rows)
     std::printf("| %s | %s | %.2f | %lld | %.3f | %.3f | %.2f | %.2f |\n", r.tracer.c_str(), r.params.c_str(), r.ms,
                 (long long)r.samples, r.mean_err, r.p95_err, r.missed, r.extra);
-  raster::write_png(out, plot(rows, ref_ms).image());
+  raster::write_png(out, make_plot(rows, ref_ms).image());
   std::printf("\nplot: %s\n", out.c_str());
   return 0;
 }

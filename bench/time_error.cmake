@@ -5,6 +5,5 @@ add_executable(time_error
   ${CMAKE_CURRENT_SOURCE_DIR}/time_error.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/time_error_scene.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/time_error_reference.cpp
-  ${CMAKE_CURRENT_SOURCE_DIR}/time_error_plot.cpp
-  ${CMAKE_CURRENT_SOURCE_DIR}/plot_png.cpp)
-target_link_libraries(time_error PRIVATE gradraster::gradraster)
+  ${CMAKE_CURRENT_SOURCE_DIR}/time_error_plot.cpp)
+target_link_libraries(time_error PRIVATE gradraster::gradraster gradraster_plot)

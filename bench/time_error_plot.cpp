@@ -1,12 +1,17 @@
-// Pareto frontier and its plot, drawn with bench/plot_png.h.
+// Pareto frontier and its plot, drawn with examples/common/plot_canvas.h.
 #include "bench/time_error_plot.h"
 
 #include <algorithm>
 #include <numeric>
 
-#include "bench/plot_png.h"
+#include "examples/common/plot_canvas.h"
 
 namespace gr::bench {
+using plot::Canvas;
+using plot::LogLogPlot;
+using plot::PlotFrame;
+using plot::Rgb;
+
 namespace {
 
 struct Box {

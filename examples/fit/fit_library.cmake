@@ -3,6 +3,7 @@
 # binary (tests/CMakeLists.txt), so its tests run whether or not the examples
 # are built. Included from both; defined once.
 include(${CMAKE_CURRENT_LIST_DIR}/../common/common.cmake)
+include(${CMAKE_CURRENT_LIST_DIR}/../common/plot_library.cmake)
 if(NOT TARGET gradraster_fit)
   add_library(gradraster_fit STATIC
     ${CMAKE_CURRENT_LIST_DIR}/cli.cpp
@@ -15,5 +16,5 @@ if(NOT TARGET gradraster_fit)
     ${CMAKE_CURRENT_LIST_DIR}/shading.cpp
     ${CMAKE_CURRENT_LIST_DIR}/snapshot.cpp)
   target_compile_options(gradraster_fit PRIVATE -Wall -Wextra)
-  target_link_libraries(gradraster_fit PUBLIC gradraster_example_common)
+  target_link_libraries(gradraster_fit PUBLIC gradraster_example_common PRIVATE gradraster_plot)
 endif()

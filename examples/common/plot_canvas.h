@@ -1,14 +1,16 @@
-// Log-log scatter plots for the bench/ programs, drawn straight into an image
-// tensor (no plotting library): a small canvas with a 3 x 5 pixel font, and a
-// frame with a grid line and label at every power of ten on both axes.
-// Used by ssr_tradeoff and time_error; write the image with raster::write_png.
+// The one plotting canvas of the examples and benches, drawn straight into an
+// image tensor (no plotting library): pixels, lines, discs and text in a 3 x 5
+// pixel font, and a log-log frame with a grid line and label at every power of
+// ten on both axes. Used by the fit example's loss curve, ssr_tradeoff and
+// time_error; write the image with raster::write_png. Built as gradraster_plot
+// (examples/common/plot_library.cmake); not part of the installed library.
 #pragma once
 
 #include <string>
 
 #include "autodiff/tensor.h"
 
-namespace gr::bench {
+namespace gr::plot {
 
 struct Rgb {
   float r, g, b;
@@ -71,4 +73,4 @@ class LogLogPlot {
 // A decade's axis label: "%.0f" for values >= 1, else "%.2g" (100, 1, 0.01, 0.0001, 1e-05).
 std::string decade_label(double value);
 
-}  // namespace gr::bench
+}  // namespace gr::plot

@@ -1,11 +1,11 @@
-// Canvas primitives, the 3 x 5 font and the log-log frame of plot_png.h.
-#include "bench/plot_png.h"
+// Canvas primitives, the 3 x 5 font and the log-log frame of plot_canvas.h.
+#include "examples/common/plot_canvas.h"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 
-namespace gr::bench {
+namespace gr::plot {
 namespace {
 
 // 3 x 5 glyphs, row-major from the top, '#' = ink.
@@ -145,4 +145,4 @@ double LogLogPlot::y(double value) const {
   return f_.height - f_.bottom - (std::log10(value) - ly0_) / (ly1_ - ly0_) * (f_.height - f_.top - f_.bottom);
 }
 
-}  // namespace gr::bench
+}  // namespace gr::plot

@@ -1,0 +1,33 @@
+# cmake --install: headers under include/gradraster (so "autodiff/tensor.h"
+# keeps working), the three libraries, a CMake package (find_package(gradraster)
+# gives gradraster::gradraster) and a pkg-config file. Everything here is in the
+# "dev" component; tests/package installs just that.
+include(GNUInstallDirs)
+include(CMakePackageConfigHelpers)
+
+set(GRADRASTER_INCLUDE_SUBDIR ${CMAKE_INSTALL_INCLUDEDIR}/gradraster)
+set(GRADRASTER_CMAKE_DIR ${CMAKE_INSTALL_LIBDIR}/cmake/gradraster)
+
+install(DIRECTORY autodiff raster ops DESTINATION ${GRADRASTER_INCLUDE_SUBDIR}
+  COMPONENT dev FILES_MATCHING PATTERN "*.h")
+install(TARGETS gradraster_base gradraster_raster gradraster EXPORT gradrasterTargets
+  COMPONENT dev
+  ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
+  LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}
+  RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
+install(EXPORT gradrasterTargets NAMESPACE gradraster:: DESTINATION ${GRADRASTER_CMAKE_DIR}
+  COMPONENT dev)
+
+configure_package_config_file(cmake/gradrasterConfig.cmake.in
+  ${CMAKE_CURRENT_BINARY_DIR}/gradrasterConfig.cmake INSTALL_DESTINATION ${GRADRASTER_CMAKE_DIR})
+write_basic_package_version_file(${CMAKE_CURRENT_BINARY_DIR}/gradrasterConfigVersion.cmake
+  COMPATIBILITY SameMinorVersion)
+install(FILES ${CMAKE_CURRENT_BINARY_DIR}/gradrasterConfig.cmake
+  ${CMAKE_CURRENT_BINARY_DIR}/gradrasterConfigVersion.cmake
+  DESTINATION ${GRADRASTER_CMAKE_DIR} COMPONENT dev)
+
+# The .pc file finds its prefix from its own folder, so the tree can be installed anywhere.
+file(RELATIVE_PATH GRADRASTER_PC_TO_PREFIX ${CMAKE_INSTALL_FULL_LIBDIR}/pkgconfig ${CMAKE_INSTALL_PREFIX})
+configure_file(cmake/gradraster.pc.in ${CMAKE_CURRENT_BINARY_DIR}/gradraster.pc @ONLY)
+install(FILES ${CMAKE_CURRENT_BINARY_DIR}/gradraster.pc
+  DESTINATION ${CMAKE_INSTALL_LIBDIR}/pkgconfig COMPONENT dev)
