@@ -23,8 +23,7 @@ std::size_t fit_request_bytes(const FitOptions& o) {
 FitResult run_fit_with_outputs(const FitOptions& options, std::ostream& log) {
   const std::size_t estimate = fit_request_bytes(options);
   const std::string request = "gradraster-fit --size " + std::to_string(options.size) + " with " +
-                              std::to_string(options.mode == Mode::Pose ? 1 : options.views) + " views (estimated " +
-                              gr::cli::mib(estimate) + ")";
+                              std::to_string(options.mode == Mode::Pose ? 1 : options.views) + " views";
   gr::check_memory_request(estimate, request);
   log << "memory estimate: " << gr::cli::mib(estimate) << " (limit " << gr::cli::mib(gr::memory_limit()) << ")\n";
 

@@ -288,8 +288,7 @@ int render(const RenderArgs& a, std::ostream& out, std::ostream& err) {
   for (const std::string& w : mesh.warnings) err << "gradraster-render: warning: " << w << "\n";
 
   const std::size_t estimate = request_bytes(a, mesh);
-  const std::string request = "gradraster-render " + std::to_string(a.width) + "x" + std::to_string(a.height) +
-                              " (estimated " + cli::mib(estimate) + ")";
+  const std::string request = "gradraster-render " + std::to_string(a.width) + "x" + std::to_string(a.height);
   check_memory_request(estimate, request);
   std::string camera;
   const std::array<double, 16> m = camera_matrix(a, mesh, camera);

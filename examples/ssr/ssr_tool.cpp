@@ -144,8 +144,7 @@ int run_ssr_tool(const std::vector<std::string>& args, std::ostream& out, std::o
     out << usage();
     return kExitOk;
   }
-  const std::string request = "gradraster-ssr " + std::to_string(a.width) + "x" + std::to_string(a.height) +
-                              " (estimated " + cli::mib(request_bytes(a)) + ")";
+  const std::string request = "gradraster-ssr " + std::to_string(a.width) + "x" + std::to_string(a.height);
   try {
     check_memory_request(request_bytes(a), request);
     out << "memory estimate: " << cli::mib(request_bytes(a)) << " (limit " << cli::mib(memory_limit()) << ")\n";

@@ -51,7 +51,7 @@ TEST_CASE("fit outputs: a run over the memory budget is refused before making it
   options.views = 64;
   std::ostringstream log;
   CHECK_THROWS_WITH(fit::run_fit_with_outputs(options, log),
-                    Catch::Contains("gradraster-fit --size 4096 with 64 views (estimated 294928 MiB)"));
+                    Catch::Contains("gradraster-fit --size 4096 with 64 views needs 294928 MiB"));
   CHECK_THROWS_AS(fit::run_fit_with_outputs(options, log), gr::MemoryError);
   CHECK(dir.count() == 0);
 }

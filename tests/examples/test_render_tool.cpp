@@ -358,7 +358,7 @@ TEST_CASE("render tool: a request over the memory budget is refused before rende
   gr::set_memory_limit(0);
   INFO(r.err);
   CHECK(r.code == 1);
-  CHECK(r.err.find("gradraster-render 4096x4096 (estimated 769 MiB)") != std::string::npos);
+  CHECK(r.err.find("gradraster-render 4096x4096 needs 769 MiB") != std::string::npos);
   CHECK(r.out.empty());
   CHECK(dir.count() == 0);
 }

@@ -79,7 +79,7 @@ TEST_CASE("ssr tool: a request over the memory budget or an unwritable output le
   const Run big = ssr({"--out", dir.file("big"), "--width", "4096", "--height", "4096"});
   gr::set_memory_limit(0);
   CHECK(big.code == 1);
-  CHECK(big.err.find("gradraster-ssr 4096x4096 (estimated 5120 MiB)") != std::string::npos);
+  CHECK(big.err.find("gradraster-ssr 4096x4096 needs 5120 MiB") != std::string::npos);
   // The second image's target is a folder: the first image does not appear, the new folder is removed.
   std::filesystem::create_directories(dir.file("out/ssr_example_viewspace.png"));
   const Run blocked = ssr({"--out", dir.file("out"), "--width", "16", "--height", "16"});
