@@ -43,6 +43,7 @@ void expand_kernel(const T* src, const Dims& src_dims, T* out, const Dims& out_d
     if (src_dims[d] == 1) s[d] = 0;
   const std::int64_t inner = out_dims[3];
   const std::int64_t rows = out_dims[0] * out_dims[1] * out_dims[2];
+  if (rows == 0 || inner == 0) return;  // empty: [2^40, 0] must not walk 2^40 empty rows
   if (src_dims[0] * src_dims[1] * src_dims[2] * src_dims[3] == 1) {  // one value: a flat fill
     const T value = src[0];
     parallel_for(0, rows * inner, kElementwiseGrain,
@@ -100,6 +101,10 @@ void reduce_kernel(const T* g, const Dims& g_dims, T* out, const Dims& t_dims) {
     if (reduced_dims[d] == 1) reduced_strides[d] = 0;
   const std::int64_t nt = t_dims[0] * t_dims[1] * t_dims[2] * t_dims[3];
   const std::int64_t nr = reduced_dims[0] * reduced_dims[1] * reduced_dims[2] * reduced_dims[3];
+  if (nr == 0) {  // a sum over an empty axis is 0 (and must not divide by its extent)
+    std::fill(out, out + nt, T(0));
+    return;
+  }
 
   auto sum_range = [&](std::int64_t base, std::int64_t lo, std::int64_t hi) {
     return sum_reduced(g, base, reduced_dims, reduced_strides, lo, hi);

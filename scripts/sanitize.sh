@@ -48,7 +48,7 @@ fuzz_seconds=${FUZZ_SECONDS:-25}
 [ "$fuzz_seconds" -eq 0 ] && exit 0
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
-for target in obj raster; do
+for target in obj raster shapes; do
   mkdir -p "$work/$target/corpus" "$work/$target/artifacts"
   cp tests/fuzz/corpus/"$target"/* "$work/$target/corpus/"
   echo "sanitize: fuzz_$target for ${fuzz_seconds} s"

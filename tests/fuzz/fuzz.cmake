@@ -1,7 +1,7 @@
-# libFuzzer targets fuzz_obj and fuzz_raster (GRADRASTER_FUZZ=ON, clang only).
+# libFuzzer targets fuzz_obj, fuzz_raster and fuzz_shapes (GRADRASTER_FUZZ=ON, clang only).
 # Included from the top-level CMakeLists.txt before the library is defined:
 # everything is compiled with -fsanitize=fuzzer-no-link plus ASan and UBSan
-# (coverage for the fuzzer, reports for bugs), and only the two fuzz programs
+# (coverage for the fuzzer, reports for bugs), and only the fuzz programs
 # link the libFuzzer driver (-fsanitize=fuzzer). The bodies live in
 # fuzz_targets.cpp, which the test binary also compiles to replay the seed
 # corpus (test_fuzz_corpus.cpp). Run e.g.
@@ -23,7 +23,7 @@ if(GRADRASTER_FUZZ)
   add_library(gradraster_fuzz_bodies STATIC ${GRADRASTER_FUZZ_DIR}/fuzz_targets.cpp)
   target_include_directories(gradraster_fuzz_bodies PUBLIC ${GRADRASTER_FUZZ_DIR}/..)
   target_link_libraries(gradraster_fuzz_bodies PUBLIC gradraster::gradraster)
-  foreach(name obj raster)
+  foreach(name obj raster shapes)
     add_executable(fuzz_${name} ${GRADRASTER_FUZZ_DIR}/fuzz_${name}_main.cc)
     target_link_libraries(fuzz_${name} PRIVATE gradraster_fuzz_bodies)
     target_link_options(fuzz_${name} PRIVATE -fsanitize=fuzzer)

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "autodiff/error.h"
+#include "autodiff/memory.h"
 #include "autodiff/tape.h"
 #include "ops/ops.h"
 #include "raster/obj_io.h"
@@ -239,6 +240,67 @@ void fuzz_rasterize_interpolate(const std::uint8_t* data, std::size_t size) {
     backward(loss);
     if (moderate) require_finite(clip.grad(), "clip.grad");
     if (moderate) require_finite(attributes.grad(), "attributes.grad");
+  });
+}
+
+namespace {
+
+// One extent per byte: < 0xF0 is the byte mod 8 (small, often 0 or 1);
+// 0xF0.. are the extents that overflow products and byte counts.
+std::int64_t decode_extent(std::uint8_t tag) {
+  constexpr std::int64_t kHuge[] = {std::int64_t(1) << 31, std::int64_t(1) << 32, std::int64_t(1) << 40,
+                                    std::int64_t(1) << 60, std::int64_t(1) << 61, std::int64_t(1) << 62,
+                                    std::numeric_limits<std::int64_t>::max(), -1, -2,
+                                    std::numeric_limits<std::int64_t>::min(), 3, 1000, 4096, 65536,
+                                    (std::int64_t(1) << 31) - 1, std::int64_t(1) << 20};
+  return tag < 0xF0 ? tag % 8 : kHuge[tag - 0xF0];
+}
+
+// A rank byte (mod 5) and one extent byte per axis.
+std::vector<std::int64_t> decode_shape(Reader& in) {
+  std::vector<std::int64_t> dims(in.byte() % 5);
+  for (std::int64_t& d : dims) d = decode_extent(in.byte());
+  return dims;
+}
+
+// The result must be as large as its extents say: write and read every element.
+void require_consistent(const Tensor& t) {
+  __int128 n = 1;
+  for (int i = 0; i < t.rank(); ++i) n *= t.size(i);
+  if (n != t.numel())
+    throw FuzzContractViolation("fuzz_shapes: " + t.describe() + " reports " + std::to_string(t.numel()) +
+                                " elements");
+  Tensor c = t.copy();
+  float* d = c.data<float>();
+  for (std::int64_t i = 0; i < c.numel(); ++i) d[i] = 1.0f;
+  double total = 0;
+  for (std::int64_t i = 0; i < c.numel(); ++i) total += d[i];
+  if (total != static_cast<double>(c.numel())) throw FuzzContractViolation("fuzz_shapes: buffer not writable");
+}
+
+}  // namespace
+
+void fuzz_shapes(const std::uint8_t* data, std::size_t size) {
+  struct LimitReset {
+    LimitReset() { set_memory_limit(std::size_t(16) << 20); }
+    ~LimitReset() { set_memory_limit(0); }
+  } limit;
+  run_checked("fuzz_shapes", [&] {
+    Reader in(data, size);
+    const int op = in.byte() % 7;
+    const int axis = static_cast<int>(static_cast<std::int8_t>(in.byte()) % 6);
+    const std::vector<std::int64_t> first = decode_shape(in), second = decode_shape(in);
+    const Tensor a = Tensor::zeros(Shape(first));
+    require_consistent(a);
+    switch (op) {
+      case 0: require_consistent(reshape(a, second)); break;
+      case 1: require_consistent(broadcast_to(a, Shape(second))); break;
+      case 2: require_consistent(concat({a, Tensor::zeros(Shape(second))}, axis)); break;
+      case 3: require_consistent(stack({a, Tensor::zeros(Shape(second))}, axis)); break;
+      case 4: require_consistent(matmul(a, Tensor::zeros(Shape(second)))); break;
+      case 5: require_consistent(sum(a, axis)); break;
+      default: require_consistent(slice(a, axis, second.empty() ? 0 : second[0], second.size() < 2 ? 1 : second[1]));
+    }
   });
 }
 

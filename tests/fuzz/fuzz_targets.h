@@ -33,6 +33,15 @@ void fuzz_obj_loader(const std::uint8_t* data, std::size_t size);
 // reproducers are seeds in corpus/raster.
 void fuzz_rasterize_interpolate(const std::uint8_t* data, std::size_t size);
 
+// The bytes encode two shapes and an op (see fuzz_targets.cpp, decode_shape):
+// a tensor of the first shape is made and combined with the second by reshape,
+// broadcast_to, concat, stack, matmul, sum or slice, under a 16 MiB memory
+// limit. Extents range over small values, 2^31, 2^32, 2^62, INT64_MAX and
+// negative ones, so element and byte counts overflow. Contract: a gr::Error
+// (ShapeError, MemoryError, ...), or a result whose element count is the
+// product of its extents and whose every element can be written and read.
+void fuzz_shapes(const std::uint8_t* data, std::size_t size);
+
 // A raster fuzz input in readable form, for writing seeds. Byte layout:
 //   flags (bit 0 float64, bits 1-2 cull None/Back/Front, bit 3 linear
 //   interpolation, bit 4 with derivatives, bit 5 background value), width-1

@@ -59,6 +59,10 @@ TEST_CASE("fuzz corpus: every raster seed gives finite outputs and gradients or 
   replay("raster", [](const std::uint8_t* data, std::size_t size) { fuzz_rasterize_interpolate(data, size); }, 10);
 }
 
+TEST_CASE("fuzz corpus: every shape seed gives a consistent tensor or a gr error", "[fuzz][shape]") {
+  replay("shapes", gr::fuzz::fuzz_shapes, 8);
+}
+
 TEST_CASE("load_obj_from_string reads OBJ text like load_obj and never touches MTL files", "[fuzz][obj]") {
   const gr::raster::Mesh mesh = gr::raster::load_obj_from_string(
       "mtllib missing.mtl\nusemtl m\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n");

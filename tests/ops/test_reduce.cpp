@@ -58,3 +58,13 @@ TEST_CASE("reductions: bad axes and empty means throw", "[ops][reduce][errors]")
   CHECK_THROWS_AS(mean(Tensor::zeros({0})), ShapeError);
   CHECK_THROWS_AS(sum(Tensor::ones({2}, DType::Int32)), DTypeError);
 }
+
+TEST_CASE("sum over an empty axis gives zeros and broadcasting to an empty shape does no work", "[ops][reduce]") {
+  // Found by fuzz_shapes: the reduction divided by the empty axis' extent, and
+  // broadcast_to walked every empty row of [2^31 - 1, 4096, 0].
+  const Tensor s = sum(Tensor::zeros({5, 0}), 1);
+  REQUIRE(s.shape() == Shape({5}));
+  for (double v : s.to_vector()) CHECK(v == 0.0);
+  CHECK(sum(Tensor::zeros({1 << 20, 0}), -1).numel() == 1 << 20);
+  CHECK(broadcast_to(Tensor::zeros({0}), Shape({(std::int64_t(1) << 31) - 1, 4096, 0})).numel() == 0);
+}
