@@ -2,8 +2,8 @@
 // most 8 taps (texel index in the all-levels buffer, weight, d weight/du,
 // d weight/dv): the forward sums weight * texel, the uv adjoint sums the weight
 // derivatives, the texel adjoint scatters weight * g. Samples run in parallel;
-// texel gradients are sorted into fixed texel buckets and added per bucket in
-// sample order, so they do not depend on the thread count.
+// texel gradients are scattered serially in sample order (fixed chunks), so
+// they do not depend on the thread count.
 #include "raster/texture.h"
 
 #include <algorithm>
@@ -198,18 +198,8 @@ void texture_backward(const TextureParams<T>& p, const T* grad_out, T* grad_tex,
   std::vector<double> tap_w(grad_tex ? stride * chunk : 0);
   std::vector<std::uint8_t> tap_n(chunk);  // 0: sample skipped
   const std::int64_t acc_texels = levels_used == 1 ? base_texels : p.layout.total_texels;
-  // Texel buckets of a fixed size (not tied to the thread count): each chunk's
-  // taps are sorted into them stably, then one task per bucket adds its taps
-  // in a cache-sized stretch of acc. Every texel thus sees the same sequence
-  // of adds (sample order, then tap order) whatever the number of threads.
-  constexpr int kBucketShift = 12;  // 4096 texels: 96 KiB of acc at C = 3
-  const std::int64_t num_buckets = grad_tex ? (acc_texels >> kBucketShift) + 1 : 0;
-  struct Entry {
-    std::int64_t texel, sample;
-    double w;
-  };
-  std::vector<Entry> entries(grad_tex ? stride * chunk : 0);
-  std::vector<std::int64_t> bucket_start(num_buckets + 1), cursor(num_buckets);
+  const std::int64_t bands = std::max(1, num_threads());
+  const std::int64_t band_size = (acc_texels + bands - 1) / bands;
   for (std::int64_t c0 = 0; c0 < S; c0 += kChunk) {
     const std::int64_t c1 = std::min(S, c0 + kChunk);
     parallel_for(c0, c1, 1024, [&](std::int64_t lo, std::int64_t hi) {
@@ -244,24 +234,23 @@ void texture_backward(const TextureParams<T>& p, const T* grad_out, T* grad_tex,
       }
     });
     if (!grad_tex) continue;
-    // Counting sort of the chunk's taps by bucket, in sample order.
-    std::fill(bucket_start.begin(), bucket_start.end(), 0);
-    for (std::int64_t i = 0; i < c1 - c0; ++i)
-      for (int k = 0; k < tap_n[i]; ++k) ++bucket_start[(tap_index[stride * i + k] >> kBucketShift) + 1];
-    for (std::int64_t b = 0; b < num_buckets; ++b) bucket_start[b + 1] += bucket_start[b];
-    std::copy(bucket_start.begin(), bucket_start.end() - 1, cursor.begin());
-    for (std::int64_t i = 0; i < c1 - c0; ++i)
-      for (int k = 0; k < tap_n[i]; ++k) {
-        const std::int64_t t = tap_index[stride * i + k];
-        entries[cursor[t >> kBucketShift]++] = {t, c0 + i, tap_w[stride * i + k]};
-      }
-    // Scatter: dL/d texel_t += w_t g.
-    parallel_for(0, num_buckets, 1, [&](std::int64_t b0, std::int64_t b1) {
-      for (std::int64_t e = bucket_start[b0]; e < bucket_start[b1]; ++e) {
-        const Entry& en = entries[e];
-        double* a = acc + en.texel * C;
-        const T* g = grad_out + en.sample * C;
-        for (std::int64_t c = 0; c < C; ++c) a[c] += en.w * g[c];
+    // Scatter in sample order: dL/d texel_t += w_t g. The texels are split
+    // into bands, one task each; every task walks all taps in sample order and
+    // applies those in its band, so each texel sees the same sequence of adds
+    // whatever the number of bands or threads.
+    parallel_for(0, bands, 1, [&](std::int64_t b0, std::int64_t b1) {
+      const std::int64_t lo = band_size * b0, hi = std::min(acc_texels, band_size * b1);
+      for (std::int64_t s = c0; s < c1; ++s) {
+        const std::int64_t i = s - c0;
+        const int n = tap_n[i];
+        const T* g = grad_out + s * C;
+        for (int k = 0; k < n; ++k) {
+          const std::int64_t t = tap_index[stride * i + k];
+          if (t < lo || t >= hi) continue;
+          double* a = acc + t * C;
+          const double w = tap_w[stride * i + k];
+          for (std::int64_t c = 0; c < C; ++c) a[c] += w * g[c];
+        }
       }
     });
   }
