@@ -15,6 +15,7 @@
 #include "autodiff/tape.h"
 #include "ops/interpolate.h"
 #include "ops/rasterize.h"
+#include "ops/resample.h"
 #include "ops/texture.h"
 #include "raster/mipmap.h"
 #include "test_support.h"
@@ -130,6 +131,25 @@ TEST_CASE("texture: trilinear gradients w.r.t. texels of every level and uv matc
     opt.max_mip_level = 2;
     require_gradcheck("texture trilinear max level 2",
                       [&](const Inputs& in) { return texture(in[0], in[1], opt, dx, dy); }, {tex, uv});
+  }
+}
+
+TEST_CASE("texture: max_mip_level stops a far-away footprint at that level instead of the 1 x 1 mean", "[ops][texture]") {
+  // 8 x 8 -> 4 x 4 -> 2 x 2 -> 1 x 1. du/dx = 4 is a footprint of 32 texels
+  // (LOD 5, beyond the chain): the lookup must read level max_mip_level alone,
+  // i.e. a bilinear lookup of the base texture box-filtered to that level.
+  Tensor tex = random_input({8, 8, 2}, -1, 1, 31);
+  Tensor uv = random_input({10, 2}, 0.05, 0.95, 32);
+  Tensor dx = Tensor::full(uv.shape(), 4.0, DType::Float64), dy = Tensor::zeros(uv.shape(), DType::Float64);
+  for (int max_level : {0, 1, 2}) {
+    INFO("max_mip_level " << max_level);
+    TextureOptions opt;
+    opt.filter = Filter::Trilinear;
+    opt.max_mip_level = max_level;
+    Tensor limited = texture(tex, uv, opt, dx, dy);
+    Tensor expected = texture(max_level == 0 ? tex : downsample_box(tex, 1 << max_level), uv);
+    for (std::int64_t i = 0; i < limited.numel(); ++i)
+      CHECK(limited.data<double>()[i] == Approx(expected.data<double>()[i]).margin(1e-12));
   }
 }
 
