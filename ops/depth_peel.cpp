@@ -12,9 +12,10 @@ DepthPeeler::DepthPeeler(const Tensor& clip, const Tensor& triangles, const Rast
 GBuffer DepthPeeler::rasterize_next_layer() {
   std::vector<double> key(static_cast<std::size_t>(options_.width) * options_.height);
   const bool first = layers_++ == 0;
-  GBuffer gb = detail::rasterize_layer(clip_, triangles_, options_, first ? nullptr : floor_id_.data<std::int32_t>(),
+  GBuffer gb = detail::rasterize_layer(clip_, triangles_, options_, first ? nullptr : floor_id_.data(),
                                        first ? nullptr : floor_z_.data(), key.data());
-  floor_id_ = gb.tri_id;
+  const std::int32_t* id = gb.tri_id.data<std::int32_t>();
+  floor_id_.assign(id, id + key.size());
   floor_z_.swap(key);
   return gb;
 }

@@ -10,6 +10,7 @@
 // pixel is exhausted, further layers are background everywhere.
 #pragma once
 
+#include <cstdint>
 #include <vector>
 
 #include "ops/rasterize.h"
@@ -30,8 +31,9 @@ class DepthPeeler {
   Tensor clip_, triangles_;
   RasterizeOptions options_;
   int layers_ = 0;
-  Tensor floor_id_;              // previous layer's tri_id (defined after layer 1)
-  std::vector<double> floor_z_;  // previous layer's exact depth
+  // The previous layer's key, copied (a caller may write to the returned G-buffer).
+  std::vector<std::int32_t> floor_id_;
+  std::vector<double> floor_z_;
 };
 
 }  // namespace gr
