@@ -2,6 +2,7 @@
 #include "ops/antialias.h"
 
 #include <algorithm>
+#include <cmath>
 #include <memory>
 #include <string>
 #include <vector>
@@ -84,6 +85,9 @@ Tensor antialias(const Tensor& image, const GBuffer& gbuffer, const Tensor& clip
   // NaN/Inf clip rows are refused here, naming 'clip' (the default topology
   // below welds by clip rows).
   detail::check_finite(clip, op, "clip");
+  const double boost = options.pos_gradient_boost;
+  if (!std::isfinite(boost))
+    throw ValueError(op + ": option 'pos_gradient_boost' must be finite, got " + std::to_string(boost));
   AntialiasTopology topology = options.topology;
   if (topology && (topology->num_tris != m || std::int64_t(topology->neighbour.size()) != 3 * m))
     throw ValueError(op + ": option 'topology' was built for " + std::to_string(topology->num_tris) +
@@ -106,7 +110,7 @@ Tensor antialias(const Tensor& image, const GBuffer& gbuffer, const Tensor& clip
   });
   if (rec) {
     record("antialias", {image, clip}, {&out},
-           [image = image.detach(), clip = clip.detach(), pairs](AdjointContext& ctx) {
+           [image = image.detach(), clip = clip.detach(), pairs, boost](AdjointContext& ctx) {
              const Tensor& g = ctx.grad_output();
              Tensor g_image = ctx.needs_grad(0) ? Tensor::zeros(image.shape(), image.dtype()) : Tensor();
              Tensor g_clip = ctx.needs_grad(1) ? Tensor::zeros(clip.shape(), clip.dtype()) : Tensor();
@@ -115,6 +119,10 @@ Tensor antialias(const Tensor& image, const GBuffer& gbuffer, const Tensor& clip
                auto ptr = [](Tensor& t) { return t.defined() ? t.data<T>() : nullptr; };
                raster::antialias_backward(image_params<T>(image, clip), *pairs, g.data<T>(),
                                           {ptr(g_image), ptr(g_clip)});
+               if (g_clip.defined() && boost != 1.0) {
+                 T* d = g_clip.data<T>();
+                 for (std::int64_t i = 0; i < g_clip.numel(); ++i) d[i] = static_cast<T>(boost * d[i]);
+               }
              });
              if (g_image.defined()) ctx.accumulate(0, g_image);
              if (g_clip.defined()) ctx.accumulate(1, g_clip);

@@ -30,6 +30,10 @@ struct AntialiasOptions {
   // small meshes; pass one in optimization loops).
   AntialiasTopology topology;
   raster::AntialiasStats* stats = nullptr;  // if set, receives the pair counts
+  // nvdiffrast's pos_gradient_boost: the gradient to clip is multiplied by
+  // this factor (faster silhouette motion); the image gradient and the
+  // forward are unchanged. Finite; 1 = the plain adjoint.
+  double pos_gradient_boost = 1.0;
 };
 
 // image [H, W, C] (same dtype as clip), gbuffer = rasterize(clip, triangles,

@@ -15,6 +15,7 @@
 #include "ops/linalg.h"
 #include "ops/project.h"
 #include "ops/promote.h"
+#include "ops/depth_peel.h"
 #include "ops/rasterize.h"
 #include "ops/reduce.h"
 #include "ops/resample.h"

@@ -16,10 +16,22 @@ raster::RasterParams<T> params(const Tensor& clip, const Tensor& triangles, cons
 }  // namespace
 
 GBuffer rasterize(const Tensor& clip, const Tensor& triangles, const RasterizeOptions& options) {
+  detail::check_rasterize_inputs(clip, triangles, options, "rasterize");
+  return detail::rasterize_layer(clip, triangles, options, nullptr, nullptr, nullptr);
+}
+
+namespace detail {
+
+void check_rasterize_inputs(const Tensor& clip, const Tensor& triangles, const RasterizeOptions& options,
+                            const char* op) {
+  check_image_size(options.width, options.height, op);
+  check_clip_and_triangles(clip, triangles, op);
+  check_finite(clip, op, "clip");
+}
+
+GBuffer rasterize_layer(const Tensor& clip, const Tensor& triangles, const RasterizeOptions& options,
+                        const std::int32_t* floor_id, const double* floor_z, double* key_depth) {
   const char* op = "rasterize";
-  detail::check_image_size(options.width, options.height, op);
-  detail::check_clip_and_triangles(clip, triangles, op);
-  detail::check_finite(clip, op, "clip");
   const raster::RasterSettings settings{options.width, options.height, options.cull, options.front_to_back};
   const std::int64_t h = options.height, w = options.width;
   GBuffer gb;
@@ -28,8 +40,11 @@ GBuffer rasterize(const Tensor& clip, const Tensor& triangles, const RasterizeOp
   gb.depth = Tensor::empty({h, w}, clip.dtype());
   dispatch_float(clip.dtype(), op, [&](auto tag) {
     using T = decltype(tag);
-    raster::rasterize_forward(params<T>(clip, triangles, settings), gb.tri_id.data<std::int32_t>(), gb.uv.data<T>(),
-                              gb.depth.data<T>(), &gb.stats);
+    raster::RasterParams<T> p = params<T>(clip, triangles, settings);
+    p.floor_id = floor_id;
+    p.floor_z = floor_z;
+    raster::rasterize_forward(p, gb.tri_id.data<std::int32_t>(), gb.uv.data<T>(), gb.depth.data<T>(), &gb.stats,
+                              key_depth);
   });
   if (should_record({clip})) {
     // The backward trusts what the forward checked: same clip, triangles and
@@ -52,4 +67,5 @@ GBuffer rasterize(const Tensor& clip, const Tensor& triangles, const RasterizeOp
   return gb;
 }
 
+}  // namespace detail
 }  // namespace gr

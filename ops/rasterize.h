@@ -39,4 +39,15 @@ struct GBuffer {
 // antialias op supplies silhouette gradients.
 GBuffer rasterize(const Tensor& clip, const Tensor& triangles, const RasterizeOptions& options);
 
+namespace detail {
+// rasterize's argument checks (op names the caller in messages).
+void check_rasterize_inputs(const Tensor& clip, const Tensor& triangles, const RasterizeOptions& options,
+                            const char* op);
+// rasterize without the checks, with the optional peeling floor and exact
+// depth output of raster::rasterize_forward (DepthPeeler's layers). The
+// layer records the same adjoint as rasterize: it depends on tri_id only.
+GBuffer rasterize_layer(const Tensor& clip, const Tensor& triangles, const RasterizeOptions& options,
+                        const std::int32_t* floor_id, const double* floor_z, double* key_depth);
+}  // namespace detail
+
 }  // namespace gr

@@ -81,9 +81,11 @@ double depth_lower_bound(const detail::Vertices& v, const std::int32_t* tri) {
 // by ascending (zmin, id) and a triangle whose smallest vertex depth is beyond
 // the tile's largest stored depth (all pixels covered) is skipped: each of its
 // pixels would fail z < zbuf, so the result is the same.
-void scan_tile(const detail::Vertices& v, const std::int32_t* tris, const ForwardScratch& sc,
+template <class T>
+void scan_tile(const detail::Vertices& v, const RasterParams<T>& p, const ForwardScratch& sc,
                int tiles_x, int tile, int width, int height, bool front_to_back,
                std::vector<std::int32_t>& order, TileBuffer& tb) {
+  const std::int32_t* tris = p.tris;
   const int tx0 = (tile % tiles_x) * kTile, ty0 = (tile / tiles_x) * kTile;
   const int tx1 = std::min(tx0 + kTile, width) - 1, ty1 = std::min(ty0 + kTile, height) - 1;
   const int area = (tx1 - tx0 + 1) * (ty1 - ty0 + 1);
@@ -91,6 +93,17 @@ void scan_tile(const detail::Vertices& v, const std::int32_t* tris, const Forwar
   std::fill(tb.id, tb.id + kTilePixels, -1);
   tb.covered = 0;
   tb.zmax = std::numeric_limits<double>::infinity();
+  tb.floor = p.floor_id != nullptr;
+  if (tb.floor) {
+    // The previous layer's key per pixel; behind its background nothing remains.
+    for (int y = 0; y <= ty1 - ty0; ++y)
+      for (int x = 0; x <= tx1 - tx0; ++x) {
+        const std::int64_t px = static_cast<std::int64_t>(ty0 + y) * width + tx0 + x;
+        const bool empty = p.floor_id[px] == 0;
+        tb.fz[y * kTile + x] = empty ? std::numeric_limits<double>::infinity() : p.floor_z[px];
+        tb.fid[y * kTile + x] = empty ? std::numeric_limits<std::int32_t>::max() : p.floor_id[px] - 1;
+      }
+  }
   const std::int32_t* list = sc.bin.data() + sc.offset[tile];
   const std::int64_t n = sc.offset[tile + 1] - sc.offset[tile];
   if (!front_to_back) {
@@ -246,7 +259,7 @@ void clear_background(std::int64_t pixels, std::int32_t* tri_id, T* uv, T* depth
 // and write its covered pixels; each tile writes only its own pixels.
 template <class T>
 void scan_tiles(const RasterParams<T>& p, const Grid& g, const ForwardScratch& sc, std::int32_t* tri_id, T* uv,
-                T* depth) {
+                T* depth, double* key_depth) {
   std::vector<int> busy;
   for (int i = 0; i < g.tiles; ++i)
     if (sc.offset[i + 1] > sc.offset[i]) busy.push_back(i);
@@ -256,7 +269,7 @@ void scan_tiles(const RasterParams<T>& p, const Grid& g, const ForwardScratch& s
     std::vector<std::int32_t> order;
     for (std::int64_t n = lo; n < hi; ++n) {
       const int tile = busy[n];
-      scan_tile(sc.v, p.tris, sc, g.tiles_x, tile, W, H, p.settings.front_to_back, order, *tb);
+      scan_tile(sc.v, p, sc, g.tiles_x, tile, W, H, p.settings.front_to_back, order, *tb);
       const int tx0 = (tile % g.tiles_x) * kTile, ty0 = (tile / g.tiles_x) * kTile;
       const int tw = std::min(kTile, W - tx0), th = std::min(kTile, H - ty0);
       for (int y = 0; y < th; ++y)
@@ -268,6 +281,7 @@ void scan_tiles(const RasterParams<T>& p, const Grid& g, const ForwardScratch& s
           uv[2 * px] = static_cast<T>(tb->u[q]);
           uv[2 * px + 1] = static_cast<T>(tb->v[q]);
           depth[px] = static_cast<T>(tb->z[q]);
+          if (key_depth) key_depth[px] = tb->z[q];
         }
     }
   });
@@ -276,7 +290,8 @@ void scan_tiles(const RasterParams<T>& p, const Grid& g, const ForwardScratch& s
 }  // namespace
 
 template <class T>
-void rasterize_forward(const RasterParams<T>& p, std::int32_t* tri_id, T* uv, T* depth, RasterStats* stats) {
+void rasterize_forward(const RasterParams<T>& p, std::int32_t* tri_id, T* uv, T* depth, RasterStats* stats,
+                       double* key_depth) {
   const int W = p.settings.width, H = p.settings.height;
   assert(W >= 1 && H >= 1 && p.num_vertices >= 0 && p.num_tris >= 0);
   auto lease = g_forward_pool.take();
@@ -288,7 +303,8 @@ void rasterize_forward(const RasterParams<T>& p, std::int32_t* tri_id, T* uv, T*
   bin_offsets(g, sc);
   fill_bins(p.num_tris, g, sc);
   clear_background(static_cast<std::int64_t>(W) * H, tri_id, uv, depth);
-  scan_tiles(p, g, sc, tri_id, uv, depth);
+  if (key_depth) std::fill(key_depth, key_depth + static_cast<std::int64_t>(W) * H, std::numeric_limits<double>::infinity());
+  scan_tiles(p, g, sc, tri_id, uv, depth, key_depth);
 }
 
 namespace {
@@ -491,7 +507,7 @@ void rasterize_backward(const RasterParams<T>& p, const std::int32_t* tri_id, co
 }
 
 #define GR_INSTANTIATE(T)                                                                                \
-  template void rasterize_forward<T>(const RasterParams<T>&, std::int32_t*, T*, T*, RasterStats*); \
+  template void rasterize_forward<T>(const RasterParams<T>&, std::int32_t*, T*, T*, RasterStats*, double*); \
   template void rasterize_backward<T>(const RasterParams<T>&, const std::int32_t*, const T*, const T*, T*);
 GR_INSTANTIATE(float)
 GR_INSTANTIATE(double)

@@ -52,13 +52,22 @@ struct RasterParams {
   const std::int32_t* tris = nullptr;  // num_tris x 3 vertex indices
   std::int64_t num_tris = 0;
   RasterSettings settings;
+  // Depth peeling (optional, both or neither; H*W each): a lower bound on the
+  // (depth, id) key per pixel, the previous layer's key. A pixel keeps only
+  // triangles whose key is strictly greater; floor_id is 1-based like tri_id
+  // and 0 (background) leaves the pixel empty. floor_z is the exact (double)
+  // depth the previous call wrote to key_depth.
+  const std::int32_t* floor_id = nullptr;
+  const double* floor_z = nullptr;
 };
 
 // Writes tri_id (H*W), uv (H*W*2, interleaved u, v), depth (H*W); row-major,
 // row 0 at the top. Background: tri_id 0, uv (0, 0), depth kBackgroundDepth.
+// key_depth (optional, H*W): the winning depth in double, unrounded (for the
+// next peeling layer's floor_z); background pixels get +inf.
 template <class T>
 void rasterize_forward(const RasterParams<T>& p, std::int32_t* tri_id, T* uv, T* depth,
-                       RasterStats* stats = nullptr);
+                       RasterStats* stats = nullptr, double* key_depth = nullptr);
 
 // Adjoint of rasterize_forward for a fixed coverage (tri_id, each in
 // [0, num_tris]), ACCUMULATED (+=) into grad_clip (N x 4). grad_uv: H*W*2;

@@ -25,9 +25,10 @@ inline __m128d inside2(__m128d e) {
 }
 #endif
 
-// Depth range test, then the (depth, id) key test; the winner's values go to slot p.
+// Depth range test, the peeling floor, then the (depth, id) key test; the winner's values go to slot p.
 inline void resolve_pixel(const TriSetup& s, std::int32_t t, int p, double z, double u, double v, TileBuffer& tb) {
   if (s.z_test && !(z >= -1.0 && z <= 1.0)) return;
+  if (tb.floor && !(z > tb.fz[p] || (z == tb.fz[p] && t > tb.fid[p]))) return;
   if (z < tb.z[p] || (z == tb.z[p] && t < tb.id[p])) {
     tb.covered += tb.id[p] < 0;
     tb.z[p] = z;

@@ -25,6 +25,11 @@ struct TileBuffer {
   std::int32_t id[kTilePixels];
   int covered;  // pixels with id >= 0
   double zmax;  // largest z over the tile once every pixel is covered, else +inf
+  // Depth peeling: when `floor` is set, slot p accepts only keys (z, id)
+  // strictly greater than (fz[p], fid[p]) (0-based id; +inf, INT32_MAX = none).
+  bool floor;
+  double fz[kTilePixels];
+  std::int32_t fid[kTilePixels];
 };
 
 // Scans triangle t (tris[3t..3t+2]) over its pixel box b clipped to the tile

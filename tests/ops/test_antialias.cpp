@@ -353,3 +353,37 @@ TEST_CASE("antialias: bad arguments throw with messages naming the argument", "[
   throws([&] { antialias_topology(Tensor::from_vector<std::int32_t>({0, 1, 2}, {1, 3}), nan_positions); },
          "positions[4]");
 }
+
+TEST_CASE("antialias: pos_gradient_boost scales the clip gradient exactly and leaves the image gradient and output alone",
+          "[ops][antialias]") {
+  const int W = 24, H = 20;
+  Tensor clip = two_triangles_clip().set_requires_grad();
+  Tensor tris = two_triangles();
+  Tensor image = gr::testing::random_input({H, W, 3}, 0.0, 1.0, 91).set_requires_grad();
+  Tensor weights = gr::testing::random_input({H, W, 3}, -1.0, 1.0, 92);
+  const double factor = 3.7;
+  std::vector<double> out[2], g_clip[2], g_image[2];
+  for (int boosted = 0; boosted < 2; ++boosted) {
+    AntialiasOptions opt;
+    if (boosted) opt.pos_gradient_boost = factor;
+    clip.zero_grad();
+    image.zero_grad();
+    Tensor o = antialias(image, rasterize(clip, tris, {W, H}), clip, tris, opt);
+    backward(sum(o * weights));
+    out[boosted] = o.to_vector();
+    g_clip[boosted] = clip.grad().to_vector();
+    g_image[boosted] = image.grad().to_vector();
+  }
+  CHECK(out[1] == out[0]);
+  CHECK(g_image[1] == g_image[0]);
+  int moved = 0;
+  for (std::size_t i = 0; i < g_clip[0].size(); ++i) {
+    CHECK(g_clip[1][i] == factor * g_clip[0][i]);
+    moved += g_clip[0][i] != 0;
+  }
+  CHECK(moved > 0);
+  AntialiasOptions bad;
+  bad.pos_gradient_boost = std::nan("");
+  CHECK_THROWS_WITH(antialias(image, rasterize(clip, tris, {W, H}), clip, tris, bad),
+                    Catch::Contains("pos_gradient_boost"));
+}
