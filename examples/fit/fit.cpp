@@ -303,18 +303,24 @@ void write_fitted_mesh(const FitOptions& options, const SurfaceMesh& mesh, const
   }
 }
 
+// A result that names the run; the fit fills in the numbers.
+FitResult describe_run(Mode mode, const Scene& scene, const SurfaceMesh& mesh, int iterations) {
+  FitResult result;
+  result.mode = mode;
+  result.scene_name = scene.name;
+  result.points = mesh.num_points();
+  result.triangles = mesh.num_triangles();
+  result.iterations = iterations;
+  return result;
+}
+
 FitResult run_shape(const FitOptions& options, std::ostream& log) {
   const auto start = Clock::now();
   const int iterations = options.iterations > 0 ? options.iterations : kDefaultShapeIterations;
   const Scene scene = shape_scene(options);
   const SurfaceMesh& mesh = scene.start;
 
-  FitResult result;
-  result.mode = Mode::Shape;
-  result.scene_name = scene.name;
-  result.points = mesh.num_points();
-  result.triangles = mesh.num_triangles();
-  result.iterations = iterations;
+  FitResult result = describe_run(Mode::Shape, scene, mesh, iterations);
 
   const Targets targets = render_targets(scene, options.size);
   const SmoothedPositions smoothed(mesh, options.smoothing_passes);
@@ -388,12 +394,7 @@ FitResult run_pose(const FitOptions& options, std::ostream& log) {
   const Camera& camera = scene.cameras[0];
   const Tensor vp = matmul(camera.projection, camera.view);
 
-  FitResult result;
-  result.mode = Mode::Pose;
-  result.scene_name = scene.name;
-  result.points = mesh.num_points();
-  result.triangles = mesh.num_triangles();
-  result.iterations = iterations;
+  FitResult result = describe_run(Mode::Pose, scene, mesh, iterations);
 
   // The unknown pose: a random rotation of 30-90 degrees and a shift of up to
   // 0.2 per axis; the start is 25 degrees (about a random axis) and 0.15 units off.

@@ -28,6 +28,7 @@
 
 using namespace gr;
 using gr::render_tool::run_render_tool;
+using gr::testing::slurp;
 using gr::testing::TempDir;
 
 namespace {
@@ -44,11 +45,6 @@ Run render(const std::vector<std::string>& args) {
   r.out = out.str();
   r.err = err.str();
   return r;
-}
-
-std::string slurp(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
 }
 
 // Raw little-endian uint32 / float32 buffers as written by --out-triid / --out-depth.

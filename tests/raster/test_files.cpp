@@ -15,14 +15,10 @@
 
 using namespace gr;
 using namespace gr::raster;
+using gr::testing::slurp;
 using gr::testing::TempDir;
 
 namespace {
-
-std::string slurp(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), {}};
-}
 
 }  // namespace
 

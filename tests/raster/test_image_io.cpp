@@ -15,14 +15,10 @@
 
 using namespace gr;
 using namespace gr::raster;
+using gr::testing::slurp;
 using gr::testing::TempDir;
 
 namespace {
-
-std::string slurp(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
 
 std::uint32_t crc32(const std::string& bytes) {
   std::uint32_t c = 0xffffffffu;
