@@ -263,13 +263,15 @@ Tensor slice(const Tensor& a, int axis, std::int64_t start, std::int64_t stop, s
   d[static_cast<std::size_t>(ax)] = count;
   const Shape out_shape(d);
   const std::int64_t outer = prod(a.shape(), 0, ax), inner = prod(a.shape(), ax + 1, a.rank());
+  // Rows to copy; none when they are empty (a [2^31, 7, 0, 0] slice must not walk 2^34 empty rows).
+  const std::int64_t rows = inner == 0 ? 0 : outer * count;
   Tensor out = Tensor::empty(out_shape, a.dtype());
   dispatch_any(a.dtype(), [&](auto tag) {
     using T = decltype(tag);
     const T* src = a.data<T>();
     T* o = out.data<T>();
     // out[o, j, :] = a[o, first + j step, :], one (o, j) row at a time.
-    parallel_for(0, outer * count, copy_grain(inner), [&](std::int64_t lo, std::int64_t hi) {
+    parallel_for(0, rows, copy_grain(inner), [&](std::int64_t lo, std::int64_t hi) {
       for (std::int64_t row = lo; row < hi; ++row) {
         const std::int64_t q = row / count, j = row % count;
         const T* s = src + (q * n + first + j * step) * inner;
@@ -278,7 +280,7 @@ Tensor slice(const Tensor& a, int axis, std::int64_t start, std::int64_t stop, s
     });
   });
   if (is_floating(a.dtype()) && should_record({a})) {
-    record("slice", {a}, {&out}, [first, step, count, n, outer, inner](AdjointContext& ctx) {
+    record("slice", {a}, {&out}, [first, step, count, n, rows, inner](AdjointContext& ctx) {
       const Tensor& g = ctx.grad_output();
       if (!g.defined()) return;
       Tensor ga = Tensor::zeros(ctx.input_shape(0), g.dtype());
@@ -287,7 +289,7 @@ Tensor slice(const Tensor& a, int axis, std::int64_t start, std::int64_t stop, s
         const T* pg = g.data<T>();
         T* o = ga.data<T>();
         // dL/da[o, first + j step, :] = g[o, j, :]; the picked rows are distinct.
-        parallel_for(0, outer * count, copy_grain(inner), [&](std::int64_t lo, std::int64_t hi) {
+        parallel_for(0, rows, copy_grain(inner), [&](std::int64_t lo, std::int64_t hi) {
           for (std::int64_t row = lo; row < hi; ++row) {
             const std::int64_t q = row / count, j = row % count;
             std::copy(pg + row * inner, pg + (row + 1) * inner, o + (q * n + first + j * step) * inner);
