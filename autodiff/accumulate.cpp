@@ -16,6 +16,12 @@ void add_arrays(T* out, const T* a, const T* b, std::int64_t n) {
   });
 }
 
+// The stripe that guards a leaf's grad pointer.
+std::mutex& leaf_stripe(const TensorImpl& leaf) {
+  static std::array<std::mutex, 64> stripes;
+  return stripes[std::hash<const TensorImpl*>()(&leaf) / alignof(TensorImpl) % stripes.size()];
+}
+
 }  // namespace
 
 void accumulate_into(Tensor& dst, const Tensor& src) {
@@ -39,10 +45,8 @@ void accumulate_leaf_grad(TensorImpl& leaf, const Tensor& grad) {
   // another thread's task): take the leaf's gradient out, add, and put the sum
   // back if the slot is still empty; if another thread put its own sum there
   // meanwhile, take that out too and add again.
-  static std::array<std::mutex, 64> stripes;
-  std::mutex& m = stripes[std::hash<const TensorImpl*>()(&leaf) / alignof(TensorImpl) % stripes.size()];
   Tensor sum = grad.detach();
-  std::unique_lock<std::mutex> lock(m);
+  std::unique_lock<std::mutex> lock(leaf_stripe(leaf));
   while (leaf.grad) {
     Tensor g(std::move(leaf.grad));
     lock.unlock();
@@ -51,6 +55,13 @@ void accumulate_leaf_grad(TensorImpl& leaf, const Tensor& grad) {
     lock.lock();
   }
   leaf.grad = sum.impl_ptr();
+}
+
+void ensure_leaf_grad(TensorImpl& leaf, const Shape& shape, DType dtype) {
+  // A slot another thread has taken out (see above) looks empty here; the zeros
+  // put there are then added into that thread's sum, which changes nothing.
+  std::lock_guard<std::mutex> lock(leaf_stripe(leaf));
+  if (!leaf.grad) leaf.grad = Tensor::zeros(shape, dtype).impl_ptr();
 }
 
 }  // namespace gr

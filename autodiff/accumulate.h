@@ -13,4 +13,8 @@ void accumulate_into(Tensor& dst, const Tensor& src);
 // order in which the threads arrive.
 void accumulate_leaf_grad(TensorImpl& leaf, const Tensor& grad);
 
+// Gives the leaf a zero gradient of its shape if it has none, under the same
+// lock as accumulate_leaf_grad (another thread may be adding into it).
+void ensure_leaf_grad(TensorImpl& leaf, const Shape& shape, DType dtype);
+
 }  // namespace gr

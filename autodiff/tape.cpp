@@ -131,8 +131,8 @@ void Tape::give_zero_grads(Node& node) {
     if (in.slot >= 0) {
       Tensor& g = slot_grads_[static_cast<std::size_t>(in.slot)];
       if (!g.defined()) g = Tensor::zeros(in.shape, in.dtype);
-    } else if (!in.leaf->grad) {
-      in.leaf->grad = Tensor::zeros(in.shape, in.dtype).impl_ptr();
+    } else {
+      ensure_leaf_grad(*in.leaf, in.shape, in.dtype);
     }
   }
 }

@@ -27,7 +27,7 @@ struct TileBuffer {
   double zmax;  // largest z over the tile once every pixel is covered, else +inf
   // Depth peeling: when `floor` is set, slot p accepts only keys (z, id)
   // strictly greater than (fz[p], fid[p]) (0-based id; +inf, INT32_MAX = none).
-  bool floor;
+  bool floor = false;
   double fz[kTilePixels];
   std::int32_t fid[kTilePixels];
 };

@@ -21,7 +21,7 @@ using gr::fuzz::fuzz_rasterize_interpolate;
 namespace {
 
 // The corpus sits next to this source file.
-fs::path corpus_dir(const char* name) { return fs::path(__FILE__).parent_path() / "corpus" / name; }
+fs::path corpus_dir(const char* name) { return fs::path(GRADRASTER_TESTS_DIR) / "fuzz" / "corpus" / name; }
 
 // Every file of a corpus folder, sorted by name (empty if the folder is missing).
 std::vector<fs::path> corpus_files(const char* name) {
