@@ -1,0 +1,61 @@
+// The tape against the hand-fused pass (issue 17): the Blinn-Phong loss of
+// shading_graph.h, forward + backward on 1,048,576 pixels, both ways in one
+// binary so one run compares them side by side. Each reports the compulsory
+// traffic (inputs p, n, albedo, target read once; gradients of n and albedo
+// written once: 18 values per pixel) as GB/s and as a fraction of the
+// measured triad bandwidth (roofline.h).
+#include <benchmark/benchmark.h>
+
+#include <type_traits>
+
+#include "fused_blinn_phong.h"
+#include "roofline.h"
+
+namespace {
+
+constexpr std::int64_t kPixels = 1 << 20;
+
+template <gr::DType D>
+using Scalar = std::conditional_t<D == gr::DType::Float32, float, double>;
+
+template <gr::DType D>
+double compulsory_bytes() {
+  return 18.0 * sizeof(Scalar<D>) * kPixels;
+}
+
+template <gr::DType D>
+void BM_BlinnPhongTape(benchmark::State& state) {
+  gr::set_num_threads(static_cast<int>(state.range(0)));
+  auto scene = gr::bench::make_shading_scene(kPixels, D);
+  for (auto _ : state) {
+    gr::backward(gr::bench::blinn_phong_loss(scene));
+    benchmark::DoNotOptimize(scene.albedo.grad().data<Scalar<D>>());
+    scene.n.zero_grad();
+    scene.albedo.zero_grad();
+    scene.light.zero_grad();
+  }
+  gr::bench::report_traffic(state, compulsory_bytes<D>());
+  gr::set_num_threads(0);
+}
+
+template <gr::DType D>
+void BM_BlinnPhongFused(benchmark::State& state) {
+  gr::set_num_threads(static_cast<int>(state.range(0)));
+  auto scene = gr::bench::make_shading_scene(kPixels, D);
+  gr::bench::FusedGradients<Scalar<D>> grads;
+  for (auto _ : state) {
+    gr::bench::fused_blinn_phong(scene, grads);
+    benchmark::DoNotOptimize(grads.albedo.data());
+  }
+  gr::bench::report_traffic(state, compulsory_bytes<D>());
+  gr::set_num_threads(0);
+}
+
+}  // namespace
+
+BENCHMARK_TEMPLATE(BM_BlinnPhongTape, gr::DType::Float32)->ArgName("threads")->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK_TEMPLATE(BM_BlinnPhongFused, gr::DType::Float32)->ArgName("threads")->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK_TEMPLATE(BM_BlinnPhongTape, gr::DType::Float64)->ArgName("threads")->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK_TEMPLATE(BM_BlinnPhongFused, gr::DType::Float64)->ArgName("threads")->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+BENCHMARK_MAIN();

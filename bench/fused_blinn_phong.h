@@ -1,0 +1,29 @@
+// The Blinn-Phong loss of shading_graph.h and its gradients written by hand as
+// one pass over the pixels: the fused baseline that the tape's time is
+// measured against (issue 17). Same formulas, same inputs (a ShadingScene), no
+// intermediate tensors: each pixel's forward values stay in registers and its
+// adjoint runs right after them.
+#pragma once
+
+#include <array>
+#include <vector>
+
+#include "shading_graph.h"
+
+namespace gr::bench {
+
+template <class T>
+struct FusedGradients {
+  std::vector<T> n, albedo;  // [N * 3], as the scene's tensors
+  std::array<T, 3> light{};
+  T loss = 0;
+};
+
+// Loss and dL/dn, dL/dalbedo, dL/dlight of blinn_phong_loss(scene), with
+// max(x, 0)'s derivative taken as 1 for x > 0 and 0 otherwise. The per-pixel
+// work is split over threads; the loss and the light gradient are summed in
+// fixed blocks (deterministic_sum), so results do not depend on the thread count.
+template <class T>
+void fused_blinn_phong(const ShadingScene& scene, FusedGradients<T>& out);
+
+}  // namespace gr::bench

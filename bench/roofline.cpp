@@ -1,0 +1,48 @@
+#include "roofline.h"
+
+#include <algorithm>
+#include <chrono>
+#include <map>
+#include <vector>
+
+#include "autodiff/parallel.h"
+
+namespace gr::bench {
+namespace {
+
+double measure_triad() {
+  const std::int64_t n = std::int64_t(1) << 24;  // 3 x 128 MiB of doubles
+  std::vector<double> a(n, 0.0), b(n, 1.0), c(n, 2.0);
+  auto triad = [&](std::int64_t lo, std::int64_t hi) {
+    for (std::int64_t i = lo; i < hi; ++i) a[i] = b[i] + 3.0 * c[i];
+  };
+  parallel_for(0, n, kElementwiseGrain, triad);  // first touch
+  double best = 1e300;
+  for (int rep = 0; rep < 5; ++rep) {
+    const auto t0 = std::chrono::steady_clock::now();
+    parallel_for(0, n, kElementwiseGrain, triad);
+    best = std::min(best, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  }
+  benchmark::DoNotOptimize(a.data());
+  return 24.0 * static_cast<double>(n) / best;
+}
+
+}  // namespace
+
+double triad_bandwidth() {
+  static std::map<int, double> cached;
+  const int threads = num_threads();
+  auto it = cached.find(threads);
+  if (it == cached.end()) it = cached.emplace(threads, measure_triad()).first;
+  return it->second;
+}
+
+void report_traffic(benchmark::State& state, double bytes_per_iteration) {
+  const double bytes = bytes_per_iteration * static_cast<double>(state.iterations());
+  state.counters["GB/s"] = benchmark::Counter(bytes / 1e9, benchmark::Counter::kIsRate);
+  // of_peak = achieved rate / triad rate; the rate is only known at the end,
+  // so it is stated as a rate of (bytes / peak) per second.
+  state.counters["of_peak"] = benchmark::Counter(bytes / triad_bandwidth(), benchmark::Counter::kIsRate);
+}
+
+}  // namespace gr::bench

@@ -1,0 +1,22 @@
+// The roofline columns of every kernel benchmark: the machine's measured
+// memory bandwidth (a STREAM triad, as bench_stream reports it) and, per
+// benchmark, the bytes it must move, the achieved GB/s and their ratio.
+#pragma once
+
+#include <benchmark/benchmark.h>
+
+#include <cstdint>
+
+namespace gr::bench {
+
+// Triad bandwidth a[i] = b[i] + s c[i] over arrays far larger than the caches,
+// at the current gr::num_threads(), in bytes per second (24 bytes per element:
+// two reads, one write). Measured once per thread count and cached.
+double triad_bandwidth();
+
+// Adds the counters "GB/s" (bytes_per_iteration per iteration, as a rate) and
+// "of_peak" (that rate over triad_bandwidth()). bytes_per_iteration is the
+// compulsory traffic: every input read once and every output written once.
+void report_traffic(benchmark::State& state, double bytes_per_iteration);
+
+}  // namespace gr::bench

@@ -1,0 +1,57 @@
+// The hand-fused Blinn-Phong baseline (bench/fused_blinn_phong.h) computes the
+// same loss and gradients as the tape does for shading_graph.h's graph, and
+// its sums do not depend on the thread count.
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <cmath>
+
+#include "fused_blinn_phong.h"
+
+using namespace gr;
+
+namespace {
+
+double max_relative_difference(const std::vector<double>& a, const std::vector<double>& b) {
+  double worst = 0, scale = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    worst = std::max(worst, std::abs(a[i] - b[i]));
+    scale = std::max(scale, std::abs(b[i]));
+  }
+  return worst / scale;
+}
+
+}  // namespace
+
+TEST_CASE("fused baseline: the hand-fused pass gives the tape's loss and gradients in float64",
+          "[bench][fused]") {
+  // 40000 pixels: several summation blocks, and some pixels with n.l or n.h <= 0.
+  auto scene = bench::make_shading_scene(40000, DType::Float64);
+  Tensor loss = bench::blinn_phong_loss(scene);
+  const double tape_loss = loss.item();
+  backward(loss);
+  bench::FusedGradients<double> fused;
+  bench::fused_blinn_phong(scene, fused);
+  CHECK(fused.loss == Approx(tape_loss).epsilon(1e-12));
+  CHECK(max_relative_difference(fused.n, scene.n.grad().to_vector()) < 1e-12);
+  CHECK(max_relative_difference(fused.albedo, scene.albedo.grad().to_vector()) < 1e-12);
+  const std::vector<double> light(fused.light.begin(), fused.light.end());
+  CHECK(max_relative_difference(light, scene.light.grad().to_vector()) < 1e-12);
+}
+
+TEST_CASE("fused baseline: loss and light gradient are bit-identical for 1 2 and 8 threads",
+          "[bench][fused][determinism]") {
+  auto scene = bench::make_shading_scene(70000, DType::Float32);
+  bench::FusedGradients<float> reference;
+  set_num_threads(1);
+  bench::fused_blinn_phong(scene, reference);
+  for (int threads : {2, 8}) {
+    set_num_threads(threads);
+    bench::FusedGradients<float> other;
+    bench::fused_blinn_phong(scene, other);
+    CHECK(other.loss == reference.loss);
+    CHECK(other.light == reference.light);
+    CHECK(other.n == reference.n);
+  }
+  set_num_threads(0);
+}
