@@ -3,6 +3,7 @@
 #include "autodiff/error.h"
 #include "autodiff/memory.h"
 
+#include <algorithm>
 #include <cstdlib>
 #include <map>
 #include <mutex>
@@ -68,6 +69,12 @@ void reserve(Cache& c, std::size_t bytes) {
   if (bytes > limit || used > limit - bytes) throw detail::memory_limit_error(bytes, "a tensor buffer", used, limit);
 }
 
+// Adds `delta` to the live bytes and raises the peak (c.mutex held).
+void count_live(Cache& c, std::int64_t delta) {
+  c.stats.live_bytes += delta;
+  c.stats.peak_live_bytes = std::max(c.stats.peak_live_bytes, c.stats.live_bytes);
+}
+
 void unreserve(Cache& c, std::size_t bytes) {
   std::lock_guard<std::mutex> lock(c.mutex);
   c.in_use -= bytes;
@@ -89,6 +96,7 @@ Storage::Storage(std::size_t bytes) {
       c.free_buffers.erase(it);
       c.stats.reused++;
       c.stats.cached_bytes -= static_cast<std::int64_t>(bytes_);
+      count_live(c, static_cast<std::int64_t>(bytes_));
       return;
     }
   }
@@ -104,13 +112,17 @@ Storage::Storage(std::size_t bytes) {
   }
   std::lock_guard<std::mutex> lock(c.mutex);
   c.stats.fresh_allocations++;
+  count_live(c, static_cast<std::int64_t>(bytes_));
 }
 
 Storage::~Storage() {
   Cache& c = cache();
-  if (bytes_ <= kMaxCachedBuffer) {
+  {
     std::lock_guard<std::mutex> lock(c.mutex);
-    if (c.stats.cached_bytes + static_cast<std::int64_t>(bytes_) <= static_cast<std::int64_t>(kMaxCachedTotal)) {
+    count_live(c, -static_cast<std::int64_t>(bytes_));
+    const bool cacheable = bytes_ <= kMaxCachedBuffer && c.stats.cached_bytes + static_cast<std::int64_t>(bytes_) <=
+                                                         static_cast<std::int64_t>(kMaxCachedTotal);
+    if (cacheable) {
       c.free_buffers.emplace(bytes_, ptr_);
       c.stats.cached_bytes += static_cast<std::int64_t>(bytes_);
       return;
@@ -124,6 +136,12 @@ StorageStats storage_stats() {
   Cache& c = cache();
   std::lock_guard<std::mutex> lock(c.mutex);
   return c.stats;
+}
+
+void reset_storage_peak() {
+  Cache& c = cache();
+  std::lock_guard<std::mutex> lock(c.mutex);
+  c.stats.peak_live_bytes = c.stats.live_bytes;
 }
 
 void release_cached_storage() {

@@ -32,10 +32,14 @@ struct StorageStats {
   std::int64_t fresh_allocations = 0;  // buffers obtained from the system allocator
   std::int64_t reused = 0;             // buffers served from the cache
   std::int64_t cached_bytes = 0;       // bytes currently held in the cache
+  std::int64_t live_bytes = 0;         // bytes of buffers held by tensors now
+  std::int64_t peak_live_bytes = 0;    // largest live_bytes since start or reset_storage_peak()
 };
 
 StorageStats storage_stats();
 // Returns every cached buffer to the system allocator.
 void release_cached_storage();
+// Starts a new peak: peak_live_bytes = live_bytes (benchmarks measure a step's peak).
+void reset_storage_peak();
 
 }  // namespace gr

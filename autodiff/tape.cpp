@@ -8,6 +8,7 @@
 namespace gr {
 namespace {
 thread_local bool g_grad_mode = true;
+thread_local Tape* g_scoped_tape = nullptr;  // innermost ScopedTape, if any
 std::atomic<std::uint64_t> g_next_tape_id{1};
 }  // namespace
 
@@ -19,7 +20,17 @@ bool grad_mode_enabled() { return g_grad_mode; }
 
 Tape& Tape::current() {
   thread_local Tape tape;
-  return tape;
+  return g_scoped_tape ? *g_scoped_tape : tape;
+}
+
+ScopedTape::ScopedTape() : previous_tape_(g_scoped_tape), previous_grad_mode_(g_grad_mode) {
+  g_scoped_tape = &tape_;
+  g_grad_mode = true;
+}
+
+ScopedTape::~ScopedTape() {
+  g_scoped_tape = previous_tape_;
+  g_grad_mode = previous_grad_mode_;
 }
 
 void Tape::clear() {

@@ -147,4 +147,21 @@ class NoGradGuard {
 
 bool grad_mode_enabled();
 
+// Records on a fresh tape of its own, with gradient mode on, for its lifetime:
+// a graph built and backpropagated inside it never touches the thread's tape,
+// so it may run inside an adjoint (map_rows recomputes a block's graph this
+// way) or inside a parallel_for body. Scopes nest like a stack, on one thread.
+class ScopedTape {
+ public:
+  ScopedTape();
+  ~ScopedTape();
+  ScopedTape(const ScopedTape&) = delete;
+  ScopedTape& operator=(const ScopedTape&) = delete;
+
+ private:
+  Tape tape_;
+  Tape* previous_tape_;
+  bool previous_grad_mode_;
+};
+
 }  // namespace gr

@@ -9,6 +9,7 @@
 #include <type_traits>
 
 #include "fused_blinn_phong.h"
+#include "ops/map_rows.h"
 #include "roofline.h"
 
 namespace {
@@ -27,6 +28,7 @@ template <gr::DType D>
 void BM_BlinnPhongTape(benchmark::State& state) {
   gr::set_num_threads(static_cast<int>(state.range(0)));
   auto scene = gr::bench::make_shading_scene(kPixels, D);
+  const gr::bench::StoragePeak peak;
   for (auto _ : state) {
     gr::backward(gr::bench::blinn_phong_loss(scene));
     benchmark::DoNotOptimize(scene.albedo.grad().data<Scalar<D>>());
@@ -35,6 +37,36 @@ void BM_BlinnPhongTape(benchmark::State& state) {
     scene.light.zero_grad();
   }
   gr::bench::report_traffic(state, compulsory_bytes<D>());
+  peak.report(state);
+  gr::set_num_threads(0);
+}
+
+// The same graph through map_rows (ops/map_rows.h): blocks of block_rows
+// pixels, each block's graph recomputed in the backward pass.
+template <gr::DType D>
+void BM_BlinnPhongBlocked(benchmark::State& state) {
+  gr::set_num_threads(static_cast<int>(state.range(0)));
+  auto scene = gr::bench::make_shading_scene(kPixels, D);
+  auto squared_error = [](const std::vector<gr::Tensor>& r, const std::vector<gr::Tensor>& s) {
+    using namespace gr;
+    Tensor l = normalize(s[0] - r[0]);
+    Tensor v = normalize(s[1] - r[0]);
+    Tensor h = normalize(l + v);
+    Tensor colour = r[2] * maximum(dot(r[1], l), 0.0) + 0.5 * pow(maximum(dot(r[1], h), 0.0), 32.0);
+    return pow(colour - r[3], 2.0);
+  };
+  const gr::bench::StoragePeak peak;
+  for (auto _ : state) {
+    gr::Tensor e = gr::map_rows(squared_error, {scene.p, scene.n, scene.albedo, scene.target}, {scene.light, scene.cam},
+                                gr::MapRowsOptions{state.range(1)});
+    gr::backward(gr::mean(e));
+    benchmark::DoNotOptimize(scene.albedo.grad().data<Scalar<D>>());
+    scene.n.zero_grad();
+    scene.albedo.zero_grad();
+    scene.light.zero_grad();
+  }
+  gr::bench::report_traffic(state, compulsory_bytes<D>());
+  peak.report(state);
   gr::set_num_threads(0);
 }
 
@@ -43,19 +75,23 @@ void BM_BlinnPhongFused(benchmark::State& state) {
   gr::set_num_threads(static_cast<int>(state.range(0)));
   auto scene = gr::bench::make_shading_scene(kPixels, D);
   gr::bench::FusedGradients<Scalar<D>> grads;
+  const gr::bench::StoragePeak peak;
   for (auto _ : state) {
     gr::bench::fused_blinn_phong(scene, grads);
     benchmark::DoNotOptimize(grads.albedo.data());
   }
   gr::bench::report_traffic(state, compulsory_bytes<D>());
+  peak.report(state, 6.0 * sizeof(Scalar<D>) * kPixels);  // its gradient vectors
   gr::set_num_threads(0);
 }
 
 }  // namespace
 
 BENCHMARK_TEMPLATE(BM_BlinnPhongTape, gr::DType::Float32)->ArgName("threads")->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK_TEMPLATE(BM_BlinnPhongBlocked, gr::DType::Float32)->ArgNames({"threads", "block"})->ArgsProduct({{1, 2}, {1024, 4096, 16384}})->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK_TEMPLATE(BM_BlinnPhongFused, gr::DType::Float32)->ArgName("threads")->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK_TEMPLATE(BM_BlinnPhongTape, gr::DType::Float64)->ArgName("threads")->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK_TEMPLATE(BM_BlinnPhongBlocked, gr::DType::Float64)->ArgNames({"threads", "block"})->ArgsProduct({{1, 2}, {4096}})->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK_TEMPLATE(BM_BlinnPhongFused, gr::DType::Float64)->ArgName("threads")->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 BENCHMARK_MAIN();

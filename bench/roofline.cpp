@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "autodiff/parallel.h"
+#include "autodiff/storage.h"
 
 namespace gr::bench {
 namespace {
@@ -43,6 +44,13 @@ void report_traffic(benchmark::State& state, double bytes_per_iteration) {
   // of_peak = achieved rate / triad rate; the rate is only known at the end,
   // so it is stated as a rate of (bytes / peak) per second.
   state.counters["of_peak"] = benchmark::Counter(bytes / triad_bandwidth(), benchmark::Counter::kIsRate);
+}
+
+StoragePeak::StoragePeak() : base_(storage_stats().live_bytes) { reset_storage_peak(); }
+
+void StoragePeak::report(benchmark::State& state, double extra_bytes) const {
+  const double bytes = double(storage_stats().peak_live_bytes - base_) + extra_bytes;
+  state.counters["peak_MiB"] = bytes / double(1 << 20);
 }
 
 }  // namespace gr::bench

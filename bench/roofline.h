@@ -19,4 +19,17 @@ double triad_bandwidth();
 // compulsory traffic: every input read once and every output written once.
 void report_traffic(benchmark::State& state, double bytes_per_iteration);
 
+// Peak tensor storage of a benchmark: construct before the loop, report()
+// after it. Counts what tensors hold at once (autodiff/storage.h's live
+// bytes) above what was held at construction, plus `extra_bytes` held
+// outside tensors (the fused baseline's std::vector outputs), as "peak_MiB".
+class StoragePeak {
+ public:
+  StoragePeak();
+  void report(benchmark::State& state, double extra_bytes = 0) const;
+
+ private:
+  std::int64_t base_;
+};
+
 }  // namespace gr::bench

@@ -19,6 +19,7 @@
 #include "ops/rasterize.h"
 #include "ops/reduce.h"
 #include "ops/resample.h"
+#include "ops/map_rows.h"
 #include "ops/shape_ops.h"
 #include "ops/ssr.h"
 #include "ops/texture.h"

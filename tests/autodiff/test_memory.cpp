@@ -178,3 +178,19 @@ TEST_CASE("memory: threads allocating against a tight limit keep memory_in_use c
   CHECK(memory_in_use() == before);
   CHECK(over_limit.load() == 0);
 }
+
+TEST_CASE("memory: the storage peak counts buffers held by tensors and not the reuse cache",
+          "[autodiff][memory]") {
+  const std::int64_t base = storage_stats().live_bytes;
+  reset_storage_peak();
+  {
+    Tensor a = Tensor::empty({4 * 1024 * 1024}, DType::Float32);  // 16 MiB
+    CHECK(storage_stats().live_bytes - base >= std::int64_t(16 * kMiB));
+  }
+  // The buffer went back to the cache: no longer live, but the peak remembers it.
+  const StorageStats after = storage_stats();
+  CHECK(after.live_bytes == base);
+  CHECK(after.peak_live_bytes - base >= std::int64_t(16 * kMiB));
+  reset_storage_peak();
+  CHECK(storage_stats().peak_live_bytes == base);
+}

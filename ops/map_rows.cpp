@@ -1,0 +1,173 @@
+#include "ops/map_rows.h"
+
+#include <cstring>
+#include <string>
+
+#include "autodiff/parallel.h"
+#include "autodiff/storage.h"
+#include "autodiff/tape.h"
+#include "ops/check.h"
+
+namespace gr {
+namespace {
+
+constexpr const char* kOp = "map_rows";
+
+// Bytes of one row (everything after the leading axis).
+std::size_t row_bytes(const Shape& shape, DType dtype) {
+  const std::int64_t n = shape[0];
+  return n == 0 ? 0 : static_cast<std::size_t>(shape.numel() / n) * dtype_size(dtype);
+}
+
+Shape with_rows(const Shape& shape, std::int64_t rows) {
+  std::vector<std::int64_t> dims = shape.dims();
+  dims[0] = rows;
+  return Shape(dims);
+}
+
+char* bytes(const Tensor& t) { return static_cast<char*>(t.impl()->storage->data()); }
+
+// A new tensor holding rows [lo, hi) of t.
+Tensor copy_rows(const Tensor& t, std::int64_t lo, std::int64_t hi) {
+  Tensor out = Tensor::empty(with_rows(t.shape(), hi - lo), t.dtype());
+  const std::size_t rb = row_bytes(t.shape(), t.dtype());
+  if (hi > lo) std::memcpy(bytes(out), bytes(t) + lo * rb, (hi - lo) * rb);
+  return out;
+}
+
+// Writes `block` (rows [lo, hi) of dst's shape) into dst.
+void write_rows(Tensor& dst, const Tensor& block, std::int64_t lo, std::int64_t hi) {
+  const std::size_t rb = row_bytes(dst.shape(), dst.dtype());
+  if (hi > lo) std::memcpy(bytes(dst) + lo * rb, bytes(block), (hi - lo) * rb);
+}
+
+void zero_rows(Tensor& dst, std::int64_t lo, std::int64_t hi) {
+  const std::size_t rb = row_bytes(dst.shape(), dst.dtype());
+  if (hi > lo) std::memset(bytes(dst) + lo * rb, 0, (hi - lo) * rb);
+}
+
+// f's output for rows [lo, hi): [hi - lo, ...], floating, and (when `like` is
+// defined) of like's trailing shape and dtype.
+void check_block_output(const Tensor& out, std::int64_t lo, std::int64_t hi, const Tensor& like) {
+  const std::string block = "f's output for rows [" + std::to_string(lo) + ", " + std::to_string(hi) + ")";
+  if (!out.defined()) throw ValueError(std::string(kOp) + ": " + block + " is undefined");
+  if (out.rank() < 1 || out.size(0) != hi - lo)
+    throw ShapeError(std::string(kOp) + ": " + block + " has shape " + out.shape().str() + "; f must return one row per input row (" +
+                     std::to_string(hi - lo) + "), so no reduction over rows inside f");
+  detail::check_float(out, kOp, "f's output");
+  if (like.defined() && (with_rows(out.shape(), like.size(0)) != like.shape() || out.dtype() != like.dtype()))
+    throw ShapeError(std::string(kOp) + ": " + block + " is " + out.describe() + ", but the first block's was " +
+                     like.describe() + "; every block must give the same row shape and dtype");
+}
+
+struct Blocks {
+  std::int64_t rows, size, count;
+  std::int64_t lo(std::int64_t b) const { return b * size; }
+  std::int64_t hi(std::int64_t b) const { return std::min(rows, b * size + size); }
+};
+
+// Inputs of block b: copies of its rows, and the shared inputs (as given, or
+// as fresh leaves requiring grad when `leaves` is set).
+std::vector<Tensor> block_rows(const std::vector<Tensor>& rows, const Blocks& blocks, std::int64_t b, bool leaves) {
+  std::vector<Tensor> out;
+  out.reserve(rows.size());
+  for (const Tensor& r : rows) {
+    Tensor block = copy_rows(r, blocks.lo(b), blocks.hi(b));
+    if (leaves && r.requires_grad()) block.set_requires_grad();
+    out.push_back(block);
+  }
+  return out;
+}
+
+std::vector<Tensor> block_shared(const std::vector<Tensor>& shared, bool leaves) {
+  std::vector<Tensor> out;
+  out.reserve(shared.size());
+  for (const Tensor& s : shared) {
+    Tensor leaf = s.defined() ? s.detach() : Tensor();
+    if (leaves && s.defined() && s.requires_grad()) leaf.set_requires_grad();
+    out.push_back(leaf);
+  }
+  return out;
+}
+
+}  // namespace
+
+Tensor map_rows(const RowFunction& f, const std::vector<Tensor>& rows, const std::vector<Tensor>& shared,
+                const MapRowsOptions& options) {
+  if (!f) throw ValueError(std::string(kOp) + ": f is empty");
+  if (options.block_rows < 1)
+    throw ValueError(std::string(kOp) + ": block_rows must be at least 1, got " + std::to_string(options.block_rows));
+  if (rows.empty()) throw ValueError(std::string(kOp) + ": rows is empty; give at least one [N, ...] input");
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    const std::string name = "rows[" + std::to_string(i) + "]";
+    detail::check_defined(rows[i], kOp, name.c_str());
+    if (rows[i].rank() < 1) throw ShapeError(std::string(kOp) + ": " + name + " is a scalar; rows need a leading axis");
+    if (rows[i].size(0) != rows[0].size(0))
+      throw ShapeError(std::string(kOp) + ": " + name + " has " + std::to_string(rows[i].size(0)) +
+                       " rows but rows[0] has " + std::to_string(rows[0].size(0)));
+  }
+  const std::int64_t n = rows[0].size(0);
+  const Blocks blocks{n, options.block_rows, (n + options.block_rows - 1) / options.block_rows};
+
+  // Forward without recording. Block 0 (or the empty input) first: it fixes the output's shape.
+  Tensor out;
+  {
+    NoGradGuard no_grad;
+    const std::int64_t hi0 = blocks.count == 0 ? 0 : blocks.hi(0);
+    Tensor first = f(block_rows(rows, blocks, 0, false), block_shared(shared, false));
+    check_block_output(first, 0, hi0, Tensor());
+    out = Tensor::empty(with_rows(first.shape(), n), first.dtype());
+    write_rows(out, first, 0, hi0);
+    parallel_for(1, blocks.count, 1, [&](std::int64_t b0, std::int64_t b1) {
+      NoGradGuard no_grad_here;  // grad mode is per thread
+      for (std::int64_t b = b0; b < b1; ++b) {
+        Tensor block = f(block_rows(rows, blocks, b, false), block_shared(shared, false));
+        check_block_output(block, blocks.lo(b), blocks.hi(b), first);
+        write_rows(out, block, blocks.lo(b), blocks.hi(b));
+      }
+    });
+  }
+
+  std::vector<Tensor> inputs(rows);
+  inputs.insert(inputs.end(), shared.begin(), shared.end());
+  if (!should_record(inputs)) return out;
+  record(kOp, inputs, {&out}, [f, rows, shared, blocks](AdjointContext& ctx) {
+    const Tensor& g = ctx.grad_output();
+    if (!g.defined()) return;
+    const std::size_t nr = rows.size(), ns = shared.size();
+    std::vector<Tensor> row_grads(nr);
+    for (std::size_t i = 0; i < nr; ++i)
+      if (ctx.needs_grad(i)) row_grads[i] = Tensor::empty(rows[i].shape(), rows[i].dtype());
+    // shared_grads[b * ns + j]: block b's gradient of shared input j (undefined: none).
+    std::vector<Tensor> shared_grads(static_cast<std::size_t>(blocks.count) * ns);
+    parallel_for(0, blocks.count, 1, [&](std::int64_t b0, std::int64_t b1) {
+      for (std::int64_t b = b0; b < b1; ++b) {
+        const std::int64_t lo = blocks.lo(b), hi = blocks.hi(b);
+        ScopedTape tape;  // the block's graph, recomputed (checkpointing)
+        std::vector<Tensor> r = block_rows(rows, blocks, b, true), s = block_shared(shared, true);
+        Tensor block = f(r, s);
+        if (block.requires_grad()) backward(block, copy_rows(g, lo, hi));
+        for (std::size_t i = 0; i < nr; ++i) {
+          if (!row_grads[i].defined()) continue;
+          if (r[i].has_grad())
+            write_rows(row_grads[i], r[i].grad(), lo, hi);
+          else
+            zero_rows(row_grads[i], lo, hi);
+        }
+        for (std::size_t j = 0; j < ns; ++j)
+          if (ctx.needs_grad(nr + j) && s[j].has_grad()) shared_grads[b * ns + j] = s[j].grad();
+      }
+    });
+    for (std::size_t i = 0; i < nr; ++i)
+      if (row_grads[i].defined()) ctx.accumulate(i, row_grads[i]);
+    // Shared gradients: summed over blocks in block order (thread-count independent).
+    for (std::size_t j = 0; j < ns; ++j) {
+      if (!ctx.needs_grad(nr + j)) continue;
+      for (std::int64_t b = 0; b < blocks.count; ++b)
+        if (shared_grads[b * ns + j].defined()) ctx.accumulate(nr + j, shared_grads[b * ns + j]);
+    }
+  });
+  return out;
+}
+
+}  // namespace gr

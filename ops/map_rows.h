@@ -1,0 +1,51 @@
+// Blocked evaluation of a row-wise function (issue 17, docs/map_rows.md): the
+// user's shading code, written with ordinary tensor ops, runs over blocks of
+// rows small enough to stay in cache, and its graph is never stored whole.
+//
+//   Tensor colour = map_rows([&](const std::vector<Tensor>& r, const std::vector<Tensor>& s) {
+//     Tensor l = normalize(s[0] - r[0]);                 // s[0] = light [3]
+//     return r[1] * maximum(dot(r[2], l), 0.0);          // r = {p, albedo, n}, [N, 3] each
+//   }, {p, albedo, n}, {light});
+//
+// Forward: f runs on each block of block_rows rows (copies of the rows of every
+// `rows` input; the `shared` inputs whole), without recording, blocks in
+// parallel, and the blocks' outputs fill one [N, ...] tensor. map_rows records
+// one node. Its adjoint runs f again per block on a private tape
+// (checkpointing: recompute instead of store), backpropagates the block's
+// slice of the output gradient, writes the rows' gradients in place and sums
+// the shared inputs' gradients over blocks in block order.
+//
+// f must be row-wise (output row i depends only on row i of each `rows` input
+// and on the shared inputs), return one row per input row, and be safe to call
+// from several threads at once (it is called once per block, concurrently).
+// Then the output, and the gradients of the `rows` inputs, are bit-identical
+// to calling f on the whole inputs; the shared inputs' gradients are summed
+// per block and then over blocks in order, so they are the same for any
+// thread count and equal to the unblocked graph's up to rounding. Every
+// differentiable value must enter f through `rows` or `shared`: a recorded
+// tensor captured by f throws TapeError.
+#pragma once
+
+#include <functional>
+#include <vector>
+
+#include "autodiff/tensor.h"
+
+namespace gr {
+
+using RowFunction = std::function<Tensor(const std::vector<Tensor>& rows, const std::vector<Tensor>& shared)>;
+
+struct MapRowsOptions {
+  // Rows per block. The default keeps a block's dozen [rows, 3] float32
+  // intermediates (about 50 KiB each) within a core's L2 cache.
+  std::int64_t block_rows = 4096;
+};
+
+// rows: defined tensors of rank >= 1 sharing their leading size N; shared: any
+// tensors (undefined allowed). Throws ValueError / ShapeError naming the input
+// for a bad block size, rows of different lengths, or an f whose output for a
+// block is not [block rows, ...] of one shape and float dtype.
+Tensor map_rows(const RowFunction& f, const std::vector<Tensor>& rows, const std::vector<Tensor>& shared = {},
+                const MapRowsOptions& options = {});
+
+}  // namespace gr
