@@ -32,25 +32,31 @@ template <> struct dtype_of<float> { static constexpr DType value = DType::Float
 template <> struct dtype_of<double> { static constexpr DType value = DType::Float64; };
 template <> struct dtype_of<std::int32_t> { static constexpr DType value = DType::Int32; };
 
-// Calls f(T{}) with T = float or double matching `t`; throws DTypeError for int32.
-// `what` names the op and argument for the message, e.g. "exp: argument 'a'".
-// Every op runs its kernels through here, so this is also where an allocation
-// failure of a kernel's scratch memory (std::bad_alloc, or std::length_error
-// from a std::vector) becomes a MemoryError naming the op.
+// Runs f() and turns an allocation failure of its scratch memory
+// (std::bad_alloc, or std::length_error from a std::vector) into a MemoryError
+// naming `what`. dispatch_float runs every kernel through it; integer-only
+// kernels (fragment planning, mesh topology) call it directly.
 template <class F>
-decltype(auto) dispatch_float(DType t, const std::string& what, F&& f) {
+decltype(auto) guard_allocation(const std::string& what, F&& f) {
   try {
-    switch (t) {
-      case DType::Float32: return f(float{});
-      case DType::Float64: return f(double{});
-      default: break;
-    }
+    return f();
   } catch (const std::bad_alloc&) {
     detail::throw_allocation_failure(what);
   } catch (const std::length_error&) {
     detail::throw_allocation_failure(what);
   }
-  throw DTypeError(what + " must be float32 or float64, got " + dtype_name(t));
+}
+
+// Calls f(T{}) with T = float or double matching `t`; throws DTypeError for int32.
+// `what` names the op and argument for the message, e.g. "exp: argument 'a'".
+template <class F>
+decltype(auto) dispatch_float(DType t, const std::string& what, F&& f) {
+  if (t != DType::Float32 && t != DType::Float64)
+    throw DTypeError(what + " must be float32 or float64, got " + dtype_name(t));
+  return guard_allocation(what, [&]() -> decltype(auto) {
+    if (t == DType::Float32) return f(float{});
+    return f(double{});
+  });
 }
 
 }  // namespace gr

@@ -55,11 +55,13 @@ Fragments fragments(const GBuffer& gbuffer) {
   Fragments fr;
   fr.width = static_cast<int>(w);
   fr.height = static_cast<int>(h);
-  const raster::FragmentPlan plan = raster::plan_fragments(id.data<std::int32_t>(), h * w);
-  fr.pixel_index = Tensor::empty({plan.count()}, DType::Int32);
-  fr.tri_id = Tensor::empty({plan.count()}, DType::Int32);
-  raster::compact_fragments(id.data<std::int32_t>(), h * w, plan, fr.pixel_index.data<std::int32_t>(),
-                            fr.tri_id.data<std::int32_t>());
+  guard_allocation("fragments", [&] {
+    const raster::FragmentPlan plan = raster::plan_fragments(id.data<std::int32_t>(), h * w);
+    fr.pixel_index = Tensor::empty({plan.count()}, DType::Int32);
+    fr.tri_id = Tensor::empty({plan.count()}, DType::Int32);
+    raster::compact_fragments(id.data<std::int32_t>(), h * w, plan, fr.pixel_index.data<std::int32_t>(),
+                              fr.tri_id.data<std::int32_t>());
+  });
   fr.uv = gather_fragments(gbuffer.uv, fr);
   return fr;
 }
