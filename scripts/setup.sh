@@ -6,7 +6,8 @@ cd "$(dirname "$0")/.."
 
 # shellcheck source=install_missing.sh
 source scripts/install_missing.sh
-install_missing g++ cmake make pkg-config libeigen3-dev libtbb-dev libtinyobjloader-dev libstb-dev catch2 libbenchmark-dev
+install_missing g++ cmake make pkg-config libeigen3-dev libtbb-dev libtinyobjloader-dev libstb-dev catch2 libbenchmark-dev \
+  libopenmpi-dev openmpi-bin
 
 build_dir=${GRADRASTER_BUILD_DIR:-build}
 cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=Release ${GRADRASTER_CMAKE_ARGS:-} > /dev/null

@@ -7,12 +7,15 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <exception>
 #include <filesystem>
 #include <ostream>
 #include <random>
 
 #include "autodiff/error.h"
 #include "autodiff/optim.h"
+#include "autodiff/view_gradients.h"
 #include "examples/fit/geometry.h"
 #include "examples/fit/plot.h"
 #include "examples/fit/progress.h"
@@ -94,8 +97,11 @@ class Run {
       : options_(options), result_(result), snapshots_(snapshot_iterations(iterations)),
         progress_(iterations, log, options.interactive) {}
 
+  bool wants_snapshot(int iteration) const {
+    return options_.write_outputs && std::binary_search(snapshots_.begin(), snapshots_.end(), iteration);
+  }
   void snapshot(int iteration, const std::vector<Tensor>& targets, const std::vector<Tensor>& current) {
-    if (!std::binary_search(snapshots_.begin(), snapshots_.end(), iteration)) return;
+    if (!wants_snapshot(iteration)) return;
     result_.files.push_back(numbered(options_.out_dir, "snapshot", iteration));
     write_snapshot(result_.files.back(), targets, current);
   }
@@ -108,6 +114,7 @@ class Run {
     if (options_.progress_bar) progress_.finish();
   }
   void write_plot() {
+    if (!options_.write_outputs) return;
     result_.files.push_back(in_dir(options_.out_dir, "loss.png"));
     raster::write_png(result_.files.back(), plot_loss_curve(result_.losses));
   }
@@ -263,32 +270,63 @@ class CameraCorrections {
   std::vector<Tensor> errors_, q_, t_;
 };
 
-// One pass over the views: the loss (mean over views of the per-pixel
-// colour MSE plus alpha-mask MSE), the current images and the mean silhouette IoU.
-struct ViewsLoss {
+// One view's part of the loss (the per-pixel colour MSE plus alpha-mask MSE,
+// divided by the number of views), its image and its silhouette IoU.
+struct ViewLoss {
   Tensor loss;
+  Tensor image;
+  double iou = 0;
+};
+
+ViewLoss render_view(const Scene& scene, const Targets& targets, const Tensor& positions, const Material& material,
+                     const CameraCorrections& cameras, int size, std::size_t v) {
+  const Camera& camera = scene.cameras[v];
+  const Render r =
+      render(scene.start, positions, material, cameras.view_projection(v), camera.light, scene.background, size);
+  // Colour MSE plus the alpha masks' MSE: a flap of the surface that takes
+  // the background's colour is invisible to the first term, not the second.
+  const double views = double(scene.cameras.size());
+  ViewLoss out;
+  out.loss = (mean(pow(r.image - targets.images[v], 2.0)) + mean(pow(r.alpha - targets.alpha[v], 2.0))) / views;
+  out.image = r.image.detach();
+  out.iou = coverage_iou(r.coverage, targets.coverage[v]) / views;
+  return out;
+}
+
+// Every view without gradients: the loss (summed in view order in float64, as
+// ViewGradients sums it), the images and the mean silhouette IoU.
+struct ViewsLoss {
+  double loss = 0;
   std::vector<Tensor> images;
   double iou = 0;
 };
 
 ViewsLoss render_views(const Scene& scene, const Targets& targets, const Tensor& positions, const Material& material,
                        const CameraCorrections& cameras, int size) {
-  const std::size_t views = scene.cameras.size();
+  NoGradGuard no_grad;
   ViewsLoss out;
-  Tensor total;
-  for (std::size_t v = 0; v < views; ++v) {
-    const Camera& camera = scene.cameras[v];
-    const Render r =
-        render(scene.start, positions, material, cameras.view_projection(v), camera.light, scene.background, size);
-    // Colour MSE plus the alpha masks' MSE: a flap of the surface that takes
-    // the background's colour is invisible to the first term, not the second.
-    const Tensor view_loss = mean(pow(r.image - targets.images[v], 2.0)) + mean(pow(r.alpha - targets.alpha[v], 2.0));
-    total = total.defined() ? total + view_loss : view_loss;
-    out.images.push_back(r.image.detach());
-    out.iou += coverage_iou(r.coverage, targets.coverage[v]) / views;
+  for (std::size_t v = 0; v < scene.cameras.size(); ++v) {
+    const ViewLoss view = render_view(scene, targets, positions, material, cameras, size, v);
+    out.loss += view.loss.item();
+    out.images.push_back(view.image);
+    out.iou += view.iou;
   }
-  out.loss = total / double(views);
   return out;
+}
+
+// dst's values become src's, in place (both float32 of one shape): the leaf
+// that the views backpropagate into keeps its identity from step to step.
+void set_values(Tensor& dst, const Tensor& src) {
+  if (src.shape() != dst.shape()) throw ShapeError("fit: positions changed shape to " + src.describe());
+  std::copy_n(src.data<float>(), src.numel(), dst.data<float>());
+}
+
+// The test hook of the fault test (tests/mpi): GRADRASTER_FIT_FAIL_RANK=R makes
+// process R throw in its first view, as bad input on one rank would.
+void fail_if_asked(const Communicator& comm) {
+  const char* rank = std::getenv("GRADRASTER_FIT_FAIL_RANK");
+  if (rank && std::to_string(comm.rank()) == rank)
+    throw ValueError("fit: process " + std::to_string(comm.rank()) + " was asked to fail (GRADRASTER_FIT_FAIL_RANK)");
 }
 
 // Writes fitted.obj (with fitted.mtl and fitted_texture.png for a texture).
@@ -334,6 +372,20 @@ FitResult run_shape(const FitOptions& options, std::ostream& log) {
   if (cameras.fitted()) groups.push_back({cameras.parameters(), AdamOptions{options.camera_lr}});
   Adam adam(groups);
 
+  // Data parallel over views (one process without MPI): each process renders
+  // its block of views and backpropagates each view alone into `points`, a
+  // leaf copy of the positions; ViewGradients then sums every view's gradients
+  // in view order on every process, so all of them take the same Adam step and
+  // the run is bit-identical for any process count (docs/scaling.md).
+  SingleProcess single_process;
+  Communicator& comm = options.communicator ? *options.communicator : single_process;
+  const int views = static_cast<int>(scene.cameras.size());
+  const ViewRange mine = views_of_rank(views, comm.rank(), comm.size());
+  Tensor points = Tensor::zeros({mesh.num_points(), 3}).set_requires_grad();  // the positions, as a leaf
+  std::vector<Tensor> view_params{points, appearance.parameter};
+  for (const Tensor& c : cameras.parameters()) view_params.push_back(c);
+  ViewGradients view_grads(view_params, views, 2);  // values per view: loss, IoU
+
   Run run(options, iterations, log, result);
   const auto loop_start = Clock::now();
   for (int it = 0; it < iterations; ++it) {
@@ -341,35 +393,63 @@ FitResult run_shape(const FitOptions& options, std::ostream& log) {
     const double decay = std::pow(0.1, double(it) / iterations);
     for (std::size_t g = 0; g < groups.size(); ++g) adam.set_lr(g, groups[g].options.lr * decay);
 
-    const Tensor positions = smoothed.evaluate();
-    const ViewsLoss views = render_views(scene, targets, positions, appearance.material, cameras, options.size);
-    if (it == 0) result.initial_iou = views.iou;
-    const Tensor loss = views.loss + options.laplacian_weight * decay * smoothed.laplacian.penalty(positions);
-    const double loss_value = views.loss.item();
+    {
+      NoGradGuard no_grad;
+      set_values(points, smoothed.evaluate());
+    }
+    std::vector<Tensor> images(static_cast<std::size_t>(views));
+    std::exception_ptr failure;  // every process must reach the reduction, failed or not
+    try {
+      for (int v = mine.begin; v < mine.end; ++v) {
+        if (it == 0 && v == mine.begin) fail_if_asked(comm);
+        const ViewLoss view = render_view(scene, targets, points, appearance.material, cameras, options.size, v);
+        backward(view.loss);
+        view_grads.take(v, {view.loss.item(), view.iou});
+        images[v] = view.image;
+      }
+    } catch (...) {
+      failure = std::current_exception();
+    }
+    raise_if_any_failed(comm, failure);
+    const std::vector<double> totals = view_grads.reduce(comm);  // loss, IoU
+    const double loss_value = totals[0];
+    if (it == 0) result.initial_iou = totals[1];
     if (!std::isfinite(loss_value)) throw ValueError("fit: the loss became " + std::to_string(loss_value));
-    backward(loss);
+
+    // The smoothing and the Laplacian term, once: d/d offsets of
+    // penalty(positions) + <positions, dL/dpoints> (dL/dpoints held constant).
+    const Tensor positions = smoothed.evaluate();
+    backward(options.laplacian_weight * decay * smoothed.laplacian.penalty(positions) +
+             sum(positions * points.grad()));
     adam.step();
     adam.zero_grad();
+    points.zero_grad();
 
-    run.snapshot(it, targets.images, views.images);
+    if (run.wants_snapshot(it)) {  // this process rendered only its own views
+      NoGradGuard no_grad;
+      for (int v = 0; v < views; ++v)
+        if (!images[v].defined())
+          images[v] = render_view(scene, targets, points, appearance.material, cameras, options.size, v).image;
+      run.snapshot(it, targets.images, images);
+    }
     run.step_done(it + 1, loss_value);
   }
   const double loop_seconds = seconds_since(loop_start);
   run.finish_loop();
 
-  // Final state: one more render without gradient.
+  // Final state: one more render of every view without gradient.
   Tensor positions;
   {
     NoGradGuard no_grad;
     positions = smoothed.evaluate();
-    const ViewsLoss views = render_views(scene, targets, positions, appearance.material, cameras, options.size);
-    result.losses.push_back(views.loss.item());
-    result.final_iou = views.iou;
-    run.snapshot(iterations, targets.images, views.images);
+    const ViewsLoss final_views = render_views(scene, targets, positions, appearance.material, cameras, options.size);
+    result.losses.push_back(final_views.loss);
+    result.final_iou = final_views.iou;
+    run.snapshot(iterations, targets.images, final_views.images);
   }
   if (cameras.fitted()) cameras.mean_error(result.final_rotation_error, result.final_translation_error);
   run.write_plot();
-  write_fitted_mesh(options, mesh, positions, appearance.material, result);
+  if (options.write_outputs) write_fitted_mesh(options, mesh, positions, appearance.material, result);
 
   result.positions = positions.detach();
   (options.appearance == Appearance::Texture ? result.texture : result.colours) = appearance.parameter.detach();
@@ -488,7 +568,7 @@ double coverage_iou(const Tensor& a, const Tensor& b) {
 FitResult run_fit(const FitOptions& options, std::ostream& log) {
   if (options.iterations < 0 || options.size < 1) throw ValueError("run_fit: iterations must be >= 0 and size >= 1");
   set_num_threads(options.threads);
-  std::filesystem::create_directories(options.out_dir);
+  if (options.write_outputs) std::filesystem::create_directories(options.out_dir);
   return options.mode == Mode::Pose ? run_pose(options, log) : run_shape(options, log);
 }
 

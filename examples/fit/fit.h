@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "autodiff/tensor.h"
+#include "autodiff/view_gradients.h"
 
 namespace fit {
 
@@ -58,6 +59,11 @@ struct FitOptions {
   // Optional: called after every optimization step with the steps done and that
   // step's image loss (bench/long_run watches memory with it).
   std::function<void(int done, double loss)> on_step;
+  // Shape mode, data parallel (docs/scaling.md): the process group the views
+  // are split over (nullptr: this process alone). Results are the same bits
+  // for any group size. Only one process should write outputs and print.
+  gr::Communicator* communicator = nullptr;
+  bool write_outputs = true;  // snapshots, loss plot, fitted mesh
 };
 
 constexpr int kDefaultShapeIterations = 300;

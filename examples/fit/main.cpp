@@ -7,60 +7,92 @@
 #include "examples/fit/cli.h"
 #include "examples/fit/fit.h"
 #include "examples/fit/fit_outputs.h"
+#include "examples/fit/job.h"
 #include "examples/fit/progress.h"
 #include "examples/fit/snapshot.h"
+#ifdef GRADRASTER_FIT_MPI
+#include "examples/fit/mpi_main.h"
+#endif
 
-int main(int argc, char** argv) {
+namespace {
+
+// The tool on one process, or on one process of an MPI job (job.comm set):
+// every process fits its block of views; only the root prints and writes.
+int run(int argc, char** argv, const fit::Job& job) {
   const std::string program = argc > 0 ? argv[0] : "gradraster-fit";
+  std::ostream& out = job.out;
   fit::CommandLine cl = fit::parse_command_line(std::vector<std::string>(argv + 1, argv + argc));
   if (cl.action == fit::CommandLine::Action::Help) {
-    std::cout << fit::usage(program);
+    out << fit::usage(program);
     return 0;
   }
   if (cl.action == fit::CommandLine::Action::Error) {
-    std::cerr << program << ": " << cl.error << "\n\n" << fit::usage(program);
+    if (job.root) std::cerr << program << ": " << cl.error << "\n\n" << fit::usage(program);
     return 2;
   }
   fit::FitOptions& o = cl.options;
-  o.interactive = fit::stdout_is_terminal();
+  o.interactive = job.root && fit::stdout_is_terminal();
+  o.communicator = job.comm;
+  if (job.comm && job.comm->size() > 1 && o.mode == fit::Mode::Pose) {
+    if (job.root) std::cerr << program << ": --mode pose fits one view; run it without mpirun\n";
+    return 2;
+  }
   const bool pose = o.mode == fit::Mode::Pose;
   const int iterations =
       o.iterations > 0 ? o.iterations : pose ? fit::kDefaultPoseIterations : fit::kDefaultShapeIterations;
 
   if (pose)
-    std::cout << "gradraster-fit --mode pose: recovering the rotation and translation of the object from one\n"
+    out << "gradraster-fit --mode pose: recovering the rotation and translation of the object from one\n"
               << o.size << "x" << o.size << " image, starting 25 degrees and 0.15 units off; " << iterations
               << " Adam steps on a quaternion and a translation.\n";
   else
-    std::cout << "gradraster-fit: a grey sphere is fitted to " << o.views << " views (" << o.size << "x" << o.size
+    out << "gradraster-fit: a grey sphere is fitted to " << o.views << " views (" << o.size << "x" << o.size
               << ") of a textured object, " << iterations << " Adam steps.\n"
               << "Fitted: free vertex positions (+ Laplacian smoothness), "
               << (o.appearance == fit::Appearance::Texture ? "a texture" : "vertex colours")
               << (o.fit_camera ? ", a rigid correction per camera" : "")
               << ". The loss is the MSE of colour and alpha mask over all pixels;\nantialiasing gives silhouette edges their gradient.\n";
   try {
-    const fit::FitResult r = fit::run_fit_with_outputs(o, std::cout);
-    std::cout << std::setprecision(4) << "\nobject:          " << r.scene_name << " (fitted mesh: " << r.points
+    if (!job.root) {  // no outputs, no progress: the root has them
+      o.write_outputs = false;
+      o.progress_bar = false;
+    }
+    const fit::FitResult r = job.root ? fit::run_fit_with_outputs(o, out) : fit::run_fit(o, out);
+    if (!job.root) return 0;
+    out << std::setprecision(4) << "\nobject:          " << r.scene_name << " (fitted mesh: " << r.points
               << " points, " << r.triangles << " triangles)\n"
               << "loss:            " << std::scientific << r.initial_loss << " -> " << r.final_loss << std::fixed
               << std::setprecision(1) << "  (" << r.initial_loss / r.final_loss << "x lower)\n"
               << std::setprecision(3) << "silhouette IoU:  " << r.initial_iou << " -> " << r.final_iou
               << (pose ? "\n" : "  (mean over views)\n");
     if (pose || o.fit_camera)
-      std::cout << std::setprecision(2) << (pose ? "rotation error:  " : "camera rotation: ") << r.initial_rotation_error
+      out << std::setprecision(2) << (pose ? "rotation error:  " : "camera rotation: ") << r.initial_rotation_error
                 << " -> " << r.final_rotation_error << " degrees\n"
                 << std::setprecision(4) << (pose ? "translation err: " : "camera shift:    ")
                 << r.initial_translation_error << " -> " << r.final_translation_error
                 << " units (object radius 1)" << (pose ? "\n" : ", mean over views\n");
-    std::cout << std::setprecision(1) << "wall time:       " << r.seconds << " s, " << r.iterations_per_second
+    out << std::setprecision(1) << "wall time:       " << r.seconds << " s, " << r.iterations_per_second
               << " it/s\n"
               << "outputs:         snapshot_NNNN.png (target | current | |difference| x" << fit::kDifferenceGain
               << (pose ? "" : ", one row per view") << "), loss.png, " << (pose ? "posed.obj" : "fitted.obj")
               << (o.appearance == fit::Appearance::Texture && !pose ? " (+ fitted.mtl, fitted_texture.png)" : "")
               << " in " << o.out_dir << "/\n";
+  } catch (const gr::ProcessFailed& e) {  // every process of the job knows: each ends cleanly
+    if (job.root || (job.comm && e.failed_rank == job.comm->rank())) std::cerr << program << ": " << e.what() << "\n";
+    return 1;
   } catch (const std::exception& e) {  // gr::Error (bad mesh, memory, unwritable file) or std::filesystem_error
+    if (job.fail) job.fail(e.what());  // an MPI job: end every process, none is left waiting
     std::cerr << program << ": " << e.what() << "\n";
     return 1;
   }
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+#ifdef GRADRASTER_FIT_MPI
+  if (fit::launched_by_mpirun()) return fit::run_mpi_job(argc, argv, run);
+#endif
+  return run(argc, argv, fit::Job{std::cout, nullptr, true, nullptr});
 }

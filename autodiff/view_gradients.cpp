@@ -1,0 +1,138 @@
+#include "autodiff/view_gradients.h"
+
+#include <algorithm>
+
+#include "autodiff/dtype.h"
+#include "autodiff/error.h"
+#include "autodiff/tape.h"
+
+namespace gr {
+
+void raise_if_any_failed(Communicator& comm, const std::exception_ptr& failure) {
+  if (comm.size() == 1) {
+    if (failure) std::rethrow_exception(failure);
+    return;
+  }
+  // Each process sends [failed, message length, message bytes...] as doubles.
+  std::string message;
+  if (failure) {
+    try {
+      std::rethrow_exception(failure);
+    } catch (const std::exception& e) {
+      message = e.what();
+    } catch (...) {
+      message = "an unknown exception";
+    }
+  }
+  std::vector<double> mine{failure ? 1.0 : 0.0, double(message.size())};
+  for (unsigned char c : message) mine.push_back(double(c));
+  std::vector<double> all;
+  comm.all_gather(mine, all);
+  std::size_t at = 0;
+  for (int rank = 0; rank < comm.size() && at + 1 < all.size(); ++rank) {
+    const std::size_t length = static_cast<std::size_t>(all[at + 1]);
+    if (all[at] != 0) {
+      std::string text;
+      for (std::size_t i = 0; i < length; ++i) text.push_back(static_cast<char>(all[at + 2 + i]));
+      throw ProcessFailed(rank, "process " + std::to_string(rank) + " of " + std::to_string(comm.size()) +
+                                    " failed: " + text);
+    }
+    at += 2 + length;
+  }
+}
+
+ViewRange views_of_rank(int views, int rank, int size) {
+  if (size < 1 || rank < 0 || rank >= size || views < 0)
+    throw ValueError("views_of_rank: need 0 <= rank < size and views >= 0, got rank " + std::to_string(rank) +
+                     ", size " + std::to_string(size) + ", views " + std::to_string(views));
+  const int base = views / size, extra = views % size;
+  ViewRange r;
+  r.begin = rank * base + std::min(rank, extra);
+  r.end = r.begin + base + (rank < extra ? 1 : 0);
+  return r;
+}
+
+ViewGradients::ViewGradients(std::vector<Tensor> params, int views, int values_per_view)
+    : params_(std::move(params)), views_(views), values_per_view_(static_cast<std::size_t>(std::max(values_per_view, 0))) {
+  if (views < 1) throw ValueError("ViewGradients: views must be at least 1, got " + std::to_string(views));
+  if (values_per_view < 0)
+    throw ValueError("ViewGradients: values_per_view must be >= 0, got " + std::to_string(values_per_view));
+  for (std::size_t i = 0; i < params_.size(); ++i) {
+    const Tensor& p = params_[i];
+    const std::string name = "ViewGradients: params[" + std::to_string(i) + "]";
+    if (!p.defined()) throw ValueError(name + " is undefined");
+    if (!is_floating(p.dtype())) throw DTypeError(name + " must be float32 or float64, got " + p.describe());
+    if (!p.requires_grad() || !p.is_leaf()) throw ValueError(name + " must be a leaf that requires grad");
+    gradient_length_ += static_cast<std::size_t>(p.numel());
+  }
+}
+
+void ViewGradients::take(int view, const std::vector<double>& values) {
+  if (view < 0 || view >= views_)
+    throw ValueError("ViewGradients::take: view " + std::to_string(view) + " is outside [0, " +
+                     std::to_string(views_) + ")");
+  if (std::find(taken_views_.begin(), taken_views_.end(), view) != taken_views_.end())
+    throw ValueError("ViewGradients::take: view " + std::to_string(view) + " was taken twice");
+  if (values.size() != values_per_view_)
+    throw ValueError("ViewGradients::take: view " + std::to_string(view) + " gives " +
+                     std::to_string(values.size()) + " values, expected " + std::to_string(values_per_view_));
+  taken_views_.push_back(view);
+  taken_.push_back(double(view));
+  taken_.insert(taken_.end(), values.begin(), values.end());
+  for (Tensor& p : params_) {
+    const std::size_t at = taken_.size(), n = static_cast<std::size_t>(p.numel());
+    taken_.resize(at + n, 0.0);
+    if (!p.has_grad()) continue;
+    const Tensor g = p.grad();
+    dispatch_float(g.dtype(), "ViewGradients::take", [&](auto tag) {
+      using T = decltype(tag);
+      std::copy_n(g.data<T>(), n, taken_.data() + at);  // exact: float32 -> float64
+    });
+    p.zero_grad();
+  }
+}
+
+std::vector<double> ViewGradients::reduce(Communicator& comm) {
+  comm.all_gather(taken_, gathered_);
+  const std::vector<double>& all = gathered_;
+  const std::size_t values = values_per_view_, record = 1 + values + gradient_length_;
+  if (all.size() % record != 0)
+    throw ValueError("ViewGradients::reduce: the processes' records do not match (different params or values per view)");
+  // Where each view's record sits in `all`.
+  std::vector<std::size_t> where(static_cast<std::size_t>(views_), all.size());
+  for (std::size_t at = 0; at < all.size(); at += record) {
+    const double v = all[at];
+    if (!(v >= 0 && v < views_) || where[static_cast<std::size_t>(v)] != all.size())
+      throw ValueError("ViewGradients::reduce: view " + std::to_string(v) + " was taken by two processes or is invalid");
+    where[static_cast<std::size_t>(v)] = at;
+  }
+  for (int v = 0; v < views_; ++v)
+    if (where[v] == all.size())
+      throw ValueError("ViewGradients::reduce: no process took view " + std::to_string(v));
+
+  // Sums in view order, float64.
+  std::vector<double>& sum = sum_;
+  sum.assign(values + gradient_length_, 0.0);
+  for (int v = 0; v < views_; ++v) {
+    const double* rec = all.data() + where[v] + 1;
+    for (std::size_t i = 0; i < sum.size(); ++i) sum[i] += rec[i];
+  }
+  std::size_t at = values;
+  for (Tensor& p : params_) {
+    const std::int64_t n = p.numel();
+    Tensor g = Tensor::empty(p.shape(), p.dtype());
+    dispatch_float(p.dtype(), "ViewGradients::reduce", [&](auto tag) {
+      using T = decltype(tag);
+      T* out = g.data<T>();
+      for (std::int64_t i = 0; i < n; ++i) out[i] = T(sum[at + static_cast<std::size_t>(i)]);
+    });
+    p.zero_grad();
+    backward(p, g);  // p is a leaf: its gradient becomes g
+    at += static_cast<std::size_t>(n);
+  }
+  taken_.clear();
+  taken_views_.clear();
+  return std::vector<double>(sum.begin(), sum.begin() + static_cast<std::ptrdiff_t>(values));
+}
+
+}  // namespace gr
