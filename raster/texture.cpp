@@ -46,6 +46,9 @@ struct Taps {
   return static_cast<std::int64_t>(r);
 }
 
+// True if integer texel index i lies in [0, n).
+[[gnu::always_inline]] inline bool inside(double i, int n) { return i >= 0.0 && i < n; }
+
 // Bilinear taps of level `lv` at (u, v), scaled by the level weight `scale`.
 template <bool kDerivatives>
 [[gnu::always_inline]] inline void bilinear_taps(const MipLevel& lv, double u, double v, double scale, Wrap wrap, Taps& t) {
@@ -55,6 +58,10 @@ template <bool kDerivatives>
   const double fx = x - x0, fy = y - y0;
   const std::int64_t ix[2] = {address(x0, lv.width, wrap), address(x0 + 1.0, lv.width, wrap)};
   const std::int64_t iy[2] = {address(y0, lv.height, wrap), address(y0 + 1.0, lv.height, wrap)};
+  // Zero: a tap outside the texture reads 0 (weight 0 on any valid texel).
+  const bool zero = wrap == Wrap::Zero;
+  const bool in_x[2] = {!zero || inside(x0, lv.width), !zero || inside(x0 + 1.0, lv.width)};
+  const bool in_y[2] = {!zero || inside(y0, lv.height), !zero || inside(y0 + 1.0, lv.height)};
   // Weights and their derivatives: dfx/du = W, dfy/dv = -H.
   const double wx[2] = {1.0 - fx, fx}, wy[2] = {1.0 - fy, fy};
   const double dwx[2] = {-double(lv.width), double(lv.width)};
@@ -62,11 +69,12 @@ template <bool kDerivatives>
   for (int b = 0; b < 2; ++b)
     for (int a = 0; a < 2; ++a) {
       const int k = t.n++;
+      const double s = in_x[a] && in_y[b] ? scale : 0.0;
       t.index[k] = lv.offset + iy[b] * lv.width + ix[a];
-      t.w[k] = scale * wx[a] * wy[b];
+      t.w[k] = s * wx[a] * wy[b];
       if (kDerivatives) {
-        t.dw_du[k] = scale * dwx[a] * wy[b];
-        t.dw_dv[k] = scale * wx[a] * dwy[b];
+        t.dw_du[k] = s * dwx[a] * wy[b];
+        t.dw_dv[k] = s * wx[a] * dwy[b];
       }
     }
 }
@@ -80,11 +88,12 @@ template <class T, bool kDerivatives>
   switch (p.filter) {
     case Filter::Nearest: {
       // Texel containing (x + 0.5, y + 0.5): floor(u W), floor((1 - v) H).
-      const std::int64_t ix = address(std::floor(u * base.width), base.width, p.wrap);
-      const std::int64_t iy = address(std::floor((1.0 - v) * base.height), base.height, p.wrap);
+      const double fx = std::floor(u * base.width), fy = std::floor((1.0 - v) * base.height);
+      const std::int64_t ix = address(fx, base.width, p.wrap);
+      const std::int64_t iy = address(fy, base.height, p.wrap);
       t.n = 1;
       t.index[0] = iy * base.width + ix;
-      t.w[0] = 1.0;
+      t.w[0] = p.wrap != Wrap::Zero || (inside(fx, base.width) && inside(fy, base.height)) ? 1.0 : 0.0;
       t.dw_du[0] = t.dw_dv[0] = 0.0;
       break;
     }

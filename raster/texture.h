@@ -9,7 +9,10 @@
 //   texel (i, j) (column, row) has its centre at x = i, y = j, and (u, v) =
 //   (0, 1) is the top-left corner of the image.
 // - Addressing acts on integer texel indices: Repeat i mod n, Clamp
-//   min(max(i, 0), n - 1), Mirror reflects with period 2n (0..n-1, n-1..0).
+//   min(max(i, 0), n - 1), Mirror reflects with period 2n (0..n-1, n-1..0),
+//   Zero reads every texel outside the texture as 0 (nvdiffrast's 'zero'):
+//   a bilinear lookup near the border blends towards 0, and one entirely
+//   outside returns 0 with zero gradients.
 //   Bilinear lookups blend the two texels on either side of a repeat seam.
 // - Nearest picks texel (floor(u W), floor((1 - v) H)) of level 0.
 //   Bilinear blends the 4 texels around (x, y) on level 0.
@@ -26,7 +29,7 @@
 namespace gr::raster {
 
 enum class Filter { Nearest, Bilinear, Trilinear };
-enum class Wrap { Repeat, Clamp, Mirror };
+enum class Wrap { Repeat, Clamp, Mirror, Zero };
 
 // Inputs of one texture call, shared by the forward and the adjoint.
 template <class T>

@@ -27,7 +27,9 @@ using Inputs = std::vector<Tensor>;
 
 namespace {
 
-const char* wrap_name(Wrap w) { return w == Wrap::Repeat ? "repeat" : w == Wrap::Clamp ? "clamp" : "mirror"; }
+const char* wrap_name(Wrap w) {
+  return w == Wrap::Repeat ? "repeat" : w == Wrap::Clamp ? "clamp" : w == Wrap::Mirror ? "mirror" : "zero";
+}
 
 // Distance of t to the nearest integer.
 double to_integer(double t) { return std::abs(t - std::round(t)); }
@@ -90,7 +92,7 @@ void lod_derivatives(const std::vector<double>& lods, int w, Tensor* dx, Tensor*
 TEST_CASE("texture: bilinear gradients w.r.t. texels and uv match finite differences across seams and borders", "[ops][texture][gradcheck]") {
   const int th = 5, tw = 6;
   const raster::MipLayout layout = raster::mip_layout(th, tw, 0);
-  for (Wrap wrap : {Wrap::Repeat, Wrap::Clamp, Wrap::Mirror}) {
+  for (Wrap wrap : {Wrap::Repeat, Wrap::Clamp, Wrap::Mirror, Wrap::Zero}) {
     INFO(wrap_name(wrap));
     Tensor tex = random_input({th, tw, 3}, -1, 1, 11);
     Tensor uv = sample_uv(24, layout, 0, 0, 5).set_requires_grad();
@@ -113,7 +115,7 @@ TEST_CASE("texture: trilinear gradients w.r.t. texels of every level and uv matc
   for (int i = 0; i < 20; ++i) per_sample.push_back(lods[i % lods.size()]);
   Tensor dx, dy;
   lod_derivatives(per_sample, tw, &dx, &dy);
-  for (Wrap wrap : {Wrap::Repeat, Wrap::Clamp, Wrap::Mirror}) {
+  for (Wrap wrap : {Wrap::Repeat, Wrap::Clamp, Wrap::Mirror, Wrap::Zero}) {
     INFO(wrap_name(wrap));
     Tensor tex = random_input({th, tw, 2}, -1, 1, 21);
     Tensor uv = sample_uv(20, layout, 0, 4, 8).set_requires_grad();
@@ -172,7 +174,7 @@ TEST_CASE("texture: trilinear at level 0 equals bilinear when the derivatives ar
   Tensor tex = Tensor::uniform({9, 14, 3}, 0, 1, 3, DType::Float64);
   Tensor uv = Tensor::uniform({6, 7, 2}, -0.5, 1.5, 4, DType::Float64);
   Tensor tiny = Tensor::full({6, 7, 2}, 1e-6, DType::Float64);
-  for (Wrap wrap : {Wrap::Repeat, Wrap::Clamp, Wrap::Mirror}) {
+  for (Wrap wrap : {Wrap::Repeat, Wrap::Clamp, Wrap::Mirror, Wrap::Zero}) {
     TextureOptions bil, tri;
     bil.wrap = tri.wrap = wrap;
     tri.filter = Filter::Trilinear;
@@ -192,6 +194,7 @@ TEST_CASE("texture: a constant texture stays constant at every level of detail",
   lod_derivatives(lods, 7, &dx64, &dy64);
   Tensor dx = Tensor::from_values(dx64.to_vector(), {n, 2}), dy = Tensor::from_values(dy64.to_vector(), {n, 2});
   Tensor uv = Tensor::uniform({n, 2}, -2, 3, 6);
+  // (Not Wrap::Zero: outside [0, 1] it reads zeros by design.)
   for (Wrap wrap : {Wrap::Repeat, Wrap::Clamp, Wrap::Mirror}) {
     TextureOptions opt;
     opt.filter = Filter::Trilinear;

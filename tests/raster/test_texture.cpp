@@ -99,6 +99,20 @@ TEST_CASE("mip backward is the transpose of mip build", "[raster][texture]") {
   }
 }
 
+TEST_CASE("zero addressing reads texels outside the texture as 0 for nearest and bilinear", "[raster][texture]") {
+  // 1 x 4 texture of ones: inside, every mode reads 1.
+  const std::vector<double> ones = {1, 1, 1, 1};
+  auto at = [&](double u, Filter f) { return lookup(ones, 1, 4, 1, u, 0.5, f, Wrap::Zero)[0]; };
+  CHECK(at(0.5, Filter::Nearest) == 1);
+  CHECK(at(-0.1, Filter::Nearest) == 0);
+  CHECK(at(1.0, Filter::Nearest) == 0);
+  CHECK(at(0.5, Filter::Bilinear) == 1);
+  CHECK(at(0.0, Filter::Bilinear) == 0.5);    // x = -0.5: half on texel -1 (0), half on texel 0
+  CHECK(at(1.0, Filter::Bilinear) == 0.5);    // x = 3.5: half on texel 3, half on texel 4 (0)
+  CHECK(at(-0.125, Filter::Bilinear) == 0);   // x = -1: entirely outside
+  CHECK(at(1.0 / 16, Filter::Bilinear) == 0.75);
+}
+
 TEST_CASE("nearest picks the texel under uv with repeat, clamp and mirror addressing", "[raster][texture]") {
   // 1 x 4 texture with values 0..3; v is irrelevant for a single row.
   const std::vector<double> tex = {0, 1, 2, 3};
