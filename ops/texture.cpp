@@ -26,7 +26,8 @@ void check_derivative(const Tensor& d, const Tensor& uv, const char* name) {
 // The kernel's view of one call.
 template <class T>
 raster::TextureParams<T> params(const Tensor& tex, const Tensor& uv, const Tensor& uv_dx, const Tensor& uv_dy,
-                                const Tensor& pyramid, const raster::MipLayout& layout, const TextureOptions& o) {
+                                const Tensor& bias, const Tensor& pyramid, const raster::MipLayout& layout,
+                                const TextureOptions& o) {
   raster::TextureParams<T> p;
   p.tex = tex.data<T>();
   p.pyramid = pyramid.defined() ? pyramid.data<T>() : nullptr;
@@ -35,6 +36,7 @@ raster::TextureParams<T> params(const Tensor& tex, const Tensor& uv, const Tenso
   p.uv = uv.data<T>();
   p.uv_dx = uv_dx.defined() ? uv_dx.data<T>() : nullptr;
   p.uv_dy = uv_dy.defined() ? uv_dy.data<T>() : nullptr;
+  p.mip_level_bias = bias.defined() ? bias.data<T>() : nullptr;
   p.num_samples = uv.numel() / 2;
   p.filter = o.filter;
   p.wrap = o.wrap;
@@ -43,8 +45,8 @@ raster::TextureParams<T> params(const Tensor& tex, const Tensor& uv, const Tenso
 
 }  // namespace
 
-Tensor texture(const Tensor& tex, const Tensor& uv, const TextureOptions& options, const Tensor& uv_dx_in,
-               const Tensor& uv_dy_in) {
+Tensor texture(const Tensor& tex, const Tensor& uv, const TextureOptions& options, const Tensor& uv_dx,
+               const Tensor& uv_dy, const Tensor& mip_level_bias) {
   // Arguments.
   detail::check_float(tex, "texture", "tex");
   if (tex.rank() != 3 || tex.size(0) < 1 || tex.size(1) < 1 || tex.size(2) < 1)
@@ -61,13 +63,22 @@ Tensor texture(const Tensor& tex, const Tensor& uv, const TextureOptions& option
     throw ValueError("texture: options.max_mip_level must be >= -1 (-1 = all levels), got " +
                      std::to_string(options.max_mip_level));
   const bool trilinear = options.filter == Filter::Trilinear;
-  Tensor uv_dx, uv_dy;  // read by trilinear only; stop-gradient
   if (trilinear) {
-    check_derivative(uv_dx_in, uv, "uv_dx");
-    check_derivative(uv_dy_in, uv, "uv_dy");
-    uv_dx = uv_dx_in.detach();
-    uv_dy = uv_dy_in.detach();
+    check_derivative(uv_dx, uv, "uv_dx");
+    check_derivative(uv_dy, uv, "uv_dy");
   }
+  if (mip_level_bias.defined()) {
+    if (!trilinear)
+      throw ValueError("texture: argument 'mip_level_bias' needs trilinear filtering (it shifts the level of detail)");
+    detail::check_float(mip_level_bias, "texture", "mip_level_bias");
+    detail::check_same_dtype(mip_level_bias, uv, "texture", "mip_level_bias", "uv");
+    std::vector<std::int64_t> dims = uv.shape().dims();
+    dims.pop_back();
+    detail::check_shape(mip_level_bias, Shape(dims), "texture", "mip_level_bias");
+  }
+  // The kernel reads these (trilinear only); their gradients come through the LOD.
+  const Tensor dx = trilinear ? uv_dx.detach() : Tensor(), dy = trilinear ? uv_dy.detach() : Tensor();
+  const Tensor bias = mip_level_bias.defined() ? mip_level_bias.detach() : Tensor();
   const int th = static_cast<int>(tex.size(0)), tw = static_cast<int>(tex.size(1));
   const std::int64_t C = tex.size(2);
   const raster::MipLayout layout = raster::mip_layout(th, tw, trilinear ? options.max_mip_level : 0);
@@ -88,25 +99,34 @@ Tensor texture(const Tensor& tex, const Tensor& uv, const TextureOptions& option
   Tensor out = Tensor::empty(out_shape, tex.dtype());
   dispatch_float(tex.dtype(), "texture", [&](auto tag) {
     using T = decltype(tag);
-    raster::texture_forward(params<T>(tex, uv, uv_dx, uv_dy, pyramid, layout, options), out.data<T>());
+    raster::texture_forward(params<T>(tex, uv, dx, dy, bias, pyramid, layout, options), out.data<T>());
   });
 
-  if (should_record({tex, uv})) {
-    record("texture", {tex, uv}, {&out},
-           [tex = tex.detach(), uv = uv.detach(), uv_dx, uv_dy, pyramid, layout, options](AdjointContext& ctx) {
-             Tensor g_tex = ctx.needs_grad(0) ? Tensor::zeros(tex.shape(), tex.dtype()) : Tensor();
-             Tensor g_uv = ctx.needs_grad(1) && options.filter != Filter::Nearest
-                               ? Tensor::zeros(uv.shape(), uv.dtype())
-                               : Tensor();
-             if ((!g_tex.defined() && !g_uv.defined()) || !ctx.grad_output().defined()) return;
+  const std::vector<Tensor> inputs{tex, uv, trilinear ? uv_dx : Tensor(), trilinear ? uv_dy : Tensor(), mip_level_bias};
+  if (should_record(inputs)) {
+    record("texture", inputs, {&out},
+           [tex = tex.detach(), uv = uv.detach(), dx, dy, bias, pyramid, layout, options](AdjointContext& ctx) {
+             if (!ctx.grad_output().defined()) return;
+             // Gradient buffers of the inputs that need one (nearest: none for uv).
+             std::vector<Tensor> g(5);
+             const Tensor* shape_of[5] = {&tex, &uv, &dx, &dy, &bias};
+             for (std::size_t i = 0; i < 5; ++i)
+               if (ctx.needs_grad(i) && !(i == 1 && options.filter == Filter::Nearest))
+                 g[i] = Tensor::zeros(shape_of[i]->shape(), shape_of[i]->dtype());
              dispatch_float(tex.dtype(), "texture", [&](auto tag) {
                using T = decltype(tag);
-               raster::texture_backward(params<T>(tex, uv, uv_dx, uv_dy, pyramid, layout, options),
-                                        ctx.grad_output().data<T>(), g_tex.defined() ? g_tex.data<T>() : nullptr,
-                                        g_uv.defined() ? g_uv.data<T>() : nullptr);
+               auto ptr = [&](std::size_t i) { return g[i].defined() ? g[i].data<T>() : nullptr; };
+               raster::TextureGrads<T> grads;
+               grads.tex = ptr(0);
+               grads.uv = ptr(1);
+               grads.uv_dx = ptr(2);
+               grads.uv_dy = ptr(3);
+               grads.mip_level_bias = ptr(4);
+               raster::texture_backward(params<T>(tex, uv, dx, dy, bias, pyramid, layout, options),
+                                        ctx.grad_output().data<T>(), grads);
              });
-             if (g_tex.defined()) ctx.accumulate(0, g_tex);
-             if (g_uv.defined()) ctx.accumulate(1, g_uv);
+             for (std::size_t i = 0; i < 5; ++i)
+               if (g[i].defined()) ctx.accumulate(i, g[i]);
            });
   }
   return out;

@@ -30,11 +30,15 @@ struct TextureOptions {
 //   each child texel's gradient to its parents / block size);
 //   dL/du = g . sum_t (dw_t/du) texel_t with dx/du = W_l,
 //   dL/dv = g . sum_t (dw_t/dv) texel_t with dy/dv = -H_l.
-// Nearest gives no gradient to uv (piecewise constant). The LOD is a stop-
-// gradient: uv_dx and uv_dy never receive a gradient.
+// Nearest gives no gradient to uv (piecewise constant).
+// Trilinear: the level of detail is differentiable (raster/texture.h states the
+// formula): uv_dx, uv_dy and mip_level_bias get gradients where the LOD is not
+// clamped to [0, last level]. mip_level_bias (optional, trilinear only; uv's
+// shape without its last axis, as nvdiffrast's) is added to the LOD per sample.
 // Throws ShapeError / DTypeError naming the argument for bad shapes or dtypes,
-// ValueError for trilinear without derivatives and for NaN/Inf in uv, uv_dx, uv_dy.
+// ValueError for trilinear without derivatives, a bias without trilinear, and
+// NaN/Inf in uv, uv_dx, uv_dy or mip_level_bias.
 Tensor texture(const Tensor& tex, const Tensor& uv, const TextureOptions& options = {}, const Tensor& uv_dx = {},
-               const Tensor& uv_dy = {});
+               const Tensor& uv_dy = {}, const Tensor& mip_level_bias = {});
 
 }  // namespace gr

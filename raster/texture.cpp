@@ -26,7 +26,35 @@ struct Taps {
   int n = 0;
   std::int64_t index[kMaxTaps];  // texel in the all-levels buffer (level offset + row * W + column)
   double w[kMaxTaps], dw_du[kMaxTaps], dw_dv[kMaxTaps];
+  double dw_dlod[kMaxTaps];  // trilinear: -bilinear weight on level l0, + on level l0 + 1
+  bool lod_free = false;     // trilinear: the LOD is not clamped, so it has a derivative
 };
+
+// The LOD and what its derivative needs: the unclamped log2 footprint plus the
+// bias, and which footprint (x: a, y: b) is the larger.
+struct Lod {
+  double value = 0;        // clamped to [0, levels - 1]
+  bool free = false;       // 0 < unclamped < levels - 1
+  double rho2 = 0;         // max(|a|^2, |b|^2)
+  bool along_x = true;     // |a| >= |b|
+  double ax = 0, ay = 0, bx = 0, by = 0;
+};
+
+Lod compute_lod(double du_dx, double dv_dx, double du_dy, double dv_dy, int width, int height, int levels,
+                double bias) {
+  // Footprint of one pixel step along x and along y, in level-0 texels.
+  Lod l;
+  l.ax = du_dx * width, l.ay = dv_dx * height, l.bx = du_dy * width, l.by = dv_dy * height;
+  const double a2 = l.ax * l.ax + l.ay * l.ay, b2 = l.bx * l.bx + l.by * l.by;
+  l.along_x = !(a2 < b2);
+  l.rho2 = l.along_x ? a2 : b2;
+  const double raw = 0.5 * std::log2(l.rho2) + bias;
+  l.free = raw > 0.0 && raw < levels - 1;
+  l.value = raw;
+  if (!(l.value > 0.0)) l.value = 0.0;  // magnification, zero footprint, NaN
+  if (l.value > levels - 1) l.value = levels - 1;
+  return l;
+}
 
 // Address of integer texel index i (a whole number held in a double) along an
 // axis of n texels. The final clamp keeps any input (huge, NaN) in range.
@@ -50,8 +78,10 @@ struct Taps {
 [[gnu::always_inline]] inline bool inside(double i, int n) { return i >= 0.0 && i < n; }
 
 // Bilinear taps of level `lv` at (u, v), scaled by the level weight `scale`.
+// lod_sign: the sign of d(level weight)/d lod (-1 for level l0, +1 for l0 + 1, 0 without trilinear).
 template <bool kDerivatives>
-[[gnu::always_inline]] inline void bilinear_taps(const MipLevel& lv, double u, double v, double scale, Wrap wrap, Taps& t) {
+[[gnu::always_inline]] inline void bilinear_taps(const MipLevel& lv, double u, double v, double scale, Wrap wrap,
+                                                 Taps& t, double lod_sign = 0.0) {
   // Continuous texel coordinates: x = u W - 0.5, y = (1 - v) H - 0.5.
   const double x = u * lv.width - 0.5, y = (1.0 - v) * lv.height - 0.5;
   const double x0 = std::floor(x), y0 = std::floor(y);
@@ -75,6 +105,7 @@ template <bool kDerivatives>
       if (kDerivatives) {
         t.dw_du[k] = s * dwx[a] * wy[b];
         t.dw_dv[k] = s * wx[a] * dwy[b];
+        t.dw_dlod[k] = s == 0.0 ? 0.0 : lod_sign * wx[a] * wy[b];
       }
     }
 }
@@ -94,19 +125,22 @@ template <class T, bool kDerivatives>
       t.n = 1;
       t.index[0] = iy * base.width + ix;
       t.w[0] = p.wrap != Wrap::Zero || (inside(fx, base.width) && inside(fy, base.height)) ? 1.0 : 0.0;
-      t.dw_du[0] = t.dw_dv[0] = 0.0;
+      t.dw_du[0] = t.dw_dv[0] = t.dw_dlod[0] = 0.0;
       break;
     }
     case Filter::Bilinear: bilinear_taps<kDerivatives>(base, u, v, 1.0, p.wrap, t); break;
     case Filter::Trilinear: {
       const int L = p.layout.count();
-      const double lod = texture_lod(p.uv_dx[2 * s], p.uv_dx[2 * s + 1], p.uv_dy[2 * s], p.uv_dy[2 * s + 1],
-                                     base.width, base.height, L);
-      // Levels floor(lod) and floor(lod) + 1, weights 1 - f and f.
-      const int l0 = std::min(static_cast<int>(lod), L - 1);
-      const double f = l0 == L - 1 ? 0.0 : lod - l0;
-      bilinear_taps<kDerivatives>(p.layout.levels[l0], u, v, 1.0 - f, p.wrap, t);
-      if (f > 0.0) bilinear_taps<kDerivatives>(p.layout.levels[l0 + 1], u, v, f, p.wrap, t);
+      const Lod lod = compute_lod(p.uv_dx[2 * s], p.uv_dx[2 * s + 1], p.uv_dy[2 * s], p.uv_dy[2 * s + 1],
+                                  base.width, base.height, L, p.mip_level_bias ? double(p.mip_level_bias[s]) : 0.0);
+      // Levels floor(lod) and floor(lod) + 1, weights 1 - f and f. For the
+      // derivatives, level l0 + 1 is kept at f = 0 too (its taps give dw/dlod).
+      const int l0 = std::min(static_cast<int>(lod.value), L - 1);
+      const double f = l0 == L - 1 ? 0.0 : lod.value - l0;
+      bilinear_taps<kDerivatives>(p.layout.levels[l0], u, v, 1.0 - f, p.wrap, t, -1.0);
+      if (f > 0.0 || (kDerivatives && lod.free))
+        bilinear_taps<kDerivatives>(p.layout.levels[l0 + 1], u, v, f, p.wrap, t, 1.0);
+      t.lod_free = lod.free;
       break;
     }
   }
@@ -131,14 +165,9 @@ void check_params(const TextureParams<T>& p, const char* op) {
 
 }  // namespace
 
-double texture_lod(double du_dx, double dv_dx, double du_dy, double dv_dy, int width, int height, int levels) {
-  // Footprint of one pixel step along x and along y, in level-0 texels.
-  const double ax = du_dx * width, ay = dv_dx * height, bx = du_dy * width, by = dv_dy * height;
-  const double rho2 = std::max(ax * ax + ay * ay, bx * bx + by * by);
-  double lod = 0.5 * std::log2(rho2);
-  if (!(lod > 0.0)) lod = 0.0;  // magnification, zero footprint, NaN
-  if (lod > levels - 1) lod = levels - 1;
-  return lod;
+double texture_lod(double du_dx, double dv_dx, double du_dy, double dv_dy, int width, int height, int levels,
+                   double bias) {
+  return compute_lod(du_dx, dv_dx, du_dy, dv_dy, width, height, levels, bias).value;
 }
 
 template <class T>
@@ -153,6 +182,7 @@ void texture_forward(const TextureParams<T>& p, T* out) {
   if (p.filter == Filter::Trilinear) {
     detail::check_finite(p.uv_dx, 2 * p.num_samples, "uv_dx", "texture");
     detail::check_finite(p.uv_dy, 2 * p.num_samples, "uv_dy", "texture");
+    if (p.mip_level_bias) detail::check_finite(p.mip_level_bias, p.num_samples, "mip_level_bias", "texture");
   }
   parallel_for(0, p.num_samples, 4096, [&](std::int64_t lo, std::int64_t hi) {
     for (std::int64_t s = lo; s < hi; ++s) {
@@ -171,10 +201,16 @@ void texture_forward(const TextureParams<T>& p, T* out) {
 }
 
 template <class T>
-void texture_backward(const TextureParams<T>& p, const T* grad_out, T* grad_tex, T* grad_uv) {
+void texture_backward(const TextureParams<T>& p, const T* grad_out, const TextureGrads<T>& grads) {
   check_params(p, "texture backward");
-  if (p.filter == Filter::Nearest) grad_uv = nullptr;  // piecewise constant in uv
-  if (!grad_tex && !grad_uv) return;
+  T* grad_tex = grads.tex;
+  T* grad_uv = p.filter == Filter::Nearest ? nullptr : grads.uv;  // nearest: piecewise constant in uv
+  const bool trilinear = p.filter == Filter::Trilinear;
+  T* grad_dx = trilinear ? grads.uv_dx : nullptr;
+  T* grad_dy = trilinear ? grads.uv_dy : nullptr;
+  T* grad_bias = trilinear ? grads.mip_level_bias : nullptr;
+  const bool lod_grads = grad_dx || grad_dy || grad_bias;
+  if (!grad_tex && !grad_uv && !lod_grads) return;
   const std::int64_t C = p.channels, S = p.num_samples;
   const std::int64_t base_texels = std::int64_t(p.layout.levels[0].height) * p.layout.levels[0].width;
   const int levels_used = p.filter == Filter::Trilinear ? p.layout.count() : 1;
@@ -221,6 +257,27 @@ void texture_backward(const TextureParams<T>& p, const T* grad_out, T* grad_tex,
         tap_n[i] = 0;
         if (!any) continue;
         const Taps t = sample_taps<T, true>(p, s);
+        if (lod_grads && t.lod_free) {
+          // dL/dlod = g . sum_t (dw_t/dlod) texel_t, then through the LOD.
+          double g_lod = 0.0;
+          for (int k = 0; k < t.n; ++k) {
+            const T* tx = texel(p, t.index[k], base_texels);
+            double d = 0.0;
+            for (std::int64_t c = 0; c < C; ++c) d += static_cast<double>(g[c]) * tx[c];
+            g_lod += t.dw_dlod[k] * d;
+          }
+          if (grad_bias) grad_bias[s] += static_cast<T>(g_lod);
+          const MipLevel& base = p.layout.levels[0];
+          const Lod lod = compute_lod(p.uv_dx[2 * s], p.uv_dx[2 * s + 1], p.uv_dy[2 * s], p.uv_dy[2 * s + 1],
+                                      base.width, base.height, p.layout.count(), 0.0);
+          // d lod / d(rho2) = 1 / (2 rho2 ln 2); d rho2 / d(du) = 2 a_x W, d(dv) = 2 a_y H.
+          const double k = g_lod / (lod.rho2 * std::log(2.0));
+          T* gd = lod.along_x ? grad_dx : grad_dy;
+          if (gd) {
+            gd[2 * s] += static_cast<T>(k * (lod.along_x ? lod.ax : lod.bx) * base.width);
+            gd[2 * s + 1] += static_cast<T>(k * (lod.along_x ? lod.ay : lod.by) * base.height);
+          }
+        }
         if (grad_uv) {
           // dL/du = g . sum_t dw_t/du texel_t (likewise v).
           double gu = 0.0, gv = 0.0;
@@ -273,7 +330,7 @@ void texture_backward(const TextureParams<T>& p, const T* grad_out, T* grad_tex,
 
 #define GR_INSTANTIATE(T)                                                   \
   template void texture_forward<T>(const TextureParams<T>&, T*);            \
-  template void texture_backward<T>(const TextureParams<T>&, const T*, T*, T*);
+  template void texture_backward<T>(const TextureParams<T>&, const T*, const TextureGrads<T>&);
 GR_INSTANTIATE(float)
 GR_INSTANTIATE(double)
 #undef GR_INSTANTIATE

@@ -41,6 +41,7 @@ struct TextureParams {
   const T* uv = nullptr;       // num_samples x 2
   const T* uv_dx = nullptr;    // num_samples x 2: d(u, v)/dx per pixel (trilinear only)
   const T* uv_dy = nullptr;    // num_samples x 2: d(u, v)/dy per pixel (trilinear only)
+  const T* mip_level_bias = nullptr;  // num_samples, added to the LOD (trilinear only; optional)
   std::int64_t num_samples = 0;
   Filter filter = Filter::Bilinear;
   Wrap wrap = Wrap::Repeat;
@@ -48,9 +49,19 @@ struct TextureParams {
 
 // Level of detail of one sample for a texture of base size width x height with
 // `levels` mip levels: log2 of the larger screen-space footprint in texels,
-// clamped to [0, levels - 1] (NaN and -Inf give 0).
+// plus `bias`, clamped to [0, levels - 1] (NaN and -Inf give 0).
 double texture_lod(double du_dx, double dv_dx, double du_dy, double dv_dy, int width, int height,
-                   int levels);
+                   int levels, double bias = 0.0);
+
+// Where texture_backward writes (each may be null; all ACCUMULATED, +=).
+template <class T>
+struct TextureGrads {
+  T* tex = nullptr;             // level-0 shape
+  T* uv = nullptr;              // num_samples x 2
+  T* uv_dx = nullptr;           // num_samples x 2 (trilinear)
+  T* uv_dy = nullptr;           // num_samples x 2 (trilinear)
+  T* mip_level_bias = nullptr;  // num_samples (trilinear)
+};
 
 // out: num_samples x channels. Throws ValueError naming the element if the
 // texture, uv (or, for trilinear, uv_dx / uv_dy) holds NaN or Inf.
@@ -64,12 +75,18 @@ void texture_forward(const TextureParams<T>& p, T* out);
 //   level 0 through the box-filter adjoint (mip_backward);
 //   dL/du += g . sum_t (dw_t/du) texel_t,  dw/du from dx/du = W_l,
 //   dL/dv += g . sum_t (dw_t/dv) texel_t,  dw/dv from dy/dv = -H_l.
-// Nearest has no gradient to uv (piecewise constant). The LOD is a stop-
-// gradient: nothing flows to uv_dx / uv_dy. grad_tex (level-0 shape) and
-// grad_uv (num_samples x 2) may be null. Texel sums are accumulated in double
-// and added in sample order, so the result is bit-identical for any thread
-// count. Samples with an all-zero incoming gradient are skipped.
+// Nearest has no gradient to uv (piecewise constant).
+// Trilinear, through the level of detail (docs/texture.md): out = (1 - f) B_l0
+// + f B_l0+1 with f = lod - l0, so dL/dlod = g . (B_l0+1 - B_l0) wherever lod
+// is not clamped (0 < lod < levels - 1; the right derivative at integer lod),
+// then dL/dbias = dL/dlod and, with lod = 0.5 log2(rho2) + bias, rho2 =
+// max(|a|^2, |b|^2), a = (du/dx W, dv/dx H), b = (du/dy W, dv/dy H):
+//   dL/d(du/dx) = dL/dlod a_x W / (rho2 ln 2) (likewise dv/dx with a_y H) when
+//   |a| >= |b|, else the same for b and uv_dy.
+// Texel sums are accumulated in double and added in sample order, so the
+// result is bit-identical for any thread count. Samples with an all-zero
+// incoming gradient are skipped.
 template <class T>
-void texture_backward(const TextureParams<T>& p, const T* grad_out, T* grad_tex, T* grad_uv);
+void texture_backward(const TextureParams<T>& p, const T* grad_out, const TextureGrads<T>& grads);
 
 }  // namespace gr::raster

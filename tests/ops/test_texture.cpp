@@ -16,6 +16,7 @@
 #include "ops/interpolate.h"
 #include "ops/rasterize.h"
 #include "ops/resample.h"
+#include "ops/reduce.h"
 #include "ops/texture.h"
 #include "raster/mipmap.h"
 #include "test_support.h"
@@ -248,17 +249,68 @@ TEST_CASE("texture: gradients are bit-identical for 1 and 2 threads", "[ops][tex
   }
 }
 
-TEST_CASE("texture: no gradient reaches the derivatives (the LOD is a stop-gradient)", "[ops][texture]") {
-  Tensor tex = Tensor::uniform({8, 8, 1}, 0, 1, 17, DType::Float64).set_requires_grad();
-  Tensor uv = Tensor::uniform({5, 2}, 0, 1, 18, DType::Float64);
-  Tensor dx = Tensor::full({5, 2}, 0.3, DType::Float64).set_requires_grad();
-  Tensor dy = Tensor::full({5, 2}, 0.1, DType::Float64).set_requires_grad();
+TEST_CASE("texture: the level of detail is differentiable: uv_dx uv_dy and mip_level_bias match finite differences",
+          "[ops][texture][gradcheck]") {
+  // 16 x 12 -> 5 levels. LODs strictly inside levels (not at integers, where
+  // the LOD's derivative jumps), the footprint along x in some samples and
+  // along y in others, random directions; the bias moves some across a level.
+  const int th = 12, tw = 16;
+  const raster::MipLayout layout = raster::mip_layout(th, tw);
+  const std::int64_t n = 16;
+  std::vector<double> dxv, dyv, biasv;
+  std::mt19937 rng(31);
+  std::uniform_real_distribution<double> angle(0, 6.283), frac(0.15, 0.85), small(0.1, 0.6);
+  for (std::int64_t i = 0; i < n; ++i) {
+    const double lod = (i % 3) + frac(rng), a = angle(rng), major = std::pow(2.0, lod) / tw;
+    const double minor = major * small(rng);
+    const bool along_x = i % 2 == 0;
+    const double big[2] = {major * std::cos(a), major * std::sin(a) * tw / th};
+    const double little[2] = {-minor * std::sin(a), minor * std::cos(a) * tw / th};
+    for (int k = 0; k < 2; ++k) dxv.push_back(along_x ? big[k] : little[k]);
+    for (int k = 0; k < 2; ++k) dyv.push_back(along_x ? little[k] : big[k]);
+    biasv.push_back(i % 4 == 1 ? 0.37 : i % 4 == 3 ? -0.21 : 0.0);
+  }
+  Tensor dx = Tensor::from_values(dxv, {n, 2}, DType::Float64).set_requires_grad();
+  Tensor dy = Tensor::from_values(dyv, {n, 2}, DType::Float64).set_requires_grad();
+  Tensor bias = Tensor::from_values(biasv, {n}, DType::Float64).set_requires_grad();
+  Tensor tex = random_input({th, tw, 2}, -1, 1, 23);
+  Tensor uv = sample_uv(n, layout, 0, 4, 10).set_requires_grad();
   TextureOptions opt;
   opt.filter = Filter::Trilinear;
-  backward(texture(tex, uv, opt, dx, dy), Tensor::ones({5, 1}, DType::Float64));
-  CHECK(tex.grad().defined());
-  CHECK(!dx.grad().defined());
-  CHECK(!dy.grad().defined());
+  require_gradcheck("texture lod: tex, uv, uv_dx, uv_dy, bias",
+                    [&](const Inputs& in) { return texture(in[0], in[1], opt, in[2], in[3], in[4]); },
+                    {tex, uv, dx, dy, bias});
+  // The LOD's gradient is not zero (a constant texture would make it so).
+  backward(sum(texture(tex, uv, opt, dx, dy, bias)));
+  double largest = 0;
+  for (double g : bias.grad().to_vector()) largest = std::max(largest, std::abs(g));
+  CHECK(largest > 1e-3);
+}
+
+TEST_CASE("texture: a clamped level of detail passes no gradient to the derivatives or the bias", "[ops][texture]") {
+  Tensor tex = Tensor::uniform({8, 8, 1}, 0, 1, 17, DType::Float64).set_requires_grad();
+  Tensor uv = Tensor::uniform({5, 2}, 0, 1, 18, DType::Float64);
+  // Magnified (LOD < 0) and beyond the last level (LOD > 3): both clamped.
+  Tensor dx = Tensor::from_values({1e-3, 0, 1e-3, 0, 1e-3, 0, 40, 0, 40, 0}, {5, 2}, DType::Float64).set_requires_grad();
+  Tensor dy = Tensor::full({5, 2}, 1e-4, DType::Float64).set_requires_grad();
+  Tensor bias = Tensor::zeros({5}, DType::Float64).set_requires_grad();
+  TextureOptions opt;
+  opt.filter = Filter::Trilinear;
+  backward(sum(texture(tex, uv, opt, dx, dy, bias)));
+  CHECK(dx.grad().to_vector() == std::vector<double>(10, 0.0));
+  CHECK(dy.grad().to_vector() == std::vector<double>(10, 0.0));
+  CHECK(bias.grad().to_vector() == std::vector<double>(5, 0.0));
+  // A bias of +1 at LOD 0.25 reads what LOD 1.25 reads.
+  Tensor lod_quarter = Tensor::full({5, 2}, std::pow(2.0, 0.25) / 8 / std::sqrt(2.0), DType::Float64);
+  Tensor lod_five_quarters = Tensor::full({5, 2}, std::pow(2.0, 1.25) / 8 / std::sqrt(2.0), DType::Float64);
+  const std::vector<double> biased =
+      texture(tex.detach(), uv, opt, lod_quarter, lod_quarter, Tensor::full({5}, 1.0, DType::Float64)).to_vector();
+  const std::vector<double> direct = texture(tex.detach(), uv, opt, lod_five_quarters, lod_five_quarters).to_vector();
+  for (std::size_t i = 0; i < biased.size(); ++i) CHECK(biased[i] == Approx(direct[i]).epsilon(1e-12));
+  CHECK_THROWS_WITH(texture(tex, uv, TextureOptions{}, {}, {}, bias), Catch::Contains("needs trilinear"));
+  CHECK_THROWS_WITH(texture(tex, uv, opt, dx, dy, Tensor::zeros({4}, DType::Float64)), Catch::Contains("mip_level_bias"));
+  CHECK_THROWS_WITH(texture(tex, uv, opt, dx, dy, Tensor::full({5}, std::nan(""), DType::Float64)),
+                    Catch::Contains("mip_level_bias"));
 }
 
 TEST_CASE("texture: bad arguments throw errors naming them", "[ops][texture][errors]") {
