@@ -7,6 +7,7 @@
 #include "autodiff/tape.h"
 #include "autodiff/tensor.h"
 #include "ops/antialias.h"
+#include "ops/barycentrics.h"
 #include "ops/channel.h"
 #include "ops/elementwise.h"
 #include "ops/factories.h"
