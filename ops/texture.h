@@ -4,6 +4,8 @@
 // level's gradient flows back to the base texture) and w.r.t. uv.
 #pragma once
 
+#include <vector>
+
 #include "autodiff/tensor.h"
 #include "raster/texture.h"
 
@@ -35,10 +37,15 @@ struct TextureOptions {
 // formula): uv_dx, uv_dy and mip_level_bias get gradients where the LOD is not
 // clamped to [0, last level]. mip_level_bias (optional, trilinear only; uv's
 // shape without its last axis, as nvdiffrast's) is added to the LOD per sample.
+// mip (optional, trilinear only; nvdiffrast's `mip` argument): the user's own
+// levels 1.. instead of the box-filtered pyramid, each [h_l, w_l, C] with the
+// sizes of tex's mip chain (halving, max(1, floor(n / 2))) down to 1 x 1 or to
+// max_mip_level levels; each level receives its own gradient (nothing flows
+// from them to tex).
 // Throws ShapeError / DTypeError naming the argument for bad shapes or dtypes,
-// ValueError for trilinear without derivatives, a bias without trilinear, and
-// NaN/Inf in uv, uv_dx, uv_dy or mip_level_bias.
+// ValueError for trilinear without derivatives, a bias or a mip stack without
+// trilinear, and NaN/Inf in uv, uv_dx, uv_dy, mip_level_bias or a mip level.
 Tensor texture(const Tensor& tex, const Tensor& uv, const TextureOptions& options = {}, const Tensor& uv_dx = {},
-               const Tensor& uv_dy = {}, const Tensor& mip_level_bias = {});
+               const Tensor& uv_dy = {}, const Tensor& mip_level_bias = {}, const std::vector<Tensor>& mip = {});
 
 }  // namespace gr

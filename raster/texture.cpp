@@ -210,7 +210,8 @@ void texture_backward(const TextureParams<T>& p, const T* grad_out, const Textur
   T* grad_dy = trilinear ? grads.uv_dy : nullptr;
   T* grad_bias = trilinear ? grads.mip_level_bias : nullptr;
   const bool lod_grads = grad_dx || grad_dy || grad_bias;
-  if (!grad_tex && !grad_uv && !lod_grads) return;
+  T* grad_pyramid = trilinear && p.user_pyramid ? grads.pyramid : nullptr;
+  if (!grad_tex && !grad_uv && !lod_grads && !grad_pyramid) return;
   const std::int64_t C = p.channels, S = p.num_samples;
   const std::int64_t base_texels = std::int64_t(p.layout.levels[0].height) * p.layout.levels[0].width;
   const int levels_used = p.filter == Filter::Trilinear ? p.layout.count() : 1;
@@ -220,9 +221,10 @@ void texture_backward(const TextureParams<T>& p, const T* grad_out, const Textur
   Tensor scratch;
   double* acc = nullptr;
   bool direct = false;  // acc is grad_tex itself
-  if (grad_tex) {
+  const bool texels = grad_tex || grad_pyramid;
+  if (texels) {
     if constexpr (std::is_same_v<T, double>) {
-      if (levels_used == 1) {
+      if (levels_used == 1 && grad_tex) {
         acc = grad_tex;
         direct = true;
       }
@@ -239,8 +241,8 @@ void texture_backward(const TextureParams<T>& p, const T* grad_out, const Textur
   constexpr std::int64_t kChunk = 16384;
   const int stride = p.filter == Filter::Nearest ? 1 : p.filter == Filter::Bilinear ? 4 : kMaxTaps;
   const std::size_t chunk = static_cast<std::size_t>(std::min(S, kChunk));
-  std::vector<std::int64_t> tap_index(grad_tex ? stride * chunk : 0);
-  std::vector<double> tap_w(grad_tex ? stride * chunk : 0);
+  std::vector<std::int64_t> tap_index(texels ? stride * chunk : 0);
+  std::vector<double> tap_w(texels ? stride * chunk : 0);
   std::vector<std::uint8_t> tap_n(chunk);  // 0: sample skipped
   const std::int64_t acc_texels = levels_used == 1 ? base_texels : p.layout.total_texels;
   const std::int64_t bands = std::max(1, num_threads());
@@ -292,14 +294,14 @@ void texture_backward(const TextureParams<T>& p, const T* grad_out, const Textur
           grad_uv[2 * s + 1] += static_cast<T>(gv);
         }
         tap_n[i] = static_cast<std::uint8_t>(t.n);
-        if (!grad_tex) continue;
+        if (!texels) continue;
         for (int k = 0; k < t.n; ++k) {
           tap_index[stride * i + k] = t.index[k];
           tap_w[stride * i + k] = t.w[k];
         }
       }
     });
-    if (!grad_tex) continue;
+    if (!texels) continue;
     // Scatter in sample order: dL/d texel_t += w_t g. The texels are split
     // into bands, one task each; every task walks all taps in sample order and
     // applies those in its band, so each texel sees the same sequence of adds
@@ -320,9 +322,17 @@ void texture_backward(const TextureParams<T>& p, const T* grad_out, const Textur
       }
     });
   }
-  if (!grad_tex || direct) return;
-  // Every level's gradient down to level 0, then into grad_tex.
-  if (levels_used > 1) mip_backward(C, p.layout, acc);
+  if (!texels || direct) return;
+  if (p.user_pyramid) {
+    // The user's levels keep their own gradients.
+    if (grad_pyramid)
+      parallel_for(base_texels * C, acc_texels * C, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
+        for (std::int64_t k = lo; k < hi; ++k) grad_pyramid[k - base_texels * C] += static_cast<T>(acc[k]);
+      });
+  } else if (levels_used > 1) {
+    mip_backward(C, p.layout, acc);  // every level's gradient down to level 0
+  }
+  if (!grad_tex) return;
   parallel_for(0, base_texels * C, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
     for (std::int64_t k = lo; k < hi; ++k) grad_tex[k] += static_cast<T>(acc[k]);
   });

@@ -36,6 +36,9 @@ template <class T>
 struct TextureParams {
   const T* tex = nullptr;      // level 0: layout.levels[0].height x width x channels
   const T* pyramid = nullptr;  // levels 1.. (mip_build), needed when layout has more than one level
+  // True when the levels 1.. are the user's own (a mip stack), not built from
+  // tex: their gradients then stay on their level instead of flowing to tex.
+  bool user_pyramid = false;
   MipLayout layout;            // trilinear: the levels to use; otherwise only level 0 is read
   std::int64_t channels = 0;
   const T* uv = nullptr;       // num_samples x 2
@@ -61,6 +64,7 @@ struct TextureGrads {
   T* uv_dx = nullptr;           // num_samples x 2 (trilinear)
   T* uv_dy = nullptr;           // num_samples x 2 (trilinear)
   T* mip_level_bias = nullptr;  // num_samples (trilinear)
+  T* pyramid = nullptr;         // levels 1.. as in TextureParams::pyramid (user_pyramid only)
 };
 
 // out: num_samples x channels. Throws ValueError naming the element if the

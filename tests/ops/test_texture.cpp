@@ -523,3 +523,96 @@ TEST_CASE("texture: NaN or Inf texels are refused with the texel named", "[ops][
       CHECK_NOTHROW(texture(tex, uv_d));
     }
 }
+
+namespace {
+
+// The box-filtered levels 1.. of tex, as separate tensors (what a user might pass).
+std::vector<Tensor> box_levels(const Tensor& tex) {
+  const raster::MipLayout layout = raster::mip_layout(static_cast<int>(tex.size(0)), static_cast<int>(tex.size(1)));
+  const std::int64_t C = tex.size(2), base = tex.size(0) * tex.size(1);
+  std::vector<double> pyramid(static_cast<std::size_t>((layout.total_texels - base) * C));
+  raster::mip_build(tex.to_vector().data(), C, layout, pyramid.data());
+  std::vector<Tensor> levels;
+  std::int64_t at = 0;
+  for (int l = 1; l < layout.count(); ++l) {
+    const raster::MipLevel& lv = layout.levels[l];
+    const std::int64_t n = std::int64_t(lv.height) * lv.width * C;
+    levels.push_back(Tensor::from_values(std::vector<double>(pyramid.begin() + at, pyramid.begin() + at + n),
+                                         {lv.height, lv.width, C}, DType::Float64));
+    at += n;
+  }
+  return levels;
+}
+
+}  // namespace
+
+TEST_CASE("texture: a user mip stack equal to the box pyramid gives the same image, bit for bit", "[ops][texture]") {
+  const Tensor tex = Tensor::uniform({12, 16, 3}, 0, 1, 41, DType::Float64);
+  const raster::MipLayout layout = raster::mip_layout(12, 16);
+  const std::vector<double> lods = {0.3, 1.6, 2.2, 3.7, 4.0, 6.5};
+  Tensor dx, dy;
+  lod_derivatives(lods, 16, &dx, &dy);
+  const Tensor uv = sample_uv(6, layout, 0, 4, 12);
+  TextureOptions opt;
+  opt.filter = Filter::Trilinear;
+  CHECK(texture(tex, uv, opt, dx, dy, {}, box_levels(tex)).to_vector() == texture(tex, uv, opt, dx, dy).to_vector());
+}
+
+TEST_CASE("texture: every level of a user mip stack gets its own gradient, matching finite differences",
+          "[ops][texture][gradcheck]") {
+  const int th = 12, tw = 16;
+  const raster::MipLayout layout = raster::mip_layout(th, tw);
+  std::vector<Tensor> inputs{random_input({th, tw, 2}, -1, 1, 42)};
+  std::uint64_t seed = 43;
+  for (const Tensor& level : box_levels(inputs[0])) inputs.push_back(random_input(level.shape(), -1, 1, seed++));
+  const std::vector<double> lods = {0.4, 1.3, 2.6, 3.5, 1.7, 0.8};
+  Tensor dx, dy;
+  lod_derivatives(lods, tw, &dx, &dy);
+  Tensor uv = sample_uv(6, layout, 0, 4, 13).set_requires_grad();
+  inputs.push_back(uv);
+  TextureOptions opt;
+  opt.filter = Filter::Trilinear;
+  auto f = [&](const Inputs& in) {
+    const std::vector<Tensor> mip(in.begin() + 1, in.end() - 1);
+    return texture(in[0], in.back(), opt, dx, dy, {}, mip);
+  };
+  require_gradcheck("texture user mip stack", f, inputs);
+
+  SECTION("with every footprint on levels 1 and 2, nothing reaches the base texture or level 3") {
+    Tensor tex = random_input({th, tw, 1}, -1, 1, 50);
+    std::vector<Tensor> mip;
+    for (const Tensor& level : box_levels(tex)) mip.push_back(Tensor::zeros(level.shape(), DType::Float64).set_requires_grad());
+    Tensor dx1, dy1;
+    lod_derivatives({1.25, 1.5, 1.75}, tw, &dx1, &dy1);
+    backward(sum(texture(tex, sample_uv(3, layout, 1, 2, 14), opt, dx1, dy1, {}, mip)));
+    auto total = [](const Tensor& g) {
+      double s = 0;
+      for (double x : g.to_vector()) s += std::abs(x);
+      return s;
+    };
+    CHECK(total(tex.grad()) == 0);
+    CHECK(total(mip[0].grad()) > 0);
+    CHECK(total(mip[1].grad()) > 0);
+    CHECK(total(mip[2].grad()) == 0);
+  }
+}
+
+TEST_CASE("texture: a mip stack of the wrong sizes or count is refused by name", "[ops][texture][errors]") {
+  const Tensor tex = Tensor::uniform({12, 16, 2}, 0, 1, 44, DType::Float64);
+  const Tensor uv = Tensor::uniform({3, 2}, 0, 1, 45, DType::Float64);
+  const Tensor d = Tensor::full({3, 2}, 0.1, DType::Float64);
+  TextureOptions opt;
+  opt.filter = Filter::Trilinear;
+  std::vector<Tensor> mip = box_levels(tex);  // 6x8, 3x4, 1x2, 1x1
+  std::vector<Tensor> wrong = mip;
+  wrong[1] = Tensor::zeros({4, 4, 2}, DType::Float64);
+  CHECK_THROWS_WITH(texture(tex, uv, opt, d, d, {}, wrong), Catch::Contains("mip[1]"));
+  std::vector<Tensor> too_many = mip;
+  too_many.push_back(Tensor::zeros({1, 1, 2}, DType::Float64));
+  CHECK_THROWS_WITH(texture(tex, uv, opt, d, d, {}, too_many), Catch::Contains("halves to 1 x 1 in 4"));
+  CHECK_THROWS_WITH(texture(tex, uv, TextureOptions{}, {}, {}, {}, mip), Catch::Contains("needs trilinear"));
+  std::vector<Tensor> two(mip.begin(), mip.begin() + 2);
+  CHECK(texture(tex, uv, opt, d, d, {}, two).shape() == Shape({3, 2}));  // a shorter chain: max_mip_level 2
+  opt.max_mip_level = 3;
+  CHECK_THROWS_WITH(texture(tex, uv, opt, d, d, {}, two), Catch::Contains("max_mip_level"));
+}
