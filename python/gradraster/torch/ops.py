@@ -1,0 +1,371 @@
+"""nvdiffrast.torch's interface on the CPU, on gradraster's kernels.
+
+Every op is a torch.autograd.Function whose forward and backward run
+gradraster's C++ kernels directly on the tensors' memory (float32 or float64,
+CPU, contiguous). Conventions are nvdiffrast's (docs/python.md): rast is
+[minibatch, height, width, 4] = (u, v, z/w, triangle_id + 1) with u, v the
+perspective-correct barycentrics of the triangle's vertices 0 and 1, row 0 at
+clip-space y = -1 (the bottom of the image), pixel centres at half-integers.
+
+Threads: each call runs on torch.get_num_threads() threads; results and
+gradients are bit-identical for any thread count.
+"""
+import numbers
+
+import torch
+
+from .. import _core
+
+_MAX_SIDE = 16384          # pixels per side (the rasterizer's limit)
+_MAX_PIXELS = 1 << 28      # pixels per image
+_MAX_FLOAT32_IDS = 1 << 24  # float32 holds every triangle id + 1 exactly up to here
+
+
+def _threads():
+    return torch.get_num_threads()
+
+
+# ----------------------------------------------------------------------------
+# Input checks: each names the argument and the problem.
+
+def _tensor(name, x, dims=None, dtypes=None):
+    if not isinstance(x, torch.Tensor):
+        raise TypeError(f"'{name}' must be a torch.Tensor, got {type(x).__name__}")
+    if x.device.type != 'cpu':
+        raise ValueError(f"'{name}' is on {x.device}; gradraster runs on the CPU: pass {name}.cpu()")
+    if dims is not None and x.dim() not in dims:
+        want = ' or '.join(f'{d}D' for d in dims)
+        raise ValueError(f"'{name}' must be {want}, got shape {list(x.shape)}")
+    if dtypes is not None and x.dtype not in dtypes:
+        want = ' or '.join(str(d) for d in dtypes)
+        raise TypeError(f"'{name}' must have dtype {want}, got {x.dtype}")
+    if not x.is_contiguous():
+        raise ValueError(f"'{name}' is not contiguous; pass {name}.contiguous()")
+    return x
+
+
+_FLOATS = (torch.float32, torch.float64)
+
+
+def _float(name, x, dims=None, like=None):
+    _tensor(name, x, dims, _FLOATS)
+    if like is not None and x.dtype != like[1].dtype:
+        raise TypeError(f"'{name}' has dtype {x.dtype} but '{like[0]}' has {like[1].dtype}; use one float dtype")
+    return x
+
+
+def _tri(tri):
+    _tensor('tri', tri, (2,), (torch.int32,))
+    if tri.shape[1] != 3:
+        raise ValueError(f"'tri' must have shape [num_triangles, 3], got {list(tri.shape)}")
+    return tri
+
+
+def _rast(name, rast, pos_like):
+    _float(name, rast, (4,), like=pos_like)
+    if rast.shape[3] != 4:
+        raise ValueError(f"'{name}' must have shape [minibatch_size, height, width, 4], got {list(rast.shape)}")
+    return rast
+
+
+def _resolution(resolution):
+    try:
+        h, w = resolution
+    except (TypeError, ValueError):
+        raise ValueError(f"'resolution' must be (height, width), got {resolution!r}") from None
+    for name, v in (('height', h), ('width', w)):
+        if isinstance(v, bool) or not isinstance(v, numbers.Integral):
+            raise TypeError(f"'resolution' {name} must be an integer, got {v!r}")
+        if not 1 <= v <= _MAX_SIDE:
+            raise ValueError(f"'resolution' {name} = {v} is outside 1..{_MAX_SIDE}")
+    if h * w > _MAX_PIXELS:
+        raise ValueError(f"'resolution' {h} x {w} has more than {_MAX_PIXELS} pixels")
+    return int(h), int(w)
+
+
+def _mesh(pos, tri, ranges, op):
+    """A _core.Mesh for nvdiffrast's instanced ([B, N, 4] pos) or range ([N, 4] pos + ranges) mode."""
+    _float('pos', pos, (2, 3))
+    _tri(tri)
+    if pos.shape[-1] != 4:
+        raise ValueError(f"'pos' must have shape [..., num_vertices, 4], got {list(pos.shape)}")
+    if pos.dtype == torch.float32 and tri.shape[0] >= _MAX_FLOAT32_IDS:
+        raise ValueError(f"{op}: {tri.shape[0]} triangles are more than float32 rast can number exactly "
+                         f"({_MAX_FLOAT32_IDS - 1}); use float64")
+    f64 = pos.dtype == torch.float64
+    if pos.dim() == 3:
+        if pos.shape[0] < 1:
+            raise ValueError(f"instanced mode - 'pos' must have shape [>0, num_vertices, 4], got {list(pos.shape)}")
+        return _core.Mesh(f64, pos.data_ptr(), pos.shape[0], pos.shape[1], True, tri.data_ptr(), tri.shape[0], [])
+    if ranges is None:
+        raise ValueError("range mode - 'pos' is [num_vertices, 4], so 'ranges' [minibatch_size, 2] is required "
+                         "(or give pos a minibatch axis: [1, num_vertices, 4])")
+    _tensor('ranges', ranges, (2,), (torch.int32,))
+    if ranges.shape[0] < 1 or ranges.shape[1] != 2:
+        raise ValueError(f"range mode - 'ranges' must have shape [>0, 2], got {list(ranges.shape)}")
+    pairs = [tuple(r) for r in ranges.tolist()]
+    return _core.Mesh(f64, pos.data_ptr(), len(pairs), pos.shape[0], False, tri.data_ptr(), tri.shape[0], pairs)
+
+
+# ----------------------------------------------------------------------------
+# Context and rasterize.
+
+class RasterizeCpuContext:
+    """The CPU counterpart of nvdiffrast's RasterizeCudaContext: owns the
+    rasterizer's scratch buffers, reused across calls. `device` is accepted
+    for compatibility and must be None or a CPU device."""
+
+    def __init__(self, device=None):
+        if device is not None and torch.device(device).type != 'cpu':
+            raise ValueError(f"RasterizeCpuContext: device must be the CPU, got {device}")
+        self.cpp_wrapper = _core.Context()
+        self.active_depth_peeler = None
+
+
+class _RasterizeFunc(torch.autograd.Function):
+    @staticmethod
+    def forward(ctx, raster_ctx, pos, tri, resolution, ranges, grad_db, peel):
+        mesh = _mesh(pos, tri, ranges, 'rasterize')
+        h, w = resolution
+        images = pos.shape[0] if pos.dim() == 3 else ranges.shape[0]
+        rast = pos.new_empty((images, h, w, 4))
+        db = torch.empty_like(rast)
+        _core.rasterize_forward(raster_ctx.cpp_wrapper, mesh, h, w, rast.data_ptr(), db.data_ptr(), peel, _threads())
+        ctx.save_for_backward(pos, tri, rast)
+        ctx.raster_ctx, ctx.ranges, ctx.grad_db = raster_ctx, ranges, grad_db
+        return rast, db
+
+    @staticmethod
+    def backward(ctx, drast, ddb):
+        pos, tri, rast = ctx.saved_tensors
+        mesh = _mesh(pos, tri, ctx.ranges, 'rasterize')
+        drast = drast.contiguous()
+        ddb = ddb.contiguous() if ctx.grad_db else None
+        grad_pos = torch.zeros_like(pos)
+        _core.rasterize_backward(ctx.raster_ctx.cpp_wrapper, mesh, rast.shape[1], rast.shape[2], rast.data_ptr(),
+                                 drast.data_ptr(), ddb.data_ptr() if ddb is not None else 0, grad_pos.data_ptr(),
+                                 _threads())
+        return None, grad_pos, None, None, None, None, None
+
+
+def _check_context(glctx):
+    if not isinstance(glctx, RasterizeCpuContext):
+        raise TypeError(f"'glctx' must be a RasterizeCpuContext, got {type(glctx).__name__}")
+
+
+def rasterize(glctx, pos, tri, resolution, ranges=None, grad_db=True):
+    """Rasterize triangles (nvdiffrast.torch.rasterize).
+
+    pos: [minibatch, num_vertices, 4] (instanced mode) or [num_vertices, 4]
+    with ranges [minibatch, 2] int32 (first triangle, count) (range mode),
+    clip-space positions; tri: [num_triangles, 3] int32; resolution:
+    (height, width). Returns (rast, rast_db), each [minibatch, height, width,
+    4]: rast = (u, v, z/w, triangle_id + 1) (0 everywhere on the background)
+    and rast_db = (du/dX, du/dY, dv/dX, dv/dY) in pixels. grad_db: whether
+    gradients of rast_db flow to pos.
+    """
+    _check_context(glctx)
+    if grad_db is not True and grad_db is not False:
+        raise TypeError(f"'grad_db' must be True or False, got {grad_db!r}")
+    if glctx.active_depth_peeler is not None:
+        raise RuntimeError("Cannot call rasterize() during depth peeling operation, use rasterize_next_layer() instead")
+    resolution = _resolution(resolution)
+    return _RasterizeFunc.apply(glctx, pos, tri, resolution, ranges, grad_db, None)
+
+
+class DepthPeeler:
+    """Successive depth layers (nvdiffrast.torch.DepthPeeler), as a context
+    manager: `with DepthPeeler(glctx, pos, tri, resolution) as peeler:` then
+    `rast, rast_db = peeler.rasterize_next_layer()` per layer. Layer k holds,
+    per pixel, the nearest surface strictly behind layer k-1's in the
+    rasterizer's (depth, triangle id) order, so coplanar faces each appear in
+    exactly one layer; after the last surface, layers are empty (all zero)."""
+
+    def __init__(self, glctx, pos, tri, resolution, ranges=None, grad_db=True):
+        _check_context(glctx)
+        if grad_db is not True and grad_db is not False:
+            raise TypeError(f"'grad_db' must be True or False, got {grad_db!r}")
+        _mesh(pos, tri, ranges, 'DepthPeeler')
+        self.raster_ctx, self.pos, self.tri = glctx, pos, tri
+        self.resolution, self.ranges, self.grad_db = _resolution(resolution), ranges, grad_db
+        self.state = None
+
+    def __enter__(self):
+        if self.raster_ctx is None:
+            raise RuntimeError("Cannot re-enter a terminated depth peeling operation")
+        if self.raster_ctx.active_depth_peeler is not None:
+            raise RuntimeError("Cannot have multiple depth peelers active simultaneously in a rasterization context")
+        self.raster_ctx.active_depth_peeler = self
+        self.state = _core.PeelState()
+        return self
+
+    def __exit__(self, *args):
+        self.raster_ctx.active_depth_peeler = None
+        self.raster_ctx = self.pos = self.tri = self.ranges = self.state = None
+        return None
+
+    def rasterize_next_layer(self):
+        """The next layer, as rasterize() returns it."""
+        if self.raster_ctx is None or self.raster_ctx.active_depth_peeler is not self:
+            raise RuntimeError("rasterize_next_layer() must be called inside 'with DepthPeeler(...) as peeler:'")
+        return _RasterizeFunc.apply(self.raster_ctx, self.pos, self.tri, self.resolution, self.ranges, self.grad_db,
+                                    self.state)
+
+
+# ----------------------------------------------------------------------------
+# Interpolate.
+
+def _diff_list(diff_attrs, channels):
+    if diff_attrs is None:
+        return []
+    if isinstance(diff_attrs, str):
+        if diff_attrs != 'all':
+            raise ValueError(f"'diff_attrs' must be 'all' or a list of attribute indices, got {diff_attrs!r}")
+        return list(range(channels))
+    out = []
+    for d in (diff_attrs.tolist() if isinstance(diff_attrs, torch.Tensor) else diff_attrs):
+        if isinstance(d, bool) or not isinstance(d, numbers.Integral):
+            raise TypeError(f"'diff_attrs' must hold integers, got {d!r}")
+        if not 0 <= d < channels:
+            raise ValueError(f"'diff_attrs' index {d} is outside 0..{channels - 1} (attr has {channels} attributes)")
+        out.append(int(d))
+    return out
+
+
+def _interpolate_args(attr, rast, tri, rast_db, diff):
+    _rast('rast', rast, None)
+    _float('attr', attr, (2, 3), like=('rast', rast))
+    _tri(tri)
+    images, h, w = rast.shape[:3]
+    if attr.dim() == 3 and attr.shape[0] not in (1, images):
+        raise ValueError(f"'attr' has minibatch size {attr.shape[0]} but 'rast' has {images} (broadcast needs 1)")
+    if rast_db is not None:
+        _float('rast_db', rast_db, (4,), like=('rast', rast))
+        if rast_db.shape != rast.shape:
+            raise ValueError(f"'rast_db' must have rast's shape {list(rast.shape)}, got {list(rast_db.shape)}")
+    attr_images = attr.shape[0] if attr.dim() == 3 else 1
+    n, c = attr.shape[-2:]
+    return _core.InterpolateArgs(attr.dtype == torch.float64, attr.data_ptr(), attr_images, n, c, tri.data_ptr(),
+                                 tri.shape[0], rast.data_ptr(), rast_db.data_ptr() if rast_db is not None else 0,
+                                 images, h, w, diff)
+
+
+class _InterpolateFunc(torch.autograd.Function):
+    @staticmethod
+    def forward(ctx, attr, rast, tri, rast_db, diff):
+        args = _interpolate_args(attr, rast, tri, rast_db, diff)
+        images, h, w = rast.shape[:3]
+        out = attr.new_empty((images, h, w, attr.shape[-1]))
+        out_da = attr.new_empty((images, h, w, 2 * len(diff)))
+        _core.interpolate_forward(args, out.data_ptr(), out_da.data_ptr() if diff else 0, _threads())
+        ctx.save_for_backward(attr, rast, tri, rast_db)
+        ctx.diff = diff
+        return out, out_da
+
+    @staticmethod
+    def backward(ctx, dy, dda):
+        attr, rast, tri, rast_db = ctx.saved_tensors
+        args = _interpolate_args(attr, rast, tri, rast_db, ctx.diff)
+        dy = dy.contiguous()
+        dda = dda.contiguous() if ctx.diff else None
+        need_attr, need_rast, _, need_db, _ = ctx.needs_input_grad
+        g_attr = torch.zeros_like(attr) if need_attr else None
+        g_rast = torch.zeros_like(rast) if need_rast else None
+        g_db = torch.zeros_like(rast_db) if need_db and rast_db is not None else None
+        addr = lambda t: t.data_ptr() if t is not None else 0
+        _core.interpolate_backward(args, dy.data_ptr(), addr(dda), addr(g_attr), addr(g_rast), addr(g_db), _threads())
+        return g_attr, g_rast, None, g_db, None
+
+
+def interpolate(attr, rast, tri, rast_db=None, diff_attrs=None):
+    """Interpolate vertex attributes (nvdiffrast.torch.interpolate).
+
+    attr: [num_vertices, num_attributes] or [minibatch (or 1), num_vertices,
+    num_attributes]; rast, rast_db: rasterize's outputs; tri as given to
+    rasterize. Returns (out [minibatch, height, width, num_attributes],
+    out_da [minibatch, height, width, 2 len(diff_attrs)]) with out_da holding
+    (dA/dX, dA/dY) per selected attribute ('all' = every attribute); without
+    diff_attrs out_da is empty. Background pixels are 0.
+    """
+    diff = _diff_list(diff_attrs, attr.shape[-1] if isinstance(attr, torch.Tensor) and attr.dim() >= 1 else 0)
+    if diff and rast_db is None:
+        raise ValueError("'diff_attrs' needs 'rast_db' (the second output of rasterize)")
+    return _InterpolateFunc.apply(attr, rast, tri, rast_db if diff else None, diff)
+
+
+# ----------------------------------------------------------------------------
+# Antialias.
+
+def antialias_construct_topology_hash(tri):
+    """Edge adjacency of `tri` for antialias (nvdiffrast's topology hash):
+    build it once when the triangles stay the same."""
+    _tri(tri)
+    return _core.build_topology(tri.data_ptr(), tri.shape[0])
+
+
+def _antialias_mesh(color, rast, pos, tri):
+    _rast('rast', rast, ('color', color))
+    _float('color', color, (4,))
+    _float('pos', pos, (2, 3), like=('color', color))
+    _tri(tri)
+    if color.shape[:3] != rast.shape[:3]:
+        raise ValueError(f"'color' {list(color.shape)} and 'rast' {list(rast.shape)} differ in minibatch or size")
+    if color.shape[3] < 1:
+        raise ValueError("'color' needs at least one channel")
+    images = rast.shape[0]
+    if pos.dim() == 3 and pos.shape[0] != images:
+        raise ValueError(f"'pos' has minibatch size {pos.shape[0]} but 'rast' has {images}")
+    if pos.shape[-1] != 4:
+        raise ValueError(f"'pos' must have shape [..., num_vertices, 4], got {list(pos.shape)}")
+    instanced = pos.dim() == 3
+    return _core.Mesh(pos.dtype == torch.float64, pos.data_ptr(), images, pos.shape[-2], instanced, tri.data_ptr(),
+                      tri.shape[0], [] if instanced else [(0, tri.shape[0])] * images)
+
+
+# Scratch buffers of antialias (which takes no context); calls are serialized.
+_ANTIALIAS_SCRATCH = _core.Context()
+
+
+class _AntialiasFunc(torch.autograd.Function):
+    @staticmethod
+    def forward(ctx, color, rast, pos, tri, topology, boost):
+        mesh = _antialias_mesh(color, rast, pos, tri)
+        out = torch.empty_like(color)
+        state = _core.antialias_forward(_ANTIALIAS_SCRATCH, mesh, topology, color.data_ptr(), color.shape[3], rast.shape[1],
+                                        rast.shape[2], rast.data_ptr(), out.data_ptr(), _threads())
+        ctx.save_for_backward(color, rast, pos, tri)
+        ctx.topology, ctx.state, ctx.boost = topology, state, boost
+        return out
+
+    @staticmethod
+    def backward(ctx, dy):
+        color, rast, pos, tri = ctx.saved_tensors
+        mesh = _antialias_mesh(color, rast, pos, tri)
+        dy = dy.contiguous()
+        need_color, _, need_pos, _, _, _ = ctx.needs_input_grad
+        g_color = torch.zeros_like(color) if need_color else None
+        g_pos = torch.zeros_like(pos) if need_pos else None
+        _core.antialias_backward(_ANTIALIAS_SCRATCH, mesh, ctx.topology, ctx.state, color.data_ptr(), color.shape[3],
+                                 rast.shape[1], rast.shape[2], rast.data_ptr(), dy.data_ptr(),
+                                 g_color.data_ptr() if g_color is not None else 0,
+                                 g_pos.data_ptr() if g_pos is not None else 0, ctx.boost, _threads())
+        return g_color, None, g_pos, None, None, None
+
+
+def antialias(color, rast, pos, tri, topology_hash=None, pos_gradient_boost=1.0):
+    """Antialias silhouette edges (nvdiffrast.torch.antialias).
+
+    color: [minibatch, height, width, channels]; rast: rasterize's first
+    output for the same pos and tri; pos: as given to rasterize. Returns the
+    antialiased color; gradients flow to color and pos (the latter multiplied
+    by pos_gradient_boost). topology_hash: from
+    antialias_construct_topology_hash(tri), built here when None.
+    """
+    if isinstance(pos_gradient_boost, bool) or not isinstance(pos_gradient_boost, numbers.Real) \
+            or not (abs(float(pos_gradient_boost)) < float('inf')):
+        raise ValueError(f"'pos_gradient_boost' must be a finite number, got {pos_gradient_boost!r}")
+    if topology_hash is None:
+        topology_hash = antialias_construct_topology_hash(tri)
+    elif not isinstance(topology_hash, _core.Topology):
+        raise TypeError("'topology_hash' must come from antialias_construct_topology_hash(tri)")
+    return _AntialiasFunc.apply(color, rast, pos, tri, topology_hash, float(pos_gradient_boost))

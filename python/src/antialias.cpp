@@ -1,0 +1,116 @@
+#include "python/src/antialias.h"
+
+#include <algorithm>
+#include <string>
+
+#include "autodiff/error.h"
+#include "raster/rasterize_setup.h"
+
+namespace gr::python {
+namespace {
+
+// Our antialias kernel reads an int32 id image and a depth image: both are
+// taken from rast's channels 3 and 2 (one pass over the G-buffer).
+template <class T>
+void split_rast(const T* rast, std::int64_t pixels, std::vector<std::int32_t>* tri_id, std::vector<T>* depth) {
+  tri_id->resize(static_cast<std::size_t>(pixels));
+  depth->resize(static_cast<std::size_t>(pixels));
+  for (std::int64_t q = 0; q < pixels; ++q) {
+    (*tri_id)[q] = static_cast<std::int32_t>(rast[4 * q + 3]);
+    (*depth)[q] = rast[4 * q + 2];
+  }
+}
+
+template <class T>
+raster::AntialiasParams<T> image_params(Context& ctx, const Mesh& mesh, const Topology& topology, const T* color,
+                                        std::int64_t channels, int height, int width) {
+  raster::AntialiasParams<T> p;
+  p.image = color;
+  p.channels = static_cast<int>(channels);
+  p.width = width;
+  p.height = height;
+  p.tri_id = ctx.tri_id.data();
+  p.depth = ctx.depth<T>().data();
+  p.clip = ctx.clip<T>().data();
+  p.num_vertices = mesh.vertices;
+  p.tris = at<const std::int32_t>(mesh.tri);
+  p.num_tris = mesh.triangles;
+  p.topology = &topology.edges;
+  return p;
+}
+
+}  // namespace
+
+std::shared_ptr<Topology> build_topology(Address tri, std::int64_t triangles) {
+  const auto* t = at<const std::int32_t>(tri);
+  std::int64_t vertices = 0;
+  for (std::int64_t i = 0; i < 3 * triangles; ++i) {
+    if (t[i] < 0)
+      throw IndexError("antialias_construct_topology_hash: tri[" + std::to_string(i / 3) + "] has the negative index " +
+                       std::to_string(t[i]));
+    vertices = std::max<std::int64_t>(vertices, std::int64_t(t[i]) + 1);
+  }
+  auto topology = std::make_shared<Topology>();
+  topology->edges = raster::build_edge_topology(t, triangles, vertices);
+  topology->triangles = triangles;
+  return topology;
+}
+
+std::shared_ptr<AntialiasState> antialias_forward(Context& ctx, const Mesh& mesh, const Topology& topology,
+                                                  Address color, std::int64_t channels, int height, int width,
+                                                  Address rast, Address out, int threads) {
+  KernelCall call(threads);
+  check_mesh(mesh, "antialias");
+  if (topology.triangles != mesh.triangles)
+    throw ValueError("antialias: 'topology_hash' was built for " + std::to_string(topology.triangles) +
+                     " triangles but 'tri' has " + std::to_string(mesh.triangles));
+  const std::int64_t pixels = static_cast<std::int64_t>(height) * width;
+  auto state = std::make_shared<AntialiasState>();
+  state->pairs.resize(static_cast<std::size_t>(mesh.images));
+  dispatch(mesh.f64, [&](auto tag) {
+    using T = decltype(tag);
+    check_rast_ids(at<const T>(rast), mesh.images * pixels, mesh.triangles, "rast", "antialias");
+    for (std::int64_t b = 0; b < mesh.images; ++b) {
+      copy_flipped(at<const T>(mesh.pos) + mesh.pos_offset(b), mesh.vertices, &ctx.clip<T>());
+      split_rast(at<const T>(rast) + 4 * pixels * b, pixels, &ctx.tri_id, &ctx.depth<T>());
+      const auto p = image_params(ctx, mesh, topology, at<const T>(color) + pixels * channels * b, channels, height,
+                                  width);
+      raster::antialias_forward(p, at<T>(out) + pixels * channels * b, &state->pairs[b]);
+    }
+  });
+  return state;
+}
+
+void antialias_backward(Context& ctx, const Mesh& mesh, const Topology& topology, const AntialiasState& state,
+                        Address color, std::int64_t channels, int height, int width, Address rast,
+                        Address grad_out, Address grad_color, Address grad_pos, double pos_gradient_boost,
+                        int threads) {
+  KernelCall call(threads);
+  const std::int64_t pixels = static_cast<std::int64_t>(height) * width;
+  dispatch(mesh.f64, [&](auto tag) {
+    using T = decltype(tag);
+    std::vector<T>& grad = ctx.grad<T>();
+    grad.assign(4 * static_cast<std::size_t>(mesh.vertices), T(0));
+    for (std::int64_t b = 0; b < mesh.images; ++b) {
+      copy_flipped(at<const T>(mesh.pos) + mesh.pos_offset(b), mesh.vertices, &ctx.clip<T>());
+      split_rast(at<const T>(rast) + 4 * pixels * b, pixels, &ctx.tri_id, &ctx.depth<T>());
+      const auto p = image_params(ctx, mesh, topology, at<const T>(color) + pixels * channels * b, channels, height,
+                                  width);
+      raster::AntialiasGrads<T> g;
+      if (grad_color) g.image = at<T>(grad_color) + pixels * channels * b;
+      if (grad_pos) g.clip = grad.data();
+      raster::antialias_backward(p, state.pairs[b], at<const T>(grad_out) + pixels * channels * b, g);
+      if (grad_pos && mesh.instanced) {
+        for (T& v : grad) v = static_cast<T>(pos_gradient_boost * v);
+        add_flipped(grad.data(), mesh.vertices, at<T>(grad_pos) + mesh.pos_offset(b));
+        std::fill(grad.begin(), grad.end(), T(0));
+      }
+    }
+    if (grad_pos && !mesh.instanced) {
+      for (T& v : grad) v = static_cast<T>(pos_gradient_boost * v);
+      add_flipped(grad.data(), mesh.vertices, at<T>(grad_pos));
+    }
+  });
+}
+
+}  // namespace gr::python

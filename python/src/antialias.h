@@ -1,0 +1,37 @@
+// antialias in nvdiffrast's layout, and its topology "hash" (our edge
+// adjacency, built from the triangle indices alone, as nvdiffrast's is).
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include "python/src/common.h"
+#include "python/src/rasterize.h"
+#include "raster/antialias.h"
+
+namespace gr::python {
+
+// antialias_construct_topology_hash(tri): adjacency by vertex index.
+struct Topology {
+  raster::EdgeTopology edges;
+  std::int64_t triangles = 0;
+};
+std::shared_ptr<Topology> build_topology(Address tri, std::int64_t triangles);
+
+// What the backward needs: per image, the blended pixel pairs.
+struct AntialiasState {
+  std::vector<std::vector<raster::AntialiasPair>> pairs;
+};
+
+// color, out: [images, H, W, C]; rast: the G-buffer for mesh.
+std::shared_ptr<AntialiasState> antialias_forward(Context& ctx, const Mesh& mesh, const Topology& topology,
+                                                  Address color, std::int64_t channels, int height, int width,
+                                                  Address rast, Address out, int threads);
+// Accumulates into grad_color (zeroed, or 0) and grad_pos (zeroed, or 0);
+// the position gradient is multiplied by pos_gradient_boost.
+void antialias_backward(Context& ctx, const Mesh& mesh, const Topology& topology, const AntialiasState& state,
+                        Address color, std::int64_t channels, int height, int width, Address rast,
+                        Address grad_out, Address grad_color, Address grad_pos, double pos_gradient_boost,
+                        int threads);
+
+}  // namespace gr::python

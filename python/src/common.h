@@ -1,0 +1,82 @@
+// Shared pieces of the Python binding (gradraster._core). The Python layer
+// (python/gradraster/torch/ops.py) checks types, devices, dtypes, layouts
+// and shapes and passes each tensor's data_ptr(); the functions here check
+// values (indices, ids, finiteness), convert nvdiffrast's conventions and run
+// the raster/ kernels directly on the tensors' memory.
+#pragma once
+
+#include <cstdint>
+#include <mutex>
+#include <utility>
+#include <vector>
+
+#include <pybind11/pybind11.h>
+
+namespace gr::python {
+
+// A tensor's memory as the Python layer passes it (0 = absent).
+using Address = std::uintptr_t;
+template <class T>
+T* at(Address a) {
+  return reinterpret_cast<T*>(a);
+}
+
+// Runs a kernel call: holds the binding's lock (calls from several Python
+// threads run one at a time, as the thread setting is process-wide), sets
+// gradraster's thread count to `threads` when it changed, and releases the
+// GIL for the duration.
+class KernelCall {
+ public:
+  explicit KernelCall(int threads);
+
+ private:
+  pybind11::gil_scoped_release release_;  // first: never wait for the lock holding the GIL
+  std::unique_lock<std::mutex> lock_;
+};
+
+// Calls f(T{}) with T = double when f64, else float.
+template <class F>
+decltype(auto) dispatch(bool f64, F&& f) {
+  if (f64) return f(double{});
+  return f(float{});
+}
+
+// A triangle mesh as rasterize, the peeler and antialias see it (nvdiffrast's
+// instanced or range mode). Built by the Python layer after its shape checks.
+struct Mesh {
+  bool f64 = false;
+  Address pos = 0;             // [images, N, 4] (instanced) or [N, 4] (range mode)
+  std::int64_t images = 0;     // minibatch size
+  std::int64_t vertices = 0;   // N
+  bool instanced = false;
+  Address tri = 0;             // [M, 3] int32
+  std::int64_t triangles = 0;  // M
+  // Range mode: (first triangle, count) per image; instanced: empty.
+  std::vector<std::pair<std::int64_t, std::int64_t>> ranges;
+
+  // Offset of image b's positions, in values.
+  std::int64_t pos_offset(std::int64_t b) const { return instanced ? 4 * vertices * b : 0; }
+  std::pair<std::int64_t, std::int64_t> range(std::int64_t b) const {
+    return instanced ? std::make_pair<std::int64_t, std::int64_t>(0, std::int64_t(triangles)) : ranges[b];
+  }
+};
+
+// Checks what the kernels trust: every index in [0, N), finite positions,
+// ranges inside [0, M]. Throws gr errors naming the argument.
+void check_mesh(const Mesh& mesh, const char* op);
+
+// nvdiffrast's row 0 is at clip y = -1 (the bottom), ours at y = +1. The
+// binding rasterizes positions with y negated (a copy of the vertices, never
+// of an image), which puts nvdiffrast's row order into our row-major images;
+// gradients w.r.t. y are negated back.
+template <class T>
+void copy_flipped(const T* pos, std::int64_t vertices, std::vector<T>* out);
+template <class T>
+void add_flipped(const T* grad, std::int64_t vertices, T* grad_pos);
+
+// Throws a gr::IndexError naming `what` if a pixel's id (channel 3 of an
+// nvdiffrast G-buffer) is not an integer in [0, triangles].
+template <class T>
+void check_rast_ids(const T* rast, std::int64_t pixels, std::int64_t triangles, const char* what, const char* op);
+
+}  // namespace gr::python

@@ -1,0 +1,63 @@
+// gradraster._core: the C++ side of gradraster.torch. Functions take tensor
+// addresses (data_ptr) from the Python layer, which checks types and shapes;
+// gr errors become Python exceptions (ValueError, IndexError, TypeError,
+// MemoryError, RuntimeError) with gradraster's message.
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include "autodiff/error.h"
+#include "python/src/antialias.h"
+#include "python/src/interpolate.h"
+#include "python/src/rasterize.h"
+
+namespace py = pybind11;
+using namespace gr::python;
+
+PYBIND11_MODULE(_core, m) {
+  m.doc() = "gradraster's C++ kernels for gradraster.torch (internal; use gradraster.torch)";
+
+  py::register_exception_translator([](std::exception_ptr e) {
+    try {
+      if (e) std::rethrow_exception(e);
+    } catch (const gr::ShapeError& x) {
+      PyErr_SetString(PyExc_ValueError, x.what());
+    } catch (const gr::ValueError& x) {
+      PyErr_SetString(PyExc_ValueError, x.what());
+    } catch (const gr::IndexError& x) {
+      PyErr_SetString(PyExc_IndexError, x.what());
+    } catch (const gr::DTypeError& x) {
+      PyErr_SetString(PyExc_TypeError, x.what());
+    } catch (const gr::MemoryError& x) {
+      PyErr_SetString(PyExc_MemoryError, x.what());
+    } catch (const gr::Error& x) {
+      PyErr_SetString(PyExc_RuntimeError, x.what());
+    }
+  });
+
+  py::class_<Mesh>(m, "Mesh")
+      .def(py::init([](bool f64, Address pos, std::int64_t images, std::int64_t vertices, bool instanced, Address tri,
+                       std::int64_t triangles, std::vector<std::pair<std::int64_t, std::int64_t>> ranges) {
+        return Mesh{f64, pos, images, vertices, instanced, tri, triangles, std::move(ranges)};
+      }));
+
+  py::class_<Context>(m, "Context").def(py::init<>());
+  py::class_<PeelState>(m, "PeelState").def(py::init<>()).def_readonly("layers", &PeelState::layers);
+  m.def("rasterize_forward", &rasterize_forward);
+  m.def("rasterize_backward", &rasterize_backward);
+
+  py::class_<InterpolateArgs>(m, "InterpolateArgs")
+      .def(py::init([](bool f64, Address attr, std::int64_t attr_images, std::int64_t vertices, std::int64_t channels,
+                       Address tri, std::int64_t triangles, Address rast, Address rast_db, std::int64_t images,
+                       std::int64_t height, std::int64_t width, std::vector<std::int32_t> diff) {
+        return InterpolateArgs{f64,  attr,    attr_images, vertices, channels, tri,           triangles,
+                               rast, rast_db, images,      height,   width,    std::move(diff)};
+      }));
+  m.def("interpolate_forward", &interpolate_forward);
+  m.def("interpolate_backward", &interpolate_backward);
+
+  py::class_<Topology, std::shared_ptr<Topology>>(m, "Topology").def_readonly("triangles", &Topology::triangles);
+  py::class_<AntialiasState, std::shared_ptr<AntialiasState>>(m, "AntialiasState");
+  m.def("build_topology", &build_topology);
+  m.def("antialias_forward", &antialias_forward);
+  m.def("antialias_backward", &antialias_backward);
+}

@@ -1,0 +1,209 @@
+// nvdiffrast-layout G-buffer from a coverage image, and its adjoint
+// (formulas in barycentric_gbuffer.h). Per pixel everything is evaluated in
+// double from the three homogeneous screen vertices; the adjoint computes
+// per-pixel contributions in parallel and adds them in pixel order.
+#include "raster/barycentric_gbuffer.h"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "autodiff/parallel.h"
+#include "raster/guarded_math.h"
+#include "raster/rasterize_setup.h"
+
+namespace gr::raster {
+namespace {
+
+using detail::cross;
+using detail::finite_cast;
+using detail::dot;
+using detail::HVec;
+
+// The homogeneous quantities of one covered pixel.
+struct PixelTerms {
+  HVec V[3], c[3], C;
+  double a[3], S, D;
+  bool valid;  // S and D nonzero and finite
+};
+
+template <class T>
+PixelTerms pixel_terms(const BarycentricGBufferParams<T>& p, std::int64_t tri, std::int64_t pixel) {
+  PixelTerms t;
+  const std::int32_t* idx = p.tris + 3 * tri;
+  const double hw = 0.5 * p.width, hh = 0.5 * p.height;
+  for (int k = 0; k < 3; ++k) {
+    const T* v = p.clip + 4 * static_cast<std::int64_t>(idx[k]);
+    const double x = v[0], y = v[1], w = v[3];
+    t.V[k] = {hw * (x + w), hh * (w - y), w};
+  }
+  const HVec e{static_cast<double>(pixel % p.width) + 0.5, static_cast<double>(pixel / p.width) + 0.5, 1.0};
+  t.C = {0.0, 0.0, 0.0};
+  t.S = 0.0;
+  for (int k = 0; k < 3; ++k) {
+    t.c[k] = cross(t.V[(k + 1) % 3], t.V[(k + 2) % 3]);
+    t.a[k] = dot(e, t.c[k]);
+    t.S += t.a[k];
+    t.C = {t.C.x + t.c[k].x, t.C.y + t.c[k].y, t.C.w + t.c[k].w};
+  }
+  t.D = dot(t.V[0], t.c[0]);
+  t.valid = t.S != 0.0 && t.D != 0.0 && std::isfinite(t.S) && std::isfinite(t.D);
+  return t;
+}
+
+template <class T>
+double vertex_z(const BarycentricGBufferParams<T>& p, std::int64_t tri, int k) {
+  return p.clip[4 * static_cast<std::int64_t>(p.tris[3 * tri + k]) + 2];
+}
+
+// dL/dclip of the three vertices (12 values) for one pixel.
+template <class T>
+void pixel_adjoint(const BarycentricGBufferParams<T>& p, std::int64_t tri, std::int64_t pixel, const T* g_rast,
+                   const T* g_db, double* out) {
+  const PixelTerms t = pixel_terms(p, tri, pixel);
+  std::fill(out, out + 12, 0.0);
+  if (!t.valid) return;
+  const double S = t.S, D = t.D;
+  const double b[2] = {t.a[0] / S, t.a[1] / S};
+  const double g[3] = {static_cast<double>(g_rast[0]), static_cast<double>(g_rast[1]), 0.0};
+  const double gz = g_rast[2];
+  double z[3], zw = 0.0;
+  for (int k = 0; k < 3; ++k) {
+    z[k] = vertex_z(p, tri, k);
+    zw += t.a[k] * z[k];
+  }
+  zw /= D;
+  // b_k = a_k / S and z/w = sum a_k z_k / D.
+  const double gb = g[0] * b[0] + g[1] * b[1];
+  double bar_a[3], bar_z[3];
+  for (int k = 0; k < 3; ++k) {
+    bar_a[k] = (g[k] - gb) / S + gz * z[k] / D;
+    bar_z[k] = gz * t.a[k] / D;
+  }
+  const double bar_D = -gz * zw / D;
+  // db_k/dd = c_k.d / S - a_k C.d / S^2 for d in {x, y}.
+  HVec bar_c[3] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}};
+  HVec bar_C{0, 0, 0};
+  double bar_S = 0.0;
+  if (g_db) {
+    const double S2 = S * S;
+    for (int k = 0; k < 2; ++k) {
+      const double hx = g_db[2 * k], hy = g_db[2 * k + 1];
+      bar_c[k].x += hx / S;
+      bar_c[k].y += hy / S;
+      bar_C.x -= hx * t.a[k] / S2;
+      bar_C.y -= hy * t.a[k] / S2;
+      bar_a[k] -= (hx * t.C.x + hy * t.C.y) / S2;
+      bar_S += (2.0 * t.a[k] * (hx * t.C.x + hy * t.C.y) / S - (hx * t.c[k].x + hy * t.c[k].y)) / S2;
+    }
+  }
+  const double ex = static_cast<double>(pixel % p.width) + 0.5, ey = static_cast<double>(pixel / p.width) + 0.5;
+  HVec bar_V[3];
+  for (int k = 0; k < 3; ++k) {
+    const double ba = bar_a[k] + bar_S;  // S = sum a_k
+    // a_k = e . c_k, C = sum c_k.
+    bar_c[k] = {bar_c[k].x + ba * ex + bar_C.x, bar_c[k].y + ba * ey + bar_C.y, bar_c[k].w + ba + bar_C.w};
+    bar_V[k] = {bar_D * t.c[k].x, bar_D * t.c[k].y, bar_D * t.c[k].w};  // dD/dV_k = c_k
+  }
+  for (int k = 0; k < 3; ++k) {
+    const int k1 = (k + 1) % 3, k2 = (k + 2) % 3;
+    const HVec d1 = cross(t.V[k2], bar_c[k]), d2 = cross(bar_c[k], t.V[k1]);
+    bar_V[k1] = {bar_V[k1].x + d1.x, bar_V[k1].y + d1.y, bar_V[k1].w + d1.w};
+    bar_V[k2] = {bar_V[k2].x + d2.x, bar_V[k2].y + d2.y, bar_V[k2].w + d2.w};
+  }
+  // V = (W/2 (x + w), H/2 (w - y), w) -> clip.
+  const double hw = 0.5 * p.width, hh = 0.5 * p.height;
+  for (int k = 0; k < 3; ++k) {
+    double* o = out + 4 * k;
+    o[0] = hw * bar_V[k].x;
+    o[1] = -hh * bar_V[k].y;
+    o[2] = bar_z[k];
+    o[3] = hw * bar_V[k].x + hh * bar_V[k].y + bar_V[k].w;
+  }
+}
+
+}  // namespace
+
+template <class T>
+void barycentric_gbuffer_forward(const BarycentricGBufferParams<T>& p, const std::int32_t* tri_id,
+                                 std::int64_t id_offset, T* rast, T* db) {
+  const std::int64_t pixels = static_cast<std::int64_t>(p.width) * p.height;
+  parallel_for(0, pixels, 4096, [&](std::int64_t lo, std::int64_t hi) {
+    for (std::int64_t q = lo; q < hi; ++q) {
+      T* r = rast + 4 * q;
+      T* d = db ? db + 4 * q : nullptr;
+      std::fill(r, r + 4, T(0));
+      if (d) std::fill(d, d + 4, T(0));
+      if (tri_id[q] == 0) continue;
+      const std::int64_t tri = id_offset + tri_id[q] - 1;
+      r[3] = static_cast<T>(tri + 1);
+      const PixelTerms t = pixel_terms(p, tri, q);
+      if (!t.valid) continue;
+      double b0 = std::clamp(t.a[0] / t.S, 0.0, 1.0), b1 = std::clamp(t.a[1] / t.S, 0.0, 1.0);
+      const double sum = b0 + b1;
+      if (sum > 1.0) b0 /= sum, b1 /= sum;
+      double zw = 0.0;
+      for (int k = 0; k < 3; ++k) zw += t.a[k] * vertex_z(p, tri, k);
+      r[0] = static_cast<T>(b0);
+      r[1] = static_cast<T>(b1);
+      r[2] = static_cast<T>(std::clamp(zw / t.D, -1.0, 1.0));
+      if (!d) continue;
+      const double S2 = t.S * t.S;
+      for (int k = 0; k < 2; ++k) {
+        d[2 * k] = finite_cast<T>((t.c[k].x * t.S - t.a[k] * t.C.x) / S2);
+        d[2 * k + 1] = finite_cast<T>((t.c[k].y * t.S - t.a[k] * t.C.y) / S2);
+      }
+    }
+  });
+}
+
+template <class T>
+void barycentric_gbuffer_backward(const BarycentricGBufferParams<T>& p, const T* rast, const T* grad_rast,
+                                  const T* grad_db, T* grad_clip) {
+  const std::int64_t pixels = static_cast<std::int64_t>(p.width) * p.height;
+  std::vector<double> acc(4 * static_cast<std::size_t>(p.num_vertices), 0.0);
+  constexpr std::int64_t kChunk = 16384;
+  const std::int64_t chunk_len = std::min(kChunk, pixels);
+  std::vector<double> contrib(12 * static_cast<std::size_t>(chunk_len));
+  std::vector<std::uint8_t> live(static_cast<std::size_t>(chunk_len));
+  for (std::int64_t c0 = 0; c0 < pixels; c0 += kChunk) {
+    const std::int64_t c1 = std::min(pixels, c0 + kChunk);
+    parallel_for(c0, c1, 1024, [&](std::int64_t lo, std::int64_t hi) {
+      for (std::int64_t q = lo; q < hi; ++q) {
+        const std::int64_t i = q - c0;
+        live[i] = 0;
+        const auto id = static_cast<std::int64_t>(rast[4 * q + 3]);
+        if (id == 0) continue;
+        const T* g = grad_rast + 4 * q;
+        const T* h = grad_db ? grad_db + 4 * q : nullptr;
+        bool any = g[0] != T(0) || g[1] != T(0) || g[2] != T(0);
+        if (h) any = any || h[0] != T(0) || h[1] != T(0) || h[2] != T(0) || h[3] != T(0);
+        if (!any) continue;
+        pixel_adjoint(p, id - 1, q, g, h, &contrib[12 * i]);
+        live[i] = 1;
+      }
+    });
+    // In pixel order: the same sums for any thread count.
+    for (std::int64_t q = c0; q < c1; ++q) {
+      if (!live[q - c0]) continue;
+      const std::int32_t* tri = p.tris + 3 * (static_cast<std::int64_t>(rast[4 * q + 3]) - 1);
+      const double* g = &contrib[12 * (q - c0)];
+      for (int k = 0; k < 3; ++k)
+        for (int j = 0; j < 4; ++j) acc[4 * static_cast<std::size_t>(tri[k]) + j] += g[4 * k + j];
+    }
+  }
+  parallel_for(0, 4 * p.num_vertices, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
+    for (std::int64_t i = lo; i < hi; ++i) grad_clip[i] += finite_cast<T>(acc[i]);
+  });
+}
+
+#define GR_INSTANTIATE(T)                                                                                       \
+  template void barycentric_gbuffer_forward<T>(const BarycentricGBufferParams<T>&, const std::int32_t*,         \
+                                               std::int64_t, T*, T*);                                           \
+  template void barycentric_gbuffer_backward<T>(const BarycentricGBufferParams<T>&, const T*, const T*, const T*, \
+                                                T*);
+GR_INSTANTIATE(float)
+GR_INSTANTIATE(double)
+#undef GR_INSTANTIATE
+
+}  // namespace gr::raster

@@ -1,0 +1,59 @@
+// nvdiffrast's G-buffer layout and its adjoint, on plain arrays (no tape):
+// per pixel rast = (b0, b1, z/w, id) with perspective-correct barycentrics of
+// vertices 0 and 1, and rast_db = (db0/dx, db0/dy, db1/dx, db1/dy).
+//
+// Coverage comes from rasterize_forward (tri_id); the values are recomputed
+// here in the homogeneous form, which is exact for every triangle, also one
+// crossing the near plane (docs/python.md, "rasterize"): with the pixel
+// centre e = (x + 0.5, y + 0.5, 1), V_k = (W/2 (x_k + w_k), H/2 (w_k - y_k),
+// w_k), c_k = V_k+1 x V_k+2, a_k = e . c_k, S = a_0 + a_1 + a_2, C = sum c_k,
+// D = V_0 . c_0:
+//   b_k = a_k / S,  z/w = sum_k a_k z_k / D,
+//   db_k/dx = (c_k.x S - a_k C.x) / S^2,  db_k/dy = (c_k.y S - a_k C.y) / S^2,
+// x to the right and y down the rows, in pixels. As nvdiffrast, b0 and b1 are
+// clamped to [0, 1] with b0 + b1 <= 1 and z/w to [-1, 1]; the adjoint treats
+// the clamps as the identity (they act only on rounding at triangle edges).
+#pragma once
+
+#include <cstdint>
+
+namespace gr::raster {
+
+// Inputs of one image, shared by the forward and the adjoint. The kernels
+// trust them (the caller validates): indices in [0, num_vertices), ids in
+// range, clip finite, the size within RasterSettings' limits.
+template <class T>
+struct BarycentricGBufferParams {
+  const T* clip = nullptr;  // num_vertices x 4
+  std::int64_t num_vertices = 0;
+  const std::int32_t* tris = nullptr;  // num_tris x 3
+  std::int64_t num_tris = 0;
+  int width = 0, height = 0;
+};
+
+// Forward. tri_id (H*W, 0 = background) is rasterize_forward's output for
+// the triangles tris + 3 id_offset (nvdiffrast's range mode; 0 otherwise);
+// rast's id channel holds id_offset + tri_id, so ids index `tris`.
+// rast: H*W*4; db: H*W*4 or null. Background pixels are all zero.
+template <class T>
+void barycentric_gbuffer_forward(const BarycentricGBufferParams<T>& p, const std::int32_t* tri_id,
+                                 std::int64_t id_offset, T* rast, T* db);
+
+// Adjoint, ACCUMULATED (+=) into grad_clip (num_vertices x 4), for the
+// coverage stored in rast's id channel (ids relative to `tris`). grad_rast:
+// H*W*4 (the id channel is ignored); grad_db: H*W*4 or null. Per pixel, with
+// g_k the gradients of b_k (g_2 = 0), g_z of z/w and h the gradients of the
+// derivatives:
+//   dL/da_k = (g_k - sum_j g_j b_j) / S + g_z z_k / D  + (from the derivatives:
+//   dL/dc_k.d += h_k.d / S, dL/dC.d -= h_k.d a_k / S^2, dL/da_k -= h_k.d C.d / S^2,
+//   dL/dS += (2 h_k.d a_k C.d / S - h_k.d c_k.d) / S^2, then dL/da_k += dL/dS),
+//   dL/dz_k = g_z a_k / D,  dL/dD = -g_z (z/w) / D,
+//   dL/dc_k += dL/da_k e + dL/dC,  dL/dV_j += dL/dD c_j,
+//   c_k = V_k+1 x V_k+2: dL/dV_k+1 += V_k+2 x dL/dc_k, dL/dV_k+2 += dL/dc_k x V_k+1,
+// then V -> clip. Contributions are added in pixel order, so the result is
+// bit-identical for any thread count.
+template <class T>
+void barycentric_gbuffer_backward(const BarycentricGBufferParams<T>& p, const T* rast, const T* grad_rast,
+                                  const T* grad_db, T* grad_clip);
+
+}  // namespace gr::raster
