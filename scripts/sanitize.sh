@@ -30,7 +30,7 @@ start=$(date +%s)
 # example programs and the benchmarks are not needed here.
 cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DCMAKE_CXX_COMPILER=clang++ \
-  -DGRADRASTER_SANITIZE=ON -DGRADRASTER_FUZZ=ON \
+  -DGRADRASTER_SANITIZE=ON -DGRADRASTER_FUZZ=ON -DGRADRASTER_WITH_PYTHON=OFF \
   -DGRADRASTER_BUILD_BENCH=OFF -DGRADRASTER_BUILD_EXAMPLES=OFF > /dev/null
 cmake --build "$build_dir" -j "$(nproc)"
 echo "sanitize: build took $(( $(date +%s) - start )) s"

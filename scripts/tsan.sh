@@ -25,7 +25,7 @@ jobs=${JOBS:-$(nproc)}
 CC=${CC:-} CXX=$CXX cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DCMAKE_CXX_FLAGS="-fsanitize=thread -g -O1" -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="" \
   -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=thread" \
-  -DGRADRASTER_BUILD_BENCH=OFF -DGRADRASTER_BUILD_EXAMPLES=OFF > /dev/null
+  -DGRADRASTER_BUILD_BENCH=OFF -DGRADRASTER_BUILD_EXAMPLES=OFF -DGRADRASTER_WITH_PYTHON=OFF > /dev/null
 cmake --build "$build" --target gradraster_tests -j "$jobs"
 
 # The tests that run parallel loops: the thread wrapper, the determinism

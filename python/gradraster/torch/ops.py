@@ -17,7 +17,6 @@ import torch
 from .. import _core
 
 _MAX_SIDE = 16384          # pixels per side (the rasterizer's limit)
-_MAX_PIXELS = 1 << 28      # pixels per image
 _MAX_FLOAT32_IDS = 1 << 24  # float32 holds every triangle id + 1 exactly up to here
 
 
@@ -78,8 +77,6 @@ def _resolution(resolution):
             raise TypeError(f"'resolution' {name} must be an integer, got {v!r}")
         if not 1 <= v <= _MAX_SIDE:
             raise ValueError(f"'resolution' {name} = {v} is outside 1..{_MAX_SIDE}")
-    if h * w > _MAX_PIXELS:
-        raise ValueError(f"'resolution' {h} x {w} has more than {_MAX_PIXELS} pixels")
     return int(h), int(w)
 
 

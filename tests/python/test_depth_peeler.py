@@ -1,0 +1,77 @@
+"""DepthPeeler: successive layers, each an ordinary differentiable G-buffer."""
+import pytest
+import torch
+from torch.autograd import gradcheck
+
+import gradraster.torch as dr
+from conftest import random_mesh
+
+
+def quad(z, w=1.0):
+    return [[-0.8 * w, -0.8 * w, z * w, w], [0.8 * w, -0.8 * w, z * w, w], [0.8 * w, 0.8 * w, z * w, w],
+            [-0.8 * w, 0.8 * w, z * w, w]]
+
+
+def stacked_quads():
+    # Three full-screen-ish quads at z = 0.5, -0.2 (nearest) and a coplanar duplicate of the first.
+    pos = torch.tensor([quad(0.5) + quad(-0.2) + quad(0.5)], dtype=torch.float64)
+    tri = torch.tensor([[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 6, 7], [8, 9, 10], [8, 10, 11]], dtype=torch.int32)
+    return pos, tri
+
+
+def test_layers_come_front_to_back_and_coplanar_duplicates_each_appear_once(glctx):
+    pos, tri = stacked_quads()
+    layers = []
+    with dr.DepthPeeler(glctx, pos, tri, (8, 8)) as peeler:
+        for _ in range(5):
+            layers.append(peeler.rasterize_next_layer()[0])
+    centre = [int(layer[0, 4, 4, 3]) for layer in layers]
+    assert centre[0] in (3, 4)                      # the nearest quad (z = -0.2)
+    assert sorted(centre[1:3]) in ([1, 5], [2, 6])  # then the two coplanar quads, each once
+    assert centre[3:] == [0, 0]                     # then nothing
+    assert torch.count_nonzero(layers[3]) == 0 and torch.count_nonzero(layers[4]) == 0
+
+
+def test_the_first_layer_equals_rasterize(glctx):
+    pos, tri = random_mesh(7, triangles=8)
+    rast, db = dr.rasterize(glctx, pos, tri, (16, 12))
+    with dr.DepthPeeler(glctx, pos, tri, (16, 12)) as peeler:
+        r1, d1 = peeler.rasterize_next_layer()
+    assert torch.equal(rast, r1) and torch.equal(db, d1)
+
+
+def test_every_covered_pixel_of_each_layer_lies_behind_the_previous_one(glctx):
+    pos, tri = random_mesh(8, triangles=10)
+    with dr.DepthPeeler(glctx, pos, tri, (16, 12)) as peeler:
+        prev = peeler.rasterize_next_layer()[0]
+        for _ in range(4):
+            cur = peeler.rasterize_next_layer()[0]
+            both = (prev[0, ..., 3] > 0) & (cur[0, ..., 3] > 0)
+            assert (cur[0, ..., 2][both] >= prev[0, ..., 2][both]).all()
+            assert ((cur[0, ..., 3] > 0) <= (prev[0, ..., 3] > 0)).all()  # no pixel reappears
+            prev = cur
+
+
+def test_second_layer_gradients_match_finite_differences(glctx):
+    pos, tri = random_mesh(9, triangles=8, requires_grad=True)
+    w = torch.randn(1, 16, 12, 3, dtype=torch.float64)
+
+    def f(p):
+        with dr.DepthPeeler(glctx, p, tri, (16, 12)) as peeler:
+            peeler.rasterize_next_layer()
+            rast, _ = peeler.rasterize_next_layer()
+        return (rast[..., :3] * w).sum()
+    assert gradcheck(f, (pos,), eps=1e-6, atol=1e-8)
+
+
+def test_rasterize_next_layer_outside_a_with_block_and_rasterize_inside_one_are_errors(glctx):
+    pos, tri = random_mesh(1)
+    peeler = dr.DepthPeeler(glctx, pos, tri, (8, 8))
+    with pytest.raises(RuntimeError, match='inside'):
+        peeler.rasterize_next_layer()
+    with peeler:
+        with pytest.raises(RuntimeError, match='depth peeling'):
+            dr.rasterize(glctx, pos, tri, (8, 8))
+    with pytest.raises(RuntimeError, match='re-enter'):
+        with peeler:
+            pass
