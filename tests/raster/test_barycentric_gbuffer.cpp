@@ -1,0 +1,168 @@
+// nvdiffrast-layout G-buffer and interpolation kernels (raster/barycentric_*):
+// the same barycentrics and derivatives as ops/barycentrics.h computes on the
+// tape, and adjoints equal to central differences of the forward.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <functional>
+#include <random>
+#include <vector>
+
+#include "../ops/clip_scenes.h"
+#include "ops/ops.h"
+#include "raster/barycentric_gbuffer.h"
+#include "raster/barycentric_interpolate.h"
+#include "raster/rasterize.h"
+
+using namespace gr;
+
+namespace {
+
+constexpr int W = 24, H = 20;
+
+struct Scene {
+  std::vector<double> clip;
+  std::vector<std::int32_t> tris;
+  std::vector<std::int32_t> tri_id;  // rasterize_forward's coverage
+  raster::BarycentricGBufferParams<double> params() const {
+    return {clip.data(), static_cast<std::int64_t>(clip.size() / 4), tris.data(),
+            static_cast<std::int64_t>(tris.size() / 3), W, H};
+  }
+};
+
+Scene make_scene(std::vector<double> clip, std::vector<std::int32_t> tris) {
+  Scene s{std::move(clip), std::move(tris), std::vector<std::int32_t>(W * H)};
+  raster::RasterParams<double> p;
+  p.clip = s.clip.data();
+  p.num_vertices = static_cast<std::int64_t>(s.clip.size() / 4);
+  p.tris = s.tris.data();
+  p.num_tris = static_cast<std::int64_t>(s.tris.size() / 3);
+  p.settings.width = W;
+  p.settings.height = H;
+  std::vector<double> uv(2 * W * H), depth(W * H);
+  raster::rasterize_forward(p, s.tri_id.data(), uv.data(), depth.data());
+  return s;
+}
+
+Scene two_triangles() { return make_scene(testing::two_triangles_clip().to_vector(), {0, 1, 2, 3, 4, 5}); }
+
+// A triangle crossing the near plane (one vertex behind the camera) and one close to w = 0.
+Scene near_plane() {
+  return make_scene({-0.6, -0.5, 0.2, 1.0, 0.7, -0.4, 0.1, 0.9, 0.05, 0.3, -0.4, -0.3, 0.4, 0.6, 0.0, 0.05},
+                    {0, 1, 2, 0, 1, 3});
+}
+
+std::vector<double> random_weights(std::size_t n, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> d(-1, 1);
+  std::vector<double> w(n);
+  for (double& x : w) x = d(rng);
+  return w;
+}
+
+// Worst |analytic - central difference| / max(1, |numeric|) over the inputs.
+double worst_gradient_error(std::vector<double>& x, const std::vector<double>& analytic,
+                            const std::function<double()>& loss) {
+  double worst = 0;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    const double keep = x[i], h = 1e-6;
+    x[i] = keep + h;
+    const double up = loss();
+    x[i] = keep - h;
+    const double down = loss();
+    x[i] = keep;
+    const double numeric = (up - down) / (2 * h);
+    worst = std::max(worst, std::abs(analytic[i] - numeric) / std::max(1.0, std::abs(numeric)));
+  }
+  return worst;
+}
+
+}  // namespace
+
+TEST_CASE("barycentric gbuffer: b0, b1 and their pixel derivatives equal perspective_barycentrics on the tape",
+          "[rasterize]") {
+  const Scene s = two_triangles();
+  std::vector<double> rast(4 * W * H), db(4 * W * H);
+  raster::barycentric_gbuffer_forward(s.params(), s.tri_id.data(), 0, rast.data(), db.data());
+  const Tensor clip = testing::two_triangles_clip();
+  const Tensor tris = testing::two_triangles();
+  const GBuffer g = rasterize(clip, tris, {W, H});
+  const PerspectiveBarycentrics ref = perspective_barycentrics(clip, tris, g);
+  const std::vector<double> uv = ref.uv.to_vector(), uv_db = ref.uv_db.to_vector();
+  int covered = 0;
+  for (int q = 0; q < W * H; ++q) {
+    REQUIRE(rast[4 * q + 3] == s.tri_id[q]);
+    if (s.tri_id[q] == 0) continue;
+    ++covered;
+    // ref: (b1, b2) and (db1/dx, db1/dy, db2/dx, db2/dy); ours: (b0, b1), (db0/dx, db0/dy, db1/dx, db1/dy).
+    CHECK(rast[4 * q + 1] == Approx(uv[2 * q]).margin(1e-13));
+    CHECK(1.0 - rast[4 * q] - rast[4 * q + 1] == Approx(uv[2 * q + 1]).margin(1e-13));
+    CHECK(db[4 * q + 2] == Approx(uv_db[4 * q]).margin(1e-13));
+    CHECK(db[4 * q + 3] == Approx(uv_db[4 * q + 1]).margin(1e-13));
+    CHECK(db[4 * q] + db[4 * q + 2] == Approx(-uv_db[4 * q + 2]).margin(1e-13));  // db2 = -db0 - db1
+  }
+  CHECK(covered > 50);
+}
+
+TEST_CASE("barycentric gbuffer: the adjoint equals central differences, also across the near plane",
+          "[rasterize]") {
+  for (Scene s : {two_triangles(), near_plane()}) {
+    const std::vector<double> wr = random_weights(4 * W * H, 1), wd = random_weights(4 * W * H, 2);
+    std::vector<double> rast(4 * W * H), db(4 * W * H);
+    auto loss = [&] {
+      raster::barycentric_gbuffer_forward(s.params(), s.tri_id.data(), 0, rast.data(), db.data());
+      double l = 0;
+      for (int i = 0; i < 4 * W * H; ++i) l += (i % 4 == 3 ? 0.0 : wr[i] * rast[i]) + wd[i] * db[i];
+      return l;
+    };
+    loss();
+    std::vector<double> grad(s.clip.size(), 0.0);
+    std::vector<double> g_rast(wr);
+    for (int q = 0; q < W * H; ++q) g_rast[4 * q + 3] = 0;
+    raster::barycentric_gbuffer_backward(s.params(), rast.data(), g_rast.data(), wd.data(), grad.data());
+    CHECK(worst_gradient_error(s.clip, grad, loss) < 1e-7);
+  }
+}
+
+TEST_CASE("barycentric interpolate: the adjoint to attributes, barycentrics and their derivatives equals central "
+          "differences",
+          "[interpolate]") {
+  const Scene s = near_plane();
+  std::vector<double> rast(4 * W * H), db(4 * W * H);
+  raster::barycentric_gbuffer_forward(s.params(), s.tri_id.data(), 0, rast.data(), db.data());
+  std::vector<double> attr = random_weights(4 * 3, 3);
+  const std::vector<std::int32_t> diff = {0, 2};
+  const std::vector<double> w_out = random_weights(3 * W * H, 4), w_da = random_weights(4 * W * H, 5);
+  raster::BarycentricInterpolateParams<double> p{attr.data(), 4, 3, s.tris.data(), 2, rast.data(), W * H,
+                                                 db.data(), diff.data(), 2};
+  std::vector<double> out(3 * W * H), da(4 * W * H);
+  auto loss = [&] {
+    raster::barycentric_interpolate_forward(p, out.data(), da.data());
+    double l = 0;
+    for (int i = 0; i < 3 * W * H; ++i) l += w_out[i] * out[i];
+    for (int i = 0; i < 4 * W * H; ++i) l += w_da[i] * da[i];
+    return l;
+  };
+  std::vector<double> g_attr(attr.size(), 0.0), g_rast(rast.size(), 0.0), g_db(db.size(), 0.0);
+  raster::barycentric_interpolate_backward(p, w_out.data(), w_da.data(), {g_attr.data(), g_rast.data(), g_db.data()});
+  CHECK(worst_gradient_error(attr, g_attr, loss) < 1e-8);
+  // Only u and v of covered pixels are inputs (z/w and the id are not read).
+  for (int q = 0; q < W * H; ++q) {
+    CHECK(g_rast[4 * q + 2] == 0.0);
+    if (rast[4 * q + 3] == 0) {
+      CHECK(g_rast[4 * q] == 0.0);
+      g_rast[4 * q] = g_rast[4 * q + 1] = 0;
+    }
+  }
+  std::vector<double> uv_grad(g_rast);
+  for (int q = 0; q < W * H; ++q) uv_grad[4 * q + 3] = 0;
+  std::vector<double> rast_in(rast);
+  auto loss_rast = [&] {
+    for (int q = 0; q < W * H; ++q)
+      for (int c = 0; c < 2; ++c) rast[4 * q + c] = rast_in[4 * q + c];
+    return loss();
+  };
+  for (int q = 0; q < W * H; ++q) rast_in[4 * q + 2] = rast[4 * q + 2], rast_in[4 * q + 3] = rast[4 * q + 3];
+  CHECK(worst_gradient_error(rast_in, uv_grad, loss_rast) < 1e-8);
+  CHECK(worst_gradient_error(db, g_db, loss) < 1e-8);
+}
