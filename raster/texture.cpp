@@ -80,10 +80,10 @@ Lod compute_lod(double du_dx, double dv_dx, double du_dy, double dv_dy, int widt
 // Bilinear taps of level `lv` at (u, v), scaled by the level weight `scale`.
 // lod_sign: the sign of d(level weight)/d lod (-1 for level l0, +1 for l0 + 1, 0 without trilinear).
 template <bool kDerivatives>
-[[gnu::always_inline]] inline void bilinear_taps(const MipLevel& lv, double u, double v, double scale, Wrap wrap,
-                                                 Taps& t, double lod_sign = 0.0) {
-  // Continuous texel coordinates: x = u W - 0.5, y = (1 - v) H - 0.5.
-  const double x = u * lv.width - 0.5, y = (1.0 - v) * lv.height - 0.5;
+[[gnu::always_inline]] inline void bilinear_taps(const MipLevel& lv, double u, double v, bool v_down, double scale,
+                                                 Wrap wrap, Taps& t, double lod_sign = 0.0) {
+  // Continuous texel coordinates: x = u W - 0.5, y = (1 - v) H - 0.5 (v_down: v H - 0.5).
+  const double x = u * lv.width - 0.5, y = (v_down ? v : 1.0 - v) * lv.height - 0.5;
   const double x0 = std::floor(x), y0 = std::floor(y);
   const double fx = x - x0, fy = y - y0;
   const std::int64_t ix[2] = {address(x0, lv.width, wrap), address(x0 + 1.0, lv.width, wrap)};
@@ -92,10 +92,11 @@ template <bool kDerivatives>
   const bool zero = wrap == Wrap::Zero;
   const bool in_x[2] = {!zero || inside(x0, lv.width), !zero || inside(x0 + 1.0, lv.width)};
   const bool in_y[2] = {!zero || inside(y0, lv.height), !zero || inside(y0 + 1.0, lv.height)};
-  // Weights and their derivatives: dfx/du = W, dfy/dv = -H.
+  // Weights and their derivatives: dfx/du = W, dfy/dv = -H (v_down: +H).
   const double wx[2] = {1.0 - fx, fx}, wy[2] = {1.0 - fy, fy};
   const double dwx[2] = {-double(lv.width), double(lv.width)};
-  const double dwy[2] = {double(lv.height), -double(lv.height)};
+  const double hy = v_down ? -double(lv.height) : double(lv.height);
+  const double dwy[2] = {hy, -hy};
   for (int b = 0; b < 2; ++b)
     for (int a = 0; a < 2; ++a) {
       const int k = t.n++;
@@ -118,8 +119,8 @@ template <class T, bool kDerivatives>
   const MipLevel& base = p.layout.levels[0];
   switch (p.filter) {
     case Filter::Nearest: {
-      // Texel containing (x + 0.5, y + 0.5): floor(u W), floor((1 - v) H).
-      const double fx = std::floor(u * base.width), fy = std::floor((1.0 - v) * base.height);
+      // Texel containing (x + 0.5, y + 0.5): floor(u W), floor((1 - v) H) (v_down: floor(v H)).
+      const double fx = std::floor(u * base.width), fy = std::floor((p.v_down ? v : 1.0 - v) * base.height);
       const std::int64_t ix = address(fx, base.width, p.wrap);
       const std::int64_t iy = address(fy, base.height, p.wrap);
       t.n = 1;
@@ -128,7 +129,7 @@ template <class T, bool kDerivatives>
       t.dw_du[0] = t.dw_dv[0] = t.dw_dlod[0] = 0.0;
       break;
     }
-    case Filter::Bilinear: bilinear_taps<kDerivatives>(base, u, v, 1.0, p.wrap, t); break;
+    case Filter::Bilinear: bilinear_taps<kDerivatives>(base, u, v, p.v_down, 1.0, p.wrap, t); break;
     case Filter::Trilinear: {
       const int L = p.layout.count();
       const Lod lod = compute_lod(p.uv_dx[2 * s], p.uv_dx[2 * s + 1], p.uv_dy[2 * s], p.uv_dy[2 * s + 1],
@@ -137,9 +138,9 @@ template <class T, bool kDerivatives>
       // derivatives, level l0 + 1 is kept at f = 0 too (its taps give dw/dlod).
       const int l0 = std::min(static_cast<int>(lod.value), L - 1);
       const double f = l0 == L - 1 ? 0.0 : lod.value - l0;
-      bilinear_taps<kDerivatives>(p.layout.levels[l0], u, v, 1.0 - f, p.wrap, t, -1.0);
+      bilinear_taps<kDerivatives>(p.layout.levels[l0], u, v, p.v_down, 1.0 - f, p.wrap, t, -1.0);
       if (f > 0.0 || (kDerivatives && lod.free))
-        bilinear_taps<kDerivatives>(p.layout.levels[l0 + 1], u, v, f, p.wrap, t, 1.0);
+        bilinear_taps<kDerivatives>(p.layout.levels[l0 + 1], u, v, p.v_down, f, p.wrap, t, 1.0);
       t.lod_free = lod.free;
       break;
     }

@@ -48,6 +48,9 @@ struct TextureParams {
   std::int64_t num_samples = 0;
   Filter filter = Filter::Bilinear;
   Wrap wrap = Wrap::Repeat;
+  // nvdiffrast's row convention: texel rows run with v (y = v H_l - 0.5, row 0
+  // at v = 0, dy/dv = +H_l) instead of against it.
+  bool v_down = false;
 };
 
 // Level of detail of one sample for a texture of base size width x height with

@@ -9,6 +9,7 @@
 #include "python/src/antialias.h"
 #include "python/src/interpolate.h"
 #include "python/src/rasterize.h"
+#include "python/src/texture.h"
 
 namespace py = pybind11;
 using namespace gr::python;
@@ -60,4 +61,28 @@ PYBIND11_MODULE(_core, m) {
   m.def("build_topology", &build_topology);
   m.def("antialias_forward", &antialias_forward);
   m.def("antialias_backward", &antialias_backward);
+
+  py::class_<TextureArgs>(m, "TextureArgs")
+      .def(py::init<>())
+      .def_readwrite("f64", &TextureArgs::f64)
+      .def_readwrite("tex", &TextureArgs::tex)
+      .def_readwrite("tex_images", &TextureArgs::tex_images)
+      .def_readwrite("height", &TextureArgs::height)
+      .def_readwrite("width", &TextureArgs::width)
+      .def_readwrite("channels", &TextureArgs::channels)
+      .def_readwrite("pyramid", &TextureArgs::pyramid)
+      .def_readwrite("levels", &TextureArgs::levels)
+      .def_readwrite("user", &TextureArgs::user)
+      .def_readwrite("uv", &TextureArgs::uv)
+      .def_readwrite("uv_dx", &TextureArgs::uv_dx)
+      .def_readwrite("uv_dy", &TextureArgs::uv_dy)
+      .def_readwrite("bias", &TextureArgs::bias)
+      .def_readwrite("images", &TextureArgs::images)
+      .def_readwrite("samples", &TextureArgs::samples)
+      .def_readwrite("filter", &TextureArgs::filter)
+      .def_readwrite("wrap", &TextureArgs::wrap);
+  m.def("mip_sizes", &mip_sizes);
+  m.def("mip_build", &mip_build);
+  m.def("texture_forward", &texture_forward);
+  m.def("texture_backward", &texture_backward);
 }

@@ -366,3 +366,195 @@ def antialias(color, rast, pos, tri, topology_hash=None, pos_gradient_boost=1.0)
     elif not isinstance(topology_hash, _core.Topology):
         raise TypeError("'topology_hash' must come from antialias_construct_topology_hash(tri)")
     return _AntialiasFunc.apply(color, rast, pos, tri, topology_hash, float(pos_gradient_boost))
+
+
+# ----------------------------------------------------------------------------
+# Texture.
+
+_FILTERS = {'nearest': 0, 'linear': 1, 'linear-mipmap-linear': 2}
+_BOUNDARIES = {'wrap': 0, 'clamp': 1, 'zero': 3}
+_MAX_TEXTURE_SIDE = 32768
+
+
+class TextureMip:
+    """A mip stack built by texture_construct_mip (nvdiffrast's
+    TextureMipWrapper): levels 1.. of every texture image, box-filtered;
+    gradients of lookups in it still flow to the base texture."""
+
+    def __init__(self, tex, pyramid, sizes):
+        self.tex_shape, self.pyramid, self.sizes = tuple(tex.shape), pyramid, sizes
+
+
+def _texture_args(tex, uv, uv_dx, uv_dy, bias, pyramid, levels, user, filter_mode, boundary):
+    a = _core.TextureArgs()
+    a.f64 = tex.dtype == torch.float64
+    a.tex, a.tex_images, a.height, a.width, a.channels = tex.data_ptr(), tex.shape[0], tex.shape[1], tex.shape[2], \
+        tex.shape[3]
+    a.pyramid = pyramid.data_ptr() if pyramid is not None else 0
+    a.levels, a.user = levels, user
+    addr = lambda t: t.data_ptr() if t is not None else 0
+    a.uv, a.uv_dx, a.uv_dy, a.bias = uv.data_ptr(), addr(uv_dx), addr(uv_dy), addr(bias)
+    a.images, a.samples = uv.shape[0], uv.shape[1] * uv.shape[2]
+    a.filter, a.wrap = filter_mode, boundary
+    return a
+
+
+def _build_pyramid(tex, sizes):
+    texels = sum(h * w for h, w in sizes[1:])
+    pyramid = tex.new_empty((tex.shape[0], texels, tex.shape[3]))
+    a = _texture_args(tex, tex.new_zeros((0, 1, 1, 2)), None, None, None, pyramid, len(sizes), False, 1, 0)
+    _core.mip_build(a, _threads())
+    return pyramid
+
+
+class _TextureFunc(torch.autograd.Function):
+    @staticmethod
+    def forward(ctx, filter_mode, boundary, levels, prebuilt, tex, uv, uv_dx, uv_dy, bias, *mip_levels):
+        user = len(mip_levels) > 0
+        if user:  # the user's levels in one buffer per texture image
+            pyramid = torch.cat([m.reshape(m.shape[0], -1, m.shape[3]) for m in mip_levels], 1).contiguous()
+        elif levels > 1:
+            pyramid = prebuilt if prebuilt is not None else _build_pyramid(tex, _core.mip_sizes(
+                tex.shape[1], tex.shape[2], levels - 1))
+        else:
+            pyramid = None
+        a = _texture_args(tex, uv, uv_dx, uv_dy, bias, pyramid, levels, user, filter_mode, boundary)
+        out = tex.new_empty(uv.shape[:3] + (tex.shape[3],))
+        _core.texture_forward(a, out.data_ptr(), _threads())
+        ctx.save_for_backward(tex, uv, uv_dx, uv_dy, bias, pyramid)
+        ctx.filter_mode, ctx.boundary, ctx.levels, ctx.user = filter_mode, boundary, levels, user
+        ctx.mip_shapes = [m.shape for m in mip_levels]
+        return out
+
+    @staticmethod
+    def backward(ctx, dy):
+        tex, uv, uv_dx, uv_dy, bias, pyramid = ctx.saved_tensors
+        needs = ctx.needs_input_grad
+        zeros = lambda t, need: torch.zeros_like(t) if need and t is not None else None
+        g_tex, g_uv = zeros(tex, needs[4]), zeros(uv, needs[5] and ctx.filter_mode != 0)
+        g_dx, g_dy, g_bias = zeros(uv_dx, needs[6]), zeros(uv_dy, needs[7]), zeros(bias, needs[8])
+        g_pyr = zeros(pyramid, ctx.user and any(needs[9:]))
+        a = _texture_args(tex, uv, uv_dx, uv_dy, bias, pyramid, ctx.levels, ctx.user, ctx.filter_mode, ctx.boundary)
+        addr = lambda t: t.data_ptr() if t is not None else 0
+        _core.texture_backward(a, dy.contiguous().data_ptr(), addr(g_tex), addr(g_uv), addr(g_dx), addr(g_dy),
+                               addr(g_bias), addr(g_pyr), _threads())
+        g_levels, start = [], 0
+        for shape in ctx.mip_shapes:
+            n = shape[1] * shape[2]
+            g_levels.append(g_pyr[:, start:start + n].reshape(shape) if g_pyr is not None else None)
+            start += n
+        return (None, None, None, None, g_tex, g_uv, g_dx, g_dy, g_bias, *g_levels)
+
+
+def _texture_tensor(tex):
+    _float('tex', tex)
+    if tex.dim() == 5:
+        raise NotImplementedError("texture: cube maps ([minibatch, 6, H, W, C] with boundary_mode='cube') are not "
+                                  "implemented yet in gradraster")
+    if tex.dim() != 4 or min(tex.shape) < 1:
+        raise ValueError(f"'tex' must have shape [minibatch_size, tex_height, tex_width, tex_channels] with all sizes "
+                         f">= 1, got {list(tex.shape)}")
+    if max(tex.shape[1], tex.shape[2]) > _MAX_TEXTURE_SIDE:
+        raise ValueError(f"'tex' sides must be at most {_MAX_TEXTURE_SIDE}, got {list(tex.shape)}")
+    return tex
+
+
+def _max_mip_level(max_mip_level):
+    if max_mip_level is None:
+        return -1
+    if isinstance(max_mip_level, bool) or not isinstance(max_mip_level, numbers.Integral) or max_mip_level < 0:
+        raise ValueError(f"'max_mip_level' must be None or an integer >= 0, got {max_mip_level!r}")
+    return int(max_mip_level)
+
+
+def texture_construct_mip(tex, max_mip_level=None, cube_mode=False):
+    """Build the mip stack of a texture that stays constant, for texture(mip=...)."""
+    if cube_mode:
+        raise NotImplementedError("texture_construct_mip: cube maps are not implemented yet in gradraster")
+    _texture_tensor(tex)
+    sizes = _core.mip_sizes(tex.shape[1], tex.shape[2], _max_mip_level(max_mip_level))
+    with torch.no_grad():
+        return TextureMip(tex, _build_pyramid(tex.detach(), sizes), sizes)
+
+
+def texture(tex, uv, uv_da=None, mip_level_bias=None, mip=None, filter_mode='auto', boundary_mode='wrap',
+            max_mip_level=None):
+    """Texture lookups (nvdiffrast.torch.texture).
+
+    tex: [minibatch (or 1), tex_height, tex_width, channels]; uv: [minibatch,
+    height, width, 2] with texel (i, j) (column, row) centred at ((i + 0.5) / W,
+    (j + 0.5) / H); uv_da: [minibatch, height, width, 4] = (du/dX, du/dY,
+    dv/dX, dv/dY); mip_level_bias: [minibatch, height, width]; mip: a
+    texture_construct_mip result or a list of tensors for levels 1.. (each
+    [minibatch (or 1), h_l, w_l, channels]; they get their own gradients).
+    filter_mode: 'auto', 'nearest', 'linear', 'linear-mipmap-linear'
+    ('linear-mipmap-nearest' is not implemented yet); boundary_mode: 'wrap',
+    'clamp', 'zero' ('cube' is not implemented yet). Returns [minibatch,
+    height, width, channels].
+    """
+    if filter_mode == 'auto':
+        filter_mode = 'linear-mipmap-linear' if (uv_da is not None or mip_level_bias is not None) else 'linear'
+    if filter_mode == 'linear-mipmap-nearest':
+        raise NotImplementedError("texture: filter_mode 'linear-mipmap-nearest' is not implemented yet in gradraster")
+    if filter_mode not in _FILTERS:
+        raise ValueError(f"'filter_mode' must be one of 'auto', 'nearest', 'linear', 'linear-mipmap-nearest', "
+                         f"'linear-mipmap-linear', got {filter_mode!r}")
+    if boundary_mode == 'cube':
+        raise NotImplementedError("texture: boundary_mode 'cube' (cube maps) is not implemented yet in gradraster")
+    if boundary_mode not in _BOUNDARIES:
+        raise ValueError(f"'boundary_mode' must be one of 'wrap', 'clamp', 'zero', 'cube', got {boundary_mode!r}")
+    max_level = _max_mip_level(max_mip_level)
+    _texture_tensor(tex)
+    _float('uv', uv, (4,), like=('tex', tex))
+    if uv.shape[3] != 2:
+        raise ValueError(f"'uv' must have shape [minibatch_size, height, width, 2], got {list(uv.shape)}")
+    if tex.shape[0] not in (1, uv.shape[0]):
+        raise ValueError(f"'tex' has minibatch size {tex.shape[0]} but 'uv' has {uv.shape[0]} (broadcast needs 1)")
+    mipmapped = filter_mode == 'linear-mipmap-linear'
+    if mipmapped and max_level == 0:
+        filter_mode, mipmapped = 'linear', False
+    if mipmapped and uv_da is None and mip_level_bias is None:
+        raise ValueError(f"filter_mode {filter_mode!r} needs 'uv_da' or 'mip_level_bias'")
+    uv_dx = uv_dy = bias = None
+    if mipmapped:
+        if uv_da is not None:
+            _float('uv_da', uv_da, (4,), like=('tex', tex))
+            if uv_da.shape != uv.shape[:3] + (4,):
+                raise ValueError(f"'uv_da' must have shape {list(uv.shape[:3]) + [4]}, got {list(uv_da.shape)}")
+            # (du/dX, du/dY, dv/dX, dv/dY) -> per-axis (du, dv) pairs; torch carries the gradient back.
+            uv_dx, uv_dy = uv_da[..., 0::2].contiguous(), uv_da[..., 1::2].contiguous()
+        else:
+            # Bias only: a footprint of exactly one texel, so the level is the bias.
+            uv_dx = uv.new_zeros(uv.shape)
+            uv_dx[..., 0] = 1.0 / tex.shape[2]
+            uv_dy = uv.new_zeros(uv.shape)
+        if mip_level_bias is not None:
+            _float('mip_level_bias', mip_level_bias, (3,), like=('tex', tex))
+            if mip_level_bias.shape != uv.shape[:3]:
+                raise ValueError(f"'mip_level_bias' must have shape {list(uv.shape[:3])}, got "
+                                 f"{list(mip_level_bias.shape)}")
+            bias = mip_level_bias
+    sizes = _core.mip_sizes(tex.shape[1], tex.shape[2], max_level) if mipmapped else [tuple(tex.shape[1:3])]
+    prebuilt, levels = None, []
+    if mipmapped and mip is not None:
+        if isinstance(mip, TextureMip):
+            if mip.tex_shape != tuple(tex.shape):
+                raise ValueError(f"'mip' was built for a texture of shape {list(mip.tex_shape)}, 'tex' is "
+                                 f"{list(tex.shape)}")
+            prebuilt, sizes = mip.pyramid, mip.sizes
+        elif isinstance(mip, (list, tuple)):
+            levels = list(mip)
+            if len(levels) < 1 or len(levels) > len(sizes) - 1:
+                raise ValueError(f"'mip' must hold 1..{len(sizes) - 1} levels for a {tex.shape[1]} x {tex.shape[2]} "
+                                 f"texture, got {len(levels)}")
+            sizes = sizes[:len(levels) + 1]
+            for k, m in enumerate(levels):
+                _float(f'mip[{k}]', m, (4,), like=('tex', tex))
+                want = [tex.shape[0], sizes[k + 1][0], sizes[k + 1][1], tex.shape[3]]
+                if list(m.shape) != want:
+                    raise ValueError(f"'mip[{k}]' must have shape {want} (level {k + 1} of the mip chain), got "
+                                     f"{list(m.shape)}")
+        else:
+            raise TypeError("'mip' must be a texture_construct_mip result or a list of tensors")
+    return _TextureFunc.apply(_FILTERS[filter_mode], _BOUNDARIES[boundary_mode], len(sizes), prebuilt, tex, uv,
+                              uv_dx, uv_dy, bias, *levels)

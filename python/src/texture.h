@@ -1,0 +1,42 @@
+// texture in nvdiffrast's layout: [images, H, W, C] textures (or one texture
+// broadcast over the minibatch) sampled at [images, h, w, 2] uv, with
+// nvdiffrast's row convention (texel row = v H) and its mip chain.
+#pragma once
+
+#include <utility>
+#include <vector>
+
+#include "python/src/common.h"
+
+namespace gr::python {
+
+struct TextureArgs {
+  bool f64 = false;
+  Address tex = 0;              // [tex_images, height, width, channels]
+  std::int64_t tex_images = 1;  // 1 = broadcast over the minibatch
+  int height = 0, width = 0;
+  std::int64_t channels = 0;
+  // Levels 1.. per texture image ([tex_images, texels of levels 1.., channels]),
+  // or 0 when the filter reads level 0 only; user = the caller's own stack.
+  Address pyramid = 0;
+  int levels = 1;  // levels used, base included
+  bool user = false;
+  Address uv = 0, uv_dx = 0, uv_dy = 0, bias = 0;  // [images, samples, 2 | 2 | 2 | 1]
+  std::int64_t images = 0, samples = 0;
+  int filter = 1;  // raster::Filter: 0 nearest, 1 bilinear, 2 trilinear
+  int wrap = 0;    // raster::Wrap: 0 repeat, 1 clamp, 2 mirror, 3 zero
+};
+
+// (height, width) of each mip level of a height x width texture, base first,
+// down to 1 x 1 or to max_level (-1 = all).
+std::vector<std::pair<int, int>> mip_sizes(int height, int width, int max_level);
+// Writes levels 1..levels-1 of every texture image into pyramid (box filter).
+void mip_build(const TextureArgs& a, int threads);
+
+void texture_forward(const TextureArgs& a, Address out, int threads);
+// Accumulates into the gradients that are not 0 (zeroed by the caller, shaped
+// like their inputs; grad_pyramid only for a user stack).
+void texture_backward(const TextureArgs& a, Address grad_out, Address grad_tex, Address grad_uv, Address grad_uv_dx,
+                      Address grad_uv_dy, Address grad_bias, Address grad_pyramid, int threads);
+
+}  // namespace gr::python

@@ -1,0 +1,126 @@
+"""texture: nvdiffrast's texel convention, filters and boundary modes, mip stacks, and gradients."""
+import pytest
+import torch
+from torch.autograd import gradcheck
+
+import gradraster.torch as dr
+
+
+def texel_index_texture(h, w):
+    """Texel (row j, column i) holds 10 j + i."""
+    j, i = torch.meshgrid(torch.arange(h, dtype=torch.float64), torch.arange(w, dtype=torch.float64), indexing='ij')
+    return (10 * j + i)[None, :, :, None]
+
+
+def test_texel_centres_are_at_half_integers_with_row_zero_at_v_zero():
+    tex = texel_index_texture(4, 8)
+    # Texel (column 3, row 1) is centred at ((3 + 0.5) / 8, (1 + 0.5) / 4).
+    uv = torch.tensor([[[[3.5 / 8, 1.5 / 4], [0.01, 0.01], [0.99, 0.99]]]], dtype=torch.float64)
+    for mode in ('nearest', 'linear'):
+        out = dr.texture(tex, uv, filter_mode=mode, boundary_mode='clamp')
+        assert out[0, 0, 0, 0].item() == pytest.approx(13.0, abs=1e-12)
+    near = dr.texture(tex, uv, filter_mode='nearest')
+    assert near[0, 0, 1, 0].item() == 0.0 and near[0, 0, 2, 0].item() == 37.0
+
+
+def test_linear_filtering_blends_the_four_nearest_texels_and_wrap_clamp_zero_differ_at_the_border():
+    tex = texel_index_texture(4, 8)
+    uv = torch.tensor([[[[4.0 / 8, 2.0 / 4], [0.0, 0.0]]]], dtype=torch.float64)  # a texel corner; the origin
+    wrap = dr.texture(tex, uv, boundary_mode='wrap')
+    clamp = dr.texture(tex, uv, boundary_mode='clamp')
+    zero = dr.texture(tex, uv, boundary_mode='zero')
+    assert wrap[0, 0, 0, 0].item() == pytest.approx((13 + 14 + 23 + 24) / 4)
+    assert wrap[0, 0, 1, 0].item() == pytest.approx((0 + 7 + 30 + 37) / 4)   # wraps to the far sides
+    assert clamp[0, 0, 1, 0].item() == pytest.approx(0.0)
+    assert zero[0, 0, 1, 0].item() == pytest.approx(0.0 / 4)                  # three taps outside read 0
+
+
+def test_mipmapped_lookups_pick_the_level_from_uv_da_and_the_bias():
+    tex = torch.rand(1, 16, 16, 3, dtype=torch.float64)
+    uv = torch.rand(1, 4, 4, 2, dtype=torch.float64)
+    one_texel = torch.zeros(1, 4, 4, 4, dtype=torch.float64)
+    one_texel[..., 0] = 1 / 16                  # du/dX = one texel: level 0
+    base = dr.texture(tex, uv, filter_mode='linear')
+    assert torch.allclose(dr.texture(tex, uv, uv_da=one_texel), base, atol=1e-14)
+    # A footprint of 4 texels is level 2; a bias of 2 alone is level 2 too.
+    four = one_texel * 4
+    bias = torch.full((1, 4, 4), 2.0, dtype=torch.float64)
+    assert torch.allclose(dr.texture(tex, uv, uv_da=four), dr.texture(tex, uv, mip_level_bias=bias), atol=1e-14)
+    assert torch.allclose(dr.texture(tex, uv, uv_da=one_texel, mip_level_bias=bias),
+                          dr.texture(tex, uv, uv_da=four), atol=1e-14)
+    # max_mip_level = 0 is plain linear filtering.
+    assert torch.equal(dr.texture(tex, uv, uv_da=four, max_mip_level=0), base)
+
+
+def test_a_prebuilt_mip_stack_gives_the_same_lookups_and_gradients():
+    tex = torch.rand(2, 16, 8, 3, dtype=torch.float64, requires_grad=True)
+    uv = torch.rand(2, 4, 4, 2, dtype=torch.float64)
+    uv_da = torch.rand(2, 4, 4, 4, dtype=torch.float64) * 0.3
+    mip = dr.texture_construct_mip(tex)
+    a = dr.texture(tex, uv, uv_da, mip=mip)
+    b = dr.texture(tex, uv, uv_da)
+    assert torch.equal(a, b)
+    ga, = torch.autograd.grad(a.sum(), tex)
+    gb, = torch.autograd.grad(b.sum(), tex)
+    assert torch.equal(ga, gb)
+
+
+@pytest.mark.parametrize('boundary', ['wrap', 'clamp', 'zero'])
+@pytest.mark.parametrize('filter_mode', ['linear', 'linear-mipmap-linear'])
+def test_gradients_to_texels_uv_uv_da_and_bias_match_finite_differences(boundary, filter_mode):
+    g = torch.Generator().manual_seed(3)
+    tex = torch.rand(2, 8, 16, 2, generator=g, dtype=torch.float64, requires_grad=True)
+    uv = (torch.rand(2, 3, 3, 2, generator=g, dtype=torch.float64) * 1.4 - 0.2).requires_grad_(True)
+    # Footprints of 1.3..3.5 texels: LODs inside levels 0..2, away from integers.
+    uv_da = (torch.rand(2, 3, 3, 4, generator=g, dtype=torch.float64) * 0.1 + 0.12).requires_grad_(True)
+    bias = (torch.rand(2, 3, 3, generator=g, dtype=torch.float64) * 0.3).requires_grad_(True)
+    if filter_mode == 'linear':
+        f = lambda t, u: dr.texture(t, u, filter_mode='linear', boundary_mode=boundary)
+        assert gradcheck(f, (tex, uv), eps=1e-7, atol=1e-7)
+    else:
+        f = lambda t, u, d, b: dr.texture(t, u, d, b, boundary_mode=boundary)
+        assert gradcheck(f, (tex, uv, uv_da, bias), eps=1e-7, atol=1e-7)
+
+
+def test_a_user_mip_stack_gets_its_own_gradients_and_none_flows_to_the_base():
+    g = torch.Generator().manual_seed(4)
+    tex = torch.rand(1, 8, 8, 2, generator=g, dtype=torch.float64, requires_grad=True)
+    mip = [torch.rand(1, 4, 4, 2, generator=g, dtype=torch.float64, requires_grad=True),
+           torch.rand(1, 2, 2, 2, generator=g, dtype=torch.float64, requires_grad=True)]
+    uv = torch.rand(1, 3, 3, 2, generator=g, dtype=torch.float64)
+    uv_da = torch.rand(1, 3, 3, 4, generator=g, dtype=torch.float64) * 0.2 + 0.15
+    assert gradcheck(lambda t, m1, m2: dr.texture(t, uv, uv_da, mip=[m1, m2]), (tex, *mip), eps=1e-7, atol=1e-7)
+
+
+def test_unsupported_features_raise_not_implemented_naming_them():
+    tex = torch.rand(1, 8, 8, 3)
+    uv = torch.rand(1, 2, 2, 2)
+    with pytest.raises(NotImplementedError, match='cube'):
+        dr.texture(tex, uv, boundary_mode='cube')
+    with pytest.raises(NotImplementedError, match='cube'):
+        dr.texture(torch.rand(1, 6, 8, 8, 3), torch.rand(1, 2, 2, 3), boundary_mode='cube')
+    with pytest.raises(NotImplementedError, match='linear-mipmap-nearest'):
+        dr.texture(tex, uv, uv_da=torch.rand(1, 2, 2, 4), filter_mode='linear-mipmap-nearest')
+
+
+def test_bad_texture_arguments_are_named():
+    tex = torch.rand(1, 8, 8, 3)
+    uv = torch.rand(1, 2, 2, 2)
+    with pytest.raises(ValueError, match="'filter_mode' must be one of"):
+        dr.texture(tex, uv, filter_mode='cubic')
+    with pytest.raises(ValueError, match="'boundary_mode' must be one of"):
+        dr.texture(tex, uv, boundary_mode='mirror')
+    with pytest.raises(ValueError, match="needs 'uv_da' or 'mip_level_bias'"):
+        dr.texture(tex, uv, filter_mode='linear-mipmap-linear')
+    with pytest.raises(ValueError, match=r"'uv_da' must have shape \[1, 2, 2, 4\]"):
+        dr.texture(tex, uv, uv_da=torch.rand(1, 2, 2, 2))
+    with pytest.raises(ValueError, match=r"'mip\[0\]' must have shape \[1, 4, 4, 3\]"):
+        dr.texture(tex, uv, uv_da=torch.rand(1, 2, 2, 4), mip=[torch.rand(1, 4, 3, 3)])
+    with pytest.raises(ValueError, match="'tex' has minibatch size 2 but 'uv' has 1"):
+        dr.texture(torch.rand(2, 8, 8, 3), uv)
+    with pytest.raises(TypeError, match="'uv' has dtype torch.float64 but 'tex' has torch.float32"):
+        dr.texture(tex, uv.double())
+    bad = uv.clone()
+    bad[0, 1, 1, 0] = float('nan')
+    with pytest.raises(ValueError, match='NaN'):
+        dr.texture(tex, bad)
