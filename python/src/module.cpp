@@ -1,12 +1,13 @@
 // gradraster._core: the C++ side of gradraster.torch. Functions take tensor
 // addresses (data_ptr) from the Python layer, which checks types and shapes;
 // gr errors become Python exceptions (ValueError, IndexError, TypeError,
-// MemoryError, RuntimeError) with gradraster's message.
+// OSError, MemoryError, RuntimeError) with gradraster's message.
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
 #include "autodiff/error.h"
 #include "python/src/antialias.h"
+#include "python/src/image.h"
 #include "python/src/interpolate.h"
 #include "python/src/rasterize.h"
 #include "python/src/texture.h"
@@ -28,6 +29,8 @@ PYBIND11_MODULE(_core, m) {
       PyErr_SetString(PyExc_IndexError, x.what());
     } catch (const gr::DTypeError& x) {
       PyErr_SetString(PyExc_TypeError, x.what());
+    } catch (const gr::IOError& x) {
+      PyErr_SetString(PyExc_OSError, x.what());
     } catch (const gr::MemoryError& x) {
       PyErr_SetString(PyExc_MemoryError, x.what());
     } catch (const gr::Error& x) {
@@ -85,4 +88,6 @@ PYBIND11_MODULE(_core, m) {
   m.def("mip_build", &mip_build);
   m.def("texture_forward", &texture_forward);
   m.def("texture_backward", &texture_backward);
+
+  m.def("write_png", &write_png);
 }

@@ -106,3 +106,14 @@ def test_a_topology_hash_for_other_triangles_and_a_bad_boost_are_refused(glctx, 
         dr.antialias(color, rast, pos, tri, topology_hash=dr.antialias_construct_topology_hash(tri[:1].contiguous()))
     with pytest.raises(ValueError, match="'pos_gradient_boost' must be a finite number"):
         dr.antialias(color, rast, pos, tri, pos_gradient_boost=float('nan'))
+
+
+def test_write_png_refuses_bad_images_and_unwritable_paths_without_leaving_a_file(tmp_path):
+    import gradraster
+    with pytest.raises(ValueError, match="'image' must be"):
+        gradraster.write_png(tmp_path / 'a.png', torch.zeros(4, 4, 5))
+    with pytest.raises(OSError):
+        gradraster.write_png(tmp_path / 'missing' / 'a.png', torch.zeros(4, 4, 3))
+    assert list(tmp_path.iterdir()) == []
+    gradraster.write_png(tmp_path / 'b.png', torch.rand(4, 4))
+    assert (tmp_path / 'b.png').read_bytes()[:4] == b'\x89PNG'

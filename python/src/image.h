@@ -1,0 +1,14 @@
+// PNG output for the Python package (gradraster.write_png), through
+// raster/image_io's atomic writer.
+#pragma once
+
+#include <string>
+
+#include "python/src/common.h"
+
+namespace gr::python {
+
+// image: height x width x channels float32 (1-4 channels), values in [0, 1].
+void write_png(const std::string& path, Address image, std::int64_t height, std::int64_t width, std::int64_t channels);
+
+}  // namespace gr::python
