@@ -21,17 +21,21 @@ void split_rast(const T* rast, std::int64_t pixels, std::vector<std::int32_t>* t
   }
 }
 
+// Image b's kernel inputs, its ids, depths and flipped positions in s.
 template <class T>
-raster::AntialiasParams<T> image_params(Context& ctx, const Mesh& mesh, const Topology& topology, const T* color,
-                                        std::int64_t channels, int height, int width) {
+raster::AntialiasParams<T> image_params(ImageScratch& s, const Mesh& mesh, const Topology& topology, Address color,
+                                        Address rast, std::int64_t channels, int height, int width, std::int64_t b) {
+  const std::int64_t pixels = static_cast<std::int64_t>(height) * width;
+  copy_flipped(at<const T>(mesh.pos) + mesh.pos_offset(b), mesh.vertices, &s.buffer<T>(ImageScratch::kClip));
+  split_rast(at<const T>(rast) + 4 * pixels * b, pixels, &s.tri_id, &s.buffer<T>(ImageScratch::kDepth));
   raster::AntialiasParams<T> p;
-  p.image = color;
+  p.image = at<const T>(color) + pixels * channels * b;
   p.channels = static_cast<int>(channels);
   p.width = width;
   p.height = height;
-  p.tri_id = ctx.tri_id.data();
-  p.depth = ctx.depth<T>().data();
-  p.clip = ctx.clip<T>().data();
+  p.tri_id = s.tri_id.data();
+  p.depth = s.buffer<T>(ImageScratch::kDepth).data();
+  p.clip = s.buffer<T>(ImageScratch::kClip).data();
   p.num_vertices = mesh.vertices;
   p.tris = at<const std::int32_t>(mesh.tri);
   p.num_tris = mesh.triangles;
@@ -67,16 +71,14 @@ std::shared_ptr<AntialiasState> antialias_forward(Context& ctx, const Mesh& mesh
   const std::int64_t pixels = static_cast<std::int64_t>(height) * width;
   auto state = std::make_shared<AntialiasState>();
   state->pairs.resize(static_cast<std::size_t>(mesh.images));
+  ctx.reserve(mesh.images);
   dispatch(mesh.f64, [&](auto tag) {
     using T = decltype(tag);
     check_rast_ids(at<const T>(rast), mesh.images * pixels, mesh.triangles, "rast", "antialias");
-    for (std::int64_t b = 0; b < mesh.images; ++b) {
-      copy_flipped(at<const T>(mesh.pos) + mesh.pos_offset(b), mesh.vertices, &ctx.clip<T>());
-      split_rast(at<const T>(rast) + 4 * pixels * b, pixels, &ctx.tri_id, &ctx.depth<T>());
-      const auto p = image_params(ctx, mesh, topology, at<const T>(color) + pixels * channels * b, channels, height,
-                                  width);
+    for_each_image(mesh.images, [&](std::int64_t b) {
+      const auto p = image_params<T>(ctx.image(b), mesh, topology, color, rast, channels, height, width, b);
       raster::antialias_forward(p, at<T>(out) + pixels * channels * b, &state->pairs[b]);
-    }
+    });
   });
   return state;
 }
@@ -87,29 +89,29 @@ void antialias_backward(Context& ctx, const Mesh& mesh, const Topology& topology
                         int threads) {
   KernelCall call(threads);
   const std::int64_t pixels = static_cast<std::int64_t>(height) * width;
+  ctx.reserve(mesh.images);
   dispatch(mesh.f64, [&](auto tag) {
     using T = decltype(tag);
-    std::vector<T>& grad = ctx.grad<T>();
-    grad.assign(4 * static_cast<std::size_t>(mesh.vertices), T(0));
-    for (std::int64_t b = 0; b < mesh.images; ++b) {
-      copy_flipped(at<const T>(mesh.pos) + mesh.pos_offset(b), mesh.vertices, &ctx.clip<T>());
-      split_rast(at<const T>(rast) + 4 * pixels * b, pixels, &ctx.tri_id, &ctx.depth<T>());
-      const auto p = image_params(ctx, mesh, topology, at<const T>(color) + pixels * channels * b, channels, height,
-                                  width);
+    // Per image: the colour gradient in place, the position gradient in the
+    // image's buffer (scaled by the boost), then added as rasterize's is.
+    for_each_image(mesh.images, [&](std::int64_t b) {
+      ImageScratch& s = ctx.image(b);
+      const auto p = image_params<T>(s, mesh, topology, color, rast, channels, height, width, b);
+      std::vector<T>& grad = s.buffer<T>(ImageScratch::kGrad);
       raster::AntialiasGrads<T> g;
       if (grad_color) g.image = at<T>(grad_color) + pixels * channels * b;
-      if (grad_pos) g.clip = grad.data();
-      raster::antialias_backward(p, state.pairs[b], at<const T>(grad_out) + pixels * channels * b, g);
-      if (grad_pos && mesh.instanced) {
-        for (T& v : grad) v = static_cast<T>(pos_gradient_boost * v);
-        add_flipped(grad.data(), mesh.vertices, at<T>(grad_pos) + mesh.pos_offset(b));
-        std::fill(grad.begin(), grad.end(), T(0));
+      if (grad_pos) {
+        grad.assign(4 * static_cast<std::size_t>(mesh.vertices), T(0));
+        g.clip = grad.data();
       }
-    }
-    if (grad_pos && !mesh.instanced) {
+      raster::antialias_backward(p, state.pairs[b], at<const T>(grad_out) + pixels * channels * b, g);
+      if (!grad_pos) return;
       for (T& v : grad) v = static_cast<T>(pos_gradient_boost * v);
-      add_flipped(grad.data(), mesh.vertices, at<T>(grad_pos));
-    }
+      if (mesh.instanced) add_flipped(grad.data(), mesh.vertices, at<T>(grad_pos) + mesh.pos_offset(b));
+    });
+    if (grad_pos && !mesh.instanced)
+      for (std::int64_t b = 0; b < mesh.images; ++b)
+        add_flipped(ctx.image(b).buffer<T>(ImageScratch::kGrad).data(), mesh.vertices, at<T>(grad_pos));
   });
 }
 

@@ -20,6 +20,22 @@ KernelCall::KernelCall(int threads) : lock_(g_kernel_mutex) {
   }
 }
 
+void for_each_image(std::int64_t images, const std::function<void(std::int64_t)>& body) {
+  parallel_for(0, images, 1, [&](std::int64_t lo, std::int64_t hi) {
+    for (std::int64_t b = lo; b < hi; ++b) body(b);
+  });
+}
+
+template <class T>
+void add_in_image_order(const std::vector<std::vector<T>*>& parts, std::int64_t n, T* out) {
+  parallel_for(0, n, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
+    for (const std::vector<T>* part : parts)
+      for (std::int64_t i = lo; i < hi; ++i) out[i] += (*part)[i];
+  });
+}
+template void add_in_image_order<float>(const std::vector<std::vector<float>*>&, std::int64_t, float*);
+template void add_in_image_order<double>(const std::vector<std::vector<double>*>&, std::int64_t, double*);
+
 void check_mesh(const Mesh& mesh, const char* op) {
   const std::int64_t values = 4 * mesh.vertices * (mesh.instanced ? mesh.images : 1);
   if (mesh.f64)

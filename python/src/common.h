@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <mutex>
 #include <utility>
 #include <vector>
@@ -60,6 +61,15 @@ struct Mesh {
     return instanced ? std::make_pair<std::int64_t, std::int64_t>(0, std::int64_t(triangles)) : ranges[b];
   }
 };
+
+// Runs body(b) for every image b of a minibatch, images in parallel (each
+// kernel inside is parallel too, so small images keep every core busy).
+void for_each_image(std::int64_t images, const std::function<void(std::int64_t)>& body);
+
+// Sums per-image buffers parts[0..images) (each n values) into out (+=), in
+// image order, so the result does not depend on how the images ran.
+template <class T>
+void add_in_image_order(const std::vector<std::vector<T>*>& parts, std::int64_t n, T* out);
 
 // Checks what the kernels trust: every index in [0, N), finite positions,
 // ranges inside [0, M]. Throws gr errors naming the argument.

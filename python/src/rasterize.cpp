@@ -8,21 +8,13 @@
 namespace gr::python {
 
 template <>
-std::vector<float>& Context::uv<float>() { return uv_f; }
+std::vector<float>& ImageScratch::buffer<float>(Buffer b) {
+  return f_[b];
+}
 template <>
-std::vector<double>& Context::uv<double>() { return uv_d; }
-template <>
-std::vector<float>& Context::depth<float>() { return depth_f; }
-template <>
-std::vector<double>& Context::depth<double>() { return depth_d; }
-template <>
-std::vector<float>& Context::clip<float>() { return clip_f; }
-template <>
-std::vector<double>& Context::clip<double>() { return clip_d; }
-template <>
-std::vector<float>& Context::grad<float>() { return grad_f; }
-template <>
-std::vector<double>& Context::grad<double>() { return grad_d; }
+std::vector<double>& ImageScratch::buffer<double>(Buffer b) {
+  return d_[b];
+}
 
 void rasterize_forward(Context& ctx, const Mesh& mesh, int height, int width, Address rast, Address db,
                        PeelState* peel, int threads) {
@@ -33,17 +25,20 @@ void rasterize_forward(Context& ctx, const Mesh& mesh, int height, int width, Ad
     peel->floor_id.assign(static_cast<std::size_t>(mesh.images * pixels), 0);
     peel->floor_z.assign(static_cast<std::size_t>(mesh.images * pixels), 0.0);
   }
+  ctx.reserve(mesh.images);
   dispatch(mesh.f64, [&](auto tag) {
     using T = decltype(tag);
-    ctx.tri_id.resize(static_cast<std::size_t>(pixels));
-    ctx.uv<T>().resize(2 * static_cast<std::size_t>(pixels));
-    ctx.depth<T>().resize(static_cast<std::size_t>(pixels));
-    if (peel) ctx.key_depth.resize(static_cast<std::size_t>(pixels));
-    for (std::int64_t b = 0; b < mesh.images; ++b) {
-      copy_flipped(at<const T>(mesh.pos) + mesh.pos_offset(b), mesh.vertices, &ctx.clip<T>());
+    for_each_image(mesh.images, [&](std::int64_t b) {
+      ImageScratch& s = ctx.image(b);
+      std::vector<T>& clip = s.buffer<T>(ImageScratch::kClip);
+      copy_flipped(at<const T>(mesh.pos) + mesh.pos_offset(b), mesh.vertices, &clip);
+      s.tri_id.resize(static_cast<std::size_t>(pixels));
+      s.buffer<T>(ImageScratch::kUv).resize(2 * static_cast<std::size_t>(pixels));
+      s.buffer<T>(ImageScratch::kDepth).resize(static_cast<std::size_t>(pixels));
+      if (peel) s.key_depth.resize(static_cast<std::size_t>(pixels));
       const auto [first, count] = mesh.range(b);
       raster::RasterParams<T> p;
-      p.clip = ctx.clip<T>().data();
+      p.clip = clip.data();
       p.num_vertices = mesh.vertices;
       p.tris = at<const std::int32_t>(mesh.tri) + 3 * first;
       p.num_tris = count;
@@ -53,17 +48,18 @@ void rasterize_forward(Context& ctx, const Mesh& mesh, int height, int width, Ad
         p.floor_id = peel->floor_id.data() + b * pixels;
         p.floor_z = peel->floor_z.data() + b * pixels;
       }
-      raster::rasterize_forward(p, ctx.tri_id.data(), ctx.uv<T>().data(), ctx.depth<T>().data(), nullptr,
-                                peel ? ctx.key_depth.data() : nullptr);
+      raster::rasterize_forward(p, s.tri_id.data(), s.buffer<T>(ImageScratch::kUv).data(),
+                                s.buffer<T>(ImageScratch::kDepth).data(), nullptr,
+                                peel ? s.key_depth.data() : nullptr);
       if (peel) {
-        std::copy(ctx.tri_id.begin(), ctx.tri_id.end(), peel->floor_id.begin() + b * pixels);
-        std::copy(ctx.key_depth.begin(), ctx.key_depth.end(), peel->floor_z.begin() + b * pixels);
+        std::copy(s.tri_id.begin(), s.tri_id.end(), peel->floor_id.begin() + b * pixels);
+        std::copy(s.key_depth.begin(), s.key_depth.end(), peel->floor_z.begin() + b * pixels);
       }
       raster::BarycentricGBufferParams<T> g{p.clip, mesh.vertices, at<const std::int32_t>(mesh.tri), mesh.triangles,
                                            width, height};
-      raster::barycentric_gbuffer_forward(g, ctx.tri_id.data(), first, at<T>(rast) + 4 * pixels * b,
+      raster::barycentric_gbuffer_forward(g, s.tri_id.data(), first, at<T>(rast) + 4 * pixels * b,
                                           db ? at<T>(db) + 4 * pixels * b : nullptr);
-    }
+    });
   });
   if (peel) ++peel->layers;
 }
@@ -72,24 +68,27 @@ void rasterize_backward(Context& ctx, const Mesh& mesh, int height, int width, A
                         Address grad_db, Address grad_pos, int threads) {
   KernelCall call(threads);
   const std::int64_t pixels = static_cast<std::int64_t>(height) * width;
+  ctx.reserve(mesh.images);
   dispatch(mesh.f64, [&](auto tag) {
     using T = decltype(tag);
-    std::vector<T>& grad = ctx.grad<T>();
-    grad.assign(4 * static_cast<std::size_t>(mesh.vertices), T(0));
-    for (std::int64_t b = 0; b < mesh.images; ++b) {
-      copy_flipped(at<const T>(mesh.pos) + mesh.pos_offset(b), mesh.vertices, &ctx.clip<T>());
-      raster::BarycentricGBufferParams<T> g{ctx.clip<T>().data(), mesh.vertices, at<const std::int32_t>(mesh.tri),
+    // Each image's gradient in its own buffer; instanced images own their
+    // positions, range-mode images share them and are summed in image order.
+    for_each_image(mesh.images, [&](std::int64_t b) {
+      ImageScratch& s = ctx.image(b);
+      std::vector<T>& clip = s.buffer<T>(ImageScratch::kClip);
+      std::vector<T>& grad = s.buffer<T>(ImageScratch::kGrad);
+      copy_flipped(at<const T>(mesh.pos) + mesh.pos_offset(b), mesh.vertices, &clip);
+      grad.assign(4 * static_cast<std::size_t>(mesh.vertices), T(0));
+      raster::BarycentricGBufferParams<T> g{clip.data(), mesh.vertices, at<const std::int32_t>(mesh.tri),
                                            mesh.triangles, width, height};
       raster::barycentric_gbuffer_backward(g, at<const T>(rast) + 4 * pixels * b,
                                            at<const T>(grad_rast) + 4 * pixels * b,
                                            grad_db ? at<const T>(grad_db) + 4 * pixels * b : nullptr, grad.data());
-      // Instanced: each image has its own positions; range mode: all share one.
-      if (mesh.instanced) {
-        add_flipped(grad.data(), mesh.vertices, at<T>(grad_pos) + mesh.pos_offset(b));
-        std::fill(grad.begin(), grad.end(), T(0));
-      }
-    }
-    if (!mesh.instanced) add_flipped(grad.data(), mesh.vertices, at<T>(grad_pos));
+      if (mesh.instanced) add_flipped(grad.data(), mesh.vertices, at<T>(grad_pos) + mesh.pos_offset(b));
+    });
+    if (!mesh.instanced)
+      for (std::int64_t b = 0; b < mesh.images; ++b)
+        add_flipped(ctx.image(b).buffer<T>(ImageScratch::kGrad).data(), mesh.vertices, at<T>(grad_pos));
   });
 }
 

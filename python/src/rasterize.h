@@ -15,20 +15,29 @@ struct PeelState {
   int layers = 0;
 };
 
-// Per-context scratch (RasterizeCpuContext), reused across calls so large
-// buffers are allocated and page-faulted once.
-struct Context {
+// Scratch of one image of a call: the rasterizer's own outputs, the flipped
+// positions and a gradient buffer, per dtype.
+struct ImageScratch {
+  enum Buffer { kUv, kDepth, kClip, kGrad, kBuffers };
   std::vector<std::int32_t> tri_id;
-  std::vector<float> uv_f, depth_f, clip_f, grad_f;
-  std::vector<double> uv_d, depth_d, clip_d, grad_d, key_depth;
+  std::vector<double> key_depth;
   template <class T>
-  std::vector<T>& uv();
-  template <class T>
-  std::vector<T>& depth();
-  template <class T>
-  std::vector<T>& clip();
-  template <class T>
-  std::vector<T>& grad();
+  std::vector<T>& buffer(Buffer b);
+
+ private:
+  std::vector<float> f_[kBuffers];
+  std::vector<double> d_[kBuffers];
+};
+
+// Per-context scratch (RasterizeCpuContext), one slot per image of a call,
+// reused across calls so large buffers are allocated and page-faulted once.
+// Images of a minibatch run in parallel, each on its own slot.
+struct Context {
+  std::vector<ImageScratch> images;
+  ImageScratch& image(std::int64_t b) { return images[static_cast<std::size_t>(b)]; }
+  void reserve(std::int64_t count) {
+    if (static_cast<std::int64_t>(images.size()) < count) images.resize(static_cast<std::size_t>(count));
+  }
 };
 
 // rast, db: images x H x W x 4 (db may be 0). With a peel state, each image

@@ -59,8 +59,9 @@ void texture_forward(const TextureArgs& a, Address out, int threads) {
   const raster::MipLayout layout = layout_of(a);
   dispatch(a.f64, [&](auto tag) {
     using T = decltype(tag);
-    for (std::int64_t b = 0; b < a.images; ++b)
+    for_each_image(a.images, [&](std::int64_t b) {
       raster::texture_forward(image_params<T>(a, layout, b), at<T>(out) + b * a.samples * a.channels);
+    });
   });
 }
 
@@ -70,7 +71,7 @@ void texture_backward(const TextureArgs& a, Address grad_out, Address grad_tex, 
   const raster::MipLayout layout = layout_of(a);
   dispatch(a.f64, [&](auto tag) {
     using T = decltype(tag);
-    for (std::int64_t b = 0; b < a.images; ++b) {
+    auto image = [&](std::int64_t b) {
       const std::int64_t t = a.tex_images == 1 ? 0 : b;
       raster::TextureGrads<T> g;
       if (grad_tex) g.tex = at<T>(grad_tex) + t * a.height * a.width * a.channels;
@@ -80,7 +81,13 @@ void texture_backward(const TextureArgs& a, Address grad_out, Address grad_tex, 
       if (grad_bias) g.mip_level_bias = at<T>(grad_bias) + a.samples * b;
       if (grad_pyramid) g.pyramid = at<T>(grad_pyramid) + t * upper_texels(layout) * a.channels;
       raster::texture_backward(image_params<T>(a, layout, b), at<const T>(grad_out) + b * a.samples * a.channels, g);
-    }
+    };
+    // A broadcast texture collects every image's gradient: images in order
+    // (each lookup parallel inside); otherwise images in parallel.
+    if (a.tex_images == 1 && (grad_tex || grad_pyramid))
+      for (std::int64_t b = 0; b < a.images; ++b) image(b);
+    else
+      for_each_image(a.images, image);
   });
 }
 
