@@ -22,6 +22,7 @@
 #include "ops/resample.h"
 #include "ops/map_rows.h"
 #include "ops/shape_ops.h"
+#include "ops/soft_rasterize.h"
 #include "ops/ssr.h"
 #include "ops/texture.h"
 #include "ops/transforms.h"
