@@ -18,7 +18,7 @@ constexpr std::int64_t kMaxTextureSize = 32768;
 
 void check_derivative(const Tensor& d, const Tensor& uv, const char* name) {
   if (!d.defined())
-    throw ValueError(std::string("texture: trilinear filtering needs argument '") + name +
+    throw ValueError(std::string("texture: mipmapped filtering needs argument '") + name +
                      "' (d(uv)/dx and d(uv)/dy per pixel, same shape as uv)");
   detail::check_float(d, "texture", name);
   detail::check_same_dtype(d, uv, "texture", name, "uv");
@@ -43,6 +43,7 @@ raster::TextureParams<T> params(const Tensor& tex, const Tensor& uv, const Tenso
   p.num_samples = uv.numel() / 2;
   p.filter = o.filter;
   p.wrap = o.wrap;
+  p.lod_rule = o.lod_rule;
   return p;
 }
 
@@ -50,8 +51,8 @@ raster::TextureParams<T> params(const Tensor& tex, const Tensor& uv, const Tenso
 // mip_layout gives them (nvdiffrast's halving), same dtype as tex.
 void check_mip_stack(const std::vector<Tensor>& mip, const Tensor& tex, const raster::MipLayout& layout,
                      const TextureOptions& options) {
-  if (options.filter != Filter::Trilinear)
-    throw ValueError("texture: argument 'mip' (a mip stack) needs trilinear filtering");
+  if (!raster::mipmapped(options.filter))
+    throw ValueError("texture: argument 'mip' (a mip stack) needs a mipmapped filter");
   if (options.max_mip_level != -1 && options.max_mip_level != static_cast<int>(mip.size()))
     throw ValueError("texture: options.max_mip_level = " + std::to_string(options.max_mip_level) + " disagrees with the " +
                      std::to_string(mip.size()) + " levels of argument 'mip'");
@@ -87,14 +88,14 @@ Tensor texture(const Tensor& tex, const Tensor& uv, const TextureOptions& option
   if (options.max_mip_level < -1)
     throw ValueError("texture: options.max_mip_level must be >= -1 (-1 = all levels), got " +
                      std::to_string(options.max_mip_level));
-  const bool trilinear = options.filter == Filter::Trilinear;
+  const bool trilinear = raster::mipmapped(options.filter);  // the filters that read the mip levels
   if (trilinear) {
     check_derivative(uv_dx, uv, "uv_dx");
     check_derivative(uv_dy, uv, "uv_dy");
   }
   if (mip_level_bias.defined()) {
     if (!trilinear)
-      throw ValueError("texture: argument 'mip_level_bias' needs trilinear filtering (it shifts the level of detail)");
+      throw ValueError("texture: argument 'mip_level_bias' needs a mipmapped filter (it shifts the level of detail)");
     detail::check_float(mip_level_bias, "texture", "mip_level_bias");
     detail::check_same_dtype(mip_level_bias, uv, "texture", "mip_level_bias", "uv");
     std::vector<std::int64_t> dims = uv.shape().dims();

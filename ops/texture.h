@@ -12,13 +12,17 @@
 namespace gr {
 
 using raster::Filter;
+using raster::LodRule;
 using raster::Wrap;
 
 struct TextureOptions {
   Filter filter = Filter::Bilinear;
   Wrap wrap = Wrap::Repeat;
-  // Trilinear: highest mip level used (0 = base only); -1 = the full chain to 1 x 1.
+  // Mipmapped filters: highest mip level used (0 = base only); -1 = the full chain to 1 x 1.
   int max_mip_level = -1;
+  // How the footprint sets the level of detail (raster/texture.h): OpenGL's
+  // isotropic rule or nvdiffrast's major axis.
+  LodRule lod_rule = LodRule::Isotropic;
 };
 
 // tex [Ht, Wt, C] float32/float64 (row 0 = top of the image, as read_image

@@ -31,23 +31,34 @@ struct Taps {
 };
 
 // The LOD and what its derivative needs: the unclamped log2 footprint plus the
-// bias, and which footprint (x: a, y: b) is the larger.
+// bias, and the partials of rho2 w.r.t. A = |a|^2, B = |b|^2, C = a.b.
 struct Lod {
-  double value = 0;        // clamped to [0, levels - 1]
-  bool free = false;       // 0 < unclamped < levels - 1
-  double rho2 = 0;         // max(|a|^2, |b|^2)
-  bool along_x = true;     // |a| >= |b|
+  double value = 0;   // clamped to [0, levels - 1]
+  bool free = false;  // 0 < unclamped < levels - 1
+  double rho2 = 0;
+  double pA = 0, pB = 0, pC = 0;
   double ax = 0, ay = 0, bx = 0, by = 0;
 };
 
 Lod compute_lod(double du_dx, double dv_dx, double du_dy, double dv_dy, int width, int height, int levels,
-                double bias) {
+                double bias, LodRule rule) {
   // Footprint of one pixel step along x and along y, in level-0 texels.
   Lod l;
   l.ax = du_dx * width, l.ay = dv_dx * height, l.bx = du_dy * width, l.by = dv_dy * height;
-  const double a2 = l.ax * l.ax + l.ay * l.ay, b2 = l.bx * l.bx + l.by * l.by;
-  l.along_x = !(a2 < b2);
-  l.rho2 = l.along_x ? a2 : b2;
+  const double A = l.ax * l.ax + l.ay * l.ay, B = l.bx * l.bx + l.by * l.by;
+  if (rule == LodRule::Isotropic) {
+    const bool along_x = !(A < B);
+    l.rho2 = along_x ? A : B;
+    (along_x ? l.pA : l.pB) = 1.0;
+  } else {
+    // Squared major axis of the ellipse with quadratic form [[A, C], [C, B]].
+    const double C = l.ax * l.bx + l.ay * l.by, h = 0.5 * (A - B);
+    const double r = std::sqrt(h * h + C * C);
+    l.rho2 = 0.5 * (A + B) + r;
+    l.pA = r > 0 ? 0.5 + 0.5 * h / r : 0.5;
+    l.pB = r > 0 ? 0.5 - 0.5 * h / r : 0.5;
+    l.pC = r > 0 ? C / r : 0.0;
+  }
   const double raw = 0.5 * std::log2(l.rho2) + bias;
   l.free = raw > 0.0 && raw < levels - 1;
   l.value = raw;
@@ -133,7 +144,8 @@ template <class T, bool kDerivatives>
     case Filter::Trilinear: {
       const int L = p.layout.count();
       const Lod lod = compute_lod(p.uv_dx[2 * s], p.uv_dx[2 * s + 1], p.uv_dy[2 * s], p.uv_dy[2 * s + 1],
-                                  base.width, base.height, L, p.mip_level_bias ? double(p.mip_level_bias[s]) : 0.0);
+                                  base.width, base.height, L, p.mip_level_bias ? double(p.mip_level_bias[s]) : 0.0,
+                                  p.lod_rule);
       // Levels floor(lod) and floor(lod) + 1, weights 1 - f and f. For the
       // derivatives, level l0 + 1 is kept at f = 0 too (its taps give dw/dlod).
       const int l0 = std::min(static_cast<int>(lod.value), L - 1);
@@ -142,6 +154,15 @@ template <class T, bool kDerivatives>
       if (f > 0.0 || (kDerivatives && lod.free))
         bilinear_taps<kDerivatives>(p.layout.levels[l0 + 1], u, v, p.v_down, f, p.wrap, t, 1.0);
       t.lod_free = lod.free;
+      break;
+    }
+    case Filter::LinearMipmapNearest: {
+      const int L = p.layout.count();
+      const Lod lod = compute_lod(p.uv_dx[2 * s], p.uv_dx[2 * s + 1], p.uv_dy[2 * s], p.uv_dy[2 * s + 1],
+                                  base.width, base.height, L, p.mip_level_bias ? double(p.mip_level_bias[s]) : 0.0,
+                                  p.lod_rule);
+      bilinear_taps<kDerivatives>(p.layout.levels[std::min(static_cast<int>(lod.value), L - 1)], u, v, p.v_down, 1.0,
+                                  p.wrap, t);
       break;
     }
   }
@@ -158,17 +179,17 @@ template <class T>
 void check_params(const TextureParams<T>& p, const char* op) {
   if (p.layout.count() < 1 || p.channels < 1 || p.num_samples < 0)
     throw ShapeError(std::string(op) + ": empty texture or negative sample count");
-  if (p.filter == Filter::Trilinear && (!p.uv_dx || !p.uv_dy))
-    throw ValueError(std::string(op) + ": trilinear filtering needs uv_dx and uv_dy");
-  if (p.filter == Filter::Trilinear && p.layout.count() > 1 && !p.pyramid)
-    throw ValueError(std::string(op) + ": trilinear filtering needs the mip pyramid");
+  if (mipmapped(p.filter) && (!p.uv_dx || !p.uv_dy))
+    throw ValueError(std::string(op) + ": mipmapped filtering needs uv_dx and uv_dy");
+  if (mipmapped(p.filter) && p.layout.count() > 1 && !p.pyramid)
+    throw ValueError(std::string(op) + ": mipmapped filtering needs the mip pyramid");
 }
 
 }  // namespace
 
 double texture_lod(double du_dx, double dv_dx, double du_dy, double dv_dy, int width, int height, int levels,
-                   double bias) {
-  return compute_lod(du_dx, dv_dx, du_dy, dv_dy, width, height, levels, bias).value;
+                   double bias, LodRule rule) {
+  return compute_lod(du_dx, dv_dx, du_dy, dv_dy, width, height, levels, bias, rule).value;
 }
 
 template <class T>
@@ -180,7 +201,7 @@ void texture_forward(const TextureParams<T>& p, T* out) {
   // the mip pyramid, whole regions of coarser levels) into NaN.
   detail::check_finite(p.tex, base_texels * C, "tex", "texture");
   detail::check_finite(p.uv, 2 * p.num_samples, "uv", "texture");
-  if (p.filter == Filter::Trilinear) {
+  if (mipmapped(p.filter)) {
     detail::check_finite(p.uv_dx, 2 * p.num_samples, "uv_dx", "texture");
     detail::check_finite(p.uv_dy, 2 * p.num_samples, "uv_dy", "texture");
     if (p.mip_level_bias) detail::check_finite(p.mip_level_bias, p.num_samples, "mip_level_bias", "texture");
@@ -211,11 +232,11 @@ void texture_backward(const TextureParams<T>& p, const T* grad_out, const Textur
   T* grad_dy = trilinear ? grads.uv_dy : nullptr;
   T* grad_bias = trilinear ? grads.mip_level_bias : nullptr;
   const bool lod_grads = grad_dx || grad_dy || grad_bias;
-  T* grad_pyramid = trilinear && p.user_pyramid ? grads.pyramid : nullptr;
+  T* grad_pyramid = mipmapped(p.filter) && p.user_pyramid ? grads.pyramid : nullptr;
   if (!grad_tex && !grad_uv && !lod_grads && !grad_pyramid) return;
   const std::int64_t C = p.channels, S = p.num_samples;
   const std::int64_t base_texels = std::int64_t(p.layout.levels[0].height) * p.layout.levels[0].width;
-  const int levels_used = p.filter == Filter::Trilinear ? p.layout.count() : 1;
+  const int levels_used = mipmapped(p.filter) ? p.layout.count() : 1;
 
   // Texel gradients of every level used, in double (level 0 straight into
   // grad_tex when that is already double and no other level exists).
@@ -240,7 +261,7 @@ void texture_backward(const TextureParams<T>& p, const T* grad_out, const Textur
   // Samples in chunks: taps and uv gradients in parallel, texel sums in sample
   // order. Taps are kept compactly (index, weight) with a fixed stride.
   constexpr std::int64_t kChunk = 16384;
-  const int stride = p.filter == Filter::Nearest ? 1 : p.filter == Filter::Bilinear ? 4 : kMaxTaps;
+  const int stride = p.filter == Filter::Nearest ? 1 : p.filter == Filter::Trilinear ? kMaxTaps : 4;
   const std::size_t chunk = static_cast<std::size_t>(std::min(S, kChunk));
   std::vector<std::int64_t> tap_index(texels ? stride * chunk : 0);
   std::vector<double> tap_w(texels ? stride * chunk : 0);
@@ -271,14 +292,17 @@ void texture_backward(const TextureParams<T>& p, const T* grad_out, const Textur
           }
           if (grad_bias) grad_bias[s] += static_cast<T>(g_lod);
           const MipLevel& base = p.layout.levels[0];
-          const Lod lod = compute_lod(p.uv_dx[2 * s], p.uv_dx[2 * s + 1], p.uv_dy[2 * s], p.uv_dy[2 * s + 1],
-                                      base.width, base.height, p.layout.count(), 0.0);
-          // d lod / d(rho2) = 1 / (2 rho2 ln 2); d rho2 / d(du) = 2 a_x W, d(dv) = 2 a_y H.
-          const double k = g_lod / (lod.rho2 * std::log(2.0));
-          T* gd = lod.along_x ? grad_dx : grad_dy;
-          if (gd) {
-            gd[2 * s] += static_cast<T>(k * (lod.along_x ? lod.ax : lod.bx) * base.width);
-            gd[2 * s + 1] += static_cast<T>(k * (lod.along_x ? lod.ay : lod.by) * base.height);
+          const Lod l = compute_lod(p.uv_dx[2 * s], p.uv_dx[2 * s + 1], p.uv_dy[2 * s], p.uv_dy[2 * s + 1],
+                                    base.width, base.height, p.layout.count(), 0.0, p.lod_rule);
+          // k = dL/dlod dlod/drho2 * 2 = dL/dlod / (rho2 ln 2); dA/d(du/dx) = 2 a_x W, dC/d(du/dx) = b_x W, ...
+          const double k = g_lod / (l.rho2 * std::log(2.0));
+          if (grad_dx && (l.pA != 0.0 || l.pC != 0.0)) {
+            grad_dx[2 * s] += static_cast<T>(k * (l.pA * l.ax + 0.5 * l.pC * l.bx) * base.width);
+            grad_dx[2 * s + 1] += static_cast<T>(k * (l.pA * l.ay + 0.5 * l.pC * l.by) * base.height);
+          }
+          if (grad_dy && (l.pB != 0.0 || l.pC != 0.0)) {
+            grad_dy[2 * s] += static_cast<T>(k * (l.pB * l.bx + 0.5 * l.pC * l.ax) * base.width);
+            grad_dy[2 * s + 1] += static_cast<T>(k * (l.pB * l.by + 0.5 * l.pC * l.ay) * base.height);
           }
         }
         if (grad_uv) {

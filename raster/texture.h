@@ -28,7 +28,18 @@
 
 namespace gr::raster {
 
-enum class Filter { Nearest, Bilinear, Trilinear };
+// Trilinear blends the two mip levels around the LOD; LinearMipmapNearest
+// (nvdiffrast's 'linear-mipmap-nearest') filters bilinearly on level
+// floor(LOD) alone (no gradient to the LOD: it is piecewise constant in it).
+enum class Filter { Nearest, Bilinear, Trilinear, LinearMipmapNearest };
+// Filters that read the mip levels (and need uv_dx, uv_dy).
+constexpr bool mipmapped(Filter f) { return f == Filter::Trilinear || f == Filter::LinearMipmapNearest; }
+// How the footprint sets the LOD, with a = (du/dx W, dv/dx H), b = (du/dy W,
+// dv/dy H) in level-0 texels: Isotropic (OpenGL): rho^2 = max(|a|^2, |b|^2);
+// MajorAxis (nvdiffrast): rho^2 = the squared major axis of the footprint
+// ellipse, (A + B)/2 + sqrt((A - B)^2/4 + C^2) with A = |a|^2, B = |b|^2,
+// C = a.b. lod = 0.5 log2(rho^2) + bias.
+enum class LodRule { Isotropic, MajorAxis };
 enum class Wrap { Repeat, Clamp, Mirror, Zero };
 
 // Inputs of one texture call, shared by the forward and the adjoint.
@@ -51,13 +62,14 @@ struct TextureParams {
   // nvdiffrast's row convention: texel rows run with v (y = v H_l - 0.5, row 0
   // at v = 0, dy/dv = +H_l) instead of against it.
   bool v_down = false;
+  LodRule lod_rule = LodRule::Isotropic;
 };
 
 // Level of detail of one sample for a texture of base size width x height with
 // `levels` mip levels: log2 of the larger screen-space footprint in texels,
 // plus `bias`, clamped to [0, levels - 1] (NaN and -Inf give 0).
 double texture_lod(double du_dx, double dv_dx, double du_dy, double dv_dy, int width, int height,
-                   int levels, double bias = 0.0);
+                   int levels, double bias = 0.0, LodRule rule = LodRule::Isotropic);
 
 // Where texture_backward writes (each may be null; all ACCUMULATED, +=).
 template <class T>
@@ -86,10 +98,13 @@ void texture_forward(const TextureParams<T>& p, T* out);
 // Trilinear, through the level of detail (docs/texture.md): out = (1 - f) B_l0
 // + f B_l0+1 with f = lod - l0, so dL/dlod = g . (B_l0+1 - B_l0) wherever lod
 // is not clamped (0 < lod < levels - 1; the right derivative at integer lod),
-// then dL/dbias = dL/dlod and, with lod = 0.5 log2(rho2) + bias, rho2 =
-// max(|a|^2, |b|^2), a = (du/dx W, dv/dx H), b = (du/dy W, dv/dy H):
-//   dL/d(du/dx) = dL/dlod a_x W / (rho2 ln 2) (likewise dv/dx with a_y H) when
-//   |a| >= |b|, else the same for b and uv_dy.
+// then dL/dbias = dL/dlod and, with lod = 0.5 log2(rho2) + bias and
+// k = dL/dlod / (rho2 ln 2) (= 2 dL/drho2), through rho2(A, B, C):
+//   dL/d(du/dx) = k (p_A a_x + p_C b_x / 2) W,  dL/d(dv/dx) = k (p_A a_y + p_C b_y / 2) H,
+//   dL/d(du/dy) = k (p_B b_x + p_C a_x / 2) W,  dL/d(dv/dy) = k (p_B b_y + p_C a_y / 2) H,
+// with the partials p of rho2: Isotropic p_A = 1, p_B = p_C = 0 when |a| >= |b|
+// (else p_B = 1); MajorAxis p_A = 1/2 + (A - B) / (4 r), p_B = 1/2 - (A - B) / (4 r),
+// p_C = C / r, r = sqrt((A - B)^2/4 + C^2) (r = 0: p_A = p_B = 1/2, p_C = 0).
 // Texel sums are accumulated in double and added in sample order, so the
 // result is bit-identical for any thread count. Samples with an all-zero
 // incoming gradient are skipped.

@@ -30,7 +30,8 @@ raster::TextureParams<T> image_params(const TextureArgs& a, const raster::MipLay
   p.num_samples = a.samples;
   p.filter = static_cast<raster::Filter>(a.filter);
   p.wrap = static_cast<raster::Wrap>(a.wrap);
-  p.v_down = true;
+  p.v_down = true;                            // nvdiffrast's texel rows
+  p.lod_rule = raster::LodRule::MajorAxis;  // and its level of detail
   return p;
 }
 

@@ -1,6 +1,7 @@
 // texture in nvdiffrast's layout: [images, H, W, C] textures (or one texture
 // broadcast over the minibatch) sampled at [images, h, w, 2] uv, with
-// nvdiffrast's row convention (texel row = v H) and its mip chain.
+// nvdiffrast's row convention (texel row = v H), its mip chain and its
+// level-of-detail rule (the footprint ellipse's major axis).
 #pragma once
 
 #include <utility>
@@ -23,7 +24,7 @@ struct TextureArgs {
   bool user = false;
   Address uv = 0, uv_dx = 0, uv_dy = 0, bias = 0;  // [images, samples, 2 | 2 | 2 | 1]
   std::int64_t images = 0, samples = 0;
-  int filter = 1;  // raster::Filter: 0 nearest, 1 bilinear, 2 trilinear
+  int filter = 1;  // raster::Filter: 0 nearest, 1 bilinear, 2 trilinear, 3 linear-mipmap-nearest
   int wrap = 0;    // raster::Wrap: 0 repeat, 1 clamp, 2 mirror, 3 zero
 };
 

@@ -307,7 +307,7 @@ TEST_CASE("texture: a clamped level of detail passes no gradient to the derivati
       texture(tex.detach(), uv, opt, lod_quarter, lod_quarter, Tensor::full({5}, 1.0, DType::Float64)).to_vector();
   const std::vector<double> direct = texture(tex.detach(), uv, opt, lod_five_quarters, lod_five_quarters).to_vector();
   for (std::size_t i = 0; i < biased.size(); ++i) CHECK(biased[i] == Approx(direct[i]).epsilon(1e-12));
-  CHECK_THROWS_WITH(texture(tex, uv, TextureOptions{}, {}, {}, bias), Catch::Contains("needs trilinear"));
+  CHECK_THROWS_WITH(texture(tex, uv, TextureOptions{}, {}, {}, bias), Catch::Contains("needs a mipmapped filter"));
   CHECK_THROWS_WITH(texture(tex, uv, opt, dx, dy, Tensor::zeros({4}, DType::Float64)), Catch::Contains("mip_level_bias"));
   CHECK_THROWS_WITH(texture(tex, uv, opt, dx, dy, Tensor::full({5}, std::nan(""), DType::Float64)),
                     Catch::Contains("mip_level_bias"));
@@ -610,9 +610,57 @@ TEST_CASE("texture: a mip stack of the wrong sizes or count is refused by name",
   std::vector<Tensor> too_many = mip;
   too_many.push_back(Tensor::zeros({1, 1, 2}, DType::Float64));
   CHECK_THROWS_WITH(texture(tex, uv, opt, d, d, {}, too_many), Catch::Contains("halves to 1 x 1 in 4"));
-  CHECK_THROWS_WITH(texture(tex, uv, TextureOptions{}, {}, {}, {}, mip), Catch::Contains("needs trilinear"));
+  CHECK_THROWS_WITH(texture(tex, uv, TextureOptions{}, {}, {}, {}, mip), Catch::Contains("needs a mipmapped filter"));
   std::vector<Tensor> two(mip.begin(), mip.begin() + 2);
   CHECK(texture(tex, uv, opt, d, d, {}, two).shape() == Shape({3, 2}));  // a shorter chain: max_mip_level 2
   opt.max_mip_level = 3;
   CHECK_THROWS_WITH(texture(tex, uv, opt, d, d, {}, two), Catch::Contains("max_mip_level"));
+}
+
+TEST_CASE("texture: the major-axis LOD rule's gradients to uv_dx, uv_dy and the bias match finite differences",
+          "[ops][texture][gradcheck]") {
+  const int th = 16, tw = 16;
+  const raster::MipLayout layout = raster::mip_layout(th, tw);
+  // Sheared footprints of 1.5..6 texels (LODs inside levels 0..2, away from integers and from a = b).
+  Tensor dx = Tensor::from_values({2.1 / tw, 0.7 / th, 3.3 / tw, -1.2 / th, 0.4 / tw, 2.6 / th}, {3, 2}, DType::Float64);
+  Tensor dy = Tensor::from_values({0.9 / tw, 1.9 / th, -1.1 / tw, 2.2 / th, 3.0 / tw, 0.8 / th}, {3, 2}, DType::Float64);
+  dx.set_requires_grad();
+  dy.set_requires_grad();
+  Tensor bias = random_input({3}, -0.2, 0.2, 61);
+  Tensor tex = random_input({th, tw, 2}, -1, 1, 62);
+  Tensor uv = sample_uv(3, layout, 0, 2, 63).set_requires_grad();
+  TextureOptions opt;
+  opt.filter = Filter::Trilinear;
+  opt.lod_rule = LodRule::MajorAxis;
+  require_gradcheck("texture major-axis LOD",
+                    [&](const Inputs& in) { return texture(in[0], in[1], opt, in[2], in[3], in[4]); },
+                    {tex, uv, dx, dy, bias});
+}
+
+TEST_CASE("texture: linear-mipmap-nearest filters bilinearly on level floor(LOD) alone", "[ops][texture][gradcheck]") {
+  const int th = 16, tw = 16;
+  const raster::MipLayout layout = raster::mip_layout(th, tw);
+  Tensor tex = random_input({th, tw, 2}, -1, 1, 70);
+  // LOD 1.3 and 1.8: level 1, which a user stack of the box levels places as its first level.
+  Tensor dx, dy;
+  lod_derivatives({1.3, 1.8}, tw, &dx, &dy);
+  const Tensor uv = sample_uv(2, layout, 1, 1, 71);
+  TextureOptions nearest_level;
+  nearest_level.filter = Filter::LinearMipmapNearest;
+  const Tensor out = texture(tex, uv, nearest_level, dx, dy);
+  const std::vector<Tensor> levels = box_levels(tex.detach());
+  TextureOptions bilinear;
+  const Tensor expected = texture(levels[0], uv, bilinear);
+  const std::vector<double> a = out.to_vector(), b = expected.to_vector();
+  for (std::size_t i = 0; i < a.size(); ++i) CHECK(a[i] == Approx(b[i]).margin(1e-14));
+  // Gradients to the texels (through the box filter) and to uv; none to the derivatives.
+  Tensor uv_in = uv.detach().set_requires_grad();
+  require_gradcheck("texture linear-mipmap-nearest",
+                    [&](const Inputs& in) { return texture(in[0], in[1], nearest_level, dx, dy); }, {tex, uv_in});
+  Tensor dx_in = dx.detach().set_requires_grad();
+  Tensor tex_in = tex.detach().set_requires_grad();
+  backward(sum(texture(tex_in, uv, nearest_level, dx_in, dy)));
+  CHECK(tex_in.grad().defined());
+  if (dx_in.grad().defined())
+    for (double g : dx_in.grad().to_vector()) CHECK(g == 0.0);
 }

@@ -35,6 +35,27 @@ def test_linear_filtering_blends_the_four_nearest_texels_and_wrap_clamp_zero_dif
     assert zero[0, 0, 1, 0].item() == pytest.approx(0.0 / 4)                  # three taps outside read 0
 
 
+def test_the_level_of_detail_is_the_major_axis_of_the_footprint_as_in_nvdiffrast():
+    tex = torch.rand(1, 16, 16, 3, dtype=torch.float64)
+    uv = torch.rand(1, 2, 2, 2, dtype=torch.float64)
+    # du/dX = du/dY = 2 texels: the ellipse's major axis is sqrt(8) texels, level 1.5
+    # (OpenGL's isotropic rule would say 1); a bias of 1.5 alone selects the same level.
+    sheared = torch.zeros(1, 2, 2, 4, dtype=torch.float64)
+    sheared[..., 0] = sheared[..., 1] = 2 / 16
+    bias = torch.full((1, 2, 2), 1.5, dtype=torch.float64)
+    assert torch.allclose(dr.texture(tex, uv, sheared), dr.texture(tex, uv, mip_level_bias=bias), atol=1e-14)
+
+
+def test_linear_mipmap_nearest_reads_level_floor_lod_only():
+    tex = torch.rand(1, 16, 16, 3, dtype=torch.float64)
+    uv = torch.rand(1, 2, 2, 2, dtype=torch.float64)
+    level1 = tex.reshape(1, 8, 2, 8, 2, 3).mean((2, 4))  # the box-filtered level 1
+    for lod in (1.0, 1.4, 1.9):
+        bias = torch.full((1, 2, 2), lod, dtype=torch.float64)
+        out = dr.texture(tex, uv, mip_level_bias=bias, filter_mode='linear-mipmap-nearest')
+        assert torch.allclose(out, dr.texture(level1, uv, filter_mode='linear'), atol=1e-14)
+
+
 def test_mipmapped_lookups_pick_the_level_from_uv_da_and_the_bias():
     tex = torch.rand(1, 16, 16, 3, dtype=torch.float64)
     uv = torch.rand(1, 4, 4, 2, dtype=torch.float64)
@@ -66,7 +87,7 @@ def test_a_prebuilt_mip_stack_gives_the_same_lookups_and_gradients():
 
 
 @pytest.mark.parametrize('boundary', ['wrap', 'clamp', 'zero'])
-@pytest.mark.parametrize('filter_mode', ['linear', 'linear-mipmap-linear'])
+@pytest.mark.parametrize('filter_mode', ['linear', 'linear-mipmap-nearest', 'linear-mipmap-linear'])
 def test_gradients_to_texels_uv_uv_da_and_bias_match_finite_differences(boundary, filter_mode):
     g = torch.Generator().manual_seed(3)
     tex = torch.rand(2, 8, 16, 2, generator=g, dtype=torch.float64, requires_grad=True)
@@ -74,9 +95,9 @@ def test_gradients_to_texels_uv_uv_da_and_bias_match_finite_differences(boundary
     # Footprints of 1.3..3.5 texels: LODs inside levels 0..2, away from integers.
     uv_da = (torch.rand(2, 3, 3, 4, generator=g, dtype=torch.float64) * 0.1 + 0.12).requires_grad_(True)
     bias = (torch.rand(2, 3, 3, generator=g, dtype=torch.float64) * 0.3).requires_grad_(True)
-    if filter_mode == 'linear':
-        f = lambda t, u: dr.texture(t, u, filter_mode='linear', boundary_mode=boundary)
-        assert gradcheck(f, (tex, uv), eps=1e-7, atol=1e-7)
+    if filter_mode != 'linear-mipmap-linear':  # no gradient to uv_da and bias: gradcheck checks they are 0
+        f = lambda t, u, d, b: dr.texture(t, u, d, b, filter_mode=filter_mode, boundary_mode=boundary)
+        assert gradcheck(f, (tex, uv, uv_da, bias), eps=1e-7, atol=1e-7)
     else:
         f = lambda t, u, d, b: dr.texture(t, u, d, b, boundary_mode=boundary)
         assert gradcheck(f, (tex, uv, uv_da, bias), eps=1e-7, atol=1e-7)
@@ -99,8 +120,6 @@ def test_unsupported_features_raise_not_implemented_naming_them():
         dr.texture(tex, uv, boundary_mode='cube')
     with pytest.raises(NotImplementedError, match='cube'):
         dr.texture(torch.rand(1, 6, 8, 8, 3), torch.rand(1, 2, 2, 3), boundary_mode='cube')
-    with pytest.raises(NotImplementedError, match='linear-mipmap-nearest'):
-        dr.texture(tex, uv, uv_da=torch.rand(1, 2, 2, 4), filter_mode='linear-mipmap-nearest')
 
 
 def test_bad_texture_arguments_are_named():

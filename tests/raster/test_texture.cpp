@@ -256,3 +256,17 @@ TEST_CASE("texture kernels reject NaN uv and stay in bounds for huge uv", "[rast
   p.uv = bad + 0;
   CHECK_THROWS_AS(texture_forward(p, out.data()), ValueError);
 }
+
+TEST_CASE("major-axis LOD is log2 of the footprint ellipse's major axis", "[raster][texture]") {
+  const LodRule major = LodRule::MajorAxis;
+  // Footprints along the axes: the same as the isotropic rule.
+  CHECK(texture_lod(4.0 / 64, 0, 0, 1.0 / 32, 64, 32, 7, 0.0, major) == Approx(2));
+  CHECK(texture_lod(0, 0, 0, 8.0 / 32, 64, 32, 7, 0.0, major) == Approx(3));
+  // a = b = (2, 0) texels: A = B = C = 4, so the major axis^2 is 8 (isotropic: 4).
+  CHECK(texture_lod(2.0 / 64, 0, 2.0 / 64, 0, 64, 32, 7, 0.0, major) == Approx(1.5));
+  CHECK(texture_lod(2.0 / 64, 0, 2.0 / 64, 0, 64, 32, 7) == Approx(1.0));
+  // a = (3, 0), b = (0, 4)... and a sheared pair a = (2, 1), b = (1, 2): A = B = 5, C = 4, major^2 = 9.
+  CHECK(texture_lod(2.0 / 64, 1.0 / 32, 1.0 / 64, 2.0 / 32, 64, 32, 7, 0.0, major) == Approx(0.5 * std::log2(9.0)));
+  CHECK(texture_lod(0, 0, 0, 0, 64, 32, 7, 0.0, major) == 0);
+  CHECK(texture_lod(1e9, 0, 0, 0, 64, 32, 7, 0.5, major) == 6);
+}

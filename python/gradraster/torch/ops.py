@@ -371,7 +371,7 @@ def antialias(color, rast, pos, tri, topology_hash=None, pos_gradient_boost=1.0)
 # ----------------------------------------------------------------------------
 # Texture.
 
-_FILTERS = {'nearest': 0, 'linear': 1, 'linear-mipmap-linear': 2}
+_FILTERS = {'nearest': 0, 'linear': 1, 'linear-mipmap-linear': 2, 'linear-mipmap-nearest': 3}
 _BOUNDARIES = {'wrap': 0, 'clamp': 1, 'zero': 3}
 _MAX_TEXTURE_SIDE = 32768
 
@@ -487,15 +487,13 @@ def texture(tex, uv, uv_da=None, mip_level_bias=None, mip=None, filter_mode='aut
     dv/dX, dv/dY); mip_level_bias: [minibatch, height, width]; mip: a
     texture_construct_mip result or a list of tensors for levels 1.. (each
     [minibatch (or 1), h_l, w_l, channels]; they get their own gradients).
-    filter_mode: 'auto', 'nearest', 'linear', 'linear-mipmap-linear'
-    ('linear-mipmap-nearest' is not implemented yet); boundary_mode: 'wrap',
+    filter_mode: 'auto', 'nearest', 'linear', 'linear-mipmap-nearest',
+    'linear-mipmap-linear'; boundary_mode: 'wrap',
     'clamp', 'zero' ('cube' is not implemented yet). Returns [minibatch,
     height, width, channels].
     """
     if filter_mode == 'auto':
         filter_mode = 'linear-mipmap-linear' if (uv_da is not None or mip_level_bias is not None) else 'linear'
-    if filter_mode == 'linear-mipmap-nearest':
-        raise NotImplementedError("texture: filter_mode 'linear-mipmap-nearest' is not implemented yet in gradraster")
     if filter_mode not in _FILTERS:
         raise ValueError(f"'filter_mode' must be one of 'auto', 'nearest', 'linear', 'linear-mipmap-nearest', "
                          f"'linear-mipmap-linear', got {filter_mode!r}")
@@ -510,7 +508,7 @@ def texture(tex, uv, uv_da=None, mip_level_bias=None, mip=None, filter_mode='aut
         raise ValueError(f"'uv' must have shape [minibatch_size, height, width, 2], got {list(uv.shape)}")
     if tex.shape[0] not in (1, uv.shape[0]):
         raise ValueError(f"'tex' has minibatch size {tex.shape[0]} but 'uv' has {uv.shape[0]} (broadcast needs 1)")
-    mipmapped = filter_mode == 'linear-mipmap-linear'
+    mipmapped = filter_mode in ('linear-mipmap-linear', 'linear-mipmap-nearest')
     if mipmapped and max_level == 0:
         filter_mode, mipmapped = 'linear', False
     if mipmapped and uv_da is None and mip_level_bias is None:
