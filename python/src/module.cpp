@@ -12,8 +12,28 @@
 #include "python/src/rasterize.h"
 #include "python/src/texture.h"
 
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
+
 namespace py = pybind11;
 using namespace gr::python;
+
+namespace {
+
+// Asks glibc to keep freed blocks up to 32 MiB in the heap and not to return
+// the heap's top below 256 MiB to the system, so the image-sized tensors an
+// optimization loop allocates every iteration reuse their pages instead of
+// faulting fresh ones (docs/python.md, "Memory"). Returns whether it applied.
+bool keep_freed_memory() {
+#if defined(__GLIBC__)
+  return mallopt(M_MMAP_THRESHOLD, 32 << 20) == 1 && mallopt(M_TRIM_THRESHOLD, 256 << 20) == 1;
+#else
+  return false;
+#endif
+}
+
+}  // namespace
 
 PYBIND11_MODULE(_core, m) {
   m.doc() = "gradraster's C++ kernels for gradraster.torch (internal; use gradraster.torch)";
@@ -37,6 +57,8 @@ PYBIND11_MODULE(_core, m) {
       PyErr_SetString(PyExc_RuntimeError, x.what());
     }
   });
+
+  m.def("keep_freed_memory", &keep_freed_memory);
 
   py::class_<Mesh>(m, "Mesh")
       .def(py::init([](bool f64, Address pos, std::int64_t images, std::int64_t vertices, bool instanced, Address tri,

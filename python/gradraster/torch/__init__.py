@@ -1,8 +1,16 @@
 """nvdiffrast.torch's interface on the CPU: `import gradraster.torch as dr`,
 then `glctx = dr.RasterizeCpuContext()` where nvdiffrast code creates a
 RasterizeCudaContext, and CPU tensors."""
+import os as _os
+
+from .. import _core as _gradraster_core
 from .ops import (RasterizeCpuContext, rasterize, DepthPeeler, interpolate, texture, texture_construct_mip,
                   antialias, antialias_construct_topology_hash)
 
 __all__ = ['RasterizeCpuContext', 'rasterize', 'DepthPeeler', 'interpolate', 'texture', 'texture_construct_mip',
            'antialias', 'antialias_construct_topology_hash']
+
+# Fresh pages are expensive, and every iteration of a fitting loop allocates
+# image-sized tensors: keep freed memory for reuse (docs/python.md, "Memory").
+if _os.environ.get('GRADRASTER_MALLOC_DEFAULTS') != '1':
+    _gradraster_core.keep_freed_memory()
