@@ -1,7 +1,7 @@
 // nvdiffrast-layout G-buffer from a coverage image, and its adjoint
 // (formulas in barycentric_gbuffer.h). Per pixel everything is evaluated in
 // double from the three homogeneous screen vertices; the adjoint computes
-// per-pixel contributions in parallel and adds them in pixel order per vertex.
+// per-pixel contributions in parallel and adds them in pixel order.
 #include "raster/barycentric_gbuffer.h"
 
 #include <algorithm>
@@ -10,7 +10,6 @@
 
 #include "autodiff/parallel.h"
 #include "raster/guarded_math.h"
-#include "raster/ordered_scatter.h"
 #include "raster/rasterize_setup.h"
 
 namespace gr::raster {
@@ -167,7 +166,6 @@ void barycentric_gbuffer_backward(const BarycentricGBufferParams<T>& p, const T*
   const std::int64_t chunk_len = std::min(kChunk, pixels);
   std::vector<double> contrib(12 * static_cast<std::size_t>(chunk_len));
   std::vector<std::uint8_t> live(static_cast<std::size_t>(chunk_len));
-  OrderedScatter scatter;
   for (std::int64_t c0 = 0; c0 < pixels; c0 += kChunk) {
     const std::int64_t c1 = std::min(pixels, c0 + kChunk);
     parallel_for(c0, c1, 1024, [&](std::int64_t lo, std::int64_t hi) {
@@ -185,16 +183,14 @@ void barycentric_gbuffer_backward(const BarycentricGBufferParams<T>& p, const T*
         live[i] = 1;
       }
     });
-    // In pixel order per vertex: the same sums for any thread count.
-    scatter.run(
-        c1 - c0, p.num_vertices,
-        [&](std::int64_t i, int k) -> std::int64_t {
-          if (!live[i]) return -1;
-          return p.tris[3 * (static_cast<std::int64_t>(rast[4 * (c0 + i) + 3]) - 1) + k];
-        },
-        [&](std::int64_t i, int k, std::int64_t v) {
-          for (int j = 0; j < 4; ++j) acc[4 * static_cast<std::size_t>(v) + j] += contrib[12 * i + 4 * k + j];
-        });
+    // In pixel order: the same sums for any thread count.
+    for (std::int64_t q = c0; q < c1; ++q) {
+      if (!live[q - c0]) continue;
+      const std::int32_t* tri = p.tris + 3 * (static_cast<std::int64_t>(rast[4 * q + 3]) - 1);
+      const double* g = &contrib[12 * (q - c0)];
+      for (int k = 0; k < 3; ++k)
+        for (int j = 0; j < 4; ++j) acc[4 * static_cast<std::size_t>(tri[k]) + j] += g[4 * k + j];
+    }
   }
   parallel_for(0, 4 * p.num_vertices, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
     for (std::int64_t i = lo; i < hi; ++i) grad_clip[i] += finite_cast<T>(acc[i]);

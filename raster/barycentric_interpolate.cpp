@@ -1,12 +1,12 @@
 // Linear blend of vertex attributes with stored barycentrics, and its adjoint
-// (formulas in barycentric_interpolate.h). Per-vertex sums go through
-// raster/ordered_scatter.h, so they do not depend on the thread count.
+// (formulas in barycentric_interpolate.h). The per-vertex scatter gives each
+// thread a range of vertices that walks all pixels in order, as
+// raster/interpolate.cpp does, so the sums do not depend on the thread count.
 #include "raster/barycentric_interpolate.h"
 
 #include <algorithm>
 
 #include "autodiff/parallel.h"
-#include "raster/ordered_scatter.h"
 
 namespace gr::raster {
 namespace {
@@ -103,23 +103,29 @@ void barycentric_interpolate_backward(const BarycentricInterpolateParams<T>& p, 
       }
     });
   if (!grads.attr) return;
-  // Per vertex, in pixel order (raster/ordered_scatter.h).
-  OrderedScatter scatter;
-  scatter.run(
-      p.pixels, p.num_vertices,
-      [&](std::int64_t q, int k) -> std::int64_t {
-        const std::int64_t t = pixel_triangle(p, q);
-        return t < 0 ? -1 : p.tris[3 * t + k];
-      },
-      [&](std::int64_t q, int k, std::int64_t v) {
-        const Weights w = pixel_weights(p, q);
-        const T* g = grad_out + q * C;
-        T* ga = grads.attr + v * C;
+  // Per vertex, in pixel order: each thread owns a range of vertices.
+  const std::int64_t N = p.num_vertices;
+  const std::int64_t groups = std::max<std::int64_t>(1, std::min<std::int64_t>(num_threads(), N));
+  const std::int64_t per_group = (N + groups - 1) / groups;
+  parallel_for(0, groups, 1, [&](std::int64_t g0, std::int64_t g1) {
+    const std::int64_t v0 = g0 * per_group, v1 = std::min(N, g1 * per_group);
+    for (std::int64_t q = 0; q < p.pixels; ++q) {
+      const std::int64_t t = pixel_triangle(p, q);
+      if (t < 0) continue;
+      const std::int32_t* tri = p.tris + 3 * t;
+      if ((tri[0] < v0 || tri[0] >= v1) && (tri[1] < v0 || tri[1] >= v1) && (tri[2] < v0 || tri[2] >= v1)) continue;
+      const Weights w = pixel_weights(p, q);
+      const T* g = grad_out + q * C;
+      const T* h = K > 0 ? grad_da + q * 2 * K : nullptr;
+      for (int k = 0; k < 3; ++k) {
+        if (tri[k] < v0 || tri[k] >= v1) continue;
+        T* ga = grads.attr + tri[k] * C;
         for (std::int64_t c = 0; c < C; ++c) ga[c] += static_cast<T>(w.w[k] * g[c]);
-        if (K == 0) return;
-        const T* h = grad_da + q * 2 * K;
-        for (std::int64_t j = 0; j < K; ++j) ga[p.diff[j]] += static_cast<T>(w.dx[k] * h[2 * j] + w.dy[k] * h[2 * j + 1]);
-      });
+        for (std::int64_t j = 0; j < K; ++j)
+          ga[p.diff[j]] += static_cast<T>(w.dx[k] * h[2 * j] + w.dy[k] * h[2 * j + 1]);
+      }
+    }
+  });
 }
 
 #define GR_INSTANTIATE(T)                                                                                  \

@@ -13,7 +13,6 @@
 
 #include "autodiff/parallel.h"
 #include "raster/guarded_math.h"
-#include "raster/ordered_scatter.h"
 #include "raster/rasterize_setup.h"
 
 namespace gr::raster {
@@ -197,8 +196,10 @@ void interpolate_backward(const InterpolateParams<T>& prm, const T* grad_out, co
   if (!grad_attr && !grad_clip && !grad_uv) return;
   // Only the perspective mode has a gradient to clip.
   if (!perspective) grad_clip = nullptr;
-  const bool to_vertices = grad_attr || grad_clip;
-  OrderedScatter scatter;
+  const bool scatter = grad_attr || grad_clip;
+  // One vertex range per thread for the scatter (any count gives the same bits).
+  const std::int64_t vertex_groups = std::max<std::int64_t>(1, std::min<std::int64_t>(num_threads(), N));
+  const std::int64_t per_group = (N + vertex_groups - 1) / vertex_groups;
   const Items items = make_items(prm);
 
   // Items in chunks: per-item terms in parallel, per-vertex sums in item order.
@@ -268,25 +269,27 @@ void interpolate_backward(const InterpolateParams<T>& prm, const T* grad_out, co
         }
       }
     });
-    if (!to_vertices) continue;
+    if (!scatter) continue;
     // Scatter in item order: dL/dA_k += weight_k g, dL/dw_k += grad_w_k (or
-    // dL/d(x, y, w)_k += grad_xyw_k); raster/ordered_scatter.h keeps every
-    // vertex's sum in item order for any thread count.
-    scatter.run(
-        c1 - c0, N,
-        [&](std::int64_t i, int k) -> std::int64_t {
-          if (live[i] == kSkip) return -1;
-          return tris[3 * static_cast<std::int64_t>(tri_id[c0 + i] - 1) + k];
-        },
-        [&](std::int64_t i, int k, std::int64_t v) {
-          const T* g = grad_out + (c0 + i) * C;
+    // dL/d(x, y, w)_k += grad_xyw_k). Each thread owns a range of vertices and
+    // walks all items in order, so every vertex sums its contributions in item
+    // order: the result does not depend on how many ranges there are.
+    parallel_for(0, vertex_groups, 1, [&](std::int64_t g0, std::int64_t g1) {
+      const std::int64_t v0 = g0 * per_group, v1 = std::min(N, g1 * per_group);
+      for (std::int64_t p = c0; p < c1; ++p) {
+        const std::int64_t i = p - c0;
+        if (live[i] == kSkip) continue;
+        const std::int32_t* tri = tris + 3 * static_cast<std::int64_t>(tri_id[p] - 1);
+        const T* g = grad_out + p * C;
+        for (int k = 0; k < 3; ++k) {
+          if (tri[k] < v0 || tri[k] >= v1) continue;
           if (grad_attr) {
-            T* ga = grad_attr + v * C;
+            T* ga = grad_attr + tri[k] * C;
             const double wk = weight[3 * i + k];
             for (std::int64_t c = 0; c < C; ++c) ga[c] += static_cast<T>(wk * g[c]);
           }
-          if (!grad_clip) return;
-          T* gc = grad_clip + 4 * v;
+          if (!grad_clip) continue;
+          T* gc = grad_clip + 4 * static_cast<std::int64_t>(tri[k]);
           if (live[i] == kToXYW) {
             const double* gk = &grad_xyw[9 * i + 3 * k];
             gc[0] += static_cast<T>(gk[0]);
@@ -295,7 +298,9 @@ void interpolate_backward(const InterpolateParams<T>& prm, const T* grad_out, co
           } else {
             gc[3] += static_cast<T>(grad_w[3 * i + k]);
           }
-        });
+        }
+      }
+    });
   }
 }
 

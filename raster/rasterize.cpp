@@ -22,7 +22,6 @@
 #include "autodiff/parallel.h"
 #include "raster/guarded_math.h"
 #include "raster/project.h"
-#include "raster/ordered_scatter.h"
 #include "raster/rasterize_setup.h"
 #include "raster/rasterize_scan.h"
 
@@ -408,7 +407,6 @@ struct BackwardScratch {
   detail::Vertices v;
   std::vector<double> acc_screen, acc_clip, contrib;
   std::vector<std::int8_t> kind;
-  OrderedScatter scatter;
 };
 detail::ScratchPool<BackwardScratch> g_backward_pool;
 
@@ -478,29 +476,26 @@ void rasterize_backward(const RasterParams<T>& p, const std::int32_t* tri_id, co
         }
       }
     });
-    // Scatter in pixel order (deterministic for any thread count / triangle
-    // order; raster/ordered_scatter.h keeps each vertex's sum in pixel order).
+    // Scatter in pixel order (deterministic for any thread count / triangle order).
     for (std::int64_t p = c0; p < c1; ++p) {
-      any_screen |= kind[p - c0] == 1;
-      if (kind[p - c0] == 2 && !any_clip) {
-        acc_clip.resize(4 * static_cast<std::size_t>(num_vertices));
-        parallel_fill(acc_clip.data(), 4 * num_vertices);
-        any_clip = true;
+      const std::int8_t k = kind[p - c0];
+      if (k == 0) continue;
+      const std::int32_t* tri = tris + 3 * static_cast<std::int64_t>(tri_id[p] - 1);
+      const double* g = &contrib[12 * (p - c0)];
+      if (k == 1) {
+        any_screen = true;
+        for (int j = 0; j < 3; ++j)
+          for (int d = 0; d < 3; ++d) acc_screen[3 * static_cast<std::size_t>(tri[j]) + d] += g[3 * j + d];
+      } else {
+        if (!any_clip) {
+          acc_clip.resize(4 * static_cast<std::size_t>(num_vertices));
+          parallel_fill(acc_clip.data(), 4 * num_vertices);
+          any_clip = true;
+        }
+        for (int j = 0; j < 3; ++j)
+          for (int d = 0; d < 4; ++d) acc_clip[4 * static_cast<std::size_t>(tri[j]) + d] += g[4 * j + d];
       }
     }
-    sc.scatter.run(
-        c1 - c0, num_vertices,
-        [&](std::int64_t i, int k) -> std::int64_t {
-          if (kind[i] == 0) return -1;
-          return tris[3 * static_cast<std::int64_t>(tri_id[c0 + i] - 1) + k];
-        },
-        [&](std::int64_t i, int k, std::int64_t v) {
-          const double* g = &contrib[12 * i];
-          if (kind[i] == 1)
-            for (int d = 0; d < 3; ++d) acc_screen[3 * v + d] += g[3 * k + d];
-          else
-            for (int d = 0; d < 4; ++d) acc_clip[4 * v + d] += g[4 * k + d];
-        });
   }
 
   // Screen -> NDC -> clip per vertex with the projection adjoints.
