@@ -6,6 +6,7 @@
 //   Args {size, backward (0/1)}; the default thread count (all cores).
 #include <benchmark/benchmark.h>
 
+#include <cmath>
 #include <functional>
 
 #include "ops/ops.h"
@@ -99,6 +100,41 @@ void BM_DownsampleBox2(benchmark::State& state) {
   time_op(state, [&] { return downsample_box(s.image, 2); });
 }
 
+// 16 images of 128 x 128 (16 views of the icosphere, turned about y) through
+// rasterize + interpolate + antialias, forward + backward: one batched call
+// (Args batched = 1) against 16 single-image calls.
+void BM_Batch16x128(benchmark::State& state) {
+  const bool batched = state.range(0) != 0;
+  const raster::Mesh mesh = raster::make_icosphere(4, 1.0f);
+  const Tensor proj = perspective(0.8, 1.0, 0.1, 10.0);
+  std::vector<Tensor> views;
+  for (int b = 0; b < 16; ++b) {
+    const double a = 0.39 * b;
+    const Tensor eye = Tensor::from_values({3 * std::sin(a), 0.5, 3 * std::cos(a)}, {3});
+    views.push_back(transform_points(mesh.positions, matmul(proj, look_at(eye, Tensor::from_values({0, 0, 0}, {3}),
+                                                                          Tensor::from_values({0, 1, 0}, {3})))));
+  }
+  const Tensor clip = stack(views, 0).set_requires_grad();
+  const Tensor colours = Tensor::uniform({mesh.num_vertices(), 3}, 0, 1, 1).set_requires_grad();
+  AntialiasOptions aa;
+  aa.topology = antialias_topology(mesh.triangles, mesh.positions);
+  const RasterizeOptions size{128, 128};
+  for (auto _ : state) {
+    if (batched) {
+      const GBuffer g = rasterize_batch(clip, mesh.triangles, size);
+      backward(sum(antialias_batch(interpolate_batch(colours, clip, g, mesh.triangles), g, clip, mesh.triangles, aa)));
+    } else {
+      Tensor loss = Tensor::scalar(0.0);
+      for (int b = 0; b < 16; ++b) {
+        const Tensor c = reshape(slice(clip, 0, b, b + 1), {mesh.num_vertices(), 4});
+        const GBuffer g = rasterize(c, mesh.triangles, size);
+        loss = add(loss, sum(antialias(interpolate(colours, c, g, mesh.triangles), g, c, mesh.triangles, aa)));
+      }
+      backward(loss);
+    }
+  }
+}
+
 void Sizes(benchmark::internal::Benchmark* b) {
   for (std::int64_t size : {256, 512, 1024})
     for (std::int64_t with_backward : {0, 1}) b->Args({size, with_backward});
@@ -111,6 +147,7 @@ BENCHMARK(BM_Antialias)->Apply(Sizes);
 BENCHMARK(BM_TextureBilinear)->Apply(Sizes);
 BENCHMARK(BM_TextureTrilinear)->Apply(Sizes);
 BENCHMARK(BM_DownsampleBox2)->Apply(Sizes);
+BENCHMARK(BM_Batch16x128)->ArgName("batched")->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace
 

@@ -8,6 +8,7 @@
 #include "autodiff/tensor.h"
 #include "ops/antialias.h"
 #include "ops/barycentrics.h"
+#include "ops/batch.h"
 #include "ops/channel.h"
 #include "ops/elementwise.h"
 #include "ops/factories.h"

@@ -1,0 +1,336 @@
+// Batched rasterize, interpolate and antialias: the single-image kernels on
+// slices of [B, ...] tensors, images in parallel, one tape node per call.
+#include "ops/batch.h"
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "autodiff/parallel.h"
+#include "autodiff/tape.h"
+#include "ops/check.h"
+#include "raster/antialias.h"
+#include "raster/interpolate.h"
+
+namespace gr {
+namespace {
+
+// Runs body(b) for every image; images in parallel, kernels parallel inside.
+template <class F>
+void for_each_image(std::int64_t images, F body) {
+  parallel_for(0, images, 1, [&](std::int64_t lo, std::int64_t hi) {
+    for (std::int64_t b = lo; b < hi; ++b) body(b);
+  });
+}
+
+// An input with or without an image axis: image b's rows, and whether the
+// images share it.
+struct PerImage {
+  const Tensor* t;
+  bool shared;
+  std::int64_t rows, cols;
+  template <class T>
+  const T* at(std::int64_t b) const {
+    return t->data<T>() + (shared ? 0 : b * rows * cols);
+  }
+};
+
+PerImage per_image(const Tensor& t, std::int64_t images, std::int64_t rows, const std::string& op, const char* name,
+                   const char* shape) {
+  detail::check_float(t, op, name);
+  const bool shared = t.rank() == 2;
+  if (!(shared || t.rank() == 3) || (!shared && t.size(0) != images) || t.size(t.rank() - 2) != rows)
+    throw ShapeError(op + ": argument '" + name + "' must be " + shape + " with B = " + std::to_string(images) +
+                     " images and N = " + std::to_string(rows) + ", got " + t.describe());
+  return {&t, shared, rows, t.size(t.rank() - 1)};
+}
+
+// Gradient buffers of a PerImage input: slices of one tensor, or one buffer
+// per image summed in image order at the end (a shared input).
+struct GradOf {
+  Tensor total;
+  std::vector<Tensor> parts;
+  GradOf(const PerImage& in, std::int64_t images) : total(Tensor::zeros(in.t->shape(), in.t->dtype())) {
+    if (in.shared)
+      for (std::int64_t b = 0; b < images; ++b) parts.push_back(Tensor::zeros(in.t->shape(), in.t->dtype()));
+  }
+  template <class T>
+  T* at(const PerImage& in, std::int64_t b) {
+    return in.shared ? parts[b].data<T>() : total.data<T>() + b * in.rows * in.cols;
+  }
+  template <class T>
+  Tensor finish() {
+    T* out = total.data<T>();
+    for (const Tensor& part : parts) {
+      const T* p = part.data<T>();
+      for (std::int64_t i = 0; i < total.numel(); ++i) out[i] += p[i];
+    }
+    return total;
+  }
+};
+
+void check_batched_gbuffer(const GBuffer& g, std::int64_t images, const Tensor& clip, std::int64_t triangles,
+                           const std::string& op) {
+  if (!g.tri_id.defined() || g.tri_id.dtype() != DType::Int32 || g.tri_id.rank() != 3 || g.tri_id.size(0) != images)
+    throw ShapeError(op + ": argument 'gbuffer' has no [B, H, W] int32 tri_id with B = " + std::to_string(images) +
+                     " (pass the result of rasterize_batch or rasterize_ranges)");
+  const std::int64_t h = g.tri_id.size(1), w = g.tri_id.size(2);
+  detail::check_image_size(w, h, op);
+  if (g.uv.shape() != Shape{images, h, w, 2} || g.uv.dtype() != clip.dtype() ||
+      g.depth.shape() != Shape{images, h, w} || g.depth.dtype() != clip.dtype())
+    throw ShapeError(op + ": gbuffer.uv " + g.uv.describe() + " or depth " + g.depth.describe() +
+                     " does not match tri_id " + g.tri_id.describe() + " and the dtype of 'clip'");
+  detail::check_tri_ids(g.tri_id, triangles, op);
+}
+
+struct Range {
+  std::int64_t first, count;
+};
+
+GBuffer rasterize_images(const Tensor& clip, const PerImage& positions, const Tensor& triangles,
+                         const std::vector<Range>& ranges, const RasterizeOptions& o, const char* op) {
+  const std::int64_t B = static_cast<std::int64_t>(ranges.size()), h = o.height, w = o.width, P = h * w;
+  const raster::RasterSettings settings{o.width, o.height, o.cull, o.front_to_back};
+  GBuffer gb;
+  gb.tri_id = Tensor::empty({B, h, w}, DType::Int32);
+  gb.uv = Tensor::empty({B, h, w, 2}, clip.dtype());
+  gb.depth = Tensor::empty({B, h, w}, clip.dtype());
+  std::vector<raster::RasterStats> stats(static_cast<std::size_t>(B));
+  const std::int32_t* tris = triangles.data<std::int32_t>();
+  dispatch_float(clip.dtype(), op, [&](auto tag) {
+    using T = decltype(tag);
+    for_each_image(B, [&](std::int64_t b) {
+      const raster::RasterParams<T> p{positions.at<T>(b), positions.rows, tris + 3 * ranges[b].first, ranges[b].count,
+                                      settings};
+      std::int32_t* id = gb.tri_id.data<std::int32_t>() + b * P;
+      raster::rasterize_forward(p, id, gb.uv.data<T>() + 2 * b * P, gb.depth.data<T>() + b * P, &stats[b]);
+      // Ids index the whole triangle list.
+      if (ranges[b].first != 0)
+        for (std::int64_t q = 0; q < P; ++q) id[q] += id[q] ? static_cast<std::int32_t>(ranges[b].first) : 0;
+    });
+  });
+  for (const raster::RasterStats& s : stats) {
+    gb.stats.triangles_in += s.triangles_in;
+    gb.stats.culled_outside += s.culled_outside;
+    gb.stats.culled_zero_area += s.culled_zero_area;
+    gb.stats.culled_face += s.culled_face;
+    gb.stats.culled_no_pixel += s.culled_no_pixel;
+    gb.stats.rasterized += s.rasterized;
+    gb.stats.clipped_near += s.clipped_near;
+  }
+  if (should_record({clip})) {
+    record(op, {clip}, {&gb.uv, &gb.depth}, [clip, positions, triangles, settings, B, P, tri_id = gb.tri_id](
+                                                AdjointContext& ctx) {
+      const Tensor& g_uv = ctx.grad_output(0);
+      const Tensor& g_depth = ctx.grad_output(1);
+      Tensor uv_grad = g_uv.defined() ? g_uv : Tensor::zeros({B, settings.height, settings.width, 2}, clip.dtype());
+      PerImage in = positions;
+      in.t = &clip;
+      GradOf g(in, B);
+      dispatch_float(clip.dtype(), "rasterize", [&](auto tag) {
+        using T = decltype(tag);
+        // The backward reads the triangles through the (global) ids.
+        for_each_image(B, [&](std::int64_t b) {
+          const raster::RasterParams<T> p{in.at<T>(b), in.rows, triangles.data<std::int32_t>(), triangles.size(0),
+                                          settings};
+          raster::rasterize_backward(p, tri_id.data<std::int32_t>() + b * P, uv_grad.data<T>() + 2 * b * P,
+                                     g_depth.defined() ? g_depth.data<T>() + b * P : nullptr, g.at<T>(in, b));
+        });
+        ctx.accumulate(0, g.finish<T>());
+      });
+    });
+  }
+  return gb;
+}
+
+}  // namespace
+
+GBuffer rasterize_batch(const Tensor& clip, const Tensor& triangles, const RasterizeOptions& options) {
+  const std::string op = "rasterize_batch";
+  detail::check_image_size(options.width, options.height, op);
+  detail::check_float(clip, op, "clip");
+  if (clip.rank() != 3 || clip.size(0) < 1 || clip.size(2) != 4)
+    throw ShapeError(op + ": argument 'clip' must have shape [B, N, 4] with B >= 1, got " + clip.describe());
+  const std::int64_t B = clip.size(0);
+  detail::check_triangles(triangles, clip.size(1), op);
+  detail::check_finite(clip, op, "clip");
+  const PerImage positions = per_image(clip, B, clip.size(1), op, "clip", "[B, N, 4]");
+  return rasterize_images(clip, positions, triangles, std::vector<Range>(B, Range{0, triangles.size(0)}), options,
+                          "rasterize_batch");
+}
+
+GBuffer rasterize_ranges(const Tensor& clip, const Tensor& triangles, const Tensor& ranges,
+                         const RasterizeOptions& options) {
+  const std::string op = "rasterize_ranges";
+  detail::check_rasterize_inputs(clip, triangles, options, op.c_str());
+  detail::check_dtype(ranges, DType::Int32, op, "ranges");
+  if (ranges.rank() != 2 || ranges.size(0) < 1 || ranges.size(1) != 2)
+    throw ShapeError(op + ": argument 'ranges' must have shape [B, 2] with B >= 1, got " + ranges.describe());
+  const std::int64_t B = ranges.size(0), M = triangles.size(0);
+  std::vector<Range> r(static_cast<std::size_t>(B));
+  const std::int32_t* v = ranges.data<std::int32_t>();
+  for (std::int64_t b = 0; b < B; ++b) {
+    r[b] = {v[2 * b], v[2 * b + 1]};
+    if (r[b].first < 0 || r[b].count < 0 || r[b].first > M || r[b].count > M - r[b].first)
+      throw IndexError(op + ": ranges[" + std::to_string(b) + "] = (" + std::to_string(r[b].first) + ", " +
+                       std::to_string(r[b].count) + ") is outside the " + std::to_string(M) + " triangles");
+  }
+  return rasterize_images(clip, per_image(clip, B, clip.size(0), op, "clip", "[N, 4]"), triangles, r, options,
+                          "rasterize_ranges");
+}
+
+Tensor interpolate_batch(const Tensor& attributes, const Tensor& clip, const GBuffer& gbuffer,
+                         const Tensor& triangles, const InterpolateOptions& options) {
+  const std::string op = "interpolate_batch";
+  detail::check_float(clip, op, "clip");
+  const std::int64_t B = gbuffer.tri_id.defined() && gbuffer.tri_id.rank() == 3 ? gbuffer.tri_id.size(0) : 0;
+  const std::int64_t N = clip.rank() >= 2 ? clip.size(clip.rank() - 2) : 0;
+  const PerImage pos = per_image(clip, B, N, op, "clip", "[N, 4] or [B, N, 4]");
+  const PerImage attr = per_image(attributes, B, N, op, "attributes", "[N, C] or [B, N, C]");
+  if (pos.cols != 4) throw ShapeError(op + ": argument 'clip' must have 4 columns, got " + clip.describe());
+  detail::check_same_dtype(attributes, clip, op, "attributes", "clip");
+  detail::check_triangles(triangles, N, op);
+  check_batched_gbuffer(gbuffer, B, clip, triangles.size(0), op);
+  detail::check_finite(clip, op, "clip");
+  detail::check_finite(attributes, op, "attributes");
+  const std::int64_t C = attr.cols;
+  if (options.background.defined()) {
+    detail::check_same_dtype(options.background, attributes, op, "background", "attributes");
+    detail::check_shape(options.background, Shape{C}, op, "background");
+  }
+  const std::int64_t h = gbuffer.tri_id.size(1), w = gbuffer.tri_id.size(2), P = h * w;
+  const Tensor tri_id = gbuffer.tri_id, uv = gbuffer.uv, background = options.background;
+  const bool perspective = options.perspective;
+  auto params = [=](auto tag, const PerImage& a, const PerImage& c, std::int64_t b) {
+    using T = decltype(tag);
+    raster::InterpolateParams<T> p;
+    p.attr = a.at<T>(b);
+    p.num_vertices = N;
+    p.channels = C;
+    p.clip = c.at<T>(b);
+    p.tris = triangles.data<std::int32_t>();
+    p.num_tris = triangles.size(0);
+    p.tri_id = tri_id.data<std::int32_t>() + b * P;
+    p.uv = uv.data<T>() + 2 * b * P;
+    p.width = static_cast<int>(w);
+    p.height = static_cast<int>(h);
+    p.perspective = perspective;
+    p.background = background.defined() ? background.data<T>() : nullptr;
+    return p;
+  };
+  Tensor out = Tensor::empty({B, h, w, C}, attributes.dtype());
+  dispatch_float(clip.dtype(), op, [&](auto tag) {
+    using T = decltype(tag);
+    for_each_image(B, [&](std::int64_t b) { raster::interpolate_forward(params(tag, attr, pos, b), out.data<T>() + b * P * C); });
+  });
+  if (should_record({attributes, clip, uv})) {
+    record("interpolate_batch", {attributes, clip, uv}, {&out},
+           [attributes, clip, uv_in = uv.detach(), attr, pos, params, B, P](AdjointContext& ctx) {
+             PerImage a = attr, c = pos;
+             a.t = &attributes;
+             c.t = &clip;
+             dispatch_float(clip.dtype(), "interpolate_batch", [&](auto tag) {
+               using T = decltype(tag);
+               GradOf g_attr(a, ctx.needs_grad(0) ? B : 0), g_clip(c, ctx.needs_grad(1) ? B : 0);
+               Tensor g_uv = ctx.needs_grad(2) ? Tensor::zeros(uv_in.shape(), uv_in.dtype()) : Tensor();
+               for_each_image(B, [&](std::int64_t b) {
+                 raster::InterpolateGrads<T> g;
+                 if (ctx.needs_grad(0)) g.attr = g_attr.at<T>(a, b);
+                 if (ctx.needs_grad(1)) g.clip = g_clip.at<T>(c, b);
+                 if (g_uv.defined()) g.uv = g_uv.data<T>() + 2 * b * P;
+                 raster::interpolate_backward(params(tag, a, c, b), ctx.grad_output().data<T>() + b * P * a.cols, g);
+               });
+               if (ctx.needs_grad(0)) ctx.accumulate(0, g_attr.finish<T>());
+               if (ctx.needs_grad(1)) ctx.accumulate(1, g_clip.finish<T>());
+               if (g_uv.defined()) ctx.accumulate(2, g_uv);
+             });
+           });
+  }
+  return out;
+}
+
+Tensor antialias_batch(const Tensor& image, const GBuffer& gbuffer, const Tensor& clip, const Tensor& triangles,
+                       const AntialiasOptions& options) {
+  const std::string op = "antialias_batch";
+  detail::check_float(clip, op, "clip");
+  detail::check_float(image, op, "image");
+  if (image.rank() != 4 || image.size(3) < 1)
+    throw ShapeError(op + ": argument 'image' must have shape [B, H, W, C], got " + image.describe());
+  const std::int64_t B = image.size(0), h = image.size(1), w = image.size(2), C = image.size(3), P = h * w;
+  const std::int64_t N = clip.rank() >= 2 ? clip.size(clip.rank() - 2) : 0;
+  const PerImage pos = per_image(clip, B, N, op, "clip", "[N, 4] or [B, N, 4]");
+  if (pos.cols != 4) throw ShapeError(op + ": argument 'clip' must have 4 columns, got " + clip.describe());
+  detail::check_same_dtype(image, clip, op, "image", "clip");
+  detail::check_triangles(triangles, N, op);
+  check_batched_gbuffer(gbuffer, B, clip, triangles.size(0), op);
+  if (gbuffer.tri_id.size(1) != h || gbuffer.tri_id.size(2) != w)
+    throw ShapeError(op + ": argument 'gbuffer' " + gbuffer.tri_id.describe() + " and 'image' " + image.describe() +
+                     " differ in size");
+  detail::check_finite(clip, op, "clip");
+  const double boost = options.pos_gradient_boost;
+  if (!std::isfinite(boost))
+    throw ValueError(op + ": option 'pos_gradient_boost' must be finite, got " + std::to_string(boost));
+  if (options.topology && options.topology->num_tris != triangles.size(0))
+    throw ValueError(op + ": option 'topology' was built for " + std::to_string(options.topology->num_tris) +
+                     " triangles but 'triangles' has " + std::to_string(triangles.size(0)));
+  // One topology per distinct position set: the given one, else welded by clip rows.
+  const std::int64_t topologies = options.topology ? 0 : pos.shared ? 1 : B;
+  std::vector<AntialiasTopology> topology(static_cast<std::size_t>(topologies));
+  auto pairs = std::make_shared<std::vector<std::vector<raster::AntialiasPair>>>(static_cast<std::size_t>(B));
+  Tensor out = Tensor::empty(image.shape(), image.dtype());
+  const Tensor tri_id = gbuffer.tri_id, depth = gbuffer.depth;
+  dispatch_float(clip.dtype(), op, [&](auto tag) {
+    using T = decltype(tag);
+    for_each_image(topologies, [&](std::int64_t b) {
+      topology[b] = std::make_shared<const raster::EdgeTopology>(raster::build_edge_topology(
+          triangles.data<std::int32_t>(), triangles.size(0), N, pos.at<T>(b), 4));
+    });
+    for_each_image(B, [&](std::int64_t b) {
+      raster::AntialiasParams<T> p;
+      p.image = image.data<T>() + b * P * C;
+      p.channels = static_cast<int>(C);
+      p.width = static_cast<int>(w);
+      p.height = static_cast<int>(h);
+      p.tri_id = tri_id.data<std::int32_t>() + b * P;
+      p.depth = depth.data<T>() + b * P;
+      p.clip = pos.at<T>(b);
+      p.num_vertices = N;
+      p.tris = triangles.data<std::int32_t>();
+      p.num_tris = triangles.size(0);
+      p.topology = options.topology ? options.topology.get() : topology[pos.shared ? 0 : b].get();
+      raster::antialias_forward(p, out.data<T>() + b * P * C, &(*pairs)[b]);
+    });
+  });
+  if (should_record({image, clip})) {
+    record("antialias_batch", {image, clip}, {&out},
+           [image = image.detach(), clip = clip.detach(), pos, pairs, boost, B, P, C, h, w, N](AdjointContext& ctx) {
+             PerImage c = pos;
+             c.t = &clip;
+             dispatch_float(clip.dtype(), "antialias_batch", [&](auto tag) {
+               using T = decltype(tag);
+               Tensor g_image = ctx.needs_grad(0) ? Tensor::zeros(image.shape(), image.dtype()) : Tensor();
+               GradOf g_clip(c, ctx.needs_grad(1) ? B : 0);
+               for_each_image(B, [&](std::int64_t b) {
+                 raster::AntialiasParams<T> p;
+                 p.image = image.data<T>() + b * P * C;
+                 p.channels = static_cast<int>(C);
+                 p.width = static_cast<int>(w);
+                 p.height = static_cast<int>(h);
+                 p.clip = c.at<T>(b);
+                 p.num_vertices = N;
+                 raster::AntialiasGrads<T> g;
+                 if (g_image.defined()) g.image = g_image.data<T>() + b * P * C;
+                 if (ctx.needs_grad(1)) g.clip = g_clip.at<T>(c, b);
+                 raster::antialias_backward(p, (*pairs)[b], ctx.grad_output().data<T>() + b * P * C, g);
+                 if (g.clip && boost != 1.0)
+                   for (std::int64_t i = 0; i < 4 * N; ++i) g.clip[i] = static_cast<T>(boost * g.clip[i]);
+               });
+               if (g_image.defined()) ctx.accumulate(0, g_image);
+               if (ctx.needs_grad(1)) ctx.accumulate(1, g_clip.finish<T>());
+             });
+           });
+  }
+  return out;
+}
+
+}  // namespace gr

@@ -1,0 +1,42 @@
+// Many images in one call: nvdiffrast's instanced mode (one triangle list,
+// positions per image) and range mode (one position list, a range of
+// triangles per image), for rasterize, interpolate and antialias.
+//
+// A batched G-buffer is an ordinary GBuffer with a leading image axis:
+// tri_id [B, H, W], uv [B, H, W, 2], depth [B, H, W]; its ids index the
+// whole triangle list (in range mode too). Images run in parallel and each
+// kernel is parallel inside, so a batch of small images keeps every core
+// busy. Every image's outputs are bit-identical to a separate call's, for any
+// thread count; the gradient of an input the images share (range mode's
+// positions, attributes without an image axis) is the sum of the images'
+// gradients in image order.
+#pragma once
+
+#include "ops/antialias.h"
+#include "ops/interpolate.h"
+#include "ops/rasterize.h"
+
+namespace gr {
+
+// Instanced: clip [B, N, 4], triangles [M, 3] -> G-buffer [B, H, W].
+GBuffer rasterize_batch(const Tensor& clip, const Tensor& triangles, const RasterizeOptions& options);
+
+// Range mode: clip [N, 4], triangles [M, 3], ranges [B, 2] int32 (first
+// triangle, count) -> G-buffer [B, H, W]; image b draws triangles
+// first..first+count-1, and its tri_id holds their indices in `triangles` (+1).
+GBuffer rasterize_ranges(const Tensor& clip, const Tensor& triangles, const Tensor& ranges,
+                         const RasterizeOptions& options);
+
+// attributes [N, C] (shared) or [B, N, C]; clip [N, 4] (range mode) or
+// [B, N, 4] (instanced); gbuffer from rasterize_batch / rasterize_ranges ->
+// [B, H, W, C]. Options as interpolate's.
+Tensor interpolate_batch(const Tensor& attributes, const Tensor& clip, const GBuffer& gbuffer,
+                         const Tensor& triangles, const InterpolateOptions& options = {});
+
+// image [B, H, W, C], gbuffer [B, H, W], clip [N, 4] or [B, N, 4] -> [B, H, W, C].
+// Without options.topology, each image's topology welds vertices by that
+// image's clip rows, as antialias does.
+Tensor antialias_batch(const Tensor& image, const GBuffer& gbuffer, const Tensor& clip, const Tensor& triangles,
+                       const AntialiasOptions& options = {});
+
+}  // namespace gr
