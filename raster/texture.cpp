@@ -222,6 +222,16 @@ void texture_forward(const TextureParams<T>& p, T* out) {
   });
 }
 
+namespace {
+// The adjoint's per-chunk tap buffers, reused across calls.
+struct TapScratch {
+  std::vector<std::int64_t> index;
+  std::vector<double> w;
+  std::vector<std::uint8_t> n;
+};
+detail::ScratchPool<TapScratch> g_tap_pool;
+}  // namespace
+
 template <class T>
 void texture_backward(const TextureParams<T>& p, const T* grad_out, const TextureGrads<T>& grads) {
   check_params(p, "texture backward");
@@ -263,9 +273,16 @@ void texture_backward(const TextureParams<T>& p, const T* grad_out, const Textur
   constexpr std::int64_t kChunk = 16384;
   const int stride = p.filter == Filter::Nearest ? 1 : p.filter == Filter::Trilinear ? kMaxTaps : 4;
   const std::size_t chunk = static_cast<std::size_t>(std::min(S, kChunk));
-  std::vector<std::int64_t> tap_index(texels ? stride * chunk : 0);
-  std::vector<double> tap_w(texels ? stride * chunk : 0);
-  std::vector<std::uint8_t> tap_n(chunk);  // 0: sample skipped
+  // Pooled, so an optimization loop does not fault in fresh pages every call.
+  auto lease = g_tap_pool.take();
+  std::vector<std::int64_t>& tap_index = lease->index;
+  std::vector<double>& tap_w = lease->w;
+  std::vector<std::uint8_t>& tap_n = lease->n;  // 0: sample skipped
+  if (texels) {
+    tap_index.resize(stride * chunk);
+    tap_w.resize(stride * chunk);
+  }
+  tap_n.resize(chunk);
   const std::int64_t acc_texels = levels_used == 1 ? base_texels : p.layout.total_texels;
   const std::int64_t bands = std::max(1, num_threads());
   const std::int64_t band_size = (acc_texels + bands - 1) / bands;
