@@ -183,6 +183,15 @@ void interpolate_forward(const InterpolateParams<T>& prm, T* out) {
   });
 }
 
+namespace {
+// The adjoint's per-chunk buffers, reused across calls.
+struct BackwardScratch {
+  std::vector<double> weight, grad_w, grad_xyw;
+  std::vector<std::uint8_t> live;
+};
+detail::ScratchPool<BackwardScratch> g_backward_pool;
+}  // namespace
+
 template <class T>
 void interpolate_backward(const InterpolateParams<T>& prm, const T* grad_out, const InterpolateGrads<T>& grads) {
   assert(prm.width >= 1 && prm.height >= 1 && prm.channels >= 0 && prm.count >= 0);
@@ -209,9 +218,16 @@ void interpolate_backward(const InterpolateParams<T>& prm, const T* grad_out, co
   // allocate and zero only what they need; the chunk boundaries are unchanged).
   constexpr std::int64_t kChunk = 32768;
   const auto len = static_cast<std::size_t>(std::min(kChunk, P));
-  std::vector<double> weight(3 * len), grad_w(3 * len), grad_xyw;
+  // Pooled, so an optimization loop does not fault in fresh pages every call.
+  auto lease = g_backward_pool.take();
+  std::vector<double>& weight = lease->weight;
+  std::vector<double>& grad_w = lease->grad_w;
+  std::vector<double>& grad_xyw = lease->grad_xyw;
+  std::vector<std::uint8_t>& live = lease->live;
+  weight.resize(3 * len);
+  grad_w.resize(3 * len);
   if (grad_clip && items.any_behind) grad_xyw.resize(9 * len);
-  std::vector<std::uint8_t> live(len);
+  live.resize(len);
   for (std::int64_t c0 = 0; c0 < P; c0 += kChunk) {
     const std::int64_t c1 = std::min(P, c0 + kChunk);
     parallel_for(c0, c1, 1024, [&](std::int64_t lo, std::int64_t hi) {
