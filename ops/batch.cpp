@@ -277,6 +277,18 @@ Tensor antialias_batch(const Tensor& image, const GBuffer& gbuffer, const Tensor
   const std::int64_t topologies = options.topology ? 0 : pos.shared ? 1 : B;
   std::vector<AntialiasTopology> topology(static_cast<std::size_t>(topologies));
   auto pairs = std::make_shared<std::vector<std::vector<raster::AntialiasPair>>>(static_cast<std::size_t>(B));
+  // What the forward and the adjoint both read of image b.
+  auto image_params = [=](auto tag, const Tensor& img, const PerImage& c, std::int64_t b) {
+    using T = decltype(tag);
+    raster::AntialiasParams<T> p;
+    p.image = img.data<T>() + b * P * C;
+    p.channels = static_cast<int>(C);
+    p.width = static_cast<int>(w);
+    p.height = static_cast<int>(h);
+    p.clip = c.at<T>(b);
+    p.num_vertices = N;
+    return p;
+  };
   Tensor out = Tensor::empty(image.shape(), image.dtype());
   const Tensor tri_id = gbuffer.tri_id, depth = gbuffer.depth;
   dispatch_float(clip.dtype(), op, [&](auto tag) {
@@ -286,15 +298,9 @@ Tensor antialias_batch(const Tensor& image, const GBuffer& gbuffer, const Tensor
           triangles.data<std::int32_t>(), triangles.size(0), N, pos.at<T>(b), 4));
     });
     for_each_image(B, [&](std::int64_t b) {
-      raster::AntialiasParams<T> p;
-      p.image = image.data<T>() + b * P * C;
-      p.channels = static_cast<int>(C);
-      p.width = static_cast<int>(w);
-      p.height = static_cast<int>(h);
+      raster::AntialiasParams<T> p = image_params(tag, image, pos, b);
       p.tri_id = tri_id.data<std::int32_t>() + b * P;
       p.depth = depth.data<T>() + b * P;
-      p.clip = pos.at<T>(b);
-      p.num_vertices = N;
       p.tris = triangles.data<std::int32_t>();
       p.num_tris = triangles.size(0);
       p.topology = options.topology ? options.topology.get() : topology[pos.shared ? 0 : b].get();
@@ -303,7 +309,8 @@ Tensor antialias_batch(const Tensor& image, const GBuffer& gbuffer, const Tensor
   });
   if (should_record({image, clip})) {
     record("antialias_batch", {image, clip}, {&out},
-           [image = image.detach(), clip = clip.detach(), pos, pairs, boost, B, P, C, h, w, N](AdjointContext& ctx) {
+           [image = image.detach(), clip = clip.detach(), pos, pairs, boost, B, P, C, N, image_params](
+               AdjointContext& ctx) {
              PerImage c = pos;
              c.t = &clip;
              dispatch_float(clip.dtype(), "antialias_batch", [&](auto tag) {
@@ -311,13 +318,7 @@ Tensor antialias_batch(const Tensor& image, const GBuffer& gbuffer, const Tensor
                Tensor g_image = ctx.needs_grad(0) ? Tensor::zeros(image.shape(), image.dtype()) : Tensor();
                GradOf g_clip(c, ctx.needs_grad(1) ? B : 0);
                for_each_image(B, [&](std::int64_t b) {
-                 raster::AntialiasParams<T> p;
-                 p.image = image.data<T>() + b * P * C;
-                 p.channels = static_cast<int>(C);
-                 p.width = static_cast<int>(w);
-                 p.height = static_cast<int>(h);
-                 p.clip = c.at<T>(b);
-                 p.num_vertices = N;
+                 const raster::AntialiasParams<T> p = image_params(tag, image, c, b);
                  raster::AntialiasGrads<T> g;
                  if (g_image.defined()) g.image = g_image.data<T>() + b * P * C;
                  if (ctx.needs_grad(1)) g.clip = g_clip.at<T>(c, b);
