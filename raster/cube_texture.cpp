@@ -1,0 +1,383 @@
+// Cube-map sampling forward and adjoint. As in raster/texture.cpp, every filter
+// is reduced to at most 8 taps (texel index in the all-levels buffer, weight,
+// d weight/ds, d weight/dt, d weight/dlod): the forward sums weight * texel,
+// the direction adjoint sums the weight derivatives, the texel adjoint scatters
+// weight * g. The all-levels buffer holds face f's levels at f * total_texels
+// (levels[l].offset within a face), so the box-filter adjoint runs per face.
+// Samples run in parallel; texel gradients are scattered in sample order (fixed
+// chunks, texel bands), so they do not depend on the thread count.
+#include "raster/cube_texture.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+#include "autodiff/error.h"
+#include "autodiff/parallel.h"
+#include "autodiff/tensor.h"
+#include "raster/cube_map.h"
+#include "raster/rasterize_setup.h"  // detail::check_finite
+
+namespace gr::raster {
+namespace {
+
+constexpr int kMaxTaps = 8;
+
+struct Taps {
+  int n = 0;
+  std::int64_t index[kMaxTaps];  // face * total_texels + level offset + row * S_l + column
+  double w[kMaxTaps], dw_ds[kMaxTaps], dw_dt[kMaxTaps];
+  double dw_dlod[kMaxTaps];  // trilinear: -bilinear weight on level l0, + on level l0 + 1
+};
+
+// The LOD and what its derivative needs.
+struct Lod {
+  double value = 0;            // clamped to [0, levels - 1]
+  bool free = false;           // 0 < unclamped < levels - 1
+  bool footprint = false;      // from dir_da (false: bias only)
+  double dX[3] = {0, 0, 0}, dY[3] = {0, 0, 0};  // d(dir)/dX, d(dir)/dY
+  double sX = 0, sY = 0, tX = 0, tY = 0;        // face texels per pixel step
+  double A = 0, B = 0, C = 0, r = 0, M = 0;
+};
+
+inline double dot3(const double* a, const double* b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+
+Lod compute_lod(const CubeProjection& pr, const double* da, int size, int levels, double bias) {
+  Lod l;
+  double raw = bias;
+  if (da) {
+    // dir_da = (dx/dX, dx/dY, dy/dX, dy/dY, dz/dX, dz/dY).
+    for (int k = 0; k < 3; ++k) l.dX[k] = da[2 * k], l.dY[k] = da[2 * k + 1];
+    // Face texels per pixel: sX = S ds/d(dir) . d(dir)/dX (quotient rule in ds).
+    l.sX = size * dot3(pr.ds, l.dX), l.sY = size * dot3(pr.ds, l.dY);
+    l.tX = size * dot3(pr.dt, l.dX), l.tY = size * dot3(pr.dt, l.dY);
+    // Major axis of the footprint ellipse: M = (A + B)/2 + sqrt((A - B)^2/4 + C^2).
+    l.A = l.sX * l.sX + l.tX * l.tX;
+    l.B = l.sY * l.sY + l.tY * l.tY;
+    l.C = l.sX * l.sY + l.tX * l.tY;
+    l.r = std::sqrt(0.25 * (l.A - l.B) * (l.A - l.B) + l.C * l.C);
+    l.M = 0.5 * (l.A + l.B) + l.r;
+    l.footprint = true;
+    raw += 0.5 * std::log2(l.M);  // -Inf for a zero footprint: clamped below
+  }
+  l.free = raw > 0.0 && raw < levels - 1;
+  l.value = raw > 0.0 ? raw : 0.0;  // magnification, zero footprint
+  if (l.value > levels - 1) l.value = levels - 1;
+  return l;
+}
+
+// Bilinear taps of level `lv` on `face` at (s, t), scaled by the level weight
+// `scale`; lod_sign: the sign of d(level weight)/d lod.
+template <bool kDerivatives>
+inline void bilinear_taps(const MipLevel& lv, std::int64_t total, int face, double s, double t, double scale,
+                          Taps& taps, double lod_sign = 0.0) {
+  // Continuous texel coordinates: x = s S_l - 0.5, y = t S_l - 0.5.
+  const int n = lv.width;
+  const double x = s * n - 0.5, y = t * n - 0.5;
+  const double x0 = std::floor(x), y0 = std::floor(y);
+  const double fx = x - x0, fy = y - y0;
+  // Weights and their derivatives: dfx/ds = dfy/dt = S_l.
+  const double wx[2] = {1.0 - fx, fx}, wy[2] = {1.0 - fy, fy};
+  const double dw[2] = {-double(n), double(n)};
+  const int first = taps.n;
+  double miss_w = 0, miss_ds = 0, miss_dt = 0, miss_dlod = 0;
+  bool missing = false;
+  for (int b = 0; b < 2; ++b)
+    for (int a = 0; a < 2; ++a) {
+      // Off the face: the neighbour's texel (cube_texel); at a corner, none.
+      const CubeTexel tx = cube_texel(face, int(x0) + a, int(y0) + b, n);
+      const double w = scale * wx[a] * wy[b];
+      const double ds = kDerivatives ? scale * dw[a] * wy[b] : 0.0;
+      const double dt = kDerivatives ? scale * wx[a] * dw[b] : 0.0;
+      const double dlod = kDerivatives ? lod_sign * wx[a] * wy[b] : 0.0;
+      if (tx.face < 0) {
+        missing = true;
+        miss_w = w, miss_ds = ds, miss_dt = dt, miss_dlod = dlod;
+        continue;
+      }
+      const int k = taps.n++;
+      taps.index[k] = tx.face * total + lv.offset + std::int64_t(tx.row) * n + tx.col;
+      taps.w[k] = w;
+      taps.dw_ds[k] = ds;
+      taps.dw_dt[k] = dt;
+      taps.dw_dlod[k] = dlod;
+    }
+  if (!missing) return;
+  // Cube corner: the missing texel is the mean of the 3 real ones, so each
+  // gets a third of its weight (and of the weight's derivatives).
+  for (int k = first; k < taps.n; ++k) {
+    taps.w[k] += miss_w / 3.0;
+    taps.dw_ds[k] += miss_ds / 3.0;
+    taps.dw_dt[k] += miss_dt / 3.0;
+    taps.dw_dlod[k] += miss_dlod / 3.0;
+  }
+}
+
+// Taps of sample i (none for the zero direction), with its projection and LOD.
+template <class T, bool kDerivatives>
+inline Taps sample_taps(const CubeTextureParams<T>& p, std::int64_t i, CubeProjection& pr, Lod& lod) {
+  Taps taps;
+  pr = cube_project(p.dir[3 * i], p.dir[3 * i + 1], p.dir[3 * i + 2]);
+  if (pr.face < 0) return taps;
+  const MipLevel& base = p.layout.levels[0];
+  const std::int64_t total = p.layout.total_texels;
+  const int L = p.layout.count();
+  if (is_mipmapped(p.filter)) {
+    double da[6];
+    if (p.dir_da)
+      for (int k = 0; k < 6; ++k) da[k] = p.dir_da[6 * i + k];
+    lod = compute_lod(pr, p.dir_da ? da : nullptr, base.width, L,
+                      p.mip_level_bias ? double(p.mip_level_bias[i]) : 0.0);
+  }
+  switch (p.filter) {
+    case CubeFilter::Nearest: {
+      // Texel containing (s S, t S), kept inside the face at s = 1 or t = 1.
+      const int n = base.width;
+      const int col = std::min(n - 1, int(pr.s * n)), row = std::min(n - 1, int(pr.t * n));
+      taps.n = 1;
+      taps.index[0] = pr.face * total + std::int64_t(row) * n + col;
+      taps.w[0] = 1.0;
+      taps.dw_ds[0] = taps.dw_dt[0] = taps.dw_dlod[0] = 0.0;
+      break;
+    }
+    case CubeFilter::Bilinear: bilinear_taps<kDerivatives>(base, total, pr.face, pr.s, pr.t, 1.0, taps); break;
+    case CubeFilter::LinearMipmapNearest: {
+      const int l0 = std::min(static_cast<int>(lod.value), L - 1);
+      bilinear_taps<kDerivatives>(p.layout.levels[l0], total, pr.face, pr.s, pr.t, 1.0, taps);
+      break;
+    }
+    case CubeFilter::Trilinear: {
+      // Levels l0 = floor(lod) and l0 + 1, weights 1 - f and f. For the
+      // derivatives, level l0 + 1 is kept at f = 0 too (its taps give dw/dlod).
+      const int l0 = std::min(static_cast<int>(lod.value), L - 1);
+      const double f = l0 == L - 1 ? 0.0 : lod.value - l0;
+      bilinear_taps<kDerivatives>(p.layout.levels[l0], total, pr.face, pr.s, pr.t, 1.0 - f, taps, -1.0);
+      if (f > 0.0 || (kDerivatives && lod.free))
+        bilinear_taps<kDerivatives>(p.layout.levels[l0 + 1], total, pr.face, pr.s, pr.t, f, taps, 1.0);
+      break;
+    }
+  }
+  return taps;
+}
+
+// Texel `index` of the all-levels buffer: level 0 from faces, the rest from pyramid.
+template <class T>
+inline const T* texel(const CubeTextureParams<T>& p, std::int64_t index) {
+  const std::int64_t total = p.layout.total_texels;
+  const std::int64_t base = std::int64_t(p.layout.levels[0].width) * p.layout.levels[0].width;
+  const std::int64_t face = index / total, r = index - face * total;
+  return r < base ? p.faces + (face * base + r) * p.channels
+                  : p.pyramid + (face * (total - base) + r - base) * p.channels;
+}
+
+template <class T>
+void check_params(const CubeTextureParams<T>& p, const char* op) {
+  if (p.layout.count() < 1 || p.layout.levels[0].width != p.layout.levels[0].height || p.channels < 1 ||
+      p.num_samples < 0)
+    throw ShapeError(std::string(op) + ": empty or non-square faces, or a negative sample count");
+  if (is_mipmapped(p.filter) && p.layout.count() > 1 && !p.pyramid)
+    throw ValueError(std::string(op) + ": mipmapped filtering needs the per-face pyramids");
+}
+
+}  // namespace
+
+template <class T>
+void cube_mip_build(const T* faces, std::int64_t C, const MipLayout& layout, T* pyramid) {
+  const std::int64_t base = std::int64_t(layout.levels[0].height) * layout.levels[0].width;
+  for (std::int64_t f = 0; f < 6; ++f)
+    mip_build(faces + f * base * C, C, layout, pyramid + f * (layout.total_texels - base) * C);
+}
+
+double cube_texture_lod(const double dir[3], const double* dir_da, int size, int levels, double bias) {
+  const CubeProjection pr = cube_project(dir[0], dir[1], dir[2]);
+  if (pr.face < 0) return 0.0;
+  return compute_lod(pr, dir_da, size, levels, bias).value;
+}
+
+template <class T>
+void cube_texture_forward(const CubeTextureParams<T>& p, T* out) {
+  check_params(p, "cube_texture");
+  const std::int64_t C = p.channels, N = p.num_samples;
+  const std::int64_t S = p.layout.levels[0].width;
+  detail::check_finite(p.faces, 6 * S * S * C, "tex", "cube_texture");
+  detail::check_finite(p.dir, 3 * N, "dir", "cube_texture");
+  if (is_mipmapped(p.filter)) {
+    if (p.dir_da) detail::check_finite(p.dir_da, 6 * N, "dir_da", "cube_texture");
+    if (p.mip_level_bias) detail::check_finite(p.mip_level_bias, N, "mip_level_bias", "cube_texture");
+  }
+  parallel_for(0, N, 4096, [&](std::int64_t lo, std::int64_t hi) {
+    for (std::int64_t i = lo; i < hi; ++i) {
+      CubeProjection pr;
+      Lod lod;
+      const Taps t = sample_taps<T, false>(p, i, pr, lod);
+      // out = sum_t w_t texel_t (0 for the zero direction: no taps).
+      const T* tx[kMaxTaps];
+      for (int k = 0; k < t.n; ++k) tx[k] = texel(p, t.index[k]);
+      T* o = out + i * C;
+      for (std::int64_t c = 0; c < C; ++c) {
+        double a = 0.0;
+        for (int k = 0; k < t.n; ++k) a += t.w[k] * tx[k][c];
+        o[c] = static_cast<T>(a);
+      }
+    }
+  });
+}
+
+namespace {
+
+// Direction and dir_da gradients of one sample through the LOD (trilinear,
+// footprint mode), given dL/dlod: see cube_texture.h.
+void lod_backward(const CubeProjection& pr, const Lod& l, double g_lod, int size, double g_dir[3], double g_da[6]) {
+  // dM/d(sX, sY, tX, tY); at r = 0 (isotropic) the sqrt term's slope is dropped.
+  const double k = g_lod / (2.0 * l.M * std::log(2.0));
+  const double ab = l.r > 0.0 ? 0.5 * (l.A - l.B) / l.r : 0.0, c = l.r > 0.0 ? l.C / l.r : 0.0;
+  const double gsX = k * (l.sX * (1.0 + ab) + l.sY * c), gsY = k * (l.sY * (1.0 - ab) + l.sX * c);
+  const double gtX = k * (l.tX * (1.0 + ab) + l.tY * c), gtY = k * (l.tY * (1.0 - ab) + l.tX * c);
+  // sX = S ds/d(dir) . dX: to dX through ds/d(dir), to dir through d^2 s/d(dir)^2.
+  double vs[3], vt[3];
+  for (int j = 0; j < 3; ++j) {
+    g_da[2 * j] = size * (gsX * pr.ds[j] + gtX * pr.dt[j]);
+    g_da[2 * j + 1] = size * (gsY * pr.ds[j] + gtY * pr.dt[j]);
+    vs[j] = gsX * l.dX[j] + gsY * l.dY[j];
+    vt[j] = gtX * l.dX[j] + gtY * l.dY[j];
+  }
+  double hs[3], ht[3], unused[3];
+  cube_project_hessian_times(pr, vs, hs, unused);
+  cube_project_hessian_times(pr, vt, unused, ht);
+  for (int j = 0; j < 3; ++j) g_dir[j] += size * (hs[j] + ht[j]);
+}
+
+inline bool all_finite(const double* v, int n) {
+  for (int k = 0; k < n; ++k)
+    if (!std::isfinite(v[k])) return false;
+  return true;
+}
+
+}  // namespace
+
+template <class T>
+void cube_texture_backward(const CubeTextureParams<T>& p, const T* grad_out, const CubeTextureGrads<T>& grads) {
+  check_params(p, "cube_texture backward");
+  const bool trilinear = p.filter == CubeFilter::Trilinear;
+  T* grad_faces = grads.faces;
+  T* grad_dir = p.filter == CubeFilter::Nearest ? nullptr : grads.dir;  // nearest: piecewise constant
+  T* grad_da = trilinear && p.dir_da ? grads.dir_da : nullptr;
+  T* grad_bias = trilinear ? grads.mip_level_bias : nullptr;
+  // The LOD carries gradients to dir only in footprint mode.
+  const bool lod_grads = grad_da || grad_bias || (trilinear && p.dir_da && grad_dir);
+  if (!grad_faces && !grad_dir && !lod_grads) return;
+  const std::int64_t C = p.channels, N = p.num_samples;
+  const int S = p.layout.levels[0].width;
+  const std::int64_t base = std::int64_t(S) * S, total = p.layout.total_texels;
+  const std::int64_t acc_texels = 6 * total;
+
+  // Texel gradients of every level used, in double (straight into grad_faces
+  // when that is double and there is no level but 0).
+  Tensor scratch;
+  double* acc = nullptr;
+  bool direct = false;
+  if (grad_faces) {
+    if constexpr (std::is_same_v<T, double>) {
+      if (total == base) acc = grad_faces, direct = true;
+    }
+    if (!acc) {
+      scratch = Tensor::zeros({acc_texels * C}, DType::Float64);
+      acc = scratch.data<double>();
+    }
+  }
+
+  // Samples in chunks: taps, direction and LOD gradients in parallel, texel
+  // sums in sample order.
+  constexpr std::int64_t kChunk = 16384;
+  const int stride = p.filter == CubeFilter::Nearest ? 1 : trilinear ? kMaxTaps : 4;
+  const std::size_t chunk = static_cast<std::size_t>(std::min(N, kChunk));
+  std::vector<std::int64_t> tap_index(grad_faces ? stride * chunk : 0);
+  std::vector<double> tap_w(grad_faces ? stride * chunk : 0);
+  std::vector<std::uint8_t> tap_n(chunk);  // 0: sample skipped
+  const std::int64_t bands = std::max(1, num_threads());
+  const std::int64_t band_size = (acc_texels + bands - 1) / bands;
+  for (std::int64_t c0 = 0; c0 < N; c0 += kChunk) {
+    const std::int64_t c1 = std::min(N, c0 + kChunk);
+    parallel_for(c0, c1, 1024, [&](std::int64_t lo, std::int64_t hi) {
+      for (std::int64_t i = lo; i < hi; ++i) {
+        const std::int64_t j = i - c0;
+        const T* g = grad_out + i * C;
+        tap_n[j] = 0;
+        bool any = false;
+        for (std::int64_t c = 0; c < C && !any; ++c) any = g[c] != T(0);
+        if (!any) continue;
+        CubeProjection pr;
+        Lod lod;
+        const Taps t = sample_taps<T, true>(p, i, pr, lod);
+        if (t.n == 0) continue;  // the zero direction
+        if (grad_dir || lod_grads) {
+          // dL/ds = g . sum_t (dw_t/ds) texel_t, likewise t and lod.
+          double gs = 0.0, gt = 0.0, g_lod = 0.0;
+          for (int k = 0; k < t.n; ++k) {
+            const T* tx = texel(p, t.index[k]);
+            double d = 0.0;
+            for (std::int64_t c = 0; c < C; ++c) d += static_cast<double>(g[c]) * tx[c];
+            gs += t.dw_ds[k] * d;
+            gt += t.dw_dt[k] * d;
+            g_lod += t.dw_dlod[k] * d;
+          }
+          // dL/d(dir) = dL/ds ds/d(dir) + dL/dt dt/d(dir), plus the LOD's share.
+          double g_dir[3], g_da[6] = {0, 0, 0, 0, 0, 0};
+          for (int k = 0; k < 3; ++k) g_dir[k] = gs * pr.ds[k] + gt * pr.dt[k];
+          const bool lod_path = trilinear && lod.free;
+          if (lod_path && grad_bias) grad_bias[i] += static_cast<T>(g_lod);
+          if (lod_path && lod.footprint) lod_backward(pr, lod, g_lod, S, g_dir, g_da);
+          if (grad_dir && all_finite(g_dir, 3))
+            for (int k = 0; k < 3; ++k) grad_dir[3 * i + k] += static_cast<T>(g_dir[k]);
+          if (grad_da && lod_path && all_finite(g_da, 6))
+            for (int k = 0; k < 6; ++k) grad_da[6 * i + k] += static_cast<T>(g_da[k]);
+        }
+        tap_n[j] = static_cast<std::uint8_t>(t.n);
+        if (!grad_faces) continue;
+        for (int k = 0; k < t.n; ++k) {
+          tap_index[stride * j + k] = t.index[k];
+          tap_w[stride * j + k] = t.w[k];
+        }
+      }
+    });
+    if (!grad_faces) continue;
+    // Scatter in sample order, dL/d texel_t += w_t g: one task per texel band,
+    // each walking all taps in sample order (the same adds for any thread count).
+    parallel_for(0, bands, 1, [&](std::int64_t b0, std::int64_t b1) {
+      const std::int64_t lo = band_size * b0, hi = std::min(acc_texels, band_size * b1);
+      for (std::int64_t i = c0; i < c1; ++i) {
+        const std::int64_t j = i - c0;
+        const T* g = grad_out + i * C;
+        for (int k = 0; k < tap_n[j]; ++k) {
+          const std::int64_t t = tap_index[stride * j + k];
+          if (t < lo || t >= hi) continue;
+          double* a = acc + t * C;
+          const double w = tap_w[stride * j + k];
+          for (std::int64_t c = 0; c < C; ++c) a[c] += w * g[c];
+        }
+      }
+    });
+  }
+  if (!grad_faces || direct) return;
+  // Every level's gradient down to level 0, face by face, then into grad_faces.
+  if (total > base)
+    for (std::int64_t f = 0; f < 6; ++f) mip_backward(C, p.layout, acc + f * total * C);
+  parallel_for(0, 6 * base * C, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
+    for (std::int64_t k = lo; k < hi; ++k) {
+      const std::int64_t texel_index = k / C, f = texel_index / base;
+      grad_faces[k] += static_cast<T>(acc[(f * total + texel_index - f * base) * C + k % C]);
+    }
+  });
+}
+
+#define GR_INSTANTIATE(T)                                                                                     \
+  template void cube_mip_build<T>(const T*, std::int64_t, const MipLayout&, T*);                             \
+  template void cube_texture_forward<T>(const CubeTextureParams<T>&, T*);                                    \
+  template void cube_texture_backward<T>(const CubeTextureParams<T>&, const T*, const CubeTextureGrads<T>&);
+GR_INSTANTIATE(float)
+GR_INSTANTIATE(double)
+#undef GR_INSTANTIATE
+
+}  // namespace gr::raster
