@@ -26,6 +26,12 @@ struct TextureArgs {
   std::int64_t images = 0, samples = 0;
   int filter = 1;  // raster::Filter: 0 nearest, 1 bilinear, 2 trilinear, 3 linear-mipmap-nearest
   int wrap = 0;    // raster::Wrap: 0 repeat, 1 clamp, 2 mirror, 3 zero
+  // Cube maps (boundary_mode 'cube'): tex is [tex_images, 6, S, S, C]
+  // (height = width = S), uv holds directions [images, samples, 3], uv_da
+  // nvdiffrast's [images, samples, 6] direction derivatives (0: the LOD is
+  // the bias alone); pyramid per face (raster/cube_texture.h).
+  bool cube = false;
+  Address uv_da = 0;
 };
 
 // (height, width) of each mip level of a height x width texture, base first,
@@ -36,7 +42,8 @@ void mip_build(const TextureArgs& a, int threads);
 
 void texture_forward(const TextureArgs& a, Address out, int threads);
 // Accumulates into the gradients that are not 0 (zeroed by the caller, shaped
-// like their inputs; grad_pyramid only for a user stack).
+// like their inputs; grad_pyramid only for a user stack). For a cube map,
+// grad_uv_dx receives uv_da's gradient and grad_uv_dy is unused.
 void texture_backward(const TextureArgs& a, Address grad_out, Address grad_tex, Address grad_uv, Address grad_uv_dx,
                       Address grad_uv_dy, Address grad_bias, Address grad_pyramid, int threads);
 

@@ -113,13 +113,56 @@ def test_a_user_mip_stack_gets_its_own_gradients_and_none_flows_to_the_base():
     assert gradcheck(lambda t, m1, m2: dr.texture(t, uv, uv_da, mip=[m1, m2]), (tex, *mip), eps=1e-7, atol=1e-7)
 
 
-def test_unsupported_features_raise_not_implemented_naming_them():
-    tex = torch.rand(1, 8, 8, 3)
-    uv = torch.rand(1, 2, 2, 2)
+def test_a_custom_mip_list_for_a_cube_map_raises_not_implemented():
+    tex = torch.rand(1, 6, 8, 8, 3)
     with pytest.raises(NotImplementedError, match='cube'):
-        dr.texture(tex, uv, boundary_mode='cube')
-    with pytest.raises(NotImplementedError, match='cube'):
-        dr.texture(torch.rand(1, 6, 8, 8, 3), torch.rand(1, 2, 2, 3), boundary_mode='cube')
+        dr.texture(tex, torch.rand(1, 2, 2, 3), uv_da=torch.rand(1, 2, 2, 6), boundary_mode='cube',
+                   mip=[torch.rand(1, 6, 4, 4, 3)])
+
+
+def test_cube_map_directions_select_the_gl_faces_in_order():
+    # Faces +X, -X, +Y, -Y, +Z, -Z hold 0..5; the axis directions hit their centres.
+    faces = torch.arange(6, dtype=torch.float64).reshape(1, 6, 1, 1, 1).expand(1, 6, 4, 4, 1).contiguous()
+    dirs = torch.tensor([[[[1.0, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]]]],
+                        dtype=torch.float64)
+    for mode in ('nearest', 'linear'):
+        out = dr.texture(faces, dirs * 3.0, boundary_mode='cube', filter_mode=mode)  # need not be normalised
+        assert out.flatten().tolist() == [0.0, 1.0, 2.0, 3.0, 4.0, 5.0]
+
+
+def cube_directions(generator, n, near_edges):
+    d = torch.randn(1, n, n, 3, generator=generator, dtype=torch.float64)
+    if near_edges:  # two components of equal size (an edge) or three (a corner), nudged off the tie
+        d = d.sign() * torch.tensor([1.0, 0.97, 0.3], dtype=torch.float64)
+        d[0, 0, 0] = torch.tensor([1.0, 0.99, -0.98], dtype=torch.float64)
+    return d.requires_grad_(True)
+
+
+@pytest.mark.parametrize('near_edges', [False, True])
+@pytest.mark.parametrize('filter_mode', ['linear', 'linear-mipmap-linear'])
+def test_cube_map_gradients_to_faces_directions_uv_da_and_bias_match_finite_differences(filter_mode, near_edges):
+    g = torch.Generator().manual_seed(6)
+    tex = torch.rand(1, 6, 8, 8, 2, generator=g, dtype=torch.float64, requires_grad=True)
+    d = cube_directions(g, 3, near_edges)
+    if filter_mode == 'linear':
+        assert gradcheck(lambda t, u: dr.texture(t, u, boundary_mode='cube'), (tex, d), eps=1e-7, atol=1e-7)
+        return
+    da = (torch.randn(1, 3, 3, 6, generator=g, dtype=torch.float64) * 0.3).requires_grad_(True)
+    bias = (torch.rand(1, 3, 3, generator=g, dtype=torch.float64) * 0.3).requires_grad_(True)
+    assert gradcheck(lambda t, u, a, b: dr.texture(t, u, a, b, boundary_mode='cube'), (tex, d, da, bias),
+                     eps=1e-7, atol=1e-6)
+
+
+def test_a_prebuilt_cube_mip_stack_gives_the_same_lookups():
+    g = torch.Generator().manual_seed(7)
+    tex = torch.rand(2, 6, 8, 8, 3, generator=g, dtype=torch.float64)
+    d = torch.randn(2, 4, 4, 3, generator=g, dtype=torch.float64)
+    da = torch.randn(2, 4, 4, 6, generator=g, dtype=torch.float64) * 0.3
+    mip = dr.texture_construct_mip(tex, cube_mode=True)
+    assert torch.equal(dr.texture(tex, d, da, mip=mip, boundary_mode='cube'),
+                       dr.texture(tex, d, da, boundary_mode='cube'))
+    with pytest.raises(ValueError, match='cube_mode'):
+        dr.texture(tex[:, 0].contiguous(), d[..., :2].contiguous(), da[..., :4].contiguous(), mip=mip)
 
 
 def test_bad_texture_arguments_are_named():
@@ -129,6 +172,12 @@ def test_bad_texture_arguments_are_named():
         dr.texture(tex, uv, filter_mode='cubic')
     with pytest.raises(ValueError, match="'boundary_mode' must be one of"):
         dr.texture(tex, uv, boundary_mode='mirror')
+    with pytest.raises(ValueError, match="6 square faces"):
+        dr.texture(torch.rand(1, 6, 8, 4, 3), torch.rand(1, 2, 2, 3), boundary_mode='cube')
+    with pytest.raises(ValueError, match="is a cube map: set boundary_mode='cube'"):
+        dr.texture(torch.rand(1, 6, 8, 8, 3), uv)
+    with pytest.raises(ValueError, match=r"'uv' must have shape \[minibatch_size, height, width, 3\] \(directions\)"):
+        dr.texture(torch.rand(1, 6, 8, 8, 3), uv, boundary_mode='cube')
     with pytest.raises(ValueError, match="needs 'uv_da' or 'mip_level_bias'"):
         dr.texture(tex, uv, filter_mode='linear-mipmap-linear')
     with pytest.raises(ValueError, match=r"'uv_da' must have shape \[1, 2, 2, 4\]"):

@@ -372,7 +372,8 @@ def antialias(color, rast, pos, tri, topology_hash=None, pos_gradient_boost=1.0)
 # Texture.
 
 _FILTERS = {'nearest': 0, 'linear': 1, 'linear-mipmap-linear': 2, 'linear-mipmap-nearest': 3}
-_BOUNDARIES = {'wrap': 0, 'clamp': 1, 'zero': 3}
+_CUBE = -1  # boundary_mode 'cube': a cube map
+_BOUNDARIES = {'wrap': 0, 'clamp': 1, 'zero': 3, 'cube': _CUBE}
 _MAX_TEXTURE_SIDE = 32768
 
 
@@ -381,28 +382,35 @@ class TextureMip:
     TextureMipWrapper): levels 1.. of every texture image, box-filtered;
     gradients of lookups in it still flow to the base texture."""
 
-    def __init__(self, tex, pyramid, sizes):
-        self.tex_shape, self.pyramid, self.sizes = tuple(tex.shape), pyramid, sizes
+    def __init__(self, tex, pyramid, sizes, cube):
+        self.tex_shape, self.pyramid, self.sizes, self.cube = tuple(tex.shape), pyramid, sizes, cube
 
 
 def _texture_args(tex, uv, uv_dx, uv_dy, bias, pyramid, levels, user, filter_mode, boundary):
+    """boundary _CUBE: tex [B, 6, S, S, C], uv directions, uv_dx = uv_da ([..., 6]), uv_dy unused."""
     a = _core.TextureArgs()
     a.f64 = tex.dtype == torch.float64
-    a.tex, a.tex_images, a.height, a.width, a.channels = tex.data_ptr(), tex.shape[0], tex.shape[1], tex.shape[2], \
-        tex.shape[3]
+    a.cube = boundary == _CUBE
+    a.tex, a.tex_images, a.height, a.width, a.channels = tex.data_ptr(), tex.shape[0], tex.shape[-3], tex.shape[-2], \
+        tex.shape[-1]
     a.pyramid = pyramid.data_ptr() if pyramid is not None else 0
     a.levels, a.user = levels, user
     addr = lambda t: t.data_ptr() if t is not None else 0
-    a.uv, a.uv_dx, a.uv_dy, a.bias = uv.data_ptr(), addr(uv_dx), addr(uv_dy), addr(bias)
+    a.uv, a.bias = uv.data_ptr(), addr(bias)
+    if a.cube:
+        a.uv_da = addr(uv_dx)
+    else:
+        a.uv_dx, a.uv_dy = addr(uv_dx), addr(uv_dy)
     a.images, a.samples = uv.shape[0], uv.shape[1] * uv.shape[2]
-    a.filter, a.wrap = filter_mode, boundary
+    a.filter, a.wrap = filter_mode, boundary if not a.cube else 0
     return a
 
 
-def _build_pyramid(tex, sizes):
-    texels = sum(h * w for h, w in sizes[1:])
-    pyramid = tex.new_empty((tex.shape[0], texels, tex.shape[3]))
-    a = _texture_args(tex, tex.new_zeros((0, 1, 1, 2)), None, None, None, pyramid, len(sizes), False, 1, 0)
+def _build_pyramid(tex, sizes, cube=False):
+    texels = sum(h * w for h, w in sizes[1:]) * (6 if cube else 1)
+    pyramid = tex.new_empty((tex.shape[0], texels, tex.shape[-1]))
+    a = _texture_args(tex, tex.new_zeros((0, 1, 1, 2)), None, None, None, pyramid, len(sizes), False, 1,
+                      _CUBE if cube else 0)
     _core.mip_build(a, _threads())
     return pyramid
 
@@ -415,11 +423,11 @@ class _TextureFunc(torch.autograd.Function):
             pyramid = torch.cat([m.reshape(m.shape[0], -1, m.shape[3]) for m in mip_levels], 1).contiguous()
         elif levels > 1:
             pyramid = prebuilt if prebuilt is not None else _build_pyramid(tex, _core.mip_sizes(
-                tex.shape[1], tex.shape[2], levels - 1))
+                tex.shape[-3], tex.shape[-2], levels - 1), boundary == _CUBE)
         else:
             pyramid = None
         a = _texture_args(tex, uv, uv_dx, uv_dy, bias, pyramid, levels, user, filter_mode, boundary)
-        out = tex.new_empty(uv.shape[:3] + (tex.shape[3],))
+        out = tex.new_empty(uv.shape[:3] + (tex.shape[-1],))
         _core.texture_forward(a, out.data_ptr(), _threads())
         ctx.save_for_backward(tex, uv, uv_dx, uv_dy, bias, pyramid)
         ctx.filter_mode, ctx.boundary, ctx.levels, ctx.user = filter_mode, boundary, levels, user
@@ -446,15 +454,18 @@ class _TextureFunc(torch.autograd.Function):
         return (None, None, None, None, g_tex, g_uv, g_dx, g_dy, g_bias, *g_levels)
 
 
-def _texture_tensor(tex):
+def _texture_tensor(tex, cube=False):
     _float('tex', tex)
-    if tex.dim() == 5:
-        raise NotImplementedError("texture: cube maps ([minibatch, 6, H, W, C] with boundary_mode='cube') are not "
-                                  "implemented yet in gradraster")
-    if tex.dim() != 4 or min(tex.shape) < 1:
+    if cube:
+        if tex.dim() != 5 or tex.shape[1] != 6 or tex.shape[2] != tex.shape[3] or min(tex.shape) < 1:
+            raise ValueError(f"boundary_mode 'cube' needs 'tex' of shape [minibatch_size, 6, size, size, channels] "
+                             f"(6 square faces), got {list(tex.shape)}")
+    elif tex.dim() == 5:
+        raise ValueError(f"'tex' {list(tex.shape)} is a cube map: set boundary_mode='cube'")
+    elif tex.dim() != 4 or min(tex.shape) < 1:
         raise ValueError(f"'tex' must have shape [minibatch_size, tex_height, tex_width, tex_channels] with all sizes "
                          f">= 1, got {list(tex.shape)}")
-    if max(tex.shape[1], tex.shape[2]) > _MAX_TEXTURE_SIDE:
+    if max(tex.shape[-3], tex.shape[-2]) > _MAX_TEXTURE_SIDE:
         raise ValueError(f"'tex' sides must be at most {_MAX_TEXTURE_SIDE}, got {list(tex.shape)}")
     return tex
 
@@ -469,12 +480,12 @@ def _max_mip_level(max_mip_level):
 
 def texture_construct_mip(tex, max_mip_level=None, cube_mode=False):
     """Build the mip stack of a texture that stays constant, for texture(mip=...)."""
-    if cube_mode:
-        raise NotImplementedError("texture_construct_mip: cube maps are not implemented yet in gradraster")
-    _texture_tensor(tex)
-    sizes = _core.mip_sizes(tex.shape[1], tex.shape[2], _max_mip_level(max_mip_level))
+    if cube_mode is not True and cube_mode is not False:
+        raise TypeError(f"'cube_mode' must be True or False, got {cube_mode!r}")
+    _texture_tensor(tex, cube_mode)
+    sizes = _core.mip_sizes(tex.shape[-3], tex.shape[-2], _max_mip_level(max_mip_level))
     with torch.no_grad():
-        return TextureMip(tex, _build_pyramid(tex.detach(), sizes), sizes)
+        return TextureMip(tex, _build_pyramid(tex.detach(), sizes, cube_mode), sizes, cube_mode)
 
 
 def texture(tex, uv, uv_da=None, mip_level_bias=None, mip=None, filter_mode='auto', boundary_mode='wrap',
@@ -488,24 +499,26 @@ def texture(tex, uv, uv_da=None, mip_level_bias=None, mip=None, filter_mode='aut
     texture_construct_mip result or a list of tensors for levels 1.. (each
     [minibatch (or 1), h_l, w_l, channels]; they get their own gradients).
     filter_mode: 'auto', 'nearest', 'linear', 'linear-mipmap-nearest',
-    'linear-mipmap-linear'; boundary_mode: 'wrap',
-    'clamp', 'zero' ('cube' is not implemented yet). Returns [minibatch,
-    height, width, channels].
+    'linear-mipmap-linear'; boundary_mode: 'wrap', 'clamp', 'zero' or 'cube'
+    (tex [minibatch, 6, size, size, channels] looked up by uv = directions
+    [minibatch, height, width, 3], uv_da [..., 6]; docs/cube_maps.md).
+    Returns [minibatch, height, width, channels].
     """
     if filter_mode == 'auto':
         filter_mode = 'linear-mipmap-linear' if (uv_da is not None or mip_level_bias is not None) else 'linear'
     if filter_mode not in _FILTERS:
         raise ValueError(f"'filter_mode' must be one of 'auto', 'nearest', 'linear', 'linear-mipmap-nearest', "
                          f"'linear-mipmap-linear', got {filter_mode!r}")
-    if boundary_mode == 'cube':
-        raise NotImplementedError("texture: boundary_mode 'cube' (cube maps) is not implemented yet in gradraster")
     if boundary_mode not in _BOUNDARIES:
         raise ValueError(f"'boundary_mode' must be one of 'wrap', 'clamp', 'zero', 'cube', got {boundary_mode!r}")
     max_level = _max_mip_level(max_mip_level)
-    _texture_tensor(tex)
+    cube = boundary_mode == 'cube'
+    _texture_tensor(tex, cube)
     _float('uv', uv, (4,), like=('tex', tex))
-    if uv.shape[3] != 2:
-        raise ValueError(f"'uv' must have shape [minibatch_size, height, width, 2], got {list(uv.shape)}")
+    dims = 3 if cube else 2
+    if uv.shape[3] != dims:
+        raise ValueError(f"'uv' must have shape [minibatch_size, height, width, {dims}]"
+                         f"{' (directions) for a cube map' if cube else ''}, got {list(uv.shape)}")
     if tex.shape[0] not in (1, uv.shape[0]):
         raise ValueError(f"'tex' has minibatch size {tex.shape[0]} but 'uv' has {uv.shape[0]} (broadcast needs 1)")
     mipmapped = filter_mode in ('linear-mipmap-linear', 'linear-mipmap-nearest')
@@ -517,8 +530,11 @@ def texture(tex, uv, uv_da=None, mip_level_bias=None, mip=None, filter_mode='aut
     if mipmapped:
         if uv_da is not None:
             _float('uv_da', uv_da, (4,), like=('tex', tex))
-            if uv_da.shape != uv.shape[:3] + (4,):
-                raise ValueError(f"'uv_da' must have shape {list(uv.shape[:3]) + [4]}, got {list(uv_da.shape)}")
+            if uv_da.shape != uv.shape[:3] + (2 * dims,):
+                raise ValueError(f"'uv_da' must have shape {list(uv.shape[:3]) + [2 * dims]}, got {list(uv_da.shape)}")
+        if cube:
+            uv_dx = uv_da  # the cube kernel reads nvdiffrast's layout; without it the level is the bias
+        elif uv_da is not None:
             # (du/dX, du/dY, dv/dX, dv/dY) -> per-axis (du, dv) pairs; torch carries the gradient back.
             uv_dx, uv_dy = uv_da[..., 0::2].contiguous(), uv_da[..., 1::2].contiguous()
         else:
@@ -532,14 +548,19 @@ def texture(tex, uv, uv_da=None, mip_level_bias=None, mip=None, filter_mode='aut
                 raise ValueError(f"'mip_level_bias' must have shape {list(uv.shape[:3])}, got "
                                  f"{list(mip_level_bias.shape)}")
             bias = mip_level_bias
-    sizes = _core.mip_sizes(tex.shape[1], tex.shape[2], max_level) if mipmapped else [tuple(tex.shape[1:3])]
+    sizes = _core.mip_sizes(tex.shape[-3], tex.shape[-2], max_level) if mipmapped else [tuple(tex.shape[-3:-1])]
     prebuilt, levels = None, []
     if mipmapped and mip is not None:
         if isinstance(mip, TextureMip):
+            if mip.cube != cube:
+                raise ValueError(f"'mip' was built with cube_mode={mip.cube} but boundary_mode is {boundary_mode!r}")
             if mip.tex_shape != tuple(tex.shape):
                 raise ValueError(f"'mip' was built for a texture of shape {list(mip.tex_shape)}, 'tex' is "
                                  f"{list(tex.shape)}")
             prebuilt, sizes = mip.pyramid, mip.sizes
+        elif isinstance(mip, (list, tuple)) and cube:
+            raise NotImplementedError("texture: a custom mip stack (a list) for a cube map is not implemented yet in "
+                                      "gradraster; use texture_construct_mip(tex, cube_mode=True)")
         elif isinstance(mip, (list, tuple)):
             levels = list(mip)
             if len(levels) < 1 or len(levels) > len(sizes) - 1:
