@@ -337,9 +337,16 @@ void texture_backward(const TextureParams<T>& p, const T* grad_out, const Textur
         }
         tap_n[i] = static_cast<std::uint8_t>(t.n);
         if (!texels) continue;
-        for (int k = 0; k < t.n; ++k) {
-          tap_index[stride * i + k] = t.index[k];
-          tap_w[stride * i + k] = t.w[k];
+        // A fixed count for the common bilinear case (a short variable-length
+        // copy compiles to rep movs, which costs more than the sample itself).
+        if (t.n == 4) {
+          std::copy(t.index, t.index + 4, &tap_index[stride * i]);
+          std::copy(t.w, t.w + 4, &tap_w[stride * i]);
+        } else {
+          for (int k = 0; k < t.n; ++k) {
+            tap_index[stride * i + k] = t.index[k];
+            tap_w[stride * i + k] = t.w[k];
+          }
         }
       }
     });
