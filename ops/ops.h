@@ -9,6 +9,7 @@
 #include "ops/antialias.h"
 #include "ops/barycentrics.h"
 #include "ops/channel.h"
+#include "ops/cube_texture.h"
 #include "ops/elementwise.h"
 #include "ops/factories.h"
 #include "ops/fragments.h"
