@@ -133,6 +133,25 @@ TEST_CASE("cube_texture: bilinear gradients w.r.t. texels and direction match fi
   REQUIRE(dir.size(0) == 24 + 12 + 24);
   require_gradcheck("cube_texture bilinear: tex, dir",
                     [&](const Inputs& in) { return cube_texture(in[0], in[1], with(CubeFilter::Bilinear)); }, {tex, dir});
+  SECTION("2e-3 from the face switch, on each side of all 12 edges") {
+    // Both faces at an edge, the direction 0.998 |ma| along the edge's other axis.
+    std::vector<double> e;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        for (int sign = 0; sign < 4 && i != j; ++sign) {
+          std::array<double, 3> d{};
+          d[i] = sign & 1 ? 1.3 : -1.3;
+          d[j] = (sign & 2 ? 1 : -1) * 0.998 * 1.3;
+          d[3 - i - j] = 0.37 - 0.1 * sign;
+          REQUIRE(clear_of_cells(raster::cube_project(d[0], d[1], d[2]), layout, 0, 0));
+          e.insert(e.end(), d.begin(), d.end());
+        }
+    Tensor dir_e = dirs_tensor(e).set_requires_grad();
+    REQUIRE(dir_e.size(0) == 24);
+    require_gradcheck("cube_texture bilinear 2e-3 from every edge: tex, dir",
+                      [&](const Inputs& in) { return cube_texture(in[0], in[1], with(CubeFilter::Bilinear)); },
+                      {tex, dir_e});
+  }
   SECTION("on 1 x 1 faces every lookup is a corner lookup") {
     const raster::MipLayout one = raster::mip_layout(1, 1);
     Tensor tex1 = random_input({6, 1, 1, 2}, -1, 1, 3);
@@ -154,7 +173,7 @@ TEST_CASE("cube_texture: trilinear gradients w.r.t. texels, direction, dir_da an
   std::uniform_real_distribution<double> frac(0.15, 0.85);
   std::vector<double> dirs, lods, biases;
   for (int level = 0; level < 3; ++level) {
-    const std::vector<double> d = sample_dirs(S, 8, level == 1, layout, level, level + 1, 10 + level);
+    const std::vector<double> d = sample_dirs(S, 8, true, layout, level, level + 1, 10 + level);
     dirs.insert(dirs.end(), d.begin(), d.end());
     for (std::size_t i = 0; i < d.size() / 3; ++i) {
       const double bias = i % 3 == 1 ? 0.4 : i % 3 == 2 ? -0.3 : 0.0;
@@ -267,6 +286,38 @@ TEST_CASE("cube_texture: the zero direction samples 0 and passes no gradient", "
       for (double g : bias.grad().to_vector()) CHECK(g == 0);
     }
     for (Tensor* t : {&tex, &dir, &da, &bias}) t->zero_grad();
+  }
+}
+
+TEST_CASE("cube_texture: an isotropic footprint and very short directions give finite gradients", "[ops][cube]") {
+  Tensor tex = Tensor::uniform({6, 16, 16, 1}, 0, 1, 20, DType::Float64);
+  // +Z centre, dX and dY of equal length along x and y: r = 0, where the
+  // footprint's major axis is not differentiable (the 1/r terms are dropped).
+  Tensor dir = Tensor::from_values({0.1, -0.05, 1}, {1, 3}, DType::Float64).set_requires_grad();
+  Tensor da = Tensor::from_values({0.3, 0, 0, 0.3, 0, 0}, {1, 6}, DType::Float64).set_requires_grad();
+  backward(sum(cube_texture(tex, dir, with(CubeFilter::Trilinear), da)));
+  CHECK(gr::testing::all_finite(dir.grad()));
+  CHECK(gr::testing::all_finite(da.grad()));
+  double largest = 0;
+  for (double g : da.grad().to_vector()) largest = std::max(largest, std::abs(g));
+  CHECK(largest > 0);
+  // Length 1e-200 and 1e-310 (subnormal): the same lookup as length 1; the
+  // gradients stay finite (0 where 1/|ma|^3 overflows).
+  const std::vector<double> unit = {0.3, -0.6, 0.8};
+  const Tensor ref = cube_texture(tex, Tensor::from_values(unit, {1, 3}, DType::Float64), with(CubeFilter::Bilinear));
+  for (double scale : {1e-200, 1e-310}) {
+    INFO("scale " << scale);
+    Tensor tiny = Tensor::from_values({unit[0] * scale, unit[1] * scale, unit[2] * scale}, {1, 3}, DType::Float64)
+                      .set_requires_grad();
+    Tensor tiny_da = Tensor::full({1, 6}, 0.01 * scale, DType::Float64).set_requires_grad();
+    for (CubeFilter f : {CubeFilter::Bilinear, CubeFilter::Trilinear}) {
+      Tensor out = cube_texture(tex, tiny, with(f), f == CubeFilter::Trilinear ? tiny_da : Tensor());
+      if (f == CubeFilter::Bilinear) CHECK(out.at({0, 0}) == Approx(ref.at({0, 0})).epsilon(1e-12));
+      backward(sum(out));
+      CHECK(gr::testing::all_finite(tiny.grad()));
+      tiny.zero_grad();
+    }
+    CHECK(gr::testing::all_finite(tiny_da.grad()));
   }
 }
 
