@@ -10,6 +10,7 @@
 #include "ops/barycentrics.h"
 #include "ops/batch.h"
 #include "ops/channel.h"
+#include "ops/cube_texture.h"
 #include "ops/elementwise.h"
 #include "ops/factories.h"
 #include "ops/fragments.h"

@@ -87,7 +87,9 @@ inline void bilinear_taps(const MipLevel& lv, std::int64_t total, int face, doub
   for (int b = 0; b < 2; ++b)
     for (int a = 0; a < 2; ++a) {
       // Off the face: the neighbour's texel (cube_texel); at a corner, none.
-      const CubeTexel tx = cube_texel(face, int(x0) + a, int(y0) + b, n);
+      const int col = int(x0) + a, row = int(y0) + b;
+      const bool in = col >= 0 && col < n && row >= 0 && row < n;
+      const CubeTexel tx = in ? CubeTexel{face, col, row} : cube_texel(face, col, row, n);
       const double w = scale * wx[a] * wy[b];
       const double ds = kDerivatives ? scale * dw[a] * wy[b] : 0.0;
       const double dt = kDerivatives ? scale * wx[a] * dw[b] : 0.0;
