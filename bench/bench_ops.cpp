@@ -95,6 +95,21 @@ void BM_TextureTrilinear(benchmark::State& state) {
   time_op(state, [&] { return texture(s.texture, s.uv, options, s.uv_dx, s.uv_dy); });
 }
 
+// Cube map (6 faces of 256 x 256) looked up per pixel in the direction of the
+// sphere's interpolated clip-space position (0 on the background).
+void BM_CubeTextureBilinear(benchmark::State& state) {
+  Scene s = make_scene(static_cast<int>(state.range(0)));
+  const Tensor faces = Tensor::uniform({6, 256, 256, 3}, 0, 1, 4).set_requires_grad();
+  Tensor dir;
+  {
+    NoGradGuard no_grad;
+    dir = interpolate(s.clip.detach(), s.clip.detach(), s.gbuffer, s.triangles);
+    dir = slice(dir, 2, 0, 3);
+  }
+  dir.set_requires_grad();
+  time_op(state, [&] { return cube_texture(faces, dir); });
+}
+
 void BM_DownsampleBox2(benchmark::State& state) {
   Scene s = make_scene(static_cast<int>(state.range(0)));
   time_op(state, [&] { return downsample_box(s.image, 2); });
@@ -146,6 +161,7 @@ BENCHMARK(BM_InterpolateFragments)->Apply(Sizes);
 BENCHMARK(BM_Antialias)->Apply(Sizes);
 BENCHMARK(BM_TextureBilinear)->Apply(Sizes);
 BENCHMARK(BM_TextureTrilinear)->Apply(Sizes);
+BENCHMARK(BM_CubeTextureBilinear)->Apply(Sizes);
 BENCHMARK(BM_DownsampleBox2)->Apply(Sizes);
 BENCHMARK(BM_Batch16x128)->ArgName("batched")->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->UseRealTime();
 

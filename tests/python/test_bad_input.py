@@ -117,3 +117,13 @@ def test_write_png_refuses_bad_images_and_unwritable_paths_without_leaving_a_fil
     assert list(tmp_path.iterdir()) == []
     gradraster.write_png(tmp_path / 'b.png', torch.rand(4, 4))
     assert (tmp_path / 'b.png').read_bytes()[:4] == b'\x89PNG'
+
+
+def test_arguments_that_are_not_tensors_are_type_errors_naming_them(glctx, scene):
+    pos, tri, rast, _ = scene
+    with pytest.raises(TypeError, match="'color' must be a torch.Tensor, got list"):
+        dr.antialias([[0.0]], rast, pos, tri)
+    with pytest.raises(TypeError, match="'pos' must be a torch.Tensor, got ndarray"):
+        dr.rasterize(glctx, pos.numpy(), tri, (8, 8))
+    with pytest.raises(TypeError, match="'tex' must be a torch.Tensor"):
+        dr.texture(None, torch.zeros(1, 2, 2, 2))

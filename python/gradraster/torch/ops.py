@@ -60,8 +60,8 @@ def _tri(tri):
     return tri
 
 
-def _rast(name, rast, pos_like):
-    _float(name, rast, (4,), like=pos_like)
+def _rast(name, rast, like=None):
+    _float(name, rast, (4,), like=like)
     if rast.shape[3] != 4:
         raise ValueError(f"'{name}' must have shape [minibatch_size, height, width, 4], got {list(rast.shape)}")
     return rast
@@ -230,7 +230,7 @@ def _diff_list(diff_attrs, channels):
 
 
 def _interpolate_args(attr, rast, tri, rast_db, diff):
-    _rast('rast', rast, None)
+    _rast('rast', rast)
     _float('attr', attr, (2, 3), like=('rast', rast))
     _tri(tri)
     images, h, w = rast.shape[:3]
@@ -301,8 +301,8 @@ def antialias_construct_topology_hash(tri):
 
 
 def _antialias_mesh(color, rast, pos, tri):
-    _rast('rast', rast, ('color', color))
     _float('color', color, (4,))
+    _rast('rast', rast, ('color', color))
     _float('pos', pos, (2, 3), like=('color', color))
     _tri(tri)
     if color.shape[:3] != rast.shape[:3]:
