@@ -2,6 +2,7 @@
 // slices of [B, ...] tensors, images in parallel, one tape node per call.
 #include "ops/batch.h"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 #include <vector>
@@ -15,13 +16,7 @@
 namespace gr {
 namespace {
 
-// Runs body(b) for every image; images in parallel, kernels parallel inside.
-template <class F>
-void for_each_image(std::int64_t images, F body) {
-  parallel_for(0, images, 1, [&](std::int64_t lo, std::int64_t hi) {
-    for (std::int64_t b = lo; b < hi; ++b) body(b);
-  });
-}
+using detail::for_each_image;
 
 // An input with or without an image axis: image b's rows, and whether the
 // images share it.
@@ -83,27 +78,70 @@ void check_batched_gbuffer(const GBuffer& g, std::int64_t images, const Tensor& 
   detail::check_tri_ids(g.tri_id, triangles, op);
 }
 
-struct Range {
-  std::int64_t first, count;
-};
+}  // namespace
 
-GBuffer rasterize_images(const Tensor& clip, const PerImage& positions, const Tensor& triangles,
-                         const std::vector<Range>& ranges, const RasterizeOptions& o, const char* op) {
+namespace detail {
+
+ImageBatch check_instanced(const Tensor& clip, const Tensor& triangles, const RasterizeOptions& options,
+                           const std::string& op) {
+  check_image_size(options.width, options.height, op);
+  check_float(clip, op, "clip");
+  if (clip.rank() != 3 || clip.size(0) < 1 || clip.size(2) != 4)
+    throw ShapeError(op + ": argument 'clip' must have shape [B, N, 4] with B >= 1, got " + clip.describe());
+  check_triangles(triangles, clip.size(1), op);
+  check_finite(clip, op, "clip");
+  return {true, std::vector<ImageBatch::Range>(clip.size(0), {0, triangles.size(0)})};
+}
+
+ImageBatch check_ranges(const Tensor& clip, const Tensor& triangles, const Tensor& ranges,
+                        const RasterizeOptions& options, const std::string& op) {
+  check_rasterize_inputs(clip, triangles, options, op.c_str());
+  check_dtype(ranges, DType::Int32, op, "ranges");
+  if (ranges.rank() != 2 || ranges.size(0) < 1 || ranges.size(1) != 2)
+    throw ShapeError(op + ": argument 'ranges' must have shape [B, 2] with B >= 1, got " + ranges.describe());
+  const std::int64_t B = ranges.size(0), M = triangles.size(0);
+  ImageBatch batch{false, std::vector<ImageBatch::Range>(static_cast<std::size_t>(B))};
+  const std::int32_t* v = ranges.data<std::int32_t>();
+  for (std::int64_t b = 0; b < B; ++b) {
+    ImageBatch::Range& r = batch.ranges[b];
+    r = {v[2 * b], v[2 * b + 1]};
+    if (r.first < 0 || r.count < 0 || r.first > M || r.count > M - r.first)
+      throw IndexError(op + ": ranges[" + std::to_string(b) + "] = (" + std::to_string(r.first) + ", " +
+                       std::to_string(r.count) + ") is outside the " + std::to_string(M) + " triangles");
+  }
+  return batch;
+}
+
+GBuffer rasterize_images(const Tensor& clip, const Tensor& triangles, const ImageBatch& batch,
+                         const RasterizeOptions& o, const PeelKey* floor, PeelKey* key, const char* op) {
+  const std::vector<ImageBatch::Range>& ranges = batch.ranges;
   const std::int64_t B = static_cast<std::int64_t>(ranges.size()), h = o.height, w = o.width, P = h * w;
+  const PerImage positions{&clip, !batch.instanced, clip.size(clip.rank() - 2), 4};
   const raster::RasterSettings settings{o.width, o.height, o.cull, o.front_to_back};
   GBuffer gb;
   gb.tri_id = Tensor::empty({B, h, w}, DType::Int32);
   gb.uv = Tensor::empty({B, h, w, 2}, clip.dtype());
   gb.depth = Tensor::empty({B, h, w}, clip.dtype());
+  if (key) {
+    key->id.resize(static_cast<std::size_t>(B * P));
+    key->z.resize(static_cast<std::size_t>(B * P));
+  }
   std::vector<raster::RasterStats> stats(static_cast<std::size_t>(B));
   const std::int32_t* tris = triangles.data<std::int32_t>();
   dispatch_float(clip.dtype(), op, [&](auto tag) {
     using T = decltype(tag);
     for_each_image(B, [&](std::int64_t b) {
-      const raster::RasterParams<T> p{positions.at<T>(b), positions.rows, tris + 3 * ranges[b].first, ranges[b].count,
-                                      settings};
+      // The kernel numbers the image's triangles from 1 (its floor ids too).
+      raster::RasterParams<T> p{positions.at<T>(b), positions.rows, tris + 3 * ranges[b].first, ranges[b].count,
+                                settings};
+      if (floor) {
+        p.floor_id = floor->id.data() + b * P;
+        p.floor_z = floor->z.data() + b * P;
+      }
       std::int32_t* id = gb.tri_id.data<std::int32_t>() + b * P;
-      raster::rasterize_forward(p, id, gb.uv.data<T>() + 2 * b * P, gb.depth.data<T>() + b * P, &stats[b]);
+      raster::rasterize_forward(p, id, gb.uv.data<T>() + 2 * b * P, gb.depth.data<T>() + b * P, &stats[b],
+                                key ? key->z.data() + b * P : nullptr);
+      if (key) std::copy(id, id + P, key->id.begin() + b * P);
       // Ids index the whole triangle list.
       if (ranges[b].first != 0)
         for (std::int64_t q = 0; q < P; ++q) id[q] += id[q] ? static_cast<std::int32_t>(ranges[b].first) : 0;
@@ -143,40 +181,19 @@ GBuffer rasterize_images(const Tensor& clip, const PerImage& positions, const Te
   return gb;
 }
 
-}  // namespace
+}  // namespace detail
 
 GBuffer rasterize_batch(const Tensor& clip, const Tensor& triangles, const RasterizeOptions& options) {
-  const std::string op = "rasterize_batch";
-  detail::check_image_size(options.width, options.height, op);
-  detail::check_float(clip, op, "clip");
-  if (clip.rank() != 3 || clip.size(0) < 1 || clip.size(2) != 4)
-    throw ShapeError(op + ": argument 'clip' must have shape [B, N, 4] with B >= 1, got " + clip.describe());
-  const std::int64_t B = clip.size(0);
-  detail::check_triangles(triangles, clip.size(1), op);
-  detail::check_finite(clip, op, "clip");
-  const PerImage positions = per_image(clip, B, clip.size(1), op, "clip", "[B, N, 4]");
-  return rasterize_images(clip, positions, triangles, std::vector<Range>(B, Range{0, triangles.size(0)}), options,
-                          "rasterize_batch");
+  const char* op = "rasterize_batch";
+  return detail::rasterize_images(clip, triangles, detail::check_instanced(clip, triangles, options, op), options,
+                                  nullptr, nullptr, op);
 }
 
 GBuffer rasterize_ranges(const Tensor& clip, const Tensor& triangles, const Tensor& ranges,
                          const RasterizeOptions& options) {
-  const std::string op = "rasterize_ranges";
-  detail::check_rasterize_inputs(clip, triangles, options, op.c_str());
-  detail::check_dtype(ranges, DType::Int32, op, "ranges");
-  if (ranges.rank() != 2 || ranges.size(0) < 1 || ranges.size(1) != 2)
-    throw ShapeError(op + ": argument 'ranges' must have shape [B, 2] with B >= 1, got " + ranges.describe());
-  const std::int64_t B = ranges.size(0), M = triangles.size(0);
-  std::vector<Range> r(static_cast<std::size_t>(B));
-  const std::int32_t* v = ranges.data<std::int32_t>();
-  for (std::int64_t b = 0; b < B; ++b) {
-    r[b] = {v[2 * b], v[2 * b + 1]};
-    if (r[b].first < 0 || r[b].count < 0 || r[b].first > M || r[b].count > M - r[b].first)
-      throw IndexError(op + ": ranges[" + std::to_string(b) + "] = (" + std::to_string(r[b].first) + ", " +
-                       std::to_string(r[b].count) + ") is outside the " + std::to_string(M) + " triangles");
-  }
-  return rasterize_images(clip, per_image(clip, B, clip.size(0), op, "clip", "[N, 4]"), triangles, r, options,
-                          "rasterize_ranges");
+  const char* op = "rasterize_ranges";
+  return detail::rasterize_images(clip, triangles, detail::check_ranges(clip, triangles, ranges, options, op),
+                                  options, nullptr, nullptr, op);
 }
 
 Tensor interpolate_batch(const Tensor& attributes, const Tensor& clip, const GBuffer& gbuffer,

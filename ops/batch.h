@@ -12,6 +12,11 @@
 // gradients in image order.
 #pragma once
 
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "autodiff/parallel.h"
 #include "ops/antialias.h"
 #include "ops/interpolate.h"
 #include "ops/rasterize.h"
@@ -39,4 +44,45 @@ Tensor interpolate_batch(const Tensor& attributes, const Tensor& clip, const GBu
 Tensor antialias_batch(const Tensor& image, const GBuffer& gbuffer, const Tensor& clip, const Tensor& triangles,
                        const AntialiasOptions& options = {});
 
+namespace detail {
+
+// Runs body(b) for every image; images in parallel, kernels parallel inside.
+template <class F>
+void for_each_image(std::int64_t images, F body) {
+  parallel_for(0, images, 1, [&](std::int64_t lo, std::int64_t hi) {
+    for (std::int64_t b = lo; b < hi; ++b) body(b);
+  });
+}
+
+// What a checked batched rasterize draws: instanced (clip [B, N, 4], every
+// image all triangles) or range mode (clip [N, 4] shared, image b the
+// triangles first .. first + count - 1).
+struct ImageBatch {
+  struct Range {
+    std::int64_t first, count;
+  };
+  bool instanced = false;
+  std::vector<Range> ranges;  // one per image
+};
+// rasterize_batch's and rasterize_ranges's argument checks (op names the caller).
+ImageBatch check_instanced(const Tensor& clip, const Tensor& triangles, const RasterizeOptions& options,
+                           const std::string& op);
+ImageBatch check_ranges(const Tensor& clip, const Tensor& triangles, const Tensor& ranges,
+                        const RasterizeOptions& options, const std::string& op);
+
+// Per-pixel (depth, id) keys of a peeled layer, B*H*W each: ids in the
+// kernel's numbering (local to an image's range, 1-based, 0 = background) and
+// the exact double depths (raster::RasterParams::floor_id / floor_z).
+struct PeelKey {
+  std::vector<std::int32_t> id;
+  std::vector<double> z;
+};
+// The batched rasterize behind rasterize_batch / rasterize_ranges, unchecked,
+// with an optional peeling floor (the previous layer's key) and key output.
+// The G-buffer's ids index the whole triangle list; its adjoint is the same
+// for every layer (it depends on tri_id only).
+GBuffer rasterize_images(const Tensor& clip, const Tensor& triangles, const ImageBatch& batch,
+                         const RasterizeOptions& options, const PeelKey* floor, PeelKey* key, const char* op);
+
+}  // namespace detail
 }  // namespace gr
