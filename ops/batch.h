@@ -44,6 +44,9 @@ Tensor interpolate_batch(const Tensor& attributes, const Tensor& clip, const GBu
 Tensor antialias_batch(const Tensor& image, const GBuffer& gbuffer, const Tensor& clip, const Tensor& triangles,
                        const AntialiasOptions& options = {});
 
+// Depth peeling of batches: DepthPeeler::instanced and DepthPeeler::ranges
+// (ops/depth_peel.h).
+
 namespace detail {
 
 // Runs body(b) for every image; images in parallel, kernels parallel inside.

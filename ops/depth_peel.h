@@ -8,11 +8,17 @@
 // bound (raster::RasterParams::floor_id / floor_z): triangles are binned once
 // per layer as in rasterize, no per-layer copies of the mesh. Once every
 // pixel is exhausted, further layers are background everywhere.
+//
+// Batches peel like rasterize_batch / rasterize_ranges draw (ops/batch.h):
+// every layer is a [B, H, W] G-buffer whose image b is bit-identical to
+// peeling image b alone (in range mode with ids shifted by the range's
+// first, as rasterize_ranges numbers them), for any thread count.
 #pragma once
 
 #include <cstdint>
-#include <vector>
+#include <optional>
 
+#include "ops/batch.h"
 #include "ops/rasterize.h"
 
 namespace gr {
@@ -23,17 +29,28 @@ class DepthPeeler {
   // copied), so later layers see the positions given here.
   DepthPeeler(const Tensor& clip, const Tensor& triangles, const RasterizeOptions& options);
 
-  // The next layer, [H, W] as rasterize returns it; its uv and depth have
+  // Instanced: clip [B, N, 4], triangles [M, 3]; the checks of rasterize_batch.
+  static DepthPeeler instanced(const Tensor& clip, const Tensor& triangles, const RasterizeOptions& options);
+  // Range mode: clip [N, 4], triangles [M, 3], ranges [B, 2] int32 (first,
+  // count); the checks of rasterize_ranges. Layers' ids index the whole list.
+  static DepthPeeler ranges(const Tensor& clip, const Tensor& triangles, const Tensor& ranges,
+                            const RasterizeOptions& options);
+
+  // The next layer, [H, W] as rasterize returns it ([B, H, W] as
+  // rasterize_batch / rasterize_ranges for a batch); its uv and depth have
   // rasterize's adjoint w.r.t. clip (for that layer's fixed coverage).
   GBuffer rasterize_next_layer();
 
  private:
+  DepthPeeler(const Tensor& clip, const Tensor& triangles, const RasterizeOptions& options,
+              detail::ImageBatch batch);
+
   Tensor clip_, triangles_;
   RasterizeOptions options_;
+  std::optional<detail::ImageBatch> batch_;  // set for a batch
   int layers_ = 0;
   // The previous layer's key, copied (a caller may write to the returned G-buffer).
-  std::vector<std::int32_t> floor_id_;
-  std::vector<double> floor_z_;
+  detail::PeelKey floor_;
 };
 
 }  // namespace gr
