@@ -45,7 +45,8 @@ Tensor antialias_batch(const Tensor& image, const GBuffer& gbuffer, const Tensor
                        const AntialiasOptions& options = {});
 
 // Depth peeling of batches: DepthPeeler::instanced and DepthPeeler::ranges
-// (ops/depth_peel.h).
+// (ops/depth_peel.h). Per-image textures: texture() with tex [B, Ht, Wt, C]
+// (ops/texture.h).
 
 namespace detail {
 

@@ -1,7 +1,8 @@
-// Texture sampling as an op: an [Ht, Wt, C] texture looked up at per-pixel
-// (u, v) with nearest, bilinear or mipmapped trilinear filtering and repeat /
-// clamp / mirror addressing. Differentiable w.r.t. the texels (every mip
-// level's gradient flows back to the base texture) and w.r.t. uv.
+// Texture sampling as an op: an [Ht, Wt, C] texture (or one per image,
+// [B, Ht, Wt, C]) looked up at per-pixel (u, v) with nearest, bilinear or
+// mipmapped trilinear filtering and repeat / clamp / mirror addressing.
+// Differentiable w.r.t. the texels (every mip level's gradient flows back to
+// the base texture) and w.r.t. uv.
 #pragma once
 
 #include <vector>
@@ -46,9 +47,19 @@ struct TextureOptions {
 // sizes of tex's mip chain (halving, max(1, floor(n / 2))) down to 1 x 1 or to
 // max_mip_level levels; each level receives its own gradient (nothing flows
 // from them to tex).
+// A texture per image (nvdiffrast's tex [B, Ht, Wt, C]): a rank-4 tex with
+// uv [B, ..., 2] looks image b's samples up in tex[b] (tex [1, Ht, Wt, C]:
+// one texture for every image); uv_dx, uv_dy and mip_level_bias keep uv's
+// shapes, mip levels take tex's leading axis ([B or 1, h_l, w_l, C]), and the
+// box-filtered pyramid is built per texture. Images run in parallel; each
+// image's values and gradients are bit-identical to a separate call on its
+// slices for any thread count. A shared texture's (and mip stack's) gradient
+// is the images' gradients summed in image order; its images' adjoints then
+// run one after the other (each parallel inside).
 // Throws ShapeError / DTypeError naming the argument for bad shapes or dtypes,
 // ValueError for trilinear without derivatives, a bias or a mip stack without
-// trilinear, and NaN/Inf in uv, uv_dx, uv_dy, mip_level_bias or a mip level.
+// trilinear, and NaN/Inf in uv, uv_dx, uv_dy, mip_level_bias or a mip level;
+// a tex batch that is neither 1 nor uv's is a ShapeError naming both.
 Tensor texture(const Tensor& tex, const Tensor& uv, const TextureOptions& options = {}, const Tensor& uv_dx = {},
                const Tensor& uv_dy = {}, const Tensor& mip_level_bias = {}, const std::vector<Tensor>& mip = {});
 

@@ -664,3 +664,205 @@ TEST_CASE("texture: linear-mipmap-nearest filters bilinearly on level floor(LOD)
   if (dx_in.grad().defined())
     for (double g : dx_in.grad().to_vector()) CHECK(g == 0.0);
 }
+
+// ---- a texture per image (tex [B, Ht, Wt, C]) ----
+
+namespace {
+
+// Image b of a [B, ...] tensor as a new leaf [...]; image 0 for B = 1 (an input the images share).
+Tensor image_of(const Tensor& t, std::int64_t b) {
+  std::vector<std::int64_t> dims = t.shape().dims();
+  const std::int64_t n = t.numel() / dims[0], at = dims[0] == 1 ? 0 : b * n;
+  const std::vector<double> v = t.to_vector();
+  dims.erase(dims.begin());
+  return Tensor::from_values({v.begin() + at, v.begin() + at + n}, Shape(dims), t.dtype());
+}
+
+// A batched lookup: tex [T, Ht, Wt, C] (T = B or 1), uv, uv_dx, uv_dy [B, ..., 2],
+// bias [B, ...], a user mip stack of [T, h_l, w_l, C] levels (optional) and
+// the incoming gradient g [B, ..., C].
+struct BatchedLookup {
+  TextureOptions opt;
+  Tensor tex, uv, dx, dy, bias, g;
+  std::vector<Tensor> mip;
+};
+
+// Values, then the gradients of tex, uv, uv_dx, uv_dy, bias and each mip
+// level: of one call (batched) or of one call per image, each with its own
+// backward, per-image gradients side by side and a shared input's summed in
+// image order (in its dtype).
+std::vector<double> run_lookup(const BatchedLookup& in, bool batched) {
+  const bool mipped = raster::mipmapped(in.opt.filter);
+  std::vector<Tensor> inputs = {in.tex, in.uv, mipped ? in.dx : Tensor(), mipped ? in.dy : Tensor(),
+                                mipped ? in.bias : Tensor()};
+  inputs.insert(inputs.end(), in.mip.begin(), in.mip.end());
+  const std::int64_t B = in.uv.size(0);
+  auto lookup = [&](std::vector<Tensor>& x) {
+    return texture(x[0], x[1], in.opt, x[2], x[3], x[4], std::vector<Tensor>(x.begin() + 5, x.end()));
+  };
+  std::vector<double> values;
+  std::vector<std::vector<double>> grads(inputs.size());
+  for (std::int64_t b = 0; b < (batched ? 1 : B); ++b) {
+    std::vector<Tensor> x;
+    for (const Tensor& t : inputs)
+      x.push_back(!t.defined() ? Tensor() : (batched ? t.copy() : image_of(t, b)).set_requires_grad());
+    const Tensor out = lookup(x);
+    backward(out, batched ? in.g : image_of(in.g, b));
+    for (double v : out.to_vector()) values.push_back(v);
+    for (std::size_t i = 0; i < x.size(); ++i) {
+      if (!x[i].defined() || !x[i].grad().defined()) continue;
+      const std::vector<double> g = x[i].grad().to_vector();
+      if (b == 0 || inputs[i].size(0) != 1) {
+        grads[i].insert(grads[i].end(), g.begin(), g.end());
+        continue;
+      }
+      for (std::size_t k = 0; k < g.size(); ++k)
+        grads[i][k] = in.tex.dtype() == DType::Float32 ? double(float(grads[i][k]) + float(g[k])) : grads[i][k] + g[k];
+    }
+  }
+  for (const std::vector<double>& g : grads) values.insert(values.end(), g.begin(), g.end());
+  return values;
+}
+
+BatchedLookup random_lookup(Filter filter, std::int64_t textures, bool user_mip, DType dtype) {
+  constexpr std::int64_t B = 3, th = 12, tw = 16, C = 2;
+  BatchedLookup in;
+  in.opt.filter = filter;
+  in.opt.wrap = Wrap::Mirror;
+  in.tex = Tensor::uniform({textures, th, tw, C}, -1, 1, 101, dtype);
+  in.uv = Tensor::uniform({B, 30, 40, 2}, -0.3, 1.3, 102, dtype);
+  in.dx = Tensor::uniform({B, 30, 40, 2}, -0.4, 0.4, 103, dtype);
+  in.dy = Tensor::uniform({B, 30, 40, 2}, -0.1, 0.1, 104, dtype);
+  in.bias = Tensor::uniform({B, 30, 40}, -1, 1, 105, dtype);
+  in.g = Tensor::uniform({B, 30, 40, C}, -1, 1, 106, dtype);
+  const raster::MipLayout layout = raster::mip_layout(th, tw);
+  for (int l = 1; user_mip && l < layout.count(); ++l)
+    in.mip.push_back(
+        Tensor::uniform({textures, layout.levels[l].height, layout.levels[l].width, C}, -1, 1, 106 + l, dtype));
+  return in;
+}
+
+// Footprints (uv_dx, uv_dy, [n, 2] each) of the given LODs for a base texture
+// th x tw: the major axis along x in even samples and along y in odd ones, at
+// random angles, the minor axis 0.1-0.6 of it.
+void footprints(const std::vector<double>& lods, int th, int tw, unsigned seed, Tensor* dx, Tensor* dy) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> angle(0, 6.283), small(0.1, 0.6);
+  std::vector<double> a, b;
+  for (std::size_t i = 0; i < lods.size(); ++i) {
+    const double t = angle(rng), major = std::pow(2.0, lods[i]) / tw, minor = major * small(rng);
+    const double big[2] = {major * std::cos(t), major * std::sin(t) * tw / th};
+    const double little[2] = {-minor * std::sin(t), minor * std::cos(t) * tw / th};
+    for (int k = 0; k < 2; ++k) a.push_back(i % 2 == 0 ? big[k] : little[k]);
+    for (int k = 0; k < 2; ++k) b.push_back(i % 2 == 0 ? little[k] : big[k]);
+  }
+  const std::int64_t n = static_cast<std::int64_t>(lods.size());
+  *dx = Tensor::from_values(a, {n, 2}, DType::Float64);
+  *dy = Tensor::from_values(b, {n, 2}, DType::Float64);
+}
+
+// [n, ...] tensors stacked into [B, n, ...].
+Tensor stack(const std::vector<Tensor>& images) {
+  std::vector<double> v;
+  for (const Tensor& t : images)
+    for (double x : t.to_vector()) v.push_back(x);
+  std::vector<std::int64_t> dims = images[0].shape().dims();
+  dims.insert(dims.begin(), static_cast<std::int64_t>(images.size()));
+  return Tensor::from_values(v, Shape(dims), images[0].dtype());
+}
+
+}  // namespace
+
+TEST_CASE("texture: with a texture per image every image's values and gradients equal a separate call's bit for "
+          "bit, for 1, 2 and 8 threads",
+          "[ops][texture][batch][determinism]") {
+  struct Case {
+    const char* name;
+    Filter filter;
+    bool user_mip;
+  };
+  for (const Case& c : {Case{"nearest", Filter::Nearest, false}, Case{"bilinear", Filter::Bilinear, false},
+                        Case{"trilinear", Filter::Trilinear, false},
+                        Case{"linear-mipmap-nearest", Filter::LinearMipmapNearest, false},
+                        Case{"trilinear with a user mip stack", Filter::Trilinear, true}})
+    for (std::int64_t textures : {3, 1})
+      for (DType dtype : {DType::Float32, DType::Float64}) {
+        INFO(c.name << ", " << textures << " texture(s), " << dtype_name(dtype));
+        const BatchedLookup in = random_lookup(c.filter, textures, c.user_mip, dtype);
+        const std::vector<double> separate = run_lookup(in, false);
+        for (int threads : {1, 2, 8}) {
+          INFO(threads << " threads");
+          set_num_threads(threads);
+          CHECK(run_lookup(in, true) == separate);
+        }
+        set_num_threads(0);
+      }
+}
+
+TEST_CASE("texture: with a texture per image the gradients w.r.t. texels, uv, uv_dx, uv_dy and the bias match "
+          "finite differences, also next to mip-level transitions",
+          "[ops][texture][batch][gradcheck]") {
+  const int th = 12, tw = 16;
+  const raster::MipLayout layout = raster::mip_layout(th, tw);
+  // LODs within 0.04 of the level transitions 1, 2 and 3 (on both sides) and
+  // inside levels; the biases shift them by less than 0.01.
+  const std::vector<double> lods = {0.96, 1.04, 1.97, 2.03, 2.96, 3.04, 0.4, 1.5, 2.6, 3.4};
+  std::vector<Tensor> uv, dx, dy;
+  for (unsigned b = 0; b < 2; ++b) {
+    Tensor x, y;
+    footprints(lods, th, tw, 80 + b, &x, &y);
+    dx.push_back(x);
+    dy.push_back(y);
+    uv.push_back(sample_uv(static_cast<std::int64_t>(lods.size()), layout, 0, 4, 90 + b));
+  }
+  const std::vector<Tensor> varying = {stack(uv).set_requires_grad(), stack(dx).set_requires_grad(),
+                                       stack(dy).set_requires_grad(), random_input({2, 10}, -0.01, 0.01, 95)};
+  TextureOptions opt;
+  opt.filter = Filter::Trilinear;
+  SECTION("a texture per image, and one texture the images share") {
+    for (std::int64_t textures : {2, 1}) {
+      INFO(textures << " texture(s)");
+      std::vector<Tensor> inputs = {random_input({textures, th, tw, 2}, -1, 1, 96)};
+      inputs.insert(inputs.end(), varying.begin(), varying.end());
+      require_gradcheck(textures == 2 ? "texture per image: tex, uv, uv_dx, uv_dy, bias"
+                                      : "texture shared by 2 images: tex, uv, uv_dx, uv_dy, bias",
+                        [&](const Inputs& in) { return texture(in[0], in[1], opt, in[2], in[3], in[4]); }, inputs);
+    }
+  }
+  SECTION("with a user mip stack per image") {
+    std::vector<Tensor> inputs = {random_input({2, th, tw, 2}, -1, 1, 97)};
+    inputs.insert(inputs.end(), varying.begin(), varying.end());
+    std::uint64_t seed = 98;
+    for (int l = 1; l < layout.count(); ++l)
+      inputs.push_back(random_input({2, layout.levels[l].height, layout.levels[l].width, 2}, -1, 1, seed++));
+    require_gradcheck("texture per image, user mip stack",
+                      [&](const Inputs& in) {
+                        const std::vector<Tensor> mip(in.begin() + 5, in.end());
+                        return texture(in[0], in[1], opt, in[2], in[3], in[4], mip);
+                      },
+                      inputs);
+  }
+}
+
+TEST_CASE("texture: per-image textures whose batch size disagrees with uv's are refused, naming both arguments",
+          "[ops][texture][batch][errors]") {
+  const Tensor uv = Tensor::full({2, 5, 2}, 0.5);
+  CHECK_THROWS_AS(texture(Tensor::ones({3, 4, 4, 3}), uv), ShapeError);
+  CHECK_THROWS_WITH(texture(Tensor::ones({3, 4, 4, 3}), uv),
+                    Catch::Contains("'tex' float32[3, 4, 4, 3]") && Catch::Contains("'uv' float32[2, 5, 2]"));
+  CHECK_THROWS_WITH(texture(Tensor::ones({2, 4, 4, 3}), Tensor::full({2}, 0.5)),
+                    Catch::Contains("'uv'") && Catch::Contains("[B, ..., 2]"));
+  CHECK_THROWS_WITH(texture(Tensor::ones({2, 4, 4, 0}), uv), Catch::Contains("'tex'"));
+  // A texture shared by the images: B = 1.
+  CHECK(texture(Tensor::ones({1, 4, 4, 3}), uv).shape() == Shape{2, 5, 3});
+  // A user mip stack follows tex's batch size.
+  TextureOptions tri;
+  tri.filter = Filter::Trilinear;
+  const Tensor d = Tensor::full({2, 5, 2}, 0.1);
+  const std::vector<Tensor> single_mip = {Tensor::ones({1, 2, 2, 3}), Tensor::ones({1, 1, 1, 3})};
+  CHECK_THROWS_WITH(texture(Tensor::ones({2, 4, 4, 3}), uv, tri, d, d, {}, single_mip), Catch::Contains("mip[0]"));
+  // A NaN texel of image 1 is named by its index in tex.
+  Tensor bad = Tensor::ones({2, 4, 4, 3});
+  bad.data<float>()[53] = std::nanf("");
+  CHECK_THROWS_WITH(texture(bad, uv), Catch::Contains("tex[53]"));
+}
