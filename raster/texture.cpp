@@ -175,6 +175,18 @@ inline const T* texel(const TextureParams<T>& p, std::int64_t index, std::int64_
   return index < base_texels ? p.tex + index * p.channels : p.pyramid + (index - base_texels) * p.channels;
 }
 
+// g . texel over C channels, summed in double in channel order (the common
+// 3- and 4-channel cases unrolled, so a sample's texel loads issue together).
+template <class T>
+[[gnu::always_inline]] inline double dot_channels(const T* g, const T* tx, std::int64_t C) {
+  auto term = [&](std::int64_t c) { return static_cast<double>(g[c]) * tx[c]; };
+  if (C == 3) return term(0) + term(1) + term(2);
+  if (C == 4) return term(0) + term(1) + term(2) + term(3);
+  double d = 0.0;
+  for (std::int64_t c = 0; c < C; ++c) d += term(c);
+  return d;
+}
+
 template <class T>
 void check_params(const TextureParams<T>& p, const char* op) {
   if (p.layout.count() < 1 || p.channels < 1 || p.num_samples < 0)
@@ -223,13 +235,16 @@ void texture_forward(const TextureParams<T>& p, T* out) {
 }
 
 namespace {
-// The adjoint's per-chunk tap buffers, reused across calls.
+// The adjoint's per-chunk tap buffers, reused across calls: texel index (in
+// the all-levels buffer: below 2^32 for sides <= 32768) and weight in T.
+template <class T>
 struct TapScratch {
-  std::vector<std::int64_t> index;
-  std::vector<double> w;
+  std::vector<std::uint32_t> index;
+  std::vector<T> w;
   std::vector<std::uint8_t> n;
 };
-detail::ScratchPool<TapScratch> g_tap_pool;
+template <class T>
+detail::ScratchPool<TapScratch<T>> g_tap_pool;
 }  // namespace
 
 template <class T>
@@ -248,35 +263,28 @@ void texture_backward(const TextureParams<T>& p, const T* grad_out, const Textur
   const std::int64_t base_texels = std::int64_t(p.layout.levels[0].height) * p.layout.levels[0].width;
   const int levels_used = mipmapped(p.filter) ? p.layout.count() : 1;
 
-  // Texel gradients of every level used, in double (level 0 straight into
-  // grad_tex when that is already double and no other level exists).
+  // Texel gradients: level 0 alone straight into grad_tex (summed in T); with
+  // mip levels, every level's in double, then down the pyramid.
+  const bool texels = grad_tex || grad_pyramid;
+  const bool direct = levels_used == 1 && grad_tex;
   Tensor scratch;
   double* acc = nullptr;
-  bool direct = false;  // acc is grad_tex itself
-  const bool texels = grad_tex || grad_pyramid;
-  if (texels) {
-    if constexpr (std::is_same_v<T, double>) {
-      if (levels_used == 1 && grad_tex) {
-        acc = grad_tex;
-        direct = true;
-      }
-    }
-    if (!acc) {
-      // Through the storage cache: no fresh pages in an optimization loop.
-      scratch = Tensor::zeros({(levels_used == 1 ? base_texels : p.layout.total_texels) * C}, DType::Float64);
-      acc = scratch.data<double>();
-    }
+  if (texels && !direct) {
+    // Through the storage cache: no fresh pages in an optimization loop.
+    scratch = Tensor::zeros({p.layout.total_texels * C}, DType::Float64);
+    acc = scratch.data<double>();
   }
 
   // Samples in chunks: taps and uv gradients in parallel, texel sums in sample
-  // order. Taps are kept compactly (index, weight) with a fixed stride.
-  constexpr std::int64_t kChunk = 16384;
+  // order. Taps are kept compactly (index, weight) with a fixed stride, and a
+  // chunk's taps (64-128 KiB) stay in L2 between the two passes.
+  constexpr std::int64_t kChunk = 4096;
   const int stride = p.filter == Filter::Nearest ? 1 : p.filter == Filter::Trilinear ? kMaxTaps : 4;
   const std::size_t chunk = static_cast<std::size_t>(std::min(S, kChunk));
   // Pooled, so an optimization loop does not fault in fresh pages every call.
-  auto lease = g_tap_pool.take();
-  std::vector<std::int64_t>& tap_index = lease->index;
-  std::vector<double>& tap_w = lease->w;
+  auto lease = g_tap_pool<T>.take();
+  std::vector<std::uint32_t>& tap_index = lease->index;
+  std::vector<T>& tap_w = lease->w;
   std::vector<std::uint8_t>& tap_n = lease->n;  // 0: sample skipped
   if (texels) {
     tap_index.resize(stride * chunk);
@@ -301,12 +309,7 @@ void texture_backward(const TextureParams<T>& p, const T* grad_out, const Textur
         if (lod_grads && t.lod_free) {
           // dL/dlod = g . sum_t (dw_t/dlod) texel_t, then through the LOD.
           double g_lod = 0.0;
-          for (int k = 0; k < t.n; ++k) {
-            const T* tx = texel(p, t.index[k], base_texels);
-            double d = 0.0;
-            for (std::int64_t c = 0; c < C; ++c) d += static_cast<double>(g[c]) * tx[c];
-            g_lod += t.dw_dlod[k] * d;
-          }
+          for (int k = 0; k < t.n; ++k) g_lod += t.dw_dlod[k] * dot_channels(g, texel(p, t.index[k], base_texels), C);
           if (grad_bias) grad_bias[s] += static_cast<T>(g_lod);
           const MipLevel& base = p.layout.levels[0];
           const Lod l = compute_lod(p.uv_dx[2 * s], p.uv_dx[2 * s + 1], p.uv_dy[2 * s], p.uv_dy[2 * s + 1],
@@ -326,9 +329,7 @@ void texture_backward(const TextureParams<T>& p, const T* grad_out, const Textur
           // dL/du = g . sum_t dw_t/du texel_t (likewise v).
           double gu = 0.0, gv = 0.0;
           for (int k = 0; k < t.n; ++k) {
-            const T* tx = texel(p, t.index[k], base_texels);
-            double d = 0.0;
-            for (std::int64_t c = 0; c < C; ++c) d += static_cast<double>(g[c]) * tx[c];
+            const double d = dot_channels(g, texel(p, t.index[k], base_texels), C);
             gu += t.dw_du[k] * d;
             gv += t.dw_dv[k] * d;
           }
@@ -337,16 +338,9 @@ void texture_backward(const TextureParams<T>& p, const T* grad_out, const Textur
         }
         tap_n[i] = static_cast<std::uint8_t>(t.n);
         if (!texels) continue;
-        // A fixed count for the common bilinear case (a short variable-length
-        // copy compiles to rep movs, which costs more than the sample itself).
-        if (t.n == 4) {
-          std::copy(t.index, t.index + 4, &tap_index[stride * i]);
-          std::copy(t.w, t.w + 4, &tap_w[stride * i]);
-        } else {
-          for (int k = 0; k < t.n; ++k) {
-            tap_index[stride * i + k] = t.index[k];
-            tap_w[stride * i + k] = t.w[k];
-          }
+        for (int k = 0; k < t.n; ++k) {
+          tap_index[stride * i + k] = static_cast<std::uint32_t>(t.index[k]);
+          tap_w[stride * i + k] = static_cast<T>(t.w[k]);
         }
       }
     });
@@ -355,21 +349,27 @@ void texture_backward(const TextureParams<T>& p, const T* grad_out, const Textur
     // into bands, one task each; every task walks all taps in sample order and
     // applies those in its band, so each texel sees the same sequence of adds
     // whatever the number of bands or threads.
-    parallel_for(0, bands, 1, [&](std::int64_t b0, std::int64_t b1) {
-      const std::int64_t lo = band_size * b0, hi = std::min(acc_texels, band_size * b1);
-      for (std::int64_t s = c0; s < c1; ++s) {
-        const std::int64_t i = s - c0;
-        const int n = tap_n[i];
-        const T* g = grad_out + s * C;
-        for (int k = 0; k < n; ++k) {
-          const std::int64_t t = tap_index[stride * i + k];
-          if (t < lo || t >= hi) continue;
-          double* a = acc + t * C;
-          const double w = tap_w[stride * i + k];
-          for (std::int64_t c = 0; c < C; ++c) a[c] += w * g[c];
+    auto scatter = [&](auto* sums) {
+      parallel_for(0, bands, 1, [&](std::int64_t b0, std::int64_t b1) {
+        const std::int64_t lo = band_size * b0, hi = std::min(acc_texels, band_size * b1);
+        for (std::int64_t s = c0; s < c1; ++s) {
+          const std::int64_t i = s - c0;
+          const int n = tap_n[i];
+          const T* g = grad_out + s * C;
+          for (int k = 0; k < n; ++k) {
+            const std::int64_t t = tap_index[stride * i + k];
+            if (t < lo || t >= hi) continue;
+            auto* a = sums + t * C;
+            const double w = tap_w[stride * i + k];
+            for (std::int64_t c = 0; c < C; ++c) a[c] += w * g[c];
+          }
         }
-      }
-    });
+      });
+    };
+    if (direct)
+      scatter(grad_tex);
+    else
+      scatter(acc);
   }
   if (!texels || direct) return;
   if (p.user_pyramid) {

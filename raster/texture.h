@@ -105,9 +105,10 @@ void texture_forward(const TextureParams<T>& p, T* out);
 // with the partials p of rho2: Isotropic p_A = 1, p_B = p_C = 0 when |a| >= |b|
 // (else p_B = 1); MajorAxis p_A = 1/2 + (A - B) / (4 r), p_B = 1/2 - (A - B) / (4 r),
 // p_C = C / r, r = sqrt((A - B)^2/4 + C^2) (r = 0: p_A = p_B = 1/2, p_C = 0).
-// Texel sums are accumulated in double and added in sample order, so the
-// result is bit-identical for any thread count. Samples with an all-zero
-// incoming gradient are skipped.
+// Texel gradients are added in sample order, so the result is bit-identical
+// for any thread count; they are summed in T (float32 in float32, as the tape
+// sums) when only level 0 is read, in double when mip levels are (then rounded
+// once). Samples with an all-zero incoming gradient are skipped.
 template <class T>
 void texture_backward(const TextureParams<T>& p, const T* grad_out, const TextureGrads<T>& grads);
 
