@@ -6,8 +6,11 @@
 //   Args {size, backward (0/1)}; the default thread count (all cores).
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <functional>
+#include <vector>
 
 #include "ops/ops.h"
 #include "raster/procedural.h"
@@ -110,17 +113,43 @@ void BM_CubeTextureBilinear(benchmark::State& state) {
   time_op(state, [&] { return cube_texture(faces, dir); });
 }
 
+// Bilinear texture forward+backward against its forward alone (issue 11's
+// goal: at most 3x), timed in alternating iterations of one run so that both
+// see the same machine: counters fwd_ms, fwd_bwd_ms (medians) and ratio.
+void BM_TextureBilinearRatio(benchmark::State& state) {
+  Scene s = make_scene(static_cast<int>(state.range(0)));
+  using Clock = std::chrono::steady_clock;
+  auto ms = [](Clock::duration d) { return std::chrono::duration<double, std::milli>(d).count(); };
+  Tensor upstream;
+  std::vector<double> fwd, fwd_bwd;
+  for (auto _ : state) {
+    const auto t0 = Clock::now();
+    texture(s.texture, s.uv);
+    Tape::current().clear();
+    const auto t1 = Clock::now();
+    const Tensor out = texture(s.texture, s.uv);
+    if (!upstream.defined()) upstream = Tensor::uniform(out.shape(), -1, 1, 7, out.dtype());
+    backward(out, upstream);
+    const auto t2 = Clock::now();
+    fwd.push_back(ms(t1 - t0));
+    fwd_bwd.push_back(ms(t2 - t1));
+  }
+  auto median = [](std::vector<double> v) {
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return v[v.size() / 2];
+  };
+  state.counters["fwd_ms"] = median(fwd);
+  state.counters["fwd_bwd_ms"] = median(fwd_bwd);
+  state.counters["ratio"] = median(fwd_bwd) / median(fwd);
+}
+
 void BM_DownsampleBox2(benchmark::State& state) {
   Scene s = make_scene(static_cast<int>(state.range(0)));
   time_op(state, [&] { return downsample_box(s.image, 2); });
 }
 
-// 16 images of 128 x 128 (16 views of the icosphere, turned about y) through
-// rasterize + interpolate + antialias, forward + backward: one batched call
-// (Args batched = 1) against 16 single-image calls.
-void BM_Batch16x128(benchmark::State& state) {
-  const bool batched = state.range(0) != 0;
-  const raster::Mesh mesh = raster::make_icosphere(4, 1.0f);
+// 16 views of the icosphere(4) at 128 x 128.
+Tensor sixteen_views(const raster::Mesh& mesh) {
   const Tensor proj = perspective(0.8, 1.0, 0.1, 10.0);
   std::vector<Tensor> views;
   for (int b = 0; b < 16; ++b) {
@@ -129,7 +158,16 @@ void BM_Batch16x128(benchmark::State& state) {
     views.push_back(transform_points(mesh.positions, matmul(proj, look_at(eye, Tensor::from_values({0, 0, 0}, {3}),
                                                                           Tensor::from_values({0, 1, 0}, {3})))));
   }
-  const Tensor clip = stack(views, 0).set_requires_grad();
+  return stack(views, 0);
+}
+
+// 16 images of 128 x 128 (16 views of the icosphere, turned about y) through
+// rasterize + interpolate + antialias, forward + backward: one batched call
+// (Args batched = 1) against 16 single-image calls.
+void BM_Batch16x128(benchmark::State& state) {
+  const bool batched = state.range(0) != 0;
+  const raster::Mesh mesh = raster::make_icosphere(4, 1.0f);
+  const Tensor clip = sixteen_views(mesh).set_requires_grad();
   const Tensor colours = Tensor::uniform({mesh.num_vertices(), 3}, 0, 1, 1).set_requires_grad();
   AntialiasOptions aa;
   aa.topology = antialias_topology(mesh.triangles, mesh.positions);
@@ -150,6 +188,48 @@ void BM_Batch16x128(benchmark::State& state) {
   }
 }
 
+// Depth peeling of 16 images of 128 x 128, two layers each, forward + backward
+// of the layers' depth: one batched peeler (batched = 1) against 16 peelers.
+void BM_DepthPeel16x128(benchmark::State& state) {
+  const bool batched = state.range(0) != 0;
+  const raster::Mesh mesh = raster::make_icosphere(4, 1.0f);
+  const Tensor clip = sixteen_views(mesh).set_requires_grad();
+  const RasterizeOptions size{128, 128};
+  for (auto _ : state) {
+    Tensor loss = Tensor::scalar(0.0);
+    if (batched) {
+      DepthPeeler peeler = DepthPeeler::instanced(clip, mesh.triangles, size);
+      for (int layer = 0; layer < 2; ++layer) loss = add(loss, sum(peeler.rasterize_next_layer().depth));
+    } else {
+      for (int b = 0; b < 16; ++b) {
+        DepthPeeler peeler(reshape(slice(clip, 0, b, b + 1), {mesh.num_vertices(), 4}), mesh.triangles, size);
+        for (int layer = 0; layer < 2; ++layer) loss = add(loss, sum(peeler.rasterize_next_layer().depth));
+      }
+    }
+    backward(loss);
+  }
+}
+
+// A 256 x 256 x 3 texture per image looked up bilinearly at 16 images of
+// 128 x 128 random uv, forward + backward: one call with tex [16, 256, 256, 3]
+// (batched = 1) against 16 calls.
+void BM_TexturePerImage16x128(benchmark::State& state) {
+  const bool batched = state.range(0) != 0;
+  const Tensor tex = Tensor::uniform({16, 256, 256, 3}, 0, 1, 5).set_requires_grad();
+  const Tensor uv = Tensor::uniform({16, 128, 128, 2}, 0, 1, 6).set_requires_grad();
+  for (auto _ : state) {
+    Tensor loss = Tensor::scalar(0.0);
+    if (batched) {
+      loss = sum(texture(tex, uv));
+    } else {
+      for (int b = 0; b < 16; ++b)
+        loss = add(loss, sum(texture(reshape(slice(tex, 0, b, b + 1), {256, 256, 3}),
+                                     reshape(slice(uv, 0, b, b + 1), {128, 128, 2}))));
+    }
+    backward(loss);
+  }
+}
+
 void Sizes(benchmark::internal::Benchmark* b) {
   for (std::int64_t size : {256, 512, 1024})
     for (std::int64_t with_backward : {0, 1}) b->Args({size, with_backward});
@@ -163,7 +243,10 @@ BENCHMARK(BM_TextureBilinear)->Apply(Sizes);
 BENCHMARK(BM_TextureTrilinear)->Apply(Sizes);
 BENCHMARK(BM_CubeTextureBilinear)->Apply(Sizes);
 BENCHMARK(BM_DownsampleBox2)->Apply(Sizes);
+BENCHMARK(BM_TextureBilinearRatio)->ArgName("size")->Arg(256)->Arg(1024)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_Batch16x128)->ArgName("batched")->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_DepthPeel16x128)->ArgName("batched")->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_TexturePerImage16x128)->ArgName("batched")->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace
 

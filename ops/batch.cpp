@@ -122,10 +122,7 @@ GBuffer rasterize_images(const Tensor& clip, const Tensor& triangles, const Imag
   gb.tri_id = Tensor::empty({B, h, w}, DType::Int32);
   gb.uv = Tensor::empty({B, h, w, 2}, clip.dtype());
   gb.depth = Tensor::empty({B, h, w}, clip.dtype());
-  if (key) {
-    key->id.resize(static_cast<std::size_t>(B * P));
-    key->z.resize(static_cast<std::size_t>(B * P));
-  }
+  if (key) *key = {Tensor::empty({B * P}, DType::Int32), Tensor::empty({B * P}, DType::Float64)};
   std::vector<raster::RasterStats> stats(static_cast<std::size_t>(B));
   const std::int32_t* tris = triangles.data<std::int32_t>();
   dispatch_float(clip.dtype(), op, [&](auto tag) {
@@ -135,13 +132,13 @@ GBuffer rasterize_images(const Tensor& clip, const Tensor& triangles, const Imag
       raster::RasterParams<T> p{positions.at<T>(b), positions.rows, tris + 3 * ranges[b].first, ranges[b].count,
                                 settings};
       if (floor) {
-        p.floor_id = floor->id.data() + b * P;
-        p.floor_z = floor->z.data() + b * P;
+        p.floor_id = floor->id.data<std::int32_t>() + b * P;
+        p.floor_z = floor->z.data<double>() + b * P;
       }
       std::int32_t* id = gb.tri_id.data<std::int32_t>() + b * P;
       raster::rasterize_forward(p, id, gb.uv.data<T>() + 2 * b * P, gb.depth.data<T>() + b * P, &stats[b],
-                                key ? key->z.data() + b * P : nullptr);
-      if (key) std::copy(id, id + P, key->id.begin() + b * P);
+                                key ? key->z.data<double>() + b * P : nullptr);
+      if (key) std::copy(id, id + P, key->id.data<std::int32_t>() + b * P);
       // Ids index the whole triangle list.
       if (ranges[b].first != 0)
         for (std::int64_t q = 0; q < P; ++q) id[q] += id[q] ? static_cast<std::int32_t>(ranges[b].first) : 0;

@@ -76,10 +76,11 @@ ImageBatch check_ranges(const Tensor& clip, const Tensor& triangles, const Tenso
 
 // Per-pixel (depth, id) keys of a peeled layer, B*H*W each: ids in the
 // kernel's numbering (local to an image's range, 1-based, 0 = background) and
-// the exact double depths (raster::RasterParams::floor_id / floor_z).
+// the exact double depths (raster::RasterParams::floor_id / floor_z). Tensors
+// (int32 and float64, [B*H*W]), so that their buffers come from the storage
+// cache instead of fresh pages for every layer.
 struct PeelKey {
-  std::vector<std::int32_t> id;
-  std::vector<double> z;
+  Tensor id, z;
 };
 // The batched rasterize behind rasterize_batch / rasterize_ranges, unchecked,
 // with an optional peeling floor (the previous layer's key) and key output.

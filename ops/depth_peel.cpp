@@ -2,6 +2,7 @@
 // (a batch) with the previous layer's (depth, id) key as the floor.
 #include "ops/depth_peel.h"
 
+#include <algorithm>
 #include <utility>
 
 namespace gr {
@@ -31,11 +32,12 @@ GBuffer DepthPeeler::rasterize_next_layer() {
   if (batch_) {
     gb = detail::rasterize_images(clip_, triangles_, *batch_, options_, floor, &key, "DepthPeeler");
   } else {
-    key.z.resize(static_cast<std::size_t>(options_.width) * options_.height);
-    gb = detail::rasterize_layer(clip_, triangles_, options_, floor ? floor->id.data() : nullptr,
-                                 floor ? floor->z.data() : nullptr, key.z.data());
+    const std::int64_t pixels = std::int64_t(options_.width) * options_.height;
+    key = {Tensor::empty({pixels}, DType::Int32), Tensor::empty({pixels}, DType::Float64)};
+    gb = detail::rasterize_layer(clip_, triangles_, options_, floor ? floor->id.data<std::int32_t>() : nullptr,
+                                 floor ? floor->z.data<double>() : nullptr, key.z.data<double>());
     const std::int32_t* id = gb.tri_id.data<std::int32_t>();
-    key.id.assign(id, id + key.z.size());
+    std::copy(id, id + pixels, key.id.data<std::int32_t>());
   }
   floor_ = std::move(key);
   return gb;
