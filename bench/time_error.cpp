@@ -1,16 +1,19 @@
-// time_error (issue 6): run time against gradient error for float32/float64,
-// antialiasing off/on and supersampling 1/2/4 on a fixed scene (a coloured
+// time_error (issue 6; graded exactly since issue 13): run time against
+// gradient error for float32/float64, antialiasing off/on and supersampling
+// 1/2/4 on a fixed scene (a coloured
 // torus at 128 x 128 fitted towards a rotated and shifted copy, loss = MSE;
 // bench/time_error_scene.h). Each configuration's gradient w.r.t. the vertex
-// positions and colours is compared with a float64 finite-difference
-// reference of the area-integrated loss (16x16 supersampling with
-// antialiasing; bench/time_error_reference.h), and its image with the
-// reference image. Prints a Markdown table, writes a CSV and a log-log plot
-// of time against position-gradient error with the Pareto frontier.
-// docs/time_error.md explains the scene, the reference and the results.
+// positions and colours is compared with float64 finite differences of the
+// area-integrated loss: by default that of the exact box-filtered image
+// (bench/time_error_exact.h), with --supersampled-reference that of a 16x16
+// supersampled render with antialiasing (bench/time_error_reference.h); its
+// image with the reference image. Prints a Markdown table, writes a CSV and a
+// log-log plot of time against position-gradient error with the Pareto
+// frontier. docs/time_error.md explains the scene, the reference and the results.
 //
-//   time_error [out.csv] [out.png]     defaults out/time_error.csv, out/time_error.png
-//   time_error --convergence           the reference's convergence study (slow, ~minutes; prints only)
+//   time_error [--supersampled-reference] [out.csv] [out.png]
+//                                      defaults out/time_error.csv, out/time_error.png
+//   time_error --convergence           the supersampled reference's convergence study (slow, ~minutes; prints only)
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -25,6 +28,7 @@
 
 #include "autodiff/parallel.h"
 #include "autodiff/tape.h"
+#include "bench/time_error_exact.h"
 #include "bench/time_error_plot.h"
 #include "bench/time_error_reference.h"
 #include "bench/time_error_scene.h"
@@ -46,6 +50,10 @@ const char* short_dtype(DType d) { return d == DType::Float64 ? "f64" : "f32"; }
 
 std::string config_name(const RenderSettings& s) {
   return std::string(short_dtype(s.dtype)) + (s.antialias ? " aa" : "") + " s" + std::to_string(s.supersample);
+}
+
+bool same_except_dtype(const RenderSettings& a, const RenderSettings& b) {
+  return a.antialias == b.antialias && a.supersample == b.supersample;
 }
 
 double seconds_since(std::chrono::steady_clock::time_point t0) {
@@ -140,32 +148,65 @@ void ensure_parent(const std::string& path) {
   if (!parent.empty()) std::filesystem::create_directories(parent);
 }
 
-Tensor render_reference(const TimeErrorScene& scene, const Tensor& points, const FiniteDifferenceOptions& fd) {
+// The 16x16 supersampled reference of --supersampled-reference and --convergence.
+constexpr RenderSettings kSupersampledReference{DType::Float64, true, 16};
+
+Tensor render_reference(const TimeErrorScene& scene, const Tensor& points, const RenderSettings& settings) {
   NoGradGuard no_grad;
-  return scene.render(points, scene.colours(), fd.settings);
+  return scene.render(points, scene.colours(), settings);
 }
 
-int run_sweep(const std::string& csv_path, const std::string& png_path) {
+// What the configurations are graded against: the target image of the loss,
+// the reference image at the scene's parameters, and the loss's directional
+// derivatives by finite differences.
+struct Reference {
+  Tensor target, image;
+  ReferenceDerivatives derivatives;
+  FiniteDifferenceSteps steps;
+};
+
+Reference exact_reference(const TimeErrorScene& scene, const Directions& directions) {
+  Reference r;
+  r.target = exact_scene_image(scene, scene.target_points(), scene.colours()).image;
+  r.image = exact_scene_image(scene, scene.points(), scene.colours()).image;
+  r.steps.position_px = kExactPositionStepPx;
+  r.derivatives = finite_difference_reference(scene, exact_scene_loss(scene, r.target), directions, r.steps);
+  return r;
+}
+
+Reference supersampled_reference(const TimeErrorScene& scene, const Directions& directions) {
+  Reference r;
+  r.target = render_reference(scene, scene.target_points(), kSupersampledReference);
+  r.image = render_reference(scene, scene.points(), kSupersampledReference);
+  r.derivatives = finite_difference_reference(scene, rendered_loss(scene, r.target, kSupersampledReference),
+                                              directions, r.steps);
+  return r;
+}
+
+int run_sweep(bool supersampled, const std::string& csv_path, const std::string& png_path) {
   const auto start = std::chrono::steady_clock::now();
   const TimeErrorScene scene;
-  const FiniteDifferenceOptions fd;
-  const Tensor target = render_reference(scene, scene.target_points(), fd);
-  const Tensor reference_image = render_reference(scene, scene.points(), fd);
   const Directions directions = random_directions(scene.points(), kPositionDirections, kColourDirections, kSeed);
-  const ReferenceDerivatives reference = finite_difference_reference(scene, target, directions, fd);
+  const Reference ref = supersampled ? supersampled_reference(scene, directions) : exact_reference(scene, directions);
+  const Tensor& target = ref.target;
   std::printf("scene: torus, %lld points, %d x %d, loss = MSE against the rotated and shifted torus\n",
               (long long)scene.num_points(), scene.width(), scene.height());
-  std::printf("reference: float64, antialias, %dx%d supersampling, 4th-order central differences along %d random\n"
-              "  position directions (step %.2f px) and %d colour directions; %.1f s. "
+  if (supersampled)
+    std::printf("reference: float64, antialias, %dx%d supersampling,", kSupersampledReference.supersample,
+                kSupersampledReference.supersample);
+  else
+    std::printf("reference: float64, exact box-filtered image (bench/exact_reference),");
+  std::printf(" 4th-order central differences along %d random\n"
+              "  position directions (step %.3g px) and %d colour directions; %.1f s. "
               "2nd-order h vs 2h spread: %.2g\n\n",
-              fd.settings.supersample, fd.settings.supersample, kPositionDirections, fd.position_step_px,
-              kColourDirections, reference.seconds, relative_l2(reference.position_h, reference.position_2h));
+              kPositionDirections, ref.steps.position_px, kColourDirections, ref.derivatives.seconds,
+              relative_l2(ref.derivatives.position_h, ref.derivatives.position_2h));
 
   std::vector<Row> rows;  // the error pass doubles as the warm-up of the storage cache
   for (DType dtype : {DType::Float32, DType::Float64})
     for (bool aa : {false, true})
       for (int ss : {1, 2, 4})
-        rows.push_back(measure_errors(scene, target, reference_image, directions, reference, {dtype, aa, ss}));
+        rows.push_back(measure_errors(scene, target, ref.image, directions, ref.derivatives, {dtype, aa, ss}));
   measure_times(scene, target, rows);
 
   std::vector<FrontierPoint> points;
@@ -187,7 +228,7 @@ int run_sweep(const std::string& csv_path, const std::string& png_path) {
   for (const Row& a : rows)
     for (const Row& b : rows)
       if (a.settings.dtype == DType::Float32 && b.settings.dtype == DType::Float64 &&
-          a.settings.antialias == b.settings.antialias && a.settings.supersample == b.settings.supersample)
+          same_except_dtype(a.settings, b.settings))
         std::printf(" %s %.2g;", config_name(a.settings).substr(4).c_str(),
                     relative_l2(a.position_projections, b.position_projections));
   std::printf("\n");
@@ -204,22 +245,26 @@ int run_sweep(const std::string& csv_path, const std::string& png_path) {
 // directions than the sweep, to keep it to a few minutes.
 int run_convergence() {
   const TimeErrorScene scene;
-  FiniteDifferenceOptions best;
-  best.settings.supersample = 24;
+  RenderSettings best = kSupersampledReference;
+  best.supersample = 24;
+  const FiniteDifferenceSteps best_steps;
   const Tensor target = render_reference(scene, scene.target_points(), best);
   const Directions directions = random_directions(scene.points(), 8, 4, kSeed);
-  const ReferenceDerivatives top = finite_difference_reference(scene, target, directions, best);
+  const ReferenceDerivatives top =
+      finite_difference_reference(scene, rendered_loss(scene, target, best), directions, best_steps);
   std::printf("baseline: FD at s=24, step %.2f px (%.1f s), 8 position and 4 colour directions\n\n",
-              best.position_step_px, top.seconds);
+              best_steps.position_px, top.seconds);
   std::printf("| candidate | positions: rel diff to baseline | colours: rel diff | h vs 2h spread | seconds |\n");
   std::printf("|---|---:|---:|---:|---:|\n");
   const std::pair<int, double> candidates[] = {{8, 0.25}, {8, 0.5}, {8, 1.0}, {16, 0.125},
                                                {16, 0.25}, {16, 0.5}, {16, 1.0}, {24, 0.5}};
   for (const auto& [ss, step] : candidates) {
-    FiniteDifferenceOptions o = best;
-    o.settings.supersample = ss;
-    o.position_step_px = step;
-    const ReferenceDerivatives r = finite_difference_reference(scene, target, directions, o);
+    RenderSettings settings = best;
+    settings.supersample = ss;
+    FiniteDifferenceSteps steps = best_steps;
+    steps.position_px = step;
+    const ReferenceDerivatives r =
+        finite_difference_reference(scene, rendered_loss(scene, target, settings), directions, steps);
     std::printf("| FD s=%d, step %.3g px | %.3g | %.3g | %.3g | %.1f |\n", ss, step,
                 relative_l2(r.position, top.position), relative_l2(r.colour, top.colour),
                 relative_l2(r.position_h, r.position_2h), r.seconds);
@@ -247,8 +292,12 @@ int run_convergence() {
 int main(int argc, char** argv) {
   set_num_threads(kThreads);
   try {
-    if (argc > 1 && std::string(argv[1]) == "--convergence") return run_convergence();
-    return run_sweep(argc > 1 ? argv[1] : "out/time_error.csv", argc > 2 ? argv[2] : "out/time_error.png");
+    std::vector<std::string> args(argv + 1, argv + argc);
+    if (!args.empty() && args[0] == "--convergence") return run_convergence();
+    const bool supersampled = !args.empty() && args[0] == "--supersampled-reference";
+    if (supersampled) args.erase(args.begin());
+    return run_sweep(supersampled, args.size() > 0 ? args[0] : "out/time_error.csv",
+                     args.size() > 1 ? args[1] : "out/time_error.png");
   } catch (const std::exception& e) {
     std::fprintf(stderr, "time_error: %s\n", e.what());
     return 1;
