@@ -1,6 +1,6 @@
 // time_error (issue 6; graded exactly since issue 13): run time against
-// gradient error for float32/float64, antialiasing off/on and supersampling
-// 1/2/4 on a fixed scene (a coloured
+// gradient error for float32/float64, antialiasing off/on, supersampling
+// 1/2/4 and soft rasterization at three sigmas on a fixed scene (a coloured
 // torus at 128 x 128 fitted towards a rotated and shifted copy, loss = MSE;
 // bench/time_error_scene.h). Each configuration's gradient w.r.t. the vertex
 // positions and colours is compared with float64 finite differences of the
@@ -48,13 +48,25 @@ constexpr std::uint64_t kSeed = 6;
 
 const char* short_dtype(DType d) { return d == DType::Float64 ? "f64" : "f32"; }
 
+// Sigma as printed: "0.3".
+std::string sigma_text(double sigma) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%g", sigma);
+  return text;
+}
+
 std::string config_name(const RenderSettings& s) {
+  if (s.soft_sigma > 0) return std::string(short_dtype(s.dtype)) + " soft " + sigma_text(s.soft_sigma);
   return std::string(short_dtype(s.dtype)) + (s.antialias ? " aa" : "") + " s" + std::to_string(s.supersample);
 }
 
 bool same_except_dtype(const RenderSettings& a, const RenderSettings& b) {
-  return a.antialias == b.antialias && a.supersample == b.supersample;
+  return a.antialias == b.antialias && a.supersample == b.supersample && a.soft_sigma == b.soft_sigma;
 }
+
+// The soft rasterizer's sigmas (pixels^2): edge transitions about
+// 2 sqrt(sigma) = 0.6, 1.1 and 2 px wide (docs/soft_rasterize.md).
+constexpr double kSoftSigmas[] = {0.1, 0.3, 1.0};
 
 double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -132,11 +144,12 @@ void measure_times(const TimeErrorScene& scene, const Tensor& target, std::vecto
 
 void write_csv(const std::string& path, const std::vector<Row>& rows) {
   std::ofstream out(path);
-  out << "config,dtype,antialias,supersample,ms,cpu_ms,grad_rel_error,colour_grad_rel_error,image_rmse,loss,pareto\n";
+  out << "config,dtype,antialias,supersample,soft_sigma,ms,cpu_ms,grad_rel_error,colour_grad_rel_error,image_rmse,loss,pareto\n";
   char line[512];
   for (const Row& r : rows) {
-    std::snprintf(line, sizeof line, "%s,%s,%d,%d,%.4f,%.4f,%.6g,%.6g,%.6g,%.9g,%d\n", config_name(r.settings).c_str(),
-                  short_dtype(r.settings.dtype), int(r.settings.antialias), r.settings.supersample, r.ms, r.cpu_ms,
+    std::snprintf(line, sizeof line, "%s,%s,%d,%d,%g,%.4f,%.4f,%.6g,%.6g,%.6g,%.9g,%d\n", config_name(r.settings).c_str(),
+                  short_dtype(r.settings.dtype), int(r.settings.antialias), r.settings.supersample,
+                  r.settings.soft_sigma, r.ms, r.cpu_ms,
                   r.position_error, r.colour_error, r.image_error, r.loss, int(r.pareto));
     out << line;
   }
@@ -203,25 +216,31 @@ int run_sweep(bool supersampled, const std::string& csv_path, const std::string&
               relative_l2(ref.derivatives.position_h, ref.derivatives.position_2h));
 
   std::vector<Row> rows;  // the error pass doubles as the warm-up of the storage cache
-  for (DType dtype : {DType::Float32, DType::Float64})
+  for (DType dtype : {DType::Float32, DType::Float64}) {
     for (bool aa : {false, true})
       for (int ss : {1, 2, 4})
         rows.push_back(measure_errors(scene, target, ref.image, directions, ref.derivatives, {dtype, aa, ss}));
+    for (double sigma : kSoftSigmas)
+      rows.push_back(measure_errors(scene, target, ref.image, directions, ref.derivatives, {dtype, false, 1, sigma}));
+  }
   measure_times(scene, target, rows);
 
   std::vector<FrontierPoint> points;
   for (const Row& r : rows)
-    points.push_back({(r.settings.antialias ? "aa x" : "x") + std::to_string(r.settings.supersample),
+    points.push_back({r.settings.soft_sigma > 0 ? "soft " + sigma_text(r.settings.soft_sigma)
+                                                : (r.settings.antialias ? "aa x" : "x") + std::to_string(r.settings.supersample),
                       r.ms, r.position_error, r.settings.dtype == DType::Float64, r.settings.antialias});
   for (std::size_t i : pareto_frontier(points)) rows[i].pareto = true;
 
   std::printf("forward+backward: median of %d interleaved runs, %d threads\n\n", kTimedRuns, kThreads);
-  std::printf("| config | dtype | aa | ss | ms | cpu ms | grad rel error (positions) | grad rel error (colours) "
-              "| image error (RMS) | pareto |\n");
-  std::printf("|---|---|---|---:|---:|---:|---:|---:|---:|---|\n");
+  std::printf("| config | dtype | aa | ss | soft sigma | ms | cpu ms | grad rel error (positions) "
+              "| grad rel error (colours) | image error (RMS) | pareto |\n");
+  std::printf("|---|---|---|---:|---:|---:|---:|---:|---:|---:|---|\n");
   for (const Row& r : rows)
-    std::printf("| %s | %s | %s | %d | %.2f | %.2f | %.3g | %.3g | %.3g | %s |\n", config_name(r.settings).c_str(),
-                short_dtype(r.settings.dtype), r.settings.antialias ? "on" : "off", r.settings.supersample, r.ms,
+    std::printf("| %s | %s | %s | %d | %s | %.2f | %.2f | %.3g | %.3g | %.3g | %s |\n",
+                config_name(r.settings).c_str(), short_dtype(r.settings.dtype), r.settings.antialias ? "on" : "off",
+                r.settings.supersample, r.settings.soft_sigma > 0 ? sigma_text(r.settings.soft_sigma).c_str() : "",
+                r.ms,
                 r.cpu_ms, r.position_error, r.colour_error, r.image_error, r.pareto ? "yes" : "");
   // Rounding alone: each float32 configuration against the float64 one with the same settings.
   std::printf("\nfloat32 against float64 with the same settings (relative L2 of the position projections):");
