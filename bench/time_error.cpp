@@ -14,6 +14,7 @@
 //   time_error [--supersampled-reference] [out.csv] [out.png]
 //                                      defaults out/time_error.csv, out/time_error.png
 //   time_error --convergence           the supersampled reference's convergence study (slow, ~minutes; prints only)
+//   time_error --soft-consistency      soft rasterization's gradient against finite differences of its own loss
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -306,6 +307,32 @@ int run_convergence() {
   return 0;
 }
 
+// How far soft rasterization's analytic gradient is from finite differences
+// of its own loss (its image against the exact target), per sigma: separates
+// the bias of grading a blurred image against the exact one from the
+// roughness of the soft image itself (docs/time_error.md).
+int run_soft_consistency() {
+  const TimeErrorScene scene;
+  const Directions directions = random_directions(scene.points(), kPositionDirections, kColourDirections, kSeed);
+  const Tensor target = exact_scene_image(scene, scene.target_points(), scene.colours()).image;
+  std::printf("| soft sigma | step px | positions: analytic vs own FD | own h vs 2h spread | colours: analytic vs own FD |\n");
+  std::printf("|---:|---:|---:|---:|---:|\n");
+  for (double sigma : kSoftSigmas) {
+    const RenderSettings settings{DType::Float64, false, 1, sigma};
+    const Gradients g = gradients(scene, target, settings);
+    for (double step : {kExactPositionStepPx, 0.25}) {
+      const ReferenceDerivatives own =
+          finite_difference_reference(scene, rendered_loss(scene, target, settings), directions, {step});
+      std::printf("| %s | %.2g | %.3g | %.3g | %.3g |\n", sigma_text(sigma).c_str(), step,
+                  relative_l2(project(g.position, directions.position), own.position),
+                  relative_l2(own.position_h, own.position_2h),
+                  relative_l2(project(g.colour, directions.colour), own.colour));
+      std::fflush(stdout);
+    }
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -313,6 +340,7 @@ int main(int argc, char** argv) {
   try {
     std::vector<std::string> args(argv + 1, argv + argc);
     if (!args.empty() && args[0] == "--convergence") return run_convergence();
+    if (!args.empty() && args[0] == "--soft-consistency") return run_soft_consistency();
     const bool supersampled = !args.empty() && args[0] == "--supersampled-reference";
     if (supersampled) args.erase(args.begin());
     return run_sweep(supersampled, args.size() > 0 ? args[0] : "out/time_error.csv",
