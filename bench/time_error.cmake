@@ -1,9 +1,9 @@
-# time_error (issue 6): run time against gradient error of the dtype / antialias /
-# supersampling choices on a fixed scene; a plain program, not a Google Benchmark.
-#   build/bench/time_error [out.csv] [out.png]     (docs/time_error.md)
+# time_error (issue 6, graded against the exact reference since issue 13):
+# run time against gradient error of the dtype / antialias / supersampling /
+# soft rasterization choices on a fixed scene; a plain program, not a Google Benchmark.
+#   build/bench/time_error [--supersampled-reference] [out.csv] [out.png]     (docs/time_error.md)
+include(${CMAKE_CURRENT_LIST_DIR}/time_error_library.cmake)
 add_executable(time_error
   ${CMAKE_CURRENT_SOURCE_DIR}/time_error.cpp
-  ${CMAKE_CURRENT_SOURCE_DIR}/time_error_scene.cpp
-  ${CMAKE_CURRENT_SOURCE_DIR}/time_error_reference.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/time_error_plot.cpp)
-target_link_libraries(time_error PRIVATE gradraster::gradraster gradraster_plot)
+target_link_libraries(time_error PRIVATE gradraster_time_error_reference gradraster_plot)

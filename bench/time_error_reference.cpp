@@ -1,4 +1,4 @@
-// Finite-difference directional derivatives of the supersampled float64 loss.
+// Finite-difference directional derivatives of a float64 loss of the time_error scene.
 #include "bench/time_error_reference.h"
 
 #include <chrono>
@@ -47,19 +47,23 @@ Directions random_directions(const Tensor& points, int num_position, int num_col
   return d;
 }
 
-ReferenceDerivatives finite_difference_reference(const TimeErrorScene& scene, const Tensor& target,
-                                                 const Directions& directions, const FiniteDifferenceOptions& options) {
+SceneLoss rendered_loss(const TimeErrorScene& scene, const Tensor& target, const RenderSettings& settings) {
+  return [&scene, target, settings](const Tensor& points, const Tensor& colours) {
+    NoGradGuard no_grad;
+    return scene.loss(points, colours, target, settings).item();
+  };
+}
+
+ReferenceDerivatives finite_difference_reference(const TimeErrorScene& scene, const SceneLoss& loss,
+                                                 const Directions& directions, const FiniteDifferenceSteps& steps) {
   NoGradGuard no_grad;
   const auto start = std::chrono::steady_clock::now();
   const Tensor& x = scene.points();
   const Tensor& c = scene.colours();
-  auto loss = [&](const Tensor& points, const Tensor& colours) {
-    return scene.loss(points, colours, target, options.settings).item();
-  };
   ReferenceDerivatives r;
   // A direction moves each vertex by about |v_i| h ~ sqrt(3) h in 3-D; in the
   // image by about sqrt(2) h times pixels_per_unit (depth motion barely shows).
-  const double h = options.position_step_px / (std::sqrt(2.0) * scene.pixels_per_unit());
+  const double h = steps.position_px / (std::sqrt(2.0) * scene.pixels_per_unit());
   for (const Tensor& v : directions.position) {
     const double l1 = loss(x + h * v, c), lm1 = loss(x - h * v, c);
     const double l2 = loss(x + 2 * h * v, c), lm2 = loss(x - 2 * h * v, c);
@@ -67,7 +71,7 @@ ReferenceDerivatives finite_difference_reference(const TimeErrorScene& scene, co
     r.position_h.push_back((l1 - lm1) / (2 * h));
     r.position_2h.push_back((l2 - lm2) / (4 * h));
   }
-  const double hc = options.colour_step;
+  const double hc = steps.colour;
   for (const Tensor& v : directions.colour)
     r.colour.push_back((loss(x, c + hc * v) - loss(x, c - hc * v)) / (2 * hc));
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

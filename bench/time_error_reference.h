@@ -1,11 +1,13 @@
 // The reference gradient of time_error (docs/time_error.md): directional
-// derivatives of the float64 loss rendered at high supersampling with
-// antialiasing, by central finite differences along fixed-seed random
+// derivatives of a float64 loss (the exact box-filtered one,
+// bench/time_error_exact.h, or a supersampled render's), by central finite
+// differences along fixed-seed random
 // directions (the random projections of autodiff/gradcheck.h), and the
 // relative L2 error of a gradient's projections against them.
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "bench/time_error_scene.h"
@@ -26,13 +28,22 @@ struct Directions {
 };
 Directions random_directions(const Tensor& points, int num_position, int num_colour, std::uint64_t seed);
 
-struct FiniteDifferenceOptions {
-  RenderSettings settings{DType::Float64, true, 16};
+// A float64 loss of the parameters (points, colours: [P, 3] float64),
+// evaluated off the tape: the function whose derivatives are the reference.
+using SceneLoss = std::function<double(const Tensor& points, const Tensor& colours)>;
+
+// mean((render - target)^2) of the scene rendered with the given settings
+// (time_error's first reference: float64, antialias, 16x16 supersampling).
+SceneLoss rendered_loss(const TimeErrorScene& scene, const Tensor& target, const RenderSettings& settings);
+
+struct FiniteDifferenceSteps {
   // Position step as the typical screen displacement of a vertex, in pixels
-  // (converted with scene.pixels_per_unit()); a step spans several subpixels,
-  // so it averages over the kinks where edges cross subpixel centres.
-  double position_step_px = 0.25;
-  double colour_step = 0.05;  // the loss is quadratic in the colours: 2-point differences are exact
+  // (converted with scene.pixels_per_unit()). A supersampled loss has kinks
+  // where edges cross subpixel centres, so its step must span several
+  // subpixels (0.25 px at 16x16); the exact loss is smooth and takes a small
+  // one (docs/time_error.md).
+  double position_px = 0.25;
+  double colour = 0.05;  // the loss is quadratic in the colours: 2-point differences are exact
 };
 
 struct ReferenceDerivatives {
@@ -45,9 +56,9 @@ struct ReferenceDerivatives {
 };
 
 // position: the fourth-order stencil (8 [L(h) - L(-h)] - [L(2h) - L(-2h)]) / 12 h;
-// colour: [L(h) - L(-h)] / 2 h. All in float64 without the tape.
-ReferenceDerivatives finite_difference_reference(const TimeErrorScene& scene, const Tensor& target,
-                                                 const Directions& directions, const FiniteDifferenceOptions& options);
+// colour: [L(h) - L(-h)] / 2 h, with L = loss at the scene's parameters moved along v_k.
+ReferenceDerivatives finite_difference_reference(const TimeErrorScene& scene, const SceneLoss& loss,
+                                                 const Directions& directions, const FiniteDifferenceSteps& steps);
 
 // grad . v for each direction (grad of any float dtype, accumulated in double).
 std::vector<double> project(const Tensor& grad, const std::vector<Tensor>& directions);

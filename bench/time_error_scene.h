@@ -16,6 +16,10 @@ struct RenderSettings {
   DType dtype = DType::Float64;
   bool antialias = true;
   int supersample = 1;  // render at (s W) x (s H), then average s x s blocks (downsample_box)
+  // > 0: soft_rasterize (ops/soft_rasterize.h) with this sigma (pixels^2) and
+  // the scene's gamma and eps instead of rasterize + interpolate (+ antialias):
+  // a blurred image, differentiable everywhere (docs/soft_rasterize.md).
+  double soft_sigma = 0;
 };
 
 class TimeErrorScene {

@@ -14,7 +14,7 @@
 
 #include "autodiff/parallel.h"
 #include "autodiff/tape.h"
-#include "bench/exact_reference/exact_reference.h"
+#include "bench/time_error_exact.h"
 #include "ops/ops.h"
 #include "bench/time_error_reference.h"
 #include "bench/time_error_scene.h"
@@ -27,8 +27,7 @@ int main(int argc, char** argv) {
   const auto exact_image = [&](const Tensor& points, int order) {
     bench::ExactReferenceOptions options;
     options.quadrature_order = order;
-    return bench::exact_box_filtered(scene.clip_positions(points), scene.triangles(), scene.vertex_colours(scene.colours()),
-                                     scene.width(), scene.height(), scene.background(), options);
+    return bench::exact_scene_image(scene, points, scene.colours(), options);
   };
   const auto start = std::chrono::steady_clock::now();
   const bench::ExactImage exact = exact_image(scene.points(), 8);
@@ -57,42 +56,28 @@ int main(int argc, char** argv) {
   for (std::int64_t i = 0; i < exact.coverage.numel(); ++i) covered += exact.coverage.data<double>()[i];
   std::printf("covered area %.6f px^2\n", covered);
 
-  // Finite differences as bench/time_error_reference.cpp takes them (fourth-order
-  // stencil), 8 fixed-seed smooth directions, at three steps.
+  // Finite differences as time_error takes them (bench/time_error_reference.h:
+  // fourth-order stencil, spread = h vs 2h second-order differences), 8
+  // fixed-seed smooth directions, at three steps, of the exact loss
+  // (bench/time_error_exact.h) and of the 16 x 16 supersampled one.
   const bench::Directions directions = bench::random_directions(scene.points(), 8, 0, 20240613);
-  const Tensor exact_target = exact_image(scene.target_points(), 8).image;
-  const auto exact_loss = [&](const Tensor& points) {
-    const std::vector<double> a = exact_image(points, 8).image.to_vector(), b = exact_target.to_vector();
-    double sum = 0;
-    for (std::size_t i = 0; i < a.size(); ++i) sum += (a[i] - b[i]) * (a[i] - b[i]);
-    return sum / a.size();
-  };
+  const bench::SceneLoss exact_loss =
+      bench::exact_scene_loss(scene, exact_image(scene.target_points(), 8).image);
+  const bench::RenderSettings ss16{DType::Float64, false, 16};
+  const bench::SceneLoss ss_loss =
+      bench::rendered_loss(scene, scene.render(scene.target_points(), scene.colours(), ss16), ss16);
   std::printf("finite differences along %zu directions (relative L2; spread = h vs 2h second-order differences):\n",
               directions.position.size());
   std::vector<double> coarsest;
   for (double step_px : {0.25, 0.05, 0.01}) {
-    bench::FiniteDifferenceOptions fd{{DType::Float64, false, 16}};
-    fd.position_step_px = step_px;
-    const double h = step_px / (std::sqrt(2.0) * scene.pixels_per_unit());  // as finite_difference_reference
-    std::vector<double> exact_d, exact_h, exact_2h;
-    const auto fd_start = std::chrono::steady_clock::now();
-    for (const Tensor& v : directions.position) {
-      const Tensor& x = scene.points();
-      const double l1 = exact_loss(x + h * v), lm1 = exact_loss(x - h * v);
-      const double l2 = exact_loss(x + 2 * h * v), lm2 = exact_loss(x - 2 * h * v);
-      exact_d.push_back((8 * (l1 - lm1) - (l2 - lm2)) / (12 * h));
-      exact_h.push_back((l1 - lm1) / (2 * h));
-      exact_2h.push_back((l2 - lm2) / (4 * h));
-    }
-    const double exact_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - fd_start).count();
-    const Tensor ss_target = scene.render(scene.target_points(), scene.colours(), fd.settings);
-    const bench::ReferenceDerivatives ss = bench::finite_difference_reference(scene, ss_target, directions, fd);
-    if (coarsest.empty()) coarsest = exact_d;
+    const bench::ReferenceDerivatives ex = bench::finite_difference_reference(scene, exact_loss, directions, {step_px});
+    const bench::ReferenceDerivatives ss = bench::finite_difference_reference(scene, ss_loss, directions, {step_px});
+    if (coarsest.empty()) coarsest = ex.position;
     std::printf("  step %.2f px: exact spread %.3g (%.2f s), 16x16 spread %.3g (%.2f s), exact vs 16x16 %.3g, "
                 "exact vs exact at 0.25 px %.3g\n",
-                step_px, bench::relative_l2(exact_h, exact_2h), exact_seconds,
-                bench::relative_l2(ss.position_h, ss.position_2h), ss.seconds, bench::relative_l2(ss.position, exact_d),
-                bench::relative_l2(exact_d, coarsest));
+                step_px, bench::relative_l2(ex.position_h, ex.position_2h), ex.seconds,
+                bench::relative_l2(ss.position_h, ss.position_2h), ss.seconds,
+                bench::relative_l2(ss.position, ex.position), bench::relative_l2(ex.position, coarsest));
   }
   return 0;
 }
