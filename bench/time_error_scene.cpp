@@ -110,7 +110,7 @@ SceneSpec scene_spec(const std::string& name) {
     torus.target = {normalized({0.3, 1.0, 0.2}), 5 * kPi / 180, {0.05, -0.03, 0.0}};
     spec.parts.push_back(std::move(torus));
   } else if (name == "intersection") {
-    // A 2.6-unit square (16 x 16 cells, 512 triangles) tilted 12 degrees out of
+    // A 2.6-unit square (16 x 16 cells, 512 triangles) tilted about 12 degrees out of
     // the y = 0 plane, and a sphere of radius 0.75 (1280 triangles) sunk to its
     // equator into it; the target lifts and turns the sphere and tilts the
     // square, so the intersection curve changes shape.
