@@ -1,7 +1,7 @@
 # time_error (issue 6, graded against the exact reference since issue 13):
 # run time against gradient error of the dtype / antialias / supersampling /
-# soft rasterization choices on a fixed scene; a plain program, not a Google Benchmark.
-#   build/bench/time_error [--supersampled-reference] [out.csv] [out.png]     (docs/time_error.md)
+# soft rasterization choices on four fixed scenes; a plain program, not a Google Benchmark.
+#   build/bench/time_error [--scene NAME] [--supersampled-reference] [out.csv] [out.png]   (docs/time_error.md)
 include(${CMAKE_CURRENT_LIST_DIR}/time_error_library.cmake)
 add_executable(time_error
   ${CMAKE_CURRENT_SOURCE_DIR}/time_error.cpp

@@ -1,20 +1,25 @@
 // time_error (issue 6; graded exactly since issue 13): run time against
 // gradient error for float32/float64, antialiasing off/on, supersampling
-// 1/2/4 and soft rasterization at three sigmas on a fixed scene (a coloured
-// torus at 128 x 128 fitted towards a rotated and shifted copy, loss = MSE;
-// bench/time_error_scene.h). Each configuration's gradient w.r.t. the vertex
+// 1/2/4 and soft rasterization at three sigmas on four fixed scenes at
+// 128 x 128, each fitted towards a copy with its objects rotated and shifted,
+// loss = MSE (bench/time_error_scene.h): a torus (silhouettes), a sphere sunk
+// into a square (an intersection curve), a sphere in front of another
+// (occlusion), an open bowl drawn with back faces culled. Each configuration's gradient w.r.t. the vertex
 // positions and colours is compared with float64 finite differences of the
 // area-integrated loss: by default that of the exact box-filtered image
 // (bench/time_error_exact.h), with --supersampled-reference that of a 16x16
 // supersampled render with antialiasing (bench/time_error_reference.h); its
-// image with the reference image. Prints a Markdown table, writes a CSV and a
-// log-log plot of time against position-gradient error with the Pareto
-// frontier. docs/time_error.md explains the scene, the reference and the results.
+// image with the reference image. Prints a Markdown table per scene, writes
+// one CSV (a scene column) and per scene a log-log plot of time against
+// position-gradient error with the Pareto frontier. docs/time_error.md
+// explains the scenes, the reference and the results.
 //
-//   time_error [--supersampled-reference] [out.csv] [out.png]
-//                                      defaults out/time_error.csv, out/time_error.png
-//   time_error --convergence           the supersampled reference's convergence study (slow, ~minutes; prints only)
-//   time_error --soft-consistency      soft rasterization's gradient against finite differences of its own loss
+//   time_error [--scene NAME] [--supersampled-reference] [out.csv] [out.png]
+//        defaults: all four scenes in sequence, out/time_error.csv, out/time_error.png;
+//        the torus' plot goes to out.png, another scene's to <out>_<scene>.png
+//   time_error [--scene NAME] --convergence       the supersampled reference's convergence study (slow; prints only)
+//   time_error [--scene NAME] --soft-consistency  soft rasterization's gradient against FD of its own loss
+//   (--convergence and --soft-consistency default to the torus)
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -97,6 +102,7 @@ Gradients gradients(const TimeErrorScene& scene, const Tensor& target, const Ren
 }
 
 struct Row {
+  std::string scene;
   RenderSettings settings;
   double ms = 0, cpu_ms = 0, position_error = 0, colour_error = 0, image_error = 0, loss = 0;
   bool pareto = false;
@@ -108,6 +114,7 @@ Row measure_errors(const TimeErrorScene& scene, const Tensor& target, const Tens
                    const Directions& directions, const ReferenceDerivatives& reference,
                    const RenderSettings& settings) {
   Row row;
+  row.scene = scene.name();
   row.settings = settings;
   const Gradients g = gradients(scene, target, settings);
   row.loss = g.loss;
@@ -145,10 +152,11 @@ void measure_times(const TimeErrorScene& scene, const Tensor& target, std::vecto
 
 void write_csv(const std::string& path, const std::vector<Row>& rows) {
   std::ofstream out(path);
-  out << "config,dtype,antialias,supersample,soft_sigma,ms,cpu_ms,grad_rel_error,colour_grad_rel_error,image_rmse,loss,pareto\n";
+  out << "scene,config,dtype,antialias,supersample,soft_sigma,ms,cpu_ms,grad_rel_error,colour_grad_rel_error,image_rmse,loss,pareto\n";
   char line[512];
   for (const Row& r : rows) {
-    std::snprintf(line, sizeof line, "%s,%s,%d,%d,%g,%.4f,%.4f,%.6g,%.6g,%.6g,%.9g,%d\n", config_name(r.settings).c_str(),
+    std::snprintf(line, sizeof line, "%s,%s,%s,%d,%d,%g,%.4f,%.4f,%.6g,%.6g,%.6g,%.9g,%d\n", r.scene.c_str(),
+                  config_name(r.settings).c_str(),
                   short_dtype(r.settings.dtype), int(r.settings.antialias), r.settings.supersample,
                   r.settings.soft_sigma, r.ms, r.cpu_ms,
                   r.position_error, r.colour_error, r.image_error, r.loss, int(r.pareto));
@@ -197,14 +205,39 @@ Reference supersampled_reference(const TimeErrorScene& scene, const Directions& 
   return r;
 }
 
-int run_sweep(bool supersampled, const std::string& csv_path, const std::string& png_path) {
+// [H, W, 3] a and b -> [H, 2W + 4, 3] float32, a on the left, b on the right, a white gap.
+Tensor side_by_side(const Tensor& a, const Tensor& b) {
+  const std::int64_t h = a.size(0), w = a.size(1), out_w = 2 * w + 4;
+  const std::vector<double> x = a.to_vector(), y = b.to_vector();
+  std::vector<float> out(static_cast<std::size_t>(h * out_w * 3), 1.0f);
+  for (std::int64_t i = 0; i < h; ++i)
+    for (std::int64_t j = 0; j < w; ++j)
+      for (int c = 0; c < 3; ++c) {
+        out[(i * out_w + j) * 3 + c] = float(x[(i * w + j) * 3 + c]);
+        out[(i * out_w + w + 4 + j) * 3 + c] = float(y[(i * w + j) * 3 + c]);
+      }
+  return Tensor::from_vector(out, {h, out_w, 3});
+}
+
+// The plot of one scene: png_path for the torus, <stem>_<scene>.png beside it for the others.
+std::string plot_path(const std::string& png_path, const std::string& scene) {
+  if (scene == "torus") return png_path;
+  const std::filesystem::path p(png_path);
+  return (p.parent_path() / (p.stem().string() + "_" + scene + p.extension().string())).string();
+}
+
+// One scene's sweep: prints its table, writes its plot, appends its rows.
+void sweep_scene(const std::string& name, bool supersampled, const std::string& png_path, std::vector<Row>& all_rows) {
   const auto start = std::chrono::steady_clock::now();
-  const TimeErrorScene scene;
+  const TimeErrorScene scene(name);
   const Directions directions = random_directions(scene.points(), kPositionDirections, kColourDirections, kSeed);
   const Reference ref = supersampled ? supersampled_reference(scene, directions) : exact_reference(scene, directions);
   const Tensor& target = ref.target;
-  std::printf("scene: torus, %lld points, %d x %d, loss = MSE against the rotated and shifted torus\n",
-              (long long)scene.num_points(), scene.width(), scene.height());
+  std::printf("## scene %s: %s\n\n%lld points, %lld triangles, %d x %d, cull %s, loss = MSE against the "
+              "rotated and shifted objects\n",
+              scene.name().c_str(), scene.description().c_str(), (long long)scene.num_points(),
+              (long long)scene.num_triangles(), scene.width(), scene.height(),
+              scene.cull() == raster::Cull::None ? "none" : "back faces");
   if (supersampled)
     std::printf("reference: float64, antialias, %dx%d supersampling,", kSupersampledReference.supersample,
                 kSupersampledReference.supersample);
@@ -221,8 +254,9 @@ int run_sweep(bool supersampled, const std::string& csv_path, const std::string&
     for (bool aa : {false, true})
       for (int ss : {1, 2, 4})
         rows.push_back(measure_errors(scene, target, ref.image, directions, ref.derivatives, {dtype, aa, ss}));
-    for (double sigma : kSoftSigmas)
-      rows.push_back(measure_errors(scene, target, ref.image, directions, ref.derivatives, {dtype, false, 1, sigma}));
+    if (scene.cull() == raster::Cull::None)  // soft_rasterize cannot cull
+      for (double sigma : kSoftSigmas)
+        rows.push_back(measure_errors(scene, target, ref.image, directions, ref.derivatives, {dtype, false, 1, sigma}));
   }
   measure_times(scene, target, rows);
 
@@ -252,19 +286,34 @@ int run_sweep(bool supersampled, const std::string& csv_path, const std::string&
         std::printf(" %s %.2g;", config_name(a.settings).substr(4).c_str(),
                     relative_l2(a.position_projections, b.position_projections));
   std::printf("\n");
+  const std::string png = plot_path(png_path, scene.name());
+  ensure_parent(png);
+  raster::write_png(png, plot_frontier(points, "grad err (" + scene.name() + ")"));
+  const std::filesystem::path pictures = std::filesystem::path(png).parent_path() /
+                                         ("time_error_scene_" + scene.name() + ".png");
+  raster::write_png(pictures.string(), side_by_side(ref.image, ref.target));
+  std::printf("\nwrote %s and %s; scene total %.1f s\n\n", png.c_str(), pictures.string().c_str(),
+              seconds_since(start));
+  std::fflush(stdout);
+  all_rows.insert(all_rows.end(), rows.begin(), rows.end());
+}
+
+int run_sweep(const std::vector<std::string>& scenes, bool supersampled, const std::string& csv_path,
+              const std::string& png_path) {
+  const auto start = std::chrono::steady_clock::now();
+  std::vector<Row> rows;
+  for (const std::string& name : scenes) sweep_scene(name, supersampled, png_path, rows);
   ensure_parent(csv_path);
   write_csv(csv_path, rows);
-  ensure_parent(png_path);
-  raster::write_png(png_path, plot_frontier(points, "grad err"));
-  std::printf("\nwrote %s and %s; total %.1f s\n", csv_path.c_str(), png_path.c_str(), seconds_since(start));
+  std::printf("wrote %s; total %.1f s\n", csv_path.c_str(), seconds_since(start));
   return 0;
 }
 
 // How the reference depends on its supersampling and step, and how far the
 // float64 analytic gradients are from it (docs/time_error.md). Fewer
 // directions than the sweep, to keep it to a few minutes.
-int run_convergence() {
-  const TimeErrorScene scene;
+int run_convergence(const std::string& name) {
+  const TimeErrorScene scene(name);
   RenderSettings best = kSupersampledReference;
   best.supersample = 24;
   const FiniteDifferenceSteps best_steps;
@@ -311,8 +360,8 @@ int run_convergence() {
 // of its own loss (its image against the exact target), per sigma: separates
 // the bias of grading a blurred image against the exact one from the
 // roughness of the soft image itself (docs/time_error.md).
-int run_soft_consistency() {
-  const TimeErrorScene scene;
+int run_soft_consistency(const std::string& name) {
+  const TimeErrorScene scene(name);
   const Directions directions = random_directions(scene.points(), kPositionDirections, kColourDirections, kSeed);
   const Tensor target = exact_scene_image(scene, scene.target_points(), scene.colours()).image;
   std::printf("| soft sigma | step px | positions: analytic vs own FD | own h vs 2h spread | colours: analytic vs own FD |\n");
@@ -339,11 +388,21 @@ int main(int argc, char** argv) {
   set_num_threads(kThreads);
   try {
     std::vector<std::string> args(argv + 1, argv + argc);
-    if (!args.empty() && args[0] == "--convergence") return run_convergence();
-    if (!args.empty() && args[0] == "--soft-consistency") return run_soft_consistency();
+    std::vector<std::string> scenes = time_error_scene_names();
+    for (std::size_t i = 0; i < args.size(); ++i)
+      if (args[i] == "--scene") {
+        if (i + 1 == args.size()) throw std::runtime_error("--scene needs a name");
+        scenes = {args[i + 1]};
+        TimeErrorScene check(scenes[0]);  // an unknown name fails here, before any work
+        args.erase(args.begin() + i, args.begin() + i + 2);
+        break;
+      }
+    const std::string single = scenes.size() == 1 ? scenes[0] : "torus";
+    if (!args.empty() && args[0] == "--convergence") return run_convergence(single);
+    if (!args.empty() && args[0] == "--soft-consistency") return run_soft_consistency(single);
     const bool supersampled = !args.empty() && args[0] == "--supersampled-reference";
     if (supersampled) args.erase(args.begin());
-    return run_sweep(supersampled, args.size() > 0 ? args[0] : "out/time_error.csv",
+    return run_sweep(scenes, supersampled, args.size() > 0 ? args[0] : "out/time_error.csv",
                      args.size() > 1 ? args[1] : "out/time_error.png");
   } catch (const std::exception& e) {
     std::fprintf(stderr, "time_error: %s\n", e.what());

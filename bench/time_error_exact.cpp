@@ -10,8 +10,10 @@ namespace gr::bench {
 ExactImage exact_scene_image(const TimeErrorScene& scene, const Tensor& points, const Tensor& colours,
                          const ExactReferenceOptions& options) {
   NoGradGuard no_grad;
+  ExactReferenceOptions culled = options;
+  culled.cull = scene.cull();  // the render's culling, always
   return exact_box_filtered(scene.clip_positions(points), scene.triangles(), scene.vertex_colours(colours),
-                            scene.width(), scene.height(), scene.background(), options);
+                            scene.width(), scene.height(), scene.background(), culled);
 }
 
 SceneLoss exact_scene_loss(const TimeErrorScene& scene, const Tensor& target) {

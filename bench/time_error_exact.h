@@ -20,7 +20,8 @@ constexpr double kExactPositionStepPx = 0.01;
 
 // The exact box-filtered image ([H, W, 3] float64, over the scene's
 // background) and coverage of the scene with the given points and colours
-// ([P, 3] float64).
+// ([P, 3] float64), culled as the scene's render is (options.cull is replaced
+// by scene.cull()).
 ExactImage exact_scene_image(const TimeErrorScene& scene, const Tensor& points, const Tensor& colours,
                          const ExactReferenceOptions& options = {});
 
