@@ -15,6 +15,7 @@
 
 #include <Eigen/Core>
 
+#include "autodiff/memory.h"
 #include "autodiff/parallel.h"
 #include "autodiff/tape.h"
 #include "ops/broadcast.h"
@@ -237,7 +238,11 @@ MatmulPlan plan_matmul(const Tensor& a, const Tensor& b) {
     if (p.k == 0) p.n = p.out.numel() / std::max<std::int64_t>(1, p.m);
     p.a_off = {0};
     p.b_off = {0};
-  } else {
+  } else if (p.out.numel() > 0) {
+    // 16 bytes per batch, counted before they are taken (an empty result has
+    // no batches to offset, however large its batch axes).
+    check_memory_request(static_cast<std::size_t>(p.out.numel() / (p.n * p.m)) * 2 * sizeof(std::int64_t),
+                                 "matmul's batch offsets");
     p.a_off = batch_offsets(ab, batch, p.n * p.k);
     p.b_off = batch_offsets(bb, batch, p.k * p.m);
   }
@@ -287,6 +292,11 @@ Tensor matmul(const Tensor& a_in, const Tensor& b_in) {
     record("matmul", {a, b}, {&out}, [a, b, p](AdjointContext& ctx) {
       const Tensor& g = ctx.grad_output();
       if (!g.defined()) return;
+      if (p.out.numel() == 0) {  // nothing flows through an empty product
+        for (std::size_t i = 0; i < 2; ++i)
+          if (ctx.needs_grad(i)) ctx.accumulate(i, Tensor::zeros((i == 0 ? a : b).shape(), g.dtype()));
+        return;
+      }
       const std::size_t batches = p.a_off.size();
       dispatch_float(g.dtype(), "matmul", [&](auto tag) {
         using T = decltype(tag);

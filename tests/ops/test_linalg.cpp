@@ -97,6 +97,22 @@ TEST_CASE("matmul: long batched reductions agree with per-batch reference produc
   for (std::size_t e = 0; e < gb.size(); ++e) CHECK(got[e] == Approx(gb[e]).margin(1e-9));
 }
 
+TEST_CASE("matmul: empty operands with huge batch axes give an empty result or a MemoryError, not a huge offset table",
+          "[ops][linalg]") {
+  const std::int64_t huge = std::int64_t(1) << 24;
+  // 2^48 batches of an empty product: nothing to multiply, and gradients are zeros.
+  const Tensor a = Tensor::zeros({huge, huge, 0, 3}, DType::Float64).set_requires_grad();
+  const Tensor b = Tensor::zeros({1, 1, 3, 2}, DType::Float64).set_requires_grad();
+  const Tensor out = matmul(a, b);
+  CHECK(out.shape() == Shape{huge, huge, 0, 2});
+  backward(sum(out));
+  CHECK(b.grad().shape() == b.shape());
+  CHECK(b.grad().to_vector() == std::vector<double>(6, 0.0));
+  // 2^40 batches of a non-empty product: refused before anything is allocated.
+  const std::int64_t big = std::int64_t(1) << 20;
+  CHECK_THROWS_AS(matmul(Tensor::zeros({big, big, 1, 0}), Tensor::zeros({1, 1, 0, 1})), MemoryError);
+}
+
 TEST_CASE("matmul: float32 results are bit-identical for 1 and 2 threads", "[ops][linalg][determinism]") {
   struct Case { Shape a, b; };
   for (const Case& cs : {Case{{300000, 4}, {4, 4}}, Case{{3, 20000, 4}, {3, 4, 3}}, Case{{300, 64}, {64, 48}}}) {
