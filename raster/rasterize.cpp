@@ -81,6 +81,15 @@ double depth_lower_bound(const detail::Vertices& v, const std::int32_t* tri) {
 // by ascending (zmin, id) and a triangle whose smallest vertex depth is beyond
 // the tile's largest stored depth (all pixels covered) is skipped: each of its
 // pixels would fail z < zbuf, so the result is the same.
+// x rounded to T, saturated at T's largest finite value: a G-buffer is
+// finite for any accepted input, also where float32 clip values near FLT_MAX
+// give weights beyond float32's range (found by the fuzz_raster smoke).
+template <class T>
+T saturate(double x) {
+  constexpr double kMax = static_cast<double>(std::numeric_limits<T>::max());
+  return static_cast<T>(x > kMax ? kMax : x < -kMax ? -kMax : x);
+}
+
 template <class T>
 void scan_tile(const detail::Vertices& v, const RasterParams<T>& p, const ForwardScratch& sc,
                int tiles_x, int tile, int width, int height, bool front_to_back,
@@ -278,9 +287,9 @@ void scan_tiles(const RasterParams<T>& p, const Grid& g, const ForwardScratch& s
           if (tb->id[q] < 0) continue;
           const std::int64_t px = static_cast<std::int64_t>(ty0 + y) * W + tx0 + x;
           tri_id[px] = tb->id[q] + 1;
-          uv[2 * px] = static_cast<T>(tb->u[q]);
-          uv[2 * px + 1] = static_cast<T>(tb->v[q]);
-          depth[px] = static_cast<T>(tb->z[q]);
+          uv[2 * px] = saturate<T>(tb->u[q]);
+          uv[2 * px + 1] = saturate<T>(tb->v[q]);
+          depth[px] = saturate<T>(tb->z[q]);
           if (key_depth) key_depth[px] = tb->z[q];
         }
     }
