@@ -9,7 +9,6 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
-#include <type_traits>
 #include <vector>
 
 #include "autodiff/error.h"
@@ -175,15 +174,11 @@ inline const T* texel(const TextureParams<T>& p, std::int64_t index, std::int64_
   return index < base_texels ? p.tex + index * p.channels : p.pyramid + (index - base_texels) * p.channels;
 }
 
-// g . texel over C channels, summed in double in channel order (the common
-// 3- and 4-channel cases unrolled, so a sample's texel loads issue together).
+// g . texel over C channels, summed in double in channel order.
 template <class T>
-[[gnu::always_inline]] inline double dot_channels(const T* g, const T* tx, std::int64_t C) {
-  auto term = [&](std::int64_t c) { return static_cast<double>(g[c]) * tx[c]; };
-  if (C == 3) return term(0) + term(1) + term(2);
-  if (C == 4) return term(0) + term(1) + term(2) + term(3);
+inline double dot_channels(const T* g, const T* tx, std::int64_t C) {
   double d = 0.0;
-  for (std::int64_t c = 0; c < C; ++c) d += term(c);
+  for (std::int64_t c = 0; c < C; ++c) d += static_cast<double>(g[c]) * tx[c];
   return d;
 }
 
