@@ -20,12 +20,18 @@ namespace {
 
 using detail::safe_inv;
 
-// Rasterize's near-plane test (detail::project_vertices): a triangle takes the
-// homogeneous (clipped) form there when a vertex is not in front (w > 0, z >= -w).
+// Smallest w taken as in front for the weights lambda_k / w_k: below it 1/w_k
+// is not meaningful (safe_inv's 1e-30 guard shifts it by more than 1e-16 of its
+// value) and the rasterizer's barycentrics themselves may have saturated.
+constexpr double kMinFrontW = 1e-14;
+
+// A triangle takes the homogeneous (clipped) form, exact at any w, when a vertex
+// is not in front: rasterize's near-plane test (w > 0, z >= -w; see
+// detail::project_vertices), or a w too close to the eye plane for 1/w.
 template <class T>
 bool behind_near_plane(const T* c) {
   const double z = c[2], w = c[3];
-  return !(w > 0.0 && z >= -w);
+  return !(w > kMinFrontW && z >= -w);
 }
 
 template <class T>

@@ -56,6 +56,32 @@ TEST_CASE("interpolate op: gradients of a near-clipped triangle with a vertex at
                     {attr, clip, gb.uv});
 }
 
+TEST_CASE("interpolate op: vertices a denormal w from the eye plane give the w = 0 values, finite derivatives and gradients",
+          "[ops][interpolate][near]") {
+  // Found by fuzz_raster (tests/fuzz/corpus/raster/raster_d_dx_nan.bin): two
+  // vertices at w = 1e-310 made lambda_k / w_k overflow (the rasterizer's u had
+  // saturated), so d_dx was NaN. Such vertices take the clipped form, as at w = 0.
+  Tensor tris = Tensor::from_vector<std::int32_t>({0, 1, 2}, {1, 3});
+  Tensor attr = random_input({3, 4}, -1, 1, 47).set_requires_grad();
+  auto clip_with_w = [](double w) {
+    return Tensor::from_values({w, w, w, w, 5.0, -3.4375, 0.0, 3.21875, -1.0625, w, w, w}, {3, 4}, DType::Float64);
+  };
+  Tensor clip = clip_with_w(1e-310).set_requires_grad();
+  const GBuffer gb = rasterize(clip.detach(), tris, {11, 8});
+  const std::vector<double> ids = gb.tri_id.to_vector();
+  REQUIRE(std::count(ids.begin(), ids.end(), 1.0) > 0);
+  const InterpolatedWithDerivatives d = interpolate_with_derivatives(attr, clip, gb, tris);
+  for (const Tensor& t : {d.values, d.d_dx, d.d_dy})
+    for (const double v : t.to_vector()) REQUIRE(std::isfinite(v));
+  backward(sum(d.values) + sum(d.d_dx) + sum(d.d_dy));
+  for (const Tensor& t : {clip.grad(), attr.grad()})
+    for (const double v : t.to_vector()) REQUIRE(std::isfinite(v));
+  // Same weights as a vertex exactly on the eye plane, at the same pixels.
+  const Tensor at_zero = interpolate(attr.detach(), clip_with_w(0.0), gb, tris);
+  const std::vector<double> a = d.values.to_vector(), b = at_zero.to_vector();
+  for (std::size_t i = 0; i < a.size(); ++i) REQUIRE(a[i] == Approx(b[i]).margin(1e-12));
+}
+
 TEST_CASE("interpolate op: constant attributes stay constant and background gets the chosen value", "[ops][interpolate]") {
   Tensor clip = clip_of_two_triangles();
   Tensor tris = Tensor::from_vector<std::int32_t>({0, 1, 2, 3, 4, 5}, {2, 3});
