@@ -91,6 +91,13 @@ void BM_TextureBilinear(benchmark::State& state) {
   time_op(state, [&] { return texture(s.texture, s.uv); });
 }
 
+// The lookup alone, as inference runs it (nothing recorded, no Jacobian kept).
+void BM_TextureBilinearNoGrad(benchmark::State& state) {
+  Scene s = make_scene(static_cast<int>(state.range(0)));
+  NoGradGuard no_grad;
+  for (auto _ : state) benchmark::DoNotOptimize(texture(s.texture, s.uv));
+}
+
 void BM_TextureTrilinear(benchmark::State& state) {
   Scene s = make_scene(static_cast<int>(state.range(0)));
   TextureOptions options;
@@ -244,6 +251,7 @@ BENCHMARK(BM_Interpolate)->Apply(Sizes);
 BENCHMARK(BM_InterpolateFragments)->Apply(Sizes);
 BENCHMARK(BM_Antialias)->Apply(Sizes);
 BENCHMARK(BM_TextureBilinear)->Apply(Sizes);
+BENCHMARK(BM_TextureBilinearNoGrad)->ArgName("size")->Arg(256)->Arg(1024)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_TextureTrilinear)->Apply(Sizes);
 BENCHMARK(BM_CubeTextureBilinear)->Apply(Sizes);
 BENCHMARK(BM_DownsampleBox2)->Apply(Sizes);
