@@ -281,14 +281,19 @@ TEST_CASE("the bilinear adjoint takes the same uv gradient from the forward's sa
   for (double& x : tex) x = unit(rng);
   for (double& x : uv) x = wide(rng);
   for (double& x : g) x = 2 * unit(rng) - 1;
-  for (Wrap wrap : {Wrap::Repeat, Wrap::Clamp, Wrap::Mirror, Wrap::Zero}) {
+  auto params = [&](Filter filter, Wrap wrap) {
     TextureParams<double> p;
     p.tex = tex.data();
     p.layout = mip_layout(h, w, 0);
     p.channels = c;
     p.uv = uv.data();
     p.num_samples = S;
+    p.filter = filter;
     p.wrap = wrap;
+    return p;
+  };
+  for (Wrap wrap : {Wrap::Repeat, Wrap::Clamp, Wrap::Mirror, Wrap::Zero}) {
+    const TextureParams<double> p = params(Filter::Bilinear, wrap);
     std::vector<double> out(S * c), out_j(S * c), jac(S * 2 * c);
     texture_forward(p, out.data());
     texture_forward(p, out_j.data(), jac.data());
@@ -301,13 +306,7 @@ TEST_CASE("the bilinear adjoint takes the same uv gradient from the forward's sa
     for (std::size_t i = 0; i < uv.size(); ++i) REQUIRE(guv_j[i] == Approx(guv[i]).epsilon(1e-12).margin(1e-12));
   }
   // The Jacobian is the bilinear filter's only.
-  TextureParams<double> p;
-  p.tex = tex.data();
-  p.layout = mip_layout(h, w, 0);
-  p.channels = c;
-  p.uv = uv.data();
-  p.num_samples = S;
-  p.filter = Filter::Nearest;
   std::vector<double> out(S * c), jac(S * 2 * c);
+  const TextureParams<double> p = params(Filter::Nearest, Wrap::Repeat);
   CHECK_THROWS_WITH(texture_forward(p, out.data(), jac.data()), Catch::Contains("bilinear"));
 }
