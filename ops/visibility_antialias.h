@@ -36,10 +36,11 @@ struct VisibilityAntialiasOptions {
 //   - a silhouette edge of the front surface, or, if that surface goes on
 //     hidden under the other, a silhouette edge of the other (the occluder):
 //     t = E(inside) / (E(inside) - E(outside)) with E the edge function;
-//   - if both surfaces go on under each other, their intersection: with
-//     d = z_F - z_B the difference of the two visible triangles' depth planes
-//     (z_ndc, affine in screen space) at the centres, t = d0 / (d0 - d1)
-//     when d0 <= 0 <= d1 (front at its own centre, behind at the other);
+//   - if both surfaces go on under each other, their intersection: each
+//     surface is followed along the segment, and on the first piece where the
+//     depth difference d = z_F - z_B changes sign, with d0, d1 the difference
+//     of the two triangles' depth planes there (z_ndc, affine in screen
+//     space) at the two centres, t = d0 / (d0 - d1);
 // blended once per crossing on the owning axis, as antialias:
 //   t > 1/2:  out[outside] += (t - 1/2) (c[inside] - c[outside])
 //   t <= 1/2: out[inside]  += (1/2 - t) (c[outside] - c[inside]).

@@ -15,16 +15,14 @@ int surface_side(const Vertices& v, std::int32_t a, std::int32_t b, std::int32_t
   return d > 0.0 ? -1 : (d < 0.0 ? 1 : 0);
 }
 
-// Interior edges crossed at most between two pixel centres.
-constexpr int kMaxWalk = 16;
-
 }  // namespace
 
 WalkEnd walk_surface(const Vertices& v, const std::int32_t* tris, const EdgeTopology& topology, int width,
                      int height, std::int64_t start, std::int64_t target, double cix, double ciy, double cox,
-                     double coy) {
+                     double coy, WalkPath* path) {
   std::int64_t cur = start;
   int skip = -1;  // the edge the walk entered through
+  if (path) path->count = 1, path->tri[0] = start, path->t[0] = 0.0;
   for (int step = 0; step < kMaxWalk; ++step) {
     const std::int32_t* tri = tris + 3 * cur;
     // det[V1, V2, V0] = det[V0, V1, V2]: one side sign for all three edges.
@@ -53,6 +51,7 @@ WalkEnd walk_surface(const Vertices& v, const std::int32_t* tris, const EdgeTopo
     cur = nb / 3;
     skip = static_cast<int>(nb % 3);
     if (cur == target) return {WalkEnd::Kind::Reached};
+    if (path) path->tri[path->count] = cur, path->t[path->count] = exit_t, ++path->count;
   }
   return {};
 }

@@ -26,6 +26,17 @@ inline bool pair_owns_direction(bool horizontal, double dx, double dy) {
   return horizontal ? dy >= dx : dx > dy;
 }
 
+// Interior edges crossed at most between two pixel centres.
+constexpr int kMaxWalk = 16;
+
+// The triangles a walk passed through: tri[i] from t[i] (t[0] = 0) to t[i + 1]
+// (or to the end of the walk), along the segment from ci to co.
+struct WalkPath {
+  int count = 0;
+  std::int64_t tri[kMaxWalk + 1];
+  double t[kMaxWalk + 1];
+};
+
 struct WalkEnd {
   enum class Kind { Silhouette, Reached, Continues, Lost };
   Kind kind = Kind::Lost;
@@ -39,8 +50,9 @@ struct WalkEnd {
 //   Reached     it entered triangle `target` (the same surface);
 //   Continues   the other centre is still on it, in another triangle;
 //   Lost        degenerate triangle, an edge behind the near plane, or too many steps.
+// If `path` is given it receives the triangles passed through.
 WalkEnd walk_surface(const Vertices& v, const std::int32_t* tris, const EdgeTopology& topology, int width,
                      int height, std::int64_t start, std::int64_t target, double cix, double ciy, double cox,
-                     double coy);
+                     double coy, WalkPath* path = nullptr);
 
 }  // namespace gr::raster::detail

@@ -63,6 +63,47 @@ bool all_front(const Vertices& v, const std::int32_t* tri) {
   return v.front[tri[0]] && v.front[tri[1]] && v.front[tri[2]];
 }
 
+// Where two surfaces that both cover the segment from c_f to c_b (walk paths
+// from either end) cross in depth: t from c_f, the two triangles there and
+// the crossing line's screen direction; t < 0 if they do not cross.
+struct Crossing {
+  double t = -1.0;
+  std::int64_t tri_f = -1, tri_b = -1;
+  double direction_x = 0, direction_y = 0;
+};
+
+Crossing first_crossing(const Vertices& v, const std::int32_t* tris, const detail::WalkPath& pf,
+                        const detail::WalkPath& pb, double fx, double fy, double bx, double by) {
+  // Piece boundaries in t: the front path's entries, and 1 - s of the other's.
+  int i = 0, j = pb.count - 1;  // the other path, walked from c_b, covers t near 0 with its last triangle
+  double lo = 0.0;
+  while (i < pf.count && j >= 0) {
+    const double end_f = i + 1 < pf.count ? pf.t[i + 1] : 1.0;
+    const double end_b = 1.0 - pb.t[j];
+    const double hi = std::min(end_f, end_b);
+    const std::int32_t* trf = tris + 3 * pf.tri[i];
+    const std::int32_t* trb = tris + 3 * pb.tri[j];
+    if (all_front(v, trf) && all_front(v, trb)) {
+      const DepthPlane a = depth_plane(v, trf), b = depth_plane(v, trb);
+      // d is affine along the whole segment for this pair: its values at the centres.
+      const double d0 = a.at(fx, fy) - b.at(fx, fy), d1 = a.at(bx, by) - b.at(bx, by);
+      const double dlo = d0 + lo * (d1 - d0), dhi = d0 + hi * (d1 - d0);
+      // Equality at a centre (d0 = 0 or d1 = 0) is a crossing at t = 0 or 1.
+      if (dlo <= 0.0 && dhi >= 0.0 && d1 - d0 > kMinDepthStep) {
+        Crossing x;
+        x.t = std::clamp(d0 / (d0 - d1), lo, hi);
+        x.tri_f = pf.tri[i], x.tri_b = pb.tri[j];
+        x.direction_x = a.b - b.b, x.direction_y = -(a.a - b.a);
+        return x;
+      }
+    }
+    lo = hi;
+    if (end_f <= end_b) ++i;
+    if (end_b <= end_f) --j;
+  }
+  return {};
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------------------
@@ -101,25 +142,24 @@ void visibility_antialias_forward(const VisibilityAntialiasParams<T>& prm, T* ou
     const std::int64_t tf = (p_front ? ip : iq) - 1, tb = (p_front ? iq : ip) - 1;  // tb < 0: background
     const double fx = centre_x(f, W), fy = centre_y(f, W), bx = centre_x(b, W), by = centre_y(b, W);
     // 1. The front surface, towards the other centre.
-    const WalkEnd wf = detail::walk_surface(v, tris, topology, W, H, tf, tb, fx, fy, bx, by);
+    detail::WalkPath path_f, path_b;
+    const WalkEnd wf = detail::walk_surface(v, tris, topology, W, H, tf, tb, fx, fy, bx, by, &path_f);
     if (wf.kind == WalkEnd::Kind::Silhouette) return edge_pair(f, b, wf, horizontal, found);
     if (wf.kind != WalkEnd::Kind::Continues || tb < 0) return;
     // 2. The front surface goes on under the other: follow the other back.
-    const WalkEnd wb = detail::walk_surface(v, tris, topology, W, H, tb, tf, bx, by, fx, fy);
+    const WalkEnd wb = detail::walk_surface(v, tris, topology, W, H, tb, tf, bx, by, fx, fy, &path_b);
     if (wb.kind == WalkEnd::Kind::Silhouette) return edge_pair(b, f, wb, horizontal, found);
     if (wb.kind != WalkEnd::Kind::Continues) return;
-    // 3. Both go on under each other: the planes' depths cross between the centres.
-    const std::int32_t* trf = tris + 3 * tf;
-    const std::int32_t* trb = tris + 3 * tb;
-    if (!all_front(v, trf) || !all_front(v, trb)) return;
-    const DepthPlane pf = depth_plane(v, trf), pb = depth_plane(v, trb);
-    const double d0 = pf.at(fx, fy) - pb.at(fx, fy), d1 = pf.at(bx, by) - pb.at(bx, by);
-    // d0 = 0 or d1 = 0: the line through a centre (the depth tie there), t = 0 or 1.
-    if (!(d0 <= 0.0 && d1 >= 0.0 && d1 - d0 > kMinDepthStep)) return;
+    // 3. Both go on under each other: both are piecewise planar along the
+    // segment (the walks' triangles); find the first piece, with one triangle
+    // of each, on which their depth difference goes from <= 0 to >= 0.
+    const Crossing x = first_crossing(v, tris, path_f, path_b, fx, fy, bx, by);
+    if (x.t < 0.0) return;
     // The crossing line's direction is perpendicular to the gradient of d.
-    if (!detail::pair_owns_direction(horizontal, pf.b - pb.b, -(pf.a - pb.a))) return;
-    const double t = d0 / (d0 - d1);
-    found.push_back({f, b, BoundaryKind::Intersection, {trf[0], trf[1], trf[2], trb[0], trb[1], trb[2]}, t});
+    if (!detail::pair_owns_direction(horizontal, x.direction_x, x.direction_y)) return;
+    const std::int32_t* trf = tris + 3 * x.tri_f;
+    const std::int32_t* trb = tris + 3 * x.tri_b;
+    found.push_back({f, b, BoundaryKind::Intersection, {trf[0], trf[1], trf[2], trb[0], trb[1], trb[2]}, x.t});
   };
 
   std::vector<std::vector<VisibilityPair>> rows(static_cast<std::size_t>(H));

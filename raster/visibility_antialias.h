@@ -15,9 +15,11 @@
 //      is the occluder);
 //   3. if both surfaces continue under each other, they interpenetrate: the
 //      boundary is where their depths are equal. z_ndc is affine in screen
-//      space over each triangle, so along the segment the depth difference
-//      d(t) = z_F(c(t)) - z_B(c(t)) of the two visible triangles' planes is
-//      affine and crosses zero at t = d0 / (d0 - d1) (used when d0 <= 0 <= d1).
+//      space over each triangle, so along the segment each surface's depth is
+//      piecewise affine (the walks of steps 1 and 2 give its triangles); on
+//      the first piece where the depth difference d = z_F - z_B goes from
+//      <= 0 to >= 0, with F' and B' the two triangles there and d0, d1 the
+//      difference of their planes at the two centres, t = d0 / (d0 - d1).
 // The crossing blends the two colours one-sided as antialias does, on the
 // pairs of the axis most perpendicular to the boundary. Formulas and the
 // reasons: docs/visibility_antialias.md.
@@ -38,7 +40,7 @@ using VisibilityAntialiasParams = AntialiasParams<T>;
 
 enum class BoundaryKind : std::int32_t {
   Edge = 0,          // a silhouette edge v[0]-v[1] of the surface at `inside`
-  Intersection = 1,  // planes of triangle (v[0], v[1], v[2]) at `inside` and (v[3], v[4], v[5]) at `outside`
+  Intersection = 1,  // planes of triangle (v[0], v[1], v[2]) of `inside`'s surface and (v[3], v[4], v[5]) of `outside`'s
 };
 
 // One blended pixel pair, in the order the forward applied them (row-major by

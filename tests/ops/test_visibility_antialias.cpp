@@ -217,6 +217,51 @@ TEST_CASE("visibility_antialias: gradients at a grazing intersection (nearly par
   CHECK(std::isfinite(r.worst_analytic));
 }
 
+// A surface folded along a horizontal crease at y_ndc = -0.05 (A0 below, A1
+// above, meeting at depth -0.02; slopes dz/dy_ndc 0.05 and 0.2) through a flat
+// one at z = 0 (B, covering the image): A1 crosses B at y_ndc = 0.05, between
+// the centres of rows 4 (y_ndc -0.125, A0 in front) and 3 (0.125, B in
+// front), above the crease; A0's plane, extended, would cross only at 0.35.
+Tensor folded_clip() {
+  const double c = -0.05, e = -0.02, s0 = 0.05, s1 = 0.2;
+  return Tensor::from_values({-3, c, e, 1, 3, c, e, 1, 0, -4, e + s0 * (-4 - c), 1, 0, 4, e + s1 * (4 - c), 1,  //
+                              -4, -4, 0, 1, 4, -4, 0, 1, 0, 4, 0, 1},
+                             {7, 4}, DType::Float64);
+}
+Tensor folded_triangles() { return Tensor::from_vector<std::int32_t>({0, 1, 2, 1, 0, 3, 4, 5, 6}, {3, 3}); }
+
+TEST_CASE("visibility_antialias: an intersection is located on the triangles where it happens, not on the planes "
+          "of those visible at the centres",
+          "[ops][visibility_antialias]") {
+  const int W = 8, H = 8;
+  Tensor clip = folded_clip(), tris = folded_triangles();
+  // Flat colours: A red, B blue.
+  Tensor colours = Tensor::from_values({1, 0, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 1, 0, 0, 1}, {7, 3},
+                                       DType::Float64);
+  NoGradGuard ng;
+  GBuffer gb = rasterize(clip, tris, {W, H});
+  REQUIRE(gb.tri_id.at({3, 3}) == 3);  // B at row 3
+  REQUIRE(gb.tri_id.at({4, 3}) == 1);  // A0 at row 4
+  const Tensor out = render(clip, colours, tris, W, H);
+  // The crossing is at t = (0.05 + 0.125) / 0.25 = 0.7 from row 4's centre, so
+  // row 3 takes 0.7 - 0.5 = 0.2 of row 4's colour; row 4 stays red.
+  CHECK(out.at({3, 3, 0}) == Approx(0.2).margin(1e-12));
+  CHECK(out.at({3, 3, 2}) == Approx(0.8).margin(1e-12));
+  CHECK(out.at({4, 3, 0}) == Approx(1.0).margin(1e-12));
+}
+
+TEST_CASE("visibility_antialias: gradients at an intersection beyond a crease match finite differences",
+          "[ops][visibility_antialias][gradcheck]") {
+  const int W = 8, H = 8;
+  Tensor tris = folded_triangles();
+  Tensor clip = with_margin(folded_clip(), tris, W, H).set_requires_grad();
+  Tensor colours = gr::testing::random_input({7, 3}, 0.1, 0.9, 51);
+  CHECK(stats_of(Tensor::zeros({H, W, 3}, DType::Float64), clip, tris, W, H).intersection_pairs >= 5);
+  require_gradcheck("visibility_antialias crease (clip, colours)",
+                    [&](const Inputs& in) { return render(in[0], in[1], tris, W, H); }, {clip, colours},
+                    GradcheckOptions{1e-5});
+}
+
 TEST_CASE("visibility_antialias: an occluder nearer than the surface behind gets its silhouette found from either side",
           "[ops][visibility_antialias][gradcheck]") {
   const int W = 24, H = 20;
