@@ -86,6 +86,15 @@ void BM_Antialias(benchmark::State& state) {
   time_op(state, [&] { return antialias(s.image, s.gbuffer, s.clip, s.triangles, aa); });
 }
 
+// visibility_antialias on the same image (one closed sphere: silhouettes only,
+// so the cost of locating boundaries from both surfaces against antialias's).
+void BM_VisibilityAntialias(benchmark::State& state) {
+  Scene s = make_scene(static_cast<int>(state.range(0)));
+  VisibilityAntialiasOptions options;
+  options.topology = s.topology;
+  time_op(state, [&] { return visibility_antialias(s.image, s.gbuffer, s.clip, s.triangles, options); });
+}
+
 void BM_TextureBilinear(benchmark::State& state) {
   Scene s = make_scene(static_cast<int>(state.range(0)));
   time_op(state, [&] { return texture(s.texture, s.uv); });
@@ -239,6 +248,7 @@ void Sizes(benchmark::internal::Benchmark* b) {
 BENCHMARK(BM_Interpolate)->Apply(Sizes);
 BENCHMARK(BM_InterpolateFragments)->Apply(Sizes);
 BENCHMARK(BM_Antialias)->Apply(Sizes);
+BENCHMARK(BM_VisibilityAntialias)->Apply(Sizes);
 BENCHMARK(BM_TextureBilinear)->Apply(Sizes);
 BENCHMARK(BM_TextureTrilinear)->Apply(Sizes);
 BENCHMARK(BM_CubeTextureBilinear)->Apply(Sizes);
