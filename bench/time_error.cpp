@@ -1,5 +1,6 @@
 // time_error (issue 6; graded exactly since issue 13): run time against
-// gradient error for float32/float64, antialiasing off/on, supersampling
+// gradient error for float32/float64, antialiasing off/on (antialias or, rows "vis",
+// visibility_antialias), supersampling
 // 1/2/4 and soft rasterization at three sigmas on four fixed scenes at
 // 128 x 128, each fitted towards a copy with its objects rotated and shifted,
 // loss = MSE (bench/time_error_scene.h): a torus (silhouettes), a sphere sunk
