@@ -34,7 +34,7 @@ WalkEnd walk_surface(const Vertices& v, const std::int32_t* tris, const EdgeTopo
     for (int k = 0; k < 3; ++k) {
       if (k == skip) continue;
       const std::int32_t a = tri[(k + 1) % 3], b = tri[(k + 2) % 3];
-      if (!v.front[a] || !v.front[b]) return {};  // no screen line behind the near plane
+      if (!v.front[a] || !v.front[b]) continue;  // no screen line behind the near plane (skipped, as antialias did)
       const double* sa = &v.screen[3 * static_cast<std::size_t>(a)];
       const double* sb = &v.screen[3 * static_cast<std::size_t>(b)];
       const double ei = side * edge_fn(cix, ciy, sa, sb), eo = side * edge_fn(cox, coy, sa, sb);

@@ -1,5 +1,5 @@
-// Following a mesh surface along a screen segment (used by the visibility
-// antialias op, raster/visibility_antialias.h): starting in a triangle at
+// Following a mesh surface along a screen segment (used by antialias and
+// visibility_antialias, raster/antialias.h, raster/visibility_antialias.h): starting in a triangle at
 // one pixel centre, cross interior edges towards the other centre until the
 // surface ends at a silhouette edge, reaches a given triangle, or still goes
 // on at the other centre. Internal to raster/.
@@ -49,7 +49,9 @@ struct WalkEnd {
 //               neighbour folds onto the same screen side) at t < 1;
 //   Reached     it entered triangle `target` (the same surface);
 //   Continues   the other centre is still on it, in another triangle;
-//   Lost        degenerate triangle, an edge behind the near plane, or too many steps.
+//   Lost        degenerate triangle or too many steps.
+// Edges with a vertex behind the near plane have no screen line and are
+// skipped (the segment is taken to leave through another edge).
 // If `path` is given it receives the triangles passed through.
 WalkEnd walk_surface(const Vertices& v, const std::int32_t* tris, const EdgeTopology& topology, int width,
                      int height, std::int64_t start, std::int64_t target, double cix, double ciy, double cox,
