@@ -1,6 +1,7 @@
 // The tape against the hand-fused pass (issue 17): the Blinn-Phong loss of
-// shading_graph.h, forward + backward on 1,048,576 pixels, both ways in one
-// binary so one run compares them side by side. Each reports the compulsory
+// shading_graph.h, forward + backward on 1,048,576 pixels, and the textured
+// loss of textured_graph.h, both ways in one binary so one run compares them
+// side by side. Each reports the compulsory
 // traffic (inputs p, n, albedo, target read once; gradients of n and albedo
 // written once: 18 values per pixel) as GB/s and as a fraction of the
 // measured triad bandwidth (roofline.h).
@@ -9,6 +10,7 @@
 #include <type_traits>
 
 #include "fused_blinn_phong.h"
+#include "fused_textured.h"
 #include "ops/map_rows.h"
 #include "roofline.h"
 
@@ -85,8 +87,53 @@ void BM_BlinnPhongFused(benchmark::State& state) {
   gr::set_num_threads(0);
 }
 
+// The texture-heavy graph (textured_graph.h): 1024 x 1024 pixels looking up a
+// 512 x 512 x 3 texture. Compulsory traffic: texture, uv, shade, target read
+// once, the texture's and uv's gradients written once.
+constexpr int kTexturedSide = 1024, kTextureSide = 512;
+
+template <gr::DType D>
+double textured_bytes() {
+  const double texels = double(kTextureSide) * kTextureSide, pixels = double(kTexturedSide) * kTexturedSide;
+  return (2 * 3 * texels + (2 + 1 + 3 + 2) * pixels) * sizeof(Scalar<D>);
+}
+
+template <gr::DType D>
+void BM_TexturedTape(benchmark::State& state) {
+  gr::set_num_threads(static_cast<int>(state.range(0)));
+  auto scene = gr::bench::make_textured_scene(kTexturedSide, kTexturedSide, kTextureSide, D);
+  const gr::bench::StoragePeak peak;
+  for (auto _ : state) {
+    gr::backward(gr::bench::textured_loss(scene));
+    benchmark::DoNotOptimize(scene.tex.grad().data<Scalar<D>>());
+    scene.tex.zero_grad();
+    scene.uv.zero_grad();
+  }
+  gr::bench::report_traffic(state, textured_bytes<D>());
+  peak.report(state);
+  gr::set_num_threads(0);
+}
+
+template <gr::DType D>
+void BM_TexturedFused(benchmark::State& state) {
+  gr::set_num_threads(static_cast<int>(state.range(0)));
+  auto scene = gr::bench::make_textured_scene(kTexturedSide, kTexturedSide, kTextureSide, D);
+  gr::bench::FusedTexturedGradients<Scalar<D>> grads;
+  const gr::bench::StoragePeak peak;
+  for (auto _ : state) {
+    gr::bench::fused_textured(scene, grads);
+    benchmark::DoNotOptimize(grads.tex.data());
+  }
+  gr::bench::report_traffic(state, textured_bytes<D>());
+  // Its gradient vectors and per-pixel scratch.
+  peak.report(state, double(grads.tex.size() + grads.uv.size() + grads.g.size()) * sizeof(Scalar<D>));
+  gr::set_num_threads(0);
+}
+
 }  // namespace
 
+BENCHMARK_TEMPLATE(BM_TexturedTape, gr::DType::Float32)->ArgName("threads")->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK_TEMPLATE(BM_TexturedFused, gr::DType::Float32)->ArgName("threads")->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK_TEMPLATE(BM_BlinnPhongTape, gr::DType::Float32)->ArgName("threads")->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK_TEMPLATE(BM_BlinnPhongBlocked, gr::DType::Float32)->ArgNames({"threads", "block"})->ArgsProduct({{1, 2}, {1024, 4096, 16384}})->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK_TEMPLATE(BM_BlinnPhongFused, gr::DType::Float32)->ArgName("threads")->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();

@@ -22,6 +22,7 @@
 #include "ops/ops.h"
 #include "raster/obj_io.h"
 #include "raster/procedural.h"
+#include "roofline.h"
 #include "mesh_framing.h"
 
 namespace {
@@ -90,6 +91,10 @@ void run(benchmark::State& state, const Scene& scene, int threads, bool front_to
     }
     benchmark::DoNotOptimize(gb.tri_id.impl());
   }
+  // Roofline: clip and triangles read, the G-buffer written; the backward
+  // reads uv's upstream gradient and writes clip's.
+  const double forward = gr::bench::bytes_of({clip, scene.tris, gb.tri_id, gb.uv, gb.depth});
+  gr::bench::report_traffic(state, with_backward ? forward + gr::bench::bytes_of({w_uv, clip}) : forward);
   gr::set_num_threads(0);
   state.counters["triangles"] = double(scene.tris.size(0));
   std::int64_t covered = 0;

@@ -1,7 +1,8 @@
-# The hand-fused Blinn-Phong pass (issue 17): a static library for bench_fused
+# The hand-fused Blinn-Phong and textured passes (issue 17): a static library for bench_fused
 # and the test that checks it against the tape's gradients.
 if(NOT TARGET gradraster_fused_baseline)
-  add_library(gradraster_fused_baseline STATIC ${CMAKE_CURRENT_LIST_DIR}/fused_blinn_phong.cpp)
+  add_library(gradraster_fused_baseline STATIC ${CMAKE_CURRENT_LIST_DIR}/fused_blinn_phong.cpp
+                                               ${CMAKE_CURRENT_LIST_DIR}/fused_textured.cpp)
   target_include_directories(gradraster_fused_baseline PUBLIC ${CMAKE_CURRENT_LIST_DIR})
   target_link_libraries(gradraster_fused_baseline PUBLIC gradraster::gradraster)
 endif()

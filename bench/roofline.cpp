@@ -46,6 +46,20 @@ void report_traffic(benchmark::State& state, double bytes_per_iteration) {
   state.counters["of_peak"] = benchmark::Counter(bytes / triad_bandwidth(), benchmark::Counter::kIsRate);
 }
 
+double bytes_of(const std::vector<Tensor>& tensors) {
+  double bytes = 0;
+  for (const Tensor& t : tensors)
+    if (t.defined()) bytes += double(t.numel()) * double(dtype_size(t.dtype()));
+  return bytes;
+}
+
+double grad_bytes(const std::vector<Tensor>& tensors) {
+  double bytes = 0;
+  for (const Tensor& t : tensors)
+    if (t.defined() && t.requires_grad()) bytes += bytes_of({t});
+  return bytes;
+}
+
 StoragePeak::StoragePeak() : base_(storage_stats().live_bytes) { reset_storage_peak(); }
 
 void StoragePeak::report(benchmark::State& state, double extra_bytes) const {

@@ -6,6 +6,9 @@
 #include <benchmark/benchmark.h>
 
 #include <cstdint>
+#include <vector>
+
+#include "autodiff/tensor.h"
 
 namespace gr::bench {
 
@@ -18,6 +21,13 @@ double triad_bandwidth();
 // "of_peak" (that rate over triad_bandwidth()). bytes_per_iteration is the
 // compulsory traffic: every input read once and every output written once.
 void report_traffic(benchmark::State& state, double bytes_per_iteration);
+
+// Bytes of the tensors' values (undefined tensors count 0): the compulsory
+// traffic of an op is bytes_of(its inputs and outputs); with its backward add
+// the upstream gradient and the gradients it writes (grad_bytes).
+double bytes_of(const std::vector<Tensor>& tensors);
+// Bytes of the gradients of those tensors that require one.
+double grad_bytes(const std::vector<Tensor>& tensors);
 
 // Peak tensor storage of a benchmark: construct before the loop, report()
 // after it. Counts what tensors hold at once (autodiff/storage.h's live

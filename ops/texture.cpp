@@ -176,20 +176,27 @@ Tensor texture(const Tensor& tex, const Tensor& uv, const TextureOptions& option
   std::vector<std::int64_t> out_dims = uv.shape().dims();
   out_dims.back() = C;
   Tensor out = Tensor::empty(Shape(out_dims), tex.dtype());
+  std::vector<Tensor> inputs{tex, uv, trilinear ? uv_dx : Tensor(), trilinear ? uv_dy : Tensor(), mip_level_bias};
+  inputs.insert(inputs.end(), mip.begin(), mip.end());
+  const bool recording = should_record(inputs);
+  // Bilinear lookups whose uv takes a gradient keep d out/d(u, v) from the
+  // forward (2 C values a sample): the adjoint then reads no texel for it.
+  Tensor uv_jacobian;
+  if (recording && uv.requires_grad() && options.filter == Filter::Bilinear)
+    uv_jacobian = Tensor::empty({batch.images * batch.samples * 2 * C}, tex.dtype());
   dispatch_float(tex.dtype(), "texture", [&](auto tag) {
     using T = decltype(tag);
     detail::for_each_image(batch.images, [&](std::int64_t b) {
       raster::texture_forward(params<T>(tex, uv, dx, dy, bias, pyramid, user_pyramid, layout, options, batch, b),
-                              out.data<T>() + b * batch.samples * C);
+                              out.data<T>() + b * batch.samples * C,
+                              uv_jacobian.defined() ? uv_jacobian.data<T>() + b * batch.samples * 2 * C : nullptr);
     });
   });
 
-  std::vector<Tensor> inputs{tex, uv, trilinear ? uv_dx : Tensor(), trilinear ? uv_dy : Tensor(), mip_level_bias};
-  inputs.insert(inputs.end(), mip.begin(), mip.end());
-  if (should_record(inputs)) {
+  if (recording) {
     record("texture", inputs, {&out},
            [tex = tex.detach(), uv = uv.detach(), dx, dy, bias, pyramid, user_pyramid, layout, options, batch,
-            upper](AdjointContext& ctx) {
+            upper, uv_jacobian](AdjointContext& ctx) {
              if (!ctx.grad_output().defined()) return;
              // Gradient buffers of the inputs that need one (nearest: none for uv).
              std::vector<Tensor> g(5);
@@ -217,9 +224,11 @@ Tensor texture(const Tensor& tex, const Tensor& uv, const TextureOptions& option
                  grads.uv_dy = ptr(g[3], 2 * S * b);
                  grads.mip_level_bias = ptr(g[4], S * b);
                  grads.pyramid = ptr(g_pyr, t * upper);
+                 const std::int64_t C = tex.size(tex.rank() - 1);
                  raster::texture_backward(
                      params<T>(tex, uv, dx, dy, bias, pyramid, user_pyramid, layout, options, batch, b),
-                     ctx.grad_output().data<T>() + b * S * tex.size(tex.rank() - 1), grads);
+                     ctx.grad_output().data<T>() + b * S * C, grads,
+                     uv_jacobian.defined() ? uv_jacobian.data<T>() + b * S * 2 * C : nullptr);
                };
                if (!shared) {
                  detail::for_each_image(batch.images, [&](std::int64_t b) { image(b, g[0], g_pyramid); });

@@ -1,14 +1,16 @@
 // Texture sampling forward and adjoint. Every filter is reduced to a list of at
 // most 8 taps (texel index in the all-levels buffer, weight, d weight/du,
 // d weight/dv): the forward sums weight * texel, the uv adjoint sums the weight
-// derivatives, the texel adjoint scatters weight * g. Samples run in parallel;
-// texel gradients are scattered serially in sample order (fixed chunks), so
-// they do not depend on the thread count.
+// derivatives (bilinear: from the Jacobian the forward saved), the texel
+// adjoint scatters weight * g. Samples run in parallel; each texel receives its
+// adds in sample order (taps filed by texel band, one task per band), so the
+// gradients do not depend on the thread count.
 #include "raster/texture.h"
 
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "autodiff/error.h"
@@ -20,6 +22,7 @@ namespace gr::raster {
 namespace {
 
 constexpr int kMaxTaps = 8;
+constexpr int kAhead = 8;  // samples whose texels are prefetched together
 
 struct Taps {
   int n = 0;
@@ -192,6 +195,45 @@ void check_params(const TextureParams<T>& p, const char* op) {
     throw ValueError(std::string(op) + ": mipmapped filtering needs the mip pyramid");
 }
 
+// Bilinear lookups that also write d out/du, d out/dv = sum_t dw_t/du texel_t
+// (and v) for the adjoint. The taps of kAhead samples come first and their
+// texels are prefetched, so the (cache-missing) texel reads overlap.
+template <class T>
+void bilinear_forward_with_jacobian(const TextureParams<T>& p, T* out, T* uv_jacobian) {
+  const std::int64_t C = p.channels;
+  parallel_for(0, p.num_samples, 4096, [&](std::int64_t lo, std::int64_t hi) {
+    for (std::int64_t s0 = lo; s0 < hi; s0 += kAhead) {
+      const int n = static_cast<int>(std::min<std::int64_t>(kAhead, hi - s0));
+      Taps taps[kAhead];
+      for (int i = 0; i < n; ++i) {
+        bilinear_taps<true>(p.layout.levels[0], p.uv[2 * (s0 + i)], p.uv[2 * (s0 + i) + 1], p.v_down, 1.0, p.wrap,
+                            taps[i]);
+        for (int k = 0; k < 4; ++k) __builtin_prefetch(p.tex + taps[i].index[k] * C);
+      }
+      for (int i = 0; i < n; ++i) {
+        const Taps& t = taps[i];
+        const T* tx[4];
+        for (int k = 0; k < 4; ++k) tx[k] = p.tex + t.index[k] * C;
+        T* o = out + (s0 + i) * C;
+        T* ju = uv_jacobian + (s0 + i) * 2 * C;
+        T* jv = ju + C;
+        for (std::int64_t c = 0; c < C; ++c) {
+          double a = 0.0, du = 0.0, dv = 0.0;
+          for (int k = 0; k < 4; ++k) {
+            const double x = tx[k][c];
+            a += t.w[k] * x;
+            du += t.dw_du[k] * x;
+            dv += t.dw_dv[k] * x;
+          }
+          o[c] = static_cast<T>(a);
+          ju[c] = static_cast<T>(du);
+          jv[c] = static_cast<T>(dv);
+        }
+      }
+    }
+  });
+}
+
 }  // namespace
 
 double texture_lod(double du_dx, double dv_dx, double du_dy, double dv_dy, int width, int height, int levels,
@@ -200,7 +242,7 @@ double texture_lod(double du_dx, double dv_dx, double du_dy, double dv_dy, int w
 }
 
 template <class T>
-void texture_forward(const TextureParams<T>& p, T* out) {
+void texture_forward(const TextureParams<T>& p, T* out, T* uv_jacobian) {
   check_params(p, "texture");
   const std::int64_t C = p.channels;
   const std::int64_t base_texels = std::int64_t(p.layout.levels[0].height) * p.layout.levels[0].width;
@@ -212,6 +254,12 @@ void texture_forward(const TextureParams<T>& p, T* out) {
     detail::check_finite(p.uv_dx, 2 * p.num_samples, "uv_dx", "texture");
     detail::check_finite(p.uv_dy, 2 * p.num_samples, "uv_dy", "texture");
     if (p.mip_level_bias) detail::check_finite(p.mip_level_bias, p.num_samples, "mip_level_bias", "texture");
+  }
+  if (uv_jacobian && p.filter != Filter::Bilinear)
+    throw ValueError("texture: the uv Jacobian is saved for the bilinear filter only");
+  if (uv_jacobian) {
+    bilinear_forward_with_jacobian(p, out, uv_jacobian);
+    return;
   }
   parallel_for(0, p.num_samples, 4096, [&](std::int64_t lo, std::int64_t hi) {
     for (std::int64_t s = lo; s < hi; ++s) {
@@ -230,21 +278,49 @@ void texture_forward(const TextureParams<T>& p, T* out) {
 }
 
 namespace {
-// The adjoint's per-chunk tap buffers, reused across calls: texel index (in
-// the all-levels buffer: below 2^32 for sides <= 32768) and weight in T.
+// One texel gradient to add: dL/d texel += w g_sample.
 template <class T>
-struct TapScratch {
-  std::vector<std::uint32_t> index;
-  std::vector<T> w;
-  std::vector<std::uint8_t> n;
+struct TapEntry {
+  std::uint32_t texel;   // in the all-levels buffer (below 2^32 for sides <= 32768)
+  std::uint32_t sample;  // within the chunk
+  T w;
+};
+
+// The adjoint's per-chunk tap buckets, reused across calls: for every block of
+// kBlock samples and every texel band, that block's taps in the band, in
+// sample order. Sized for the worst case (all taps of a block in one band).
+template <class T>
+struct TapBuckets {
+  std::vector<TapEntry<T>> entries;
+  std::vector<std::int32_t> count;  // [block][band]
 };
 template <class T>
-detail::ScratchPool<TapScratch<T>> g_tap_pool;
+detail::ScratchPool<TapBuckets<T>> g_bucket_pool;
+
+constexpr std::int64_t kChunk = 4096;  // samples whose buckets exist at once
+constexpr std::int64_t kBlock = 256;   // samples per bucket block (one task)
+
+// Texel bands for the scatter: about one per thread, a power of two texels wide
+// (band = texel >> shift), so a tap finds its band with a shift.
+struct Bands {
+  int shift = 0;
+  std::int64_t count = 1;
+};
+Bands texel_bands(std::int64_t texels, std::int64_t threads) {
+  Bands b;
+  const std::int64_t want = (texels + threads - 1) / std::max<std::int64_t>(1, threads);
+  while ((std::int64_t(1) << b.shift) < want) ++b.shift;
+  b.count = (texels + (std::int64_t(1) << b.shift) - 1) >> b.shift;
+  return b;
+}
 }  // namespace
 
 template <class T>
-void texture_backward(const TextureParams<T>& p, const T* grad_out, const TextureGrads<T>& grads) {
+void texture_backward(const TextureParams<T>& p, const T* grad_out, const TextureGrads<T>& grads,
+                      const T* uv_jacobian) {
   check_params(p, "texture backward");
+  if (uv_jacobian && p.filter != Filter::Bilinear)
+    throw ValueError("texture backward: the uv Jacobian is saved for the bilinear filter only");
   T* grad_tex = grads.tex;
   T* grad_uv = p.filter == Filter::Nearest ? nullptr : grads.uv;  // nearest: piecewise constant in uv
   const bool trilinear = p.filter == Filter::Trilinear;
@@ -262,6 +338,7 @@ void texture_backward(const TextureParams<T>& p, const T* grad_out, const Textur
   // mip levels, every level's in double, then down the pyramid.
   const bool texels = grad_tex || grad_pyramid;
   const bool direct = levels_used == 1 && grad_tex;
+  const bool reads_texels = (grad_uv && !uv_jacobian) || lod_grads;
   Tensor scratch;
   double* acc = nullptr;
   if (texels && !direct) {
@@ -270,95 +347,129 @@ void texture_backward(const TextureParams<T>& p, const T* grad_out, const Textur
     acc = scratch.data<double>();
   }
 
-  // Samples in chunks: taps and uv gradients in parallel, texel sums in sample
-  // order. Taps are kept compactly (index, weight) with a fixed stride, and a
-  // chunk's taps (64-128 KiB) stay in L2 between the two passes.
-  constexpr std::int64_t kChunk = 4096;
+  // Samples in chunks of kChunk, each in blocks of kBlock (one task each):
+  // uv gradients and taps in parallel, every tap filed under its texel band;
+  // then one task per band adds its taps, block after block. Each texel so
+  // sees its adds in sample order whatever the number of bands or threads.
   const int stride = p.filter == Filter::Nearest ? 1 : p.filter == Filter::Trilinear ? kMaxTaps : 4;
-  const std::size_t chunk = static_cast<std::size_t>(std::min(S, kChunk));
-  // Pooled, so an optimization loop does not fault in fresh pages every call.
-  auto lease = g_tap_pool<T>.take();
-  std::vector<std::uint32_t>& tap_index = lease->index;
-  std::vector<T>& tap_w = lease->w;
-  std::vector<std::uint8_t>& tap_n = lease->n;  // 0: sample skipped
-  if (texels) {
-    tap_index.resize(stride * chunk);
-    tap_w.resize(stride * chunk);
-  }
-  tap_n.resize(chunk);
   const std::int64_t acc_texels = levels_used == 1 ? base_texels : p.layout.total_texels;
-  const std::int64_t bands = std::max(1, num_threads());
-  const std::int64_t band_size = (acc_texels + bands - 1) / bands;
+  const Bands bands = texel_bands(acc_texels, std::min(num_threads(), 16));
+  const std::int64_t blocks_per_chunk = (std::min(S, kChunk) + kBlock - 1) / kBlock;
+  // Pooled, so an optimization loop does not fault in fresh pages every call.
+  auto lease = g_bucket_pool<T>.take();
+  std::vector<TapEntry<T>>& entries = lease->entries;
+  std::vector<std::int32_t>& count = lease->count;
+  const std::int64_t bucket_size = kBlock * stride;
+  if (texels) {
+    entries.resize(static_cast<std::size_t>(blocks_per_chunk * bands.count * bucket_size));
+    count.resize(static_cast<std::size_t>(blocks_per_chunk * bands.count));
+  }
+
   for (std::int64_t c0 = 0; c0 < S; c0 += kChunk) {
     const std::int64_t c1 = std::min(S, c0 + kChunk);
-    parallel_for(c0, c1, 1024, [&](std::int64_t lo, std::int64_t hi) {
-      for (std::int64_t s = lo; s < hi; ++s) {
-        const std::int64_t i = s - c0;
-        const T* g = grad_out + s * C;
-        // Zero incoming gradient: skip.
-        bool any = false;
-        for (std::int64_t c = 0; c < C && !any; ++c) any = g[c] != T(0);
-        tap_n[i] = 0;
-        if (!any) continue;
-        const Taps t = sample_taps<T, true>(p, s);
-        if (lod_grads && t.lod_free) {
-          // dL/dlod = g . sum_t (dw_t/dlod) texel_t, then through the LOD.
-          double g_lod = 0.0;
-          for (int k = 0; k < t.n; ++k) g_lod += t.dw_dlod[k] * dot_channels(g, texel(p, t.index[k], base_texels), C);
-          if (grad_bias) grad_bias[s] += static_cast<T>(g_lod);
-          const MipLevel& base = p.layout.levels[0];
-          const Lod l = compute_lod(p.uv_dx[2 * s], p.uv_dx[2 * s + 1], p.uv_dy[2 * s], p.uv_dy[2 * s + 1],
-                                    base.width, base.height, p.layout.count(), 0.0, p.lod_rule);
-          // k = dL/dlod dlod/drho2 * 2 = dL/dlod / (rho2 ln 2); dA/d(du/dx) = 2 a_x W, dC/d(du/dx) = b_x W, ...
-          const double k = g_lod / (l.rho2 * std::log(2.0));
-          if (grad_dx && (l.pA != 0.0 || l.pC != 0.0)) {
-            grad_dx[2 * s] += static_cast<T>(k * (l.pA * l.ax + 0.5 * l.pC * l.bx) * base.width);
-            grad_dx[2 * s + 1] += static_cast<T>(k * (l.pA * l.ay + 0.5 * l.pC * l.by) * base.height);
+    const std::int64_t blocks = (c1 - c0 + kBlock - 1) / kBlock;
+    // Taps of kAhead samples first, their texels prefetched, so that the texel
+    // reads after them overlap instead of waiting one by one. Bilinear (the
+    // common filter) gets its own instance, with a constant tap count.
+    auto tap_block = [&](auto bilinear, std::int64_t j) {
+      constexpr bool kBilinear = decltype(bilinear)::value;
+      std::int32_t* counts = texels ? &count[j * bands.count] : nullptr;
+      if (counts) std::fill(counts, counts + bands.count, 0);
+      const std::int64_t s_end = std::min(c1, c0 + (j + 1) * kBlock);
+      for (std::int64_t s0 = c0 + j * kBlock; s0 < s_end; s0 += kAhead) {
+        const int n = static_cast<int>(std::min<std::int64_t>(kAhead, s_end - s0));
+        Taps taps[kAhead];
+        bool live[kAhead];
+        for (int i = 0; i < n; ++i) {
+          const T* g = grad_out + (s0 + i) * C;
+          // Zero incoming gradient: skip.
+          bool any = false;
+          for (std::int64_t c = 0; c < C && !any; ++c) any = g[c] != T(0);
+          live[i] = any;
+          if (!any) continue;
+          if constexpr (kBilinear)
+            bilinear_taps<true>(p.layout.levels[0], p.uv[2 * (s0 + i)], p.uv[2 * (s0 + i) + 1], p.v_down, 1.0, p.wrap,
+                                taps[i]);
+          else
+            taps[i] = sample_taps<T, true>(p, s0 + i);
+          if (reads_texels)
+            for (int k = 0; k < (kBilinear ? 4 : taps[i].n); ++k)
+              __builtin_prefetch(texel(p, taps[i].index[k], base_texels));
+        }
+        for (int i = 0; i < n; ++i) {
+          if (!live[i]) continue;
+          const std::int64_t s = s0 + i;
+          const Taps& t = taps[i];
+          const int nt = kBilinear ? 4 : t.n;
+          const T* g = grad_out + s * C;
+          if (!kBilinear && lod_grads && t.lod_free) {
+            // dL/dlod = g . sum_t (dw_t/dlod) texel_t, then through the LOD.
+            double g_lod = 0.0;
+            for (int k = 0; k < nt; ++k) g_lod += t.dw_dlod[k] * dot_channels(g, texel(p, t.index[k], base_texels), C);
+            if (grad_bias) grad_bias[s] += static_cast<T>(g_lod);
+            const MipLevel& base = p.layout.levels[0];
+            const Lod l = compute_lod(p.uv_dx[2 * s], p.uv_dx[2 * s + 1], p.uv_dy[2 * s], p.uv_dy[2 * s + 1],
+                                      base.width, base.height, p.layout.count(), 0.0, p.lod_rule);
+            // k = dL/dlod dlod/drho2 * 2 = dL/dlod / (rho2 ln 2); dA/d(du/dx) = 2 a_x W, dC/d(du/dx) = b_x W, ...
+            const double k = g_lod / (l.rho2 * std::log(2.0));
+            if (grad_dx && (l.pA != 0.0 || l.pC != 0.0)) {
+              grad_dx[2 * s] += static_cast<T>(k * (l.pA * l.ax + 0.5 * l.pC * l.bx) * base.width);
+              grad_dx[2 * s + 1] += static_cast<T>(k * (l.pA * l.ay + 0.5 * l.pC * l.by) * base.height);
+            }
+            if (grad_dy && (l.pB != 0.0 || l.pC != 0.0)) {
+              grad_dy[2 * s] += static_cast<T>(k * (l.pB * l.bx + 0.5 * l.pC * l.ax) * base.width);
+              grad_dy[2 * s + 1] += static_cast<T>(k * (l.pB * l.by + 0.5 * l.pC * l.ay) * base.height);
+            }
           }
-          if (grad_dy && (l.pB != 0.0 || l.pC != 0.0)) {
-            grad_dy[2 * s] += static_cast<T>(k * (l.pB * l.bx + 0.5 * l.pC * l.ax) * base.width);
-            grad_dy[2 * s + 1] += static_cast<T>(k * (l.pB * l.by + 0.5 * l.pC * l.ay) * base.height);
+          if (grad_uv && uv_jacobian) {
+            // dL/du = g . d out/du (likewise v), from the forward's Jacobian.
+            const T* ju = uv_jacobian + s * 2 * C;
+            grad_uv[2 * s] += static_cast<T>(dot_channels(g, ju, C));
+            grad_uv[2 * s + 1] += static_cast<T>(dot_channels(g, ju + C, C));
+          } else if (grad_uv) {
+            // dL/du = g . sum_t dw_t/du texel_t (likewise v).
+            double gu = 0.0, gv = 0.0;
+            for (int k = 0; k < nt; ++k) {
+              const double d = dot_channels(g, texel(p, t.index[k], base_texels), C);
+              gu += t.dw_du[k] * d;
+              gv += t.dw_dv[k] * d;
+            }
+            grad_uv[2 * s] += static_cast<T>(gu);
+            grad_uv[2 * s + 1] += static_cast<T>(gv);
+          }
+          if (!texels) continue;
+          for (int k = 0; k < nt; ++k) {
+            const std::int64_t band = t.index[k] >> bands.shift;
+            TapEntry<T>& e = entries[(j * bands.count + band) * bucket_size + counts[band]++];
+            e = {static_cast<std::uint32_t>(t.index[k]), static_cast<std::uint32_t>(s - c0), static_cast<T>(t.w[k])};
           }
         }
-        if (grad_uv) {
-          // dL/du = g . sum_t dw_t/du texel_t (likewise v).
-          double gu = 0.0, gv = 0.0;
-          for (int k = 0; k < t.n; ++k) {
-            const double d = dot_channels(g, texel(p, t.index[k], base_texels), C);
-            gu += t.dw_du[k] * d;
-            gv += t.dw_dv[k] * d;
-          }
-          grad_uv[2 * s] += static_cast<T>(gu);
-          grad_uv[2 * s + 1] += static_cast<T>(gv);
-        }
-        tap_n[i] = static_cast<std::uint8_t>(t.n);
-        if (!texels) continue;
-        for (int k = 0; k < t.n; ++k) {
-          tap_index[stride * i + k] = static_cast<std::uint32_t>(t.index[k]);
-          tap_w[stride * i + k] = static_cast<T>(t.w[k]);
-        }
+      }
+    };
+    parallel_for(0, blocks, 1, [&](std::int64_t j0, std::int64_t j1) {
+      for (std::int64_t j = j0; j < j1; ++j) {
+        if (p.filter == Filter::Bilinear)
+          tap_block(std::true_type{}, j);
+        else
+          tap_block(std::false_type{}, j);
       }
     });
     if (!texels) continue;
-    // Scatter in sample order: dL/d texel_t += w_t g. The texels are split
-    // into bands, one task each; every task walks all taps in sample order and
-    // applies those in its band, so each texel sees the same sequence of adds
-    // whatever the number of bands or threads.
+    // dL/d texel_t += w_t g: each band's task walks its buckets block by block.
     auto scatter = [&](auto* sums) {
-      parallel_for(0, bands, 1, [&](std::int64_t b0, std::int64_t b1) {
-        const std::int64_t lo = band_size * b0, hi = std::min(acc_texels, band_size * b1);
-        for (std::int64_t s = c0; s < c1; ++s) {
-          const std::int64_t i = s - c0;
-          const int n = tap_n[i];
-          const T* g = grad_out + s * C;
-          for (int k = 0; k < n; ++k) {
-            const std::int64_t t = tap_index[stride * i + k];
-            if (t < lo || t >= hi) continue;
-            auto* a = sums + t * C;
-            const double w = tap_w[stride * i + k];
-            for (std::int64_t c = 0; c < C; ++c) a[c] += w * g[c];
+      parallel_for(0, bands.count, 1, [&](std::int64_t b0, std::int64_t b1) {
+        for (std::int64_t b = b0; b < b1; ++b)
+          for (std::int64_t j = 0; j < blocks; ++j) {
+            const TapEntry<T>* e = &entries[(j * bands.count + b) * bucket_size];
+            const std::int32_t n = count[j * bands.count + b];
+            for (std::int32_t q = 0; q < n; ++q) {
+              if (q + kAhead < n) __builtin_prefetch(sums + e[q + kAhead].texel * C, 1);
+              auto* a = sums + e[q].texel * C;
+              const T* g = grad_out + (c0 + e[q].sample) * C;
+              const double w = e[q].w;
+              for (std::int64_t c = 0; c < C; ++c) a[c] += w * g[c];
+            }
           }
-        }
       });
     };
     if (direct)
@@ -383,8 +494,8 @@ void texture_backward(const TextureParams<T>& p, const T* grad_out, const Textur
 }
 
 #define GR_INSTANTIATE(T)                                                   \
-  template void texture_forward<T>(const TextureParams<T>&, T*);            \
-  template void texture_backward<T>(const TextureParams<T>&, const T*, const TextureGrads<T>&);
+  template void texture_forward<T>(const TextureParams<T>&, T*, T*);                                         \
+  template void texture_backward<T>(const TextureParams<T>&, const T*, const TextureGrads<T>&, const T*);
 GR_INSTANTIATE(float)
 GR_INSTANTIATE(double)
 #undef GR_INSTANTIATE

@@ -84,8 +84,12 @@ struct TextureGrads {
 
 // out: num_samples x channels. Throws ValueError naming the element if the
 // texture, uv (or, for trilinear, uv_dx / uv_dy) holds NaN or Inf.
+// uv_jacobian (bilinear only; optional): also writes, per sample, d out/du (C
+// values) then d out/dv (C values), num_samples x 2 x channels, for the
+// adjoint: from the texels the lookup loads anyway, so the adjoint need not
+// read the texture again for the uv gradient.
 template <class T>
-void texture_forward(const TextureParams<T>& p, T* out);
+void texture_forward(const TextureParams<T>& p, T* out, T* uv_jacobian = nullptr);
 
 // Adjoint of texture_forward, ACCUMULATED (+=). With g = dL/d(out) of a sample
 // and the taps t (texel t, weight w_t; weights include the trilinear level
@@ -109,7 +113,9 @@ void texture_forward(const TextureParams<T>& p, T* out);
 // for any thread count; they are summed in T (float32 in float32, as the tape
 // sums) when only level 0 is read, in double when mip levels are (then rounded
 // once). Samples with an all-zero incoming gradient are skipped.
+// uv_jacobian: the forward's (bilinear), or null to compute dL/du, dL/dv from the texels.
 template <class T>
-void texture_backward(const TextureParams<T>& p, const T* grad_out, const TextureGrads<T>& grads);
+void texture_backward(const TextureParams<T>& p, const T* grad_out, const TextureGrads<T>& grads,
+                      const T* uv_jacobian = nullptr);
 
 }  // namespace gr::raster

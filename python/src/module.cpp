@@ -107,7 +107,8 @@ PYBIND11_MODULE(_core, m) {
       .def_readwrite("filter", &TextureArgs::filter)
       .def_readwrite("wrap", &TextureArgs::wrap)
       .def_readwrite("cube", &TextureArgs::cube)
-      .def_readwrite("uv_da", &TextureArgs::uv_da);
+      .def_readwrite("uv_da", &TextureArgs::uv_da)
+      .def_readwrite("uv_jacobian", &TextureArgs::uv_jacobian);
   m.def("mip_sizes", &mip_sizes);
   m.def("mip_build", &mip_build);
   m.def("texture_forward", &texture_forward);

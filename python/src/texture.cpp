@@ -94,6 +94,12 @@ void mip_build(const TextureArgs& a, int threads) {
   });
 }
 
+// Image b's part of the saved uv Jacobian, or null.
+template <class T>
+T* jacobian(const TextureArgs& a, std::int64_t b) {
+  return a.uv_jacobian ? at<T>(a.uv_jacobian) + b * a.samples * 2 * a.channels : nullptr;
+}
+
 void texture_forward(const TextureArgs& a, Address out, int threads) {
   KernelCall call(threads);
   const raster::MipLayout layout = layout_of(a);
@@ -104,7 +110,7 @@ void texture_forward(const TextureArgs& a, Address out, int threads) {
       if (a.cube)
         raster::cube_texture_forward(cube_params<T>(a, layout, b), o);
       else
-        raster::texture_forward(image_params<T>(a, layout, b), o);
+        raster::texture_forward(image_params<T>(a, layout, b), o, jacobian<T>(a, b));
     });
   });
 }
@@ -134,7 +140,7 @@ void texture_backward(const TextureArgs& a, Address grad_out, Address grad_tex, 
       if (grad_uv_dy) g.uv_dy = at<T>(grad_uv_dy) + 2 * a.samples * b;
       if (grad_bias) g.mip_level_bias = at<T>(grad_bias) + a.samples * b;
       if (grad_pyramid) g.pyramid = at<T>(grad_pyramid) + t * pyramid_values(a, layout);
-      raster::texture_backward(image_params<T>(a, layout, b), g_out, g);
+      raster::texture_backward(image_params<T>(a, layout, b), g_out, g, jacobian<T>(a, b));
     };
     // A broadcast texture collects every image's gradient: images in order
     // (each lookup parallel inside); otherwise images in parallel.

@@ -32,6 +32,9 @@ struct TextureArgs {
   // the bias alone); pyramid per face (raster/cube_texture.h).
   bool cube = false;
   Address uv_da = 0;
+  // Bilinear, not cube: d out/d(u, v) per sample, [images, samples, 2, channels],
+  // written by texture_forward and read by texture_backward (0: not kept).
+  Address uv_jacobian = 0;
 };
 
 // (height, width) of each mip level of a height x width texture, base first,

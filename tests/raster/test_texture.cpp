@@ -270,3 +270,43 @@ TEST_CASE("major-axis LOD is log2 of the footprint ellipse's major axis", "[rast
   CHECK(texture_lod(0, 0, 0, 0, 64, 32, 7, 0.0, major) == 0);
   CHECK(texture_lod(1e9, 0, 0, 0, 64, 32, 7, 0.5, major) == 6);
 }
+
+TEST_CASE("the bilinear adjoint takes the same uv gradient from the forward's saved Jacobian as from the texels",
+          "[raster][texture]") {
+  const int h = 9, w = 13, c = 3;
+  const std::int64_t S = 500;
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> unit(0.0, 1.0), wide(-0.3, 1.3);
+  std::vector<double> tex(h * w * c), uv(2 * S), g(S * c);
+  for (double& x : tex) x = unit(rng);
+  for (double& x : uv) x = wide(rng);
+  for (double& x : g) x = 2 * unit(rng) - 1;
+  auto params = [&](Filter filter, Wrap wrap) {
+    TextureParams<double> p;
+    p.tex = tex.data();
+    p.layout = mip_layout(h, w, 0);
+    p.channels = c;
+    p.uv = uv.data();
+    p.num_samples = S;
+    p.filter = filter;
+    p.wrap = wrap;
+    return p;
+  };
+  for (Wrap wrap : {Wrap::Repeat, Wrap::Clamp, Wrap::Mirror, Wrap::Zero}) {
+    const TextureParams<double> p = params(Filter::Bilinear, wrap);
+    std::vector<double> out(S * c), out_j(S * c), jac(S * 2 * c);
+    texture_forward(p, out.data());
+    texture_forward(p, out_j.data(), jac.data());
+    CHECK(out == out_j);  // saving the Jacobian leaves the values alone
+    std::vector<double> gt(tex.size()), guv(uv.size()), gt_j(tex.size()), guv_j(uv.size());
+    TextureGrads<double> from_texels{gt.data(), guv.data()}, from_jacobian{gt_j.data(), guv_j.data()};
+    texture_backward(p, g.data(), from_texels);
+    texture_backward(p, g.data(), from_jacobian, jac.data());
+    CHECK(gt == gt_j);
+    for (std::size_t i = 0; i < uv.size(); ++i) REQUIRE(guv_j[i] == Approx(guv[i]).epsilon(1e-12).margin(1e-12));
+  }
+  // The Jacobian is the bilinear filter's only.
+  std::vector<double> out(S * c), jac(S * 2 * c);
+  const TextureParams<double> p = params(Filter::Nearest, Wrap::Repeat);
+  CHECK_THROWS_WITH(texture_forward(p, out.data(), jac.data()), Catch::Contains("bilinear"));
+}

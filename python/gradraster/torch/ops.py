@@ -428,15 +428,20 @@ class _TextureFunc(torch.autograd.Function):
             pyramid = None
         a = _texture_args(tex, uv, uv_dx, uv_dy, bias, pyramid, levels, user, filter_mode, boundary)
         out = tex.new_empty(uv.shape[:3] + (tex.shape[-1],))
+        # Bilinear with a uv gradient: keep d out/d(u, v), so the backward reads no texel for it.
+        jacobian = None
+        if filter_mode == _FILTERS['linear'] and boundary != _CUBE and ctx.needs_input_grad[5]:
+            jacobian = tex.new_empty(uv.shape[:3] + (2, tex.shape[-1]))
+            a.uv_jacobian = jacobian.data_ptr()
         _core.texture_forward(a, out.data_ptr(), _threads())
-        ctx.save_for_backward(tex, uv, uv_dx, uv_dy, bias, pyramid)
+        ctx.save_for_backward(tex, uv, uv_dx, uv_dy, bias, pyramid, jacobian)
         ctx.filter_mode, ctx.boundary, ctx.levels, ctx.user = filter_mode, boundary, levels, user
         ctx.mip_shapes = [m.shape for m in mip_levels]
         return out
 
     @staticmethod
     def backward(ctx, dy):
-        tex, uv, uv_dx, uv_dy, bias, pyramid = ctx.saved_tensors
+        tex, uv, uv_dx, uv_dy, bias, pyramid, jacobian = ctx.saved_tensors
         needs = ctx.needs_input_grad
         zeros = lambda t, need: torch.zeros_like(t) if need and t is not None else None
         g_tex, g_uv = zeros(tex, needs[4]), zeros(uv, needs[5] and ctx.filter_mode != 0)
@@ -444,6 +449,7 @@ class _TextureFunc(torch.autograd.Function):
         g_pyr = zeros(pyramid, ctx.user and any(needs[9:]))
         a = _texture_args(tex, uv, uv_dx, uv_dy, bias, pyramid, ctx.levels, ctx.user, ctx.filter_mode, ctx.boundary)
         addr = lambda t: t.data_ptr() if t is not None else 0
+        a.uv_jacobian = addr(jacobian)
         _core.texture_backward(a, dy.contiguous().data_ptr(), addr(g_tex), addr(g_uv), addr(g_dx), addr(g_dy),
                                addr(g_bias), addr(g_pyr), _threads())
         g_levels, start = [], 0
