@@ -105,7 +105,8 @@ void BM_VisibilityAntialias(benchmark::State& state) {
   Scene s = make_scene(static_cast<int>(state.range(0)));
   VisibilityAntialiasOptions options;
   options.topology = s.topology;
-  time_op(state, [&] { return visibility_antialias(s.image, s.gbuffer, s.clip, s.triangles, options); });
+  time_op(state, [&] { return visibility_antialias(s.image, s.gbuffer, s.clip, s.triangles, options); },
+          {s.image, s.gbuffer.tri_id, s.gbuffer.depth, s.clip, s.triangles});
 }
 
 void BM_TextureBilinear(benchmark::State& state) {
