@@ -99,6 +99,16 @@ void BM_Antialias(benchmark::State& state) {
           {s.image, s.gbuffer.tri_id, s.gbuffer.depth, s.clip, s.triangles});
 }
 
+// visibility_antialias on the same image (one closed sphere: silhouettes only,
+// so the cost of locating boundaries from both surfaces against antialias's).
+void BM_VisibilityAntialias(benchmark::State& state) {
+  Scene s = make_scene(static_cast<int>(state.range(0)));
+  VisibilityAntialiasOptions options;
+  options.topology = s.topology;
+  time_op(state, [&] { return visibility_antialias(s.image, s.gbuffer, s.clip, s.triangles, options); },
+          {s.image, s.gbuffer.tri_id, s.gbuffer.depth, s.clip, s.triangles});
+}
+
 void BM_TextureBilinear(benchmark::State& state) {
   Scene s = make_scene(static_cast<int>(state.range(0)));
   time_op(state, [&] { return texture(s.texture, s.uv); }, {s.texture, s.uv});
@@ -264,6 +274,7 @@ void Sizes(benchmark::internal::Benchmark* b) {
 BENCHMARK(BM_Interpolate)->Apply(Sizes);
 BENCHMARK(BM_InterpolateFragments)->Apply(Sizes);
 BENCHMARK(BM_Antialias)->Apply(Sizes);
+BENCHMARK(BM_VisibilityAntialias)->Apply(Sizes);
 BENCHMARK(BM_TextureBilinear)->Apply(Sizes);
 BENCHMARK(BM_TextureBilinearNoGrad)->ArgName("size")->Arg(256)->Arg(1024)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_TextureTrilinear)->Apply(Sizes);

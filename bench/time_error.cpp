@@ -1,5 +1,6 @@
 // time_error (issue 6; graded exactly since issue 13): run time against
-// gradient error for float32/float64, antialiasing off/on, supersampling
+// gradient error for float32/float64, antialiasing off/on (antialias or, rows "vis",
+// visibility_antialias), supersampling
 // 1/2/4 and soft rasterization at three sigmas on four fixed scenes at
 // 128 x 128, each fitted towards a copy with its objects rotated and shifted,
 // loss = MSE (bench/time_error_scene.h): a torus (silhouettes), a sphere sunk
@@ -63,11 +64,13 @@ std::string sigma_text(double sigma) {
 
 std::string config_name(const RenderSettings& s) {
   if (s.soft_sigma > 0) return std::string(short_dtype(s.dtype)) + " soft " + sigma_text(s.soft_sigma);
-  return std::string(short_dtype(s.dtype)) + (s.antialias ? " aa" : "") + " s" + std::to_string(s.supersample);
+  const char* edges = !s.antialias ? "" : s.visibility ? " vis" : " aa";
+  return std::string(short_dtype(s.dtype)) + edges + " s" + std::to_string(s.supersample);
 }
 
 bool same_except_dtype(const RenderSettings& a, const RenderSettings& b) {
-  return a.antialias == b.antialias && a.supersample == b.supersample && a.soft_sigma == b.soft_sigma;
+  return a.antialias == b.antialias && a.supersample == b.supersample && a.soft_sigma == b.soft_sigma &&
+         a.visibility == b.visibility;
 }
 
 // The soft rasterizer's sigmas (pixels^2): edge transitions about
@@ -152,12 +155,13 @@ void measure_times(const TimeErrorScene& scene, const Tensor& target, std::vecto
 
 void write_csv(const std::string& path, const std::vector<Row>& rows) {
   std::ofstream out(path);
-  out << "scene,config,dtype,antialias,supersample,soft_sigma,ms,cpu_ms,grad_rel_error,colour_grad_rel_error,image_rmse,loss,pareto\n";
+  out << "scene,config,dtype,antialias,visibility,supersample,soft_sigma,ms,cpu_ms,grad_rel_error,colour_grad_rel_error,image_rmse,loss,pareto\n";
   char line[512];
   for (const Row& r : rows) {
-    std::snprintf(line, sizeof line, "%s,%s,%s,%d,%d,%g,%.4f,%.4f,%.6g,%.6g,%.6g,%.9g,%d\n", r.scene.c_str(),
+    std::snprintf(line, sizeof line, "%s,%s,%s,%d,%d,%d,%g,%.4f,%.4f,%.6g,%.6g,%.6g,%.9g,%d\n", r.scene.c_str(),
                   config_name(r.settings).c_str(),
-                  short_dtype(r.settings.dtype), int(r.settings.antialias), r.settings.supersample,
+                  short_dtype(r.settings.dtype), int(r.settings.antialias), int(r.settings.visibility),
+                  r.settings.supersample,
                   r.settings.soft_sigma, r.ms, r.cpu_ms,
                   r.position_error, r.colour_error, r.image_error, r.loss, int(r.pareto));
     out << line;
@@ -254,6 +258,8 @@ void sweep_scene(const std::string& name, bool supersampled, const std::string& 
     for (bool aa : {false, true})
       for (int ss : {1, 2, 4})
         rows.push_back(measure_errors(scene, target, ref.image, directions, ref.derivatives, {dtype, aa, ss}));
+    for (int ss : {1, 2, 4})  // visibility_antialias (issue 13 item 2)
+      rows.push_back(measure_errors(scene, target, ref.image, directions, ref.derivatives, {dtype, true, ss, 0, true}));
     if (scene.cull() == raster::Cull::None)  // soft_rasterize cannot cull
       for (double sigma : kSoftSigmas)
         rows.push_back(measure_errors(scene, target, ref.image, directions, ref.derivatives, {dtype, false, 1, sigma}));
@@ -263,7 +269,8 @@ void sweep_scene(const std::string& name, bool supersampled, const std::string& 
   std::vector<FrontierPoint> points;
   for (const Row& r : rows)
     points.push_back({r.settings.soft_sigma > 0 ? "soft " + sigma_text(r.settings.soft_sigma)
-                                                : (r.settings.antialias ? "aa x" : "x") + std::to_string(r.settings.supersample),
+                                                : (!r.settings.antialias ? "x" : r.settings.visibility ? "vis x" : "aa x") +
+                                                      std::to_string(r.settings.supersample),
                       r.ms, r.position_error, r.settings.dtype == DType::Float64, r.settings.antialias});
   for (std::size_t i : pareto_frontier(points)) rows[i].pareto = true;
 
@@ -273,7 +280,8 @@ void sweep_scene(const std::string& name, bool supersampled, const std::string& 
   std::printf("|---|---|---|---:|---:|---:|---:|---:|---:|---:|---|\n");
   for (const Row& r : rows)
     std::printf("| %s | %s | %s | %d | %s | %.2f | %.2f | %.3g | %.3g | %.3g | %s |\n",
-                config_name(r.settings).c_str(), short_dtype(r.settings.dtype), r.settings.antialias ? "on" : "off",
+                config_name(r.settings).c_str(), short_dtype(r.settings.dtype),
+                !r.settings.antialias ? "off" : r.settings.visibility ? "vis" : "on",
                 r.settings.supersample, r.settings.soft_sigma > 0 ? sigma_text(r.settings.soft_sigma).c_str() : "",
                 r.ms,
                 r.cpu_ms, r.position_error, r.colour_error, r.image_error, r.pareto ? "yes" : "");

@@ -1,6 +1,6 @@
 // The time_error scenes: meshes, colours, camera, target poses, and the render
 // (gather -> transform -> rasterize -> interpolate over the background ->
-// antialias -> downsample_box), every step a tape op.
+// antialias or visibility_antialias -> downsample_box), every step a tape op.
 #include "bench/time_error_scene.h"
 
 #include <array>
@@ -259,7 +259,11 @@ Tensor TimeErrorScene::render(const Tensor& points, const Tensor& colours, const
   InterpolateOptions interpolation;
   interpolation.background = background;  // a constant: coverage has no gradient
   Tensor image = interpolate(vertex_colours(colours), clip, gb, triangles_, interpolation);
-  if (settings.antialias) {
+  if (settings.antialias && settings.visibility) {
+    VisibilityAntialiasOptions options;
+    options.topology = topology_;
+    image = visibility_antialias(image, gb, clip, triangles_, options);
+  } else if (settings.antialias) {
     AntialiasOptions options;
     options.topology = topology_;
     image = antialias(image, gb, clip, triangles_, options);

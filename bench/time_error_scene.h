@@ -26,6 +26,9 @@ struct RenderSettings {
   // the scene's gamma and eps instead of rasterize + interpolate (+ antialias):
   // a blurred image, differentiable everywhere (docs/soft_rasterize.md).
   double soft_sigma = 0;
+  // With antialias: visibility_antialias (ops/visibility_antialias.h, every
+  // visibility boundary including intersection curves) instead of antialias.
+  bool visibility = false;
 };
 
 // The scene names TimeErrorScene accepts, in time_error's order.

@@ -7,6 +7,7 @@
 #include "autodiff/tape.h"
 #include "autodiff/tensor.h"
 #include "ops/antialias.h"
+#include "ops/visibility_antialias.h"
 #include "ops/barycentrics.h"
 #include "ops/batch.h"
 #include "ops/channel.h"

@@ -15,6 +15,7 @@
 #include "raster/guarded_math.h"
 #include "raster/project.h"
 #include "raster/rasterize_setup.h"
+#include "raster/surface_walk.h"
 
 namespace gr::raster {
 
@@ -23,35 +24,10 @@ namespace {
 using detail::finite_cast;
 using detail::safe_inv;
 
-// Screen edge function E(q; a, b) = (qx - ax)(by - ay) - (qy - ay)(bx - ax).
-double edge_fn(double qx, double qy, const double* a, const double* b) {
-  return (qx - a[0]) * (b[1] - a[1]) - (qy - a[1]) * (b[0] - a[0]);
-}
-
-// Side of the line a-b (screen) on which the surface of the triangle through
-// a, b and o lies near the edge: the sign of E(.; a, b) there. Computed in
-// homogeneous coordinates, -sign det[Va, Vb, Vo], which stays right when o is
-// behind the camera (a and b must be in front). 0 if degenerate.
-int surface_side(const detail::Vertices& v, std::int32_t a, std::int32_t b, std::int32_t o, int w, int h) {
-  const double d = detail::dot(detail::cross(detail::homogeneous(v, a, w, h), detail::homogeneous(v, b, w, h)),
-                               detail::homogeneous(v, o, w, h));
-  return d > 0.0 ? -1 : (d < 0.0 ? 1 : 0);
-}
-
-// Interior edges crossed at most between two pixel centres before giving up.
-constexpr int kMaxWalk = 16;
-
-// Each silhouette crossing is blended by the pixel pairs along the screen axis
-// most perpendicular to the edge, so it is counted once: horizontal pairs own
-// edges with |dy| >= |dx| (closer to vertical, ties included), vertical pairs
-// those with |dx| > |dy|. Along that axis the box blend below is the pixel's
-// covered area to first order; blending along both axes counted it twice.
-bool pair_owns_edge(bool horizontal, const detail::Vertices& v, std::int32_t a, std::int32_t b) {
-  const double* sa = &v.screen[3 * static_cast<std::size_t>(a)];
-  const double* sb = &v.screen[3 * static_cast<std::size_t>(b)];
-  const double dx = std::abs(sb[0] - sa[0]), dy = std::abs(sb[1] - sa[1]);
-  return horizontal ? dy >= dx : dx > dy;
-}
+// The walk along a pixel pair's segment (silhouette criterion, exit edges)
+// and the axis ownership live in raster/surface_walk.h, shared with
+// visibility_antialias.
+using detail::edge_fn;
 
 }  // namespace
 
@@ -163,35 +139,6 @@ void antialias_forward(const AntialiasParams<T>& prm, T* out, std::vector<Antial
     std::copy(image + lo, image + hi, out + lo);
   });
 
-  // Where the segment from centre ci to centre co leaves triangle ti (not
-  // through its entry edge `skip`): the edge k whose normalized value, falling
-  // along the segment, reaches zero first; its crossing t; the triangle's side.
-  struct Exit {
-    int k = -1, side = 0;
-    double t = std::numeric_limits<double>::infinity();
-  };
-  auto exit_of = [&](std::int64_t ti, int skip, double cix, double ciy, double cox, double coy) {
-    const std::int32_t* tri = tris + 3 * ti;
-    Exit ex;
-    // det[V1, V2, V0] = det[V0, V1, V2]: one side sign for all three edges (k, k+1, k+2 cyclic).
-    const int side = surface_side(v, tri[1], tri[2], tri[0], W, H);
-    if (side == 0) return ex;
-    for (int k = 0; k < 3; ++k) {
-      if (k == skip) continue;
-      const std::int32_t a = tri[(k + 1) % 3], b = tri[(k + 2) % 3];
-      // Edges with a vertex behind the near plane have no screen line.
-      if (!v.front[a] || !v.front[b]) continue;
-      const double* sa = &v.screen[3 * static_cast<std::size_t>(a)];
-      const double* sb = &v.screen[3 * static_cast<std::size_t>(b)];
-      // Normalized so that the triangle's side is positive; only a falling value is left.
-      const double ei = side * edge_fn(cix, ciy, sa, sb), eo = side * edge_fn(cox, coy, sa, sb);
-      if (!(eo < ei)) continue;
-      const double t = ei / (ei - eo);
-      if (t < ex.t) ex = {k, side, t};
-    }
-    return ex;
-  };
-
   // The pair (p, q): starting in the front triangle at its pixel centre, walk
   // along the segment across interior edges (the surface continues) until a
   // silhouette edge is crossed before the other centre (blend, if the pair's
@@ -203,26 +150,12 @@ void antialias_forward(const AntialiasParams<T>& prm, T* out, std::vector<Antial
     const std::int64_t in = p_front ? p : q, outp = p_front ? q : p;
     const double cix = double(in % W) + 0.5, ciy = double(in / W) + 0.5;
     const double cox = double(outp % W) + 0.5, coy = double(outp / W) + 0.5;
-    std::int64_t cur = (p_front ? ip : iq) - 1;
-    int skip = -1;
-    for (int step = 0; step < kMaxWalk; ++step) {
-      const Exit ex = exit_of(cur, skip, cix, ciy, cox, coy);
-      if (ex.k < 0 || !(ex.t < 1.0)) return;  // the other centre is still on this surface
-      const std::int32_t* tri = tris + 3 * cur;
-      const std::int32_t a = tri[(ex.k + 1) % 3], b = tri[(ex.k + 2) % 3];
-      // Silhouette: boundary, non-manifold, or the neighbour folds back onto the
-      // same side of the edge in screen space (one front-, one back-facing).
-      const std::int64_t nb = topology.neighbour[3 * cur + ex.k];
-      const int side_n = nb >= 0 ? surface_side(v, a, b, tris[nb], W, H) : 0;  // tris[3n + k'] = opposite vertex
-      if (nb < 0 || side_n == 0 || side_n == ex.side) {
-        if (pair_owns_edge(horizontal, v, a, b))
-          found.push_back({in, outp, a, b, std::max(ex.t, 0.0)});  // t < 0: rounding at a centre on the edge
-        return;
-      }
-      // Interior edge: continue in the neighbour, which entered through its edge k'.
-      cur = nb / 3;
-      skip = static_cast<int>(nb % 3);
-    }
+    const detail::WalkEnd e =
+        detail::walk_surface(v, tris, topology, W, H, (p_front ? ip : iq) - 1, -1, cix, ciy, cox, coy);
+    if (e.kind != detail::WalkEnd::Kind::Silhouette) return;
+    const double* sa = &v.screen[3 * static_cast<std::size_t>(e.a)];
+    const double* sb = &v.screen[3 * static_cast<std::size_t>(e.b)];
+    if (detail::pair_owns_direction(horizontal, sb[0] - sa[0], sb[1] - sa[1])) found.push_back({in, outp, e.a, e.b, e.t});
   };
 
   std::vector<std::vector<AntialiasPair>> rows(static_cast<std::size_t>(H));

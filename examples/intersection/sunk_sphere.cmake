@@ -1,0 +1,8 @@
+# The intersection example's core as a static library, shared by the
+# executable and the test binary (as ssr_tool.cmake). Defined once.
+if(NOT TARGET gradraster_intersection_example)
+  add_library(gradraster_intersection_example STATIC ${CMAKE_CURRENT_LIST_DIR}/sunk_sphere.cpp)
+  target_compile_options(gradraster_intersection_example PRIVATE -Wall -Wextra)
+  target_include_directories(gradraster_intersection_example PUBLIC ${PROJECT_SOURCE_DIR})
+  target_link_libraries(gradraster_intersection_example PUBLIC gradraster::gradraster)
+endif()

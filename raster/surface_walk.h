@@ -1,0 +1,60 @@
+// Following a mesh surface along a screen segment (used by antialias and
+// visibility_antialias, raster/antialias.h, raster/visibility_antialias.h): starting in a triangle at
+// one pixel centre, cross interior edges towards the other centre until the
+// surface ends at a silhouette edge, reaches a given triangle, or still goes
+// on at the other centre. Internal to raster/.
+#pragma once
+
+#include <cstdint>
+
+#include "raster/antialias.h"
+#include "raster/rasterize_setup.h"
+
+namespace gr::raster::detail {
+
+// Screen edge function E(q; a, b) = (qx - ax)(by - ay) - (qy - ay)(bx - ax).
+inline double edge_fn(double qx, double qy, const double* a, const double* b) {
+  return (qx - a[0]) * (b[1] - a[1]) - (qy - a[1]) * (b[0] - a[0]);
+}
+
+// A boundary line with screen direction (dx, dy) belongs to the horizontal
+// pairs when it is closer to vertical (|dy| >= |dx|, ties included), else to
+// the vertical pairs, so each crossing is blended once (raster/antialias.cpp).
+inline bool pair_owns_direction(bool horizontal, double dx, double dy) {
+  dx = dx < 0 ? -dx : dx;
+  dy = dy < 0 ? -dy : dy;
+  return horizontal ? dy >= dx : dx > dy;
+}
+
+// Interior edges crossed at most between two pixel centres.
+constexpr int kMaxWalk = 16;
+
+// The triangles a walk passed through: tri[i] from t[i] (t[0] = 0) to t[i + 1]
+// (or to the end of the walk), along the segment from ci to co.
+struct WalkPath {
+  int count = 0;
+  std::int64_t tri[kMaxWalk + 1];
+  double t[kMaxWalk + 1];
+};
+
+struct WalkEnd {
+  enum class Kind { Silhouette, Reached, Continues, Lost };
+  Kind kind = Kind::Lost;
+  std::int32_t a = -1, b = -1;  // Silhouette: the edge's vertices
+  double t = 0;                 // Silhouette: crossing position in [0, 1)
+};
+
+// Walk from triangle `start` (covering centre ci) towards centre co:
+//   Silhouette  the surface ends at edge a-b (boundary, non-manifold, or the
+//               neighbour folds onto the same screen side) at t < 1;
+//   Reached     it entered triangle `target` (the same surface);
+//   Continues   the other centre is still on it, in another triangle;
+//   Lost        degenerate triangle or too many steps.
+// Edges with a vertex behind the near plane have no screen line and are
+// skipped (the segment is taken to leave through another edge).
+// If `path` is given it receives the triangles passed through.
+WalkEnd walk_surface(const Vertices& v, const std::int32_t* tris, const EdgeTopology& topology, int width,
+                     int height, std::int64_t start, std::int64_t target, double cix, double ciy, double cox,
+                     double coy, WalkPath* path = nullptr);
+
+}  // namespace gr::raster::detail
