@@ -7,6 +7,10 @@
 // runs over num_threads() item ranges in parallel (a histogram per range,
 // offsets range by range), and any split gives the same buckets bit for bit.
 // Sums taken over a bucket in its order are therefore thread-count independent.
+// The non-empty buckets are listed in the order of their first items, which
+// for pixels keyed by triangle is a sweep down the image: walking triangles in
+// that order touches the pixel rows near each other (cache-friendly), and the
+// order does not depend on how the triangles are numbered.
 #pragma once
 
 #include <algorithm>
@@ -20,8 +24,9 @@ namespace gr::raster::detail {
 struct Buckets {
   std::vector<std::int64_t> start;     // num_keys + 1: bucket k is item[start[k], start[k+1])
   std::vector<std::int32_t> item;      // the grouped items
-  std::vector<std::int32_t> nonempty;  // keys with at least one item, ascending
+  std::vector<std::int32_t> nonempty;  // keys with at least one item, by ascending first item
   std::vector<std::int32_t> counts;    // scratch: one histogram per item range
+  std::vector<std::vector<std::int32_t>> firsts;  // scratch: per range, keys first met there
 };
 
 // Groups items [0, n) by key(i) in [0, num_keys); key(i) < 0 leaves item i
@@ -52,17 +57,13 @@ void bucket_items(std::int64_t n, std::int64_t num_keys, const Key& key, Buckets
       }
     }
   });
-  // 2. Bucket starts (exclusive prefix sum of the totals) and non-empty keys.
+  // 2. Bucket starts: exclusive prefix sum of the totals.
   std::vector<std::int64_t>& start = out->start;
   start.resize(static_cast<std::size_t>(K + 1));
-  out->nonempty.clear();
   std::int64_t total = 0;
   for (std::int64_t k = 0; k < K; ++k) {
     start[k] = total;
-    std::int64_t t = 0;
-    for (std::int64_t q = 0; q < parts; ++q) t += counts[q * K + k];
-    if (t > 0) out->nonempty.push_back(static_cast<std::int32_t>(k));
-    total += t;
+    for (std::int64_t q = 0; q < parts; ++q) total += counts[q * K + k];
   }
   start[K] = total;
   // 3. Each range's first slot in each bucket: ranges in item order.
@@ -79,19 +80,30 @@ void bucket_items(std::int64_t n, std::int64_t num_keys, const Key& key, Buckets
     });
   else
     for (std::int64_t k = 0; k < K; ++k) counts[k] = static_cast<std::int32_t>(start[k]);
-  // 4. Place the items, each range in ascending order.
+  // 4. Place the items, each range in ascending order; an item placed at its
+  // bucket's start is the bucket's first.
   out->item.resize(static_cast<std::size_t>(total));
+  out->firsts.resize(static_cast<std::size_t>(std::max<std::int64_t>(parts, out->firsts.size())));
   parallel_for(0, parts, 1, [&](std::int64_t q0, std::int64_t q1) {
     for (std::int64_t q = q0; q < q1; ++q) {
       std::int32_t* next = counts.data() + q * K;
+      std::vector<std::int32_t>& firsts = out->firsts[q];
+      firsts.clear();
       std::int64_t lo, hi;
       range(q, &lo, &hi);
       for (std::int64_t i = lo; i < hi; ++i) {
         const std::int64_t k = key(i);
-        if (k >= 0) out->item[next[k]++] = static_cast<std::int32_t>(i);
+        if (k < 0) continue;
+        const std::int32_t at = next[k]++;
+        if (at == start[k]) firsts.push_back(static_cast<std::int32_t>(k));
+        out->item[at] = static_cast<std::int32_t>(i);
       }
     }
   });
+  // 5. Non-empty keys by first item: the ranges' lists in range order.
+  out->nonempty.clear();
+  for (std::int64_t q = 0; q < parts; ++q)
+    out->nonempty.insert(out->nonempty.end(), out->firsts[q].begin(), out->firsts[q].end());
 }
 
 }  // namespace gr::raster::detail

@@ -203,20 +203,19 @@ struct ItemTerms {
   bool clipped;
 };
 
-// Per-item terms of the adjoint (formulas in interpolate.h); adds dL/du, dL/dv
-// to grad_uv (its own entries only). False when the item contributes nothing
-// (background or zero incoming gradient). value: scratch of C doubles.
+// Per-item terms of the adjoint (formulas in interpolate.h) for item p on
+// triangle t (0-based); adds dL/du, dL/dv to grad_uv (its own entries only).
+// False when the incoming gradient is zero. value: scratch of C doubles.
 template <class T>
 bool item_terms(const InterpolateParams<T>& prm, const Items& items, const T* grad_out, T* grad_uv, bool want_xyw,
-                std::int64_t p, double* value, ItemTerms* out) {
+                std::int64_t t, std::int64_t p, double* value, ItemTerms* out) {
   const std::int64_t C = prm.channels;
-  if (prm.tri_id[p] == 0) return false;
   const T* g = grad_out + p * C;
   // Zero incoming gradient: skip.
   bool any = false;
   for (std::int64_t c = 0; c < C && !any; ++c) any = g[c] != T(0);
   if (!any) return false;
-  const std::int32_t* tri = prm.tris + 3 * static_cast<std::int64_t>(prm.tri_id[p] - 1);
+  const std::int32_t* tri = prm.tris + 3 * t;
   const PixelWeights pw = pixel_weights(prm.clip, tri, prm.uv, prm.perspective, items, p);
   const T* a[3] = {prm.attr + tri[0] * C, prm.attr + tri[1] * C, prm.attr + tri[2] * C};
   double g_lambda[3];
@@ -265,7 +264,6 @@ bool item_terms(const InterpolateParams<T>& prm, const Items& items, const T* gr
 struct BackwardScratch {
   detail::Buckets by_tri, by_vertex;
   std::vector<double> partial;
-  std::vector<std::int32_t> first;  // per used triangle: its first item
   std::vector<std::uint8_t> live;
 };
 detail::ScratchPool<BackwardScratch> g_backward_pool;
@@ -289,13 +287,15 @@ void interpolate_backward(const InterpolateParams<T>& prm, const T* grad_out, co
     parallel_for(0, P, 1024, [&](std::int64_t lo, std::int64_t hi) {
       std::vector<double> value(static_cast<std::size_t>(C));
       ItemTerms t;
-      for (std::int64_t p = lo; p < hi; ++p) item_terms(prm, items, grad_out, grad_uv, false, p, value.data(), &t);
+      for (std::int64_t p = lo; p < hi; ++p)
+        if (prm.tri_id[p] != 0) item_terms(prm, items, grad_out, grad_uv, false, prm.tri_id[p] - 1, p, value.data(), &t);
     });
     return;
   }
 
   // Scatter by gathering (docs/determinism.md): 1. covered items grouped by
-  // triangle, each triangle's items in ascending item order.
+  // triangle, each triangle's items in ascending item order; the used
+  // triangles numbered s = 0, 1, ... by first item.
   auto lease = g_backward_pool.take();
   BackwardScratch& sc = *lease;
   const std::int32_t* tri_id = prm.tri_id;
@@ -303,16 +303,17 @@ void interpolate_backward(const InterpolateParams<T>& prm, const T* grad_out, co
   const detail::Buckets& by_tri = sc.by_tri;
   const std::int64_t used = static_cast<std::int64_t>(by_tri.nonempty.size());
 
-  // 2. Per triangle, in parallel: each item's terms, summed per corner in item
-  // order. Corner k of used triangle s holds S doubles at (3 s + k) S:
+  // 2. Per triangle, in parallel (in first-item order: a sweep down the image),
+  // each item's terms summed per corner in item order. Corner k of used
+  // triangle s holds S doubles at (3 s + k) S:
   // dL/dA_k (C values, if grad_attr), then dL/dw_k (grad_clip) or
   // dL/d(x, y, w)_k (grad_clip with a vertex behind the near plane).
   const std::int64_t SA = grad_attr ? C : 0;
   const std::int64_t SC = grad_clip ? (want_xyw ? 3 : 1) : 0;
   const std::int64_t S = SA + SC;
+  constexpr std::int64_t kAhead = 4;
   sc.partial.resize(static_cast<std::size_t>(3 * used * S));
   sc.live.resize(static_cast<std::size_t>(used));
-  sc.first.resize(static_cast<std::size_t>(used));
   parallel_for(0, used, 16, [&](std::int64_t s0, std::int64_t s1) {
     std::vector<double> value(static_cast<std::size_t>(C));
     ItemTerms t;
@@ -321,10 +322,16 @@ void interpolate_backward(const InterpolateParams<T>& prm, const T* grad_out, co
       std::fill(acc, acc + 3 * S, 0.0);
       std::uint8_t live = 0;
       const std::int32_t tri = by_tri.nonempty[s];
-      sc.first[s] = by_tri.item[by_tri.start[tri]];
-      for (std::int64_t e = by_tri.start[tri]; e < by_tri.start[tri + 1]; ++e) {
+      const std::int64_t e1 = by_tri.start[tri + 1];
+      for (std::int64_t e = by_tri.start[tri]; e < e1; ++e) {
         const std::int64_t p = by_tri.item[e];
-        if (!item_terms(prm, items, grad_out, grad_uv, want_xyw, p, value.data(), &t)) continue;
+        // The walk jumps between pixel rows: fetch a later item's data early.
+        if (e + kAhead < e1) {
+          const std::int64_t pa = by_tri.item[e + kAhead];
+          __builtin_prefetch(grad_out + pa * C);
+          __builtin_prefetch(prm.uv + 2 * pa);
+        }
+        if (!item_terms(prm, items, grad_out, grad_uv, want_xyw, tri, p, value.data(), &t)) continue;
         live = 1;
         const T* g = grad_out + p * C;
         for (int k = 0; k < 3; ++k) {
@@ -348,9 +355,8 @@ void interpolate_backward(const InterpolateParams<T>& prm, const T* grad_out, co
     }
   });
 
-  // 3. Each vertex adds its corners' sums ordered by the triangles' first
-  // items (independent of the triangles' indices), once.
-  detail::gather_corners(prm.tris, by_tri.nonempty.data(), sc.first.data(), used, sc.live.data(), sc.partial.data(), S,
+  // 3. Each vertex adds its corners' sums in corner order, once.
+  detail::gather_corners(prm.tris, by_tri.nonempty.data(), used, sc.live.data(), sc.partial.data(), S,
                          prm.num_vertices, &sc.by_vertex, [&](std::int64_t v, const double* total) {
                            if (grad_attr)
                              for (std::int64_t c = 0; c < C; ++c) grad_attr[v * C + c] += static_cast<T>(total[c]);
