@@ -7,6 +7,7 @@
 // bit-identical for any thread count.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <vector>
 
