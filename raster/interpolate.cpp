@@ -1,9 +1,11 @@
 // Attribute interpolation forward and adjoint. Both loop over pixels (image
 // form) or fragments (fragment form: the covered pixels only, in ascending
-// pixel order) in parallel, through the same per-item loops; the adjoint's
-// per-vertex sums are scattered in item order in fixed chunks so gradients do
-// not depend on thread count or triangle order, and the two forms give
-// bit-identical results.
+// pixel order) in parallel, through the same per-item loops. The adjoint sums
+// each triangle's items in item order (parallel over triangles), then each
+// vertex its triangles' corner sums in the order of the triangles' first items
+// (parallel over vertices): gradients depend neither on the thread count nor on
+// the triangle order, and the two forms give bit-identical results
+// (docs/determinism.md, "Scatter by gathering").
 #include "raster/interpolate.h"
 
 #include <algorithm>
@@ -12,6 +14,8 @@
 #include <vector>
 
 #include "autodiff/parallel.h"
+#include "raster/buckets.h"
+#include "raster/corner_gather.h"
 #include "raster/guarded_math.h"
 #include "raster/rasterize_setup.h"
 
@@ -190,140 +194,181 @@ void interpolate_forward(const InterpolateParams<T>& prm, T* out) {
 }
 
 namespace {
-// The adjoint's per-chunk buffers, reused across calls.
+
+// What one covered item with a non-zero incoming gradient sends to its
+// triangle's corners: dL/dA_k = weight_k g, and dL/dw_k (grad_w) or, for a
+// clipped triangle, dL/d(x, y, w)_k (xyw).
+struct ItemTerms {
+  double weight[3], grad_w[3], xyw[9];
+  bool clipped;
+};
+
+// Per-item terms of the adjoint (formulas in interpolate.h) for item p on
+// triangle t (0-based); adds dL/du, dL/dv to grad_uv (its own entries only).
+// False when the incoming gradient is zero. value: scratch of C doubles.
+template <class T>
+bool item_terms(const InterpolateParams<T>& prm, const Items& items, const T* grad_out, T* grad_uv, bool want_xyw,
+                std::int64_t t, std::int64_t p, double* value, ItemTerms* out) {
+  const std::int64_t C = prm.channels;
+  const T* g = grad_out + p * C;
+  // Zero incoming gradient: skip.
+  bool any = false;
+  for (std::int64_t c = 0; c < C && !any; ++c) any = g[c] != T(0);
+  if (!any) return false;
+  const std::int32_t* tri = prm.tris + 3 * t;
+  const PixelWeights pw = pixel_weights(prm.clip, tri, prm.uv, prm.perspective, items, p);
+  const T* a[3] = {prm.attr + tri[0] * C, prm.attr + tri[1] * C, prm.attr + tri[2] * C};
+  double g_lambda[3];
+  out->clipped = false;
+  if (!prm.perspective) {
+    // dL/dlambda_k = g . A_k.
+    for (int k = 0; k < 3; ++k) {
+      double d = 0.0;
+      for (std::int64_t c = 0; c < C; ++c) d += static_cast<double>(g[c]) * a[k][c];
+      g_lambda[k] = d;
+      out->grad_w[k] = 0.0;
+    }
+  } else {
+    // A at this pixel, then G_k = dL/dq_k = g . (A_k - A) / s.
+    for (std::int64_t c = 0; c < C; ++c)
+      value[c] = pw.weight[0] * a[0][c] + pw.weight[1] * a[1][c] + pw.weight[2] * a[2][c];
+    double G[3];
+    for (int k = 0; k < 3; ++k) {
+      double d = 0.0;
+      for (std::int64_t c = 0; c < C; ++c) d += static_cast<double>(g[c]) * (a[k][c] - value[c]);
+      G[k] = d * pw.inv_s;
+    }
+    if (pw.from_clip) {
+      // q_k = F_k / D does not depend on u, v.
+      for (int k = 0; k < 3; ++k) g_lambda[k] = 0.0;
+      if (want_xyw) clip_weights_backward(pw, items.width, items.height, G, out->xyw);
+      out->clipped = true;
+    } else {
+      // q_k = lambda_k / w_k: dL/dlambda_k = G_k / w_k ; dL/dw_k = -G_k q_k / w_k.
+      for (int k = 0; k < 3; ++k) {
+        g_lambda[k] = G[k] * pw.inv_w[k];
+        out->grad_w[k] = -G[k] * pw.q[k] * pw.inv_w[k];
+      }
+    }
+  }
+  for (int k = 0; k < 3; ++k) out->weight[k] = pw.weight[k];
+  // u = lambda_1, v = lambda_2, lambda_0 = 1 - u - v.
+  if (grad_uv) {
+    grad_uv[2 * p] += static_cast<T>(g_lambda[1] - g_lambda[0]);
+    grad_uv[2 * p + 1] += static_cast<T>(g_lambda[2] - g_lambda[0]);
+  }
+  return true;
+}
+
+// The adjoint's buffers, reused across calls.
 struct BackwardScratch {
-  std::vector<double> weight, grad_w, grad_xyw;
+  detail::Buckets by_tri, by_vertex;
+  std::vector<double> partial;
   std::vector<std::uint8_t> live;
 };
 detail::ScratchPool<BackwardScratch> g_backward_pool;
+
 }  // namespace
 
 template <class T>
 void interpolate_backward(const InterpolateParams<T>& prm, const T* grad_out, const InterpolateGrads<T>& grads) {
   assert(prm.width >= 1 && prm.height >= 1 && prm.channels >= 0 && prm.count >= 0);
   T* const grad_attr = grads.attr;
-  T* grad_clip = grads.clip;
-  T* const grad_uv = grads.uv;
-  const T *attr = prm.attr, *clip = prm.clip, *uv = prm.uv;
-  const std::int32_t *tris = prm.tris, *tri_id = prm.tri_id;
-  const std::int64_t N = prm.num_vertices, C = prm.channels, P = prm.items();
-  const bool perspective = prm.perspective;
-  if (!grad_attr && !grad_clip && !grad_uv) return;
   // Only the perspective mode has a gradient to clip.
-  if (!perspective) grad_clip = nullptr;
-  const bool scatter = grad_attr || grad_clip;
-  // One vertex range per thread for the scatter (any count gives the same bits).
-  const std::int64_t vertex_groups = std::max<std::int64_t>(1, std::min<std::int64_t>(num_threads(), N));
-  const std::int64_t per_group = (N + vertex_groups - 1) / vertex_groups;
+  T* const grad_clip = prm.perspective ? grads.clip : nullptr;
+  T* const grad_uv = grads.uv;
+  const std::int64_t C = prm.channels, P = prm.items();
+  if (!grad_attr && !grad_clip && !grad_uv) return;
   const Items items = make_items(prm);
+  const bool want_xyw = grad_clip && items.any_behind;
 
-  // Items in chunks: per-item terms in parallel, per-vertex sums in item order.
-  // live: 0 skip, 1 gradient to w (grad_w), 2 to x, y, w (grad_xyw; clipped triangle).
-  enum : std::uint8_t { kSkip = 0, kToW = 1, kToXYW = 2 };
-  // Scratch for one chunk, sized to the chunk actually used (small images
-  // allocate and zero only what they need; the chunk boundaries are unchanged).
-  constexpr std::int64_t kChunk = 32768;
-  const auto len = static_cast<std::size_t>(std::min(kChunk, P));
-  // Pooled, so an optimization loop does not fault in fresh pages every call.
-  auto lease = g_backward_pool.take();
-  std::vector<double>& weight = lease->weight;
-  std::vector<double>& grad_w = lease->grad_w;
-  std::vector<double>& grad_xyw = lease->grad_xyw;
-  std::vector<std::uint8_t>& live = lease->live;
-  weight.resize(3 * len);
-  grad_w.resize(3 * len);
-  if (grad_clip && items.any_behind) grad_xyw.resize(9 * len);
-  live.resize(len);
-  for (std::int64_t c0 = 0; c0 < P; c0 += kChunk) {
-    const std::int64_t c1 = std::min(P, c0 + kChunk);
-    parallel_for(c0, c1, 1024, [&](std::int64_t lo, std::int64_t hi) {
+  // Only dL/duv: per-item terms in parallel, nothing to sum.
+  if (!grad_attr && !grad_clip) {
+    parallel_for(0, P, 1024, [&](std::int64_t lo, std::int64_t hi) {
       std::vector<double> value(static_cast<std::size_t>(C));
-      for (std::int64_t p = lo; p < hi; ++p) {
-        const std::int64_t i = p - c0;
-        live[i] = kSkip;
-        if (tri_id[p] == 0) continue;
+      ItemTerms t;
+      for (std::int64_t p = lo; p < hi; ++p)
+        if (prm.tri_id[p] != 0) item_terms(prm, items, grad_out, grad_uv, false, prm.tri_id[p] - 1, p, value.data(), &t);
+    });
+    return;
+  }
+
+  // Scatter by gathering (docs/determinism.md): 1. covered items grouped by
+  // triangle, each triangle's items in ascending item order; the used
+  // triangles numbered s = 0, 1, ... by first item.
+  auto lease = g_backward_pool.take();
+  BackwardScratch& sc = *lease;
+  const std::int32_t* tri_id = prm.tri_id;
+  detail::bucket_items(P, prm.num_tris, [&](std::int64_t p) -> std::int64_t { return tri_id[p] - 1; }, &sc.by_tri);
+  const detail::Buckets& by_tri = sc.by_tri;
+  const std::int64_t used = static_cast<std::int64_t>(by_tri.nonempty.size());
+
+  // 2. Per triangle, in parallel (in first-item order: a sweep down the image),
+  // each item's terms summed per corner in item order. Corner k of used
+  // triangle s holds S doubles at (3 s + k) S:
+  // dL/dA_k (C values, if grad_attr), then dL/dw_k (grad_clip) or
+  // dL/d(x, y, w)_k (grad_clip with a vertex behind the near plane).
+  const std::int64_t SA = grad_attr ? C : 0;
+  const std::int64_t SC = grad_clip ? (want_xyw ? 3 : 1) : 0;
+  const std::int64_t S = SA + SC;
+  constexpr std::int64_t kAhead = 4;
+  sc.partial.resize(static_cast<std::size_t>(3 * used * S));
+  sc.live.resize(static_cast<std::size_t>(used));
+  parallel_for(0, used, 16, [&](std::int64_t s0, std::int64_t s1) {
+    std::vector<double> value(static_cast<std::size_t>(C));
+    ItemTerms t;
+    for (std::int64_t s = s0; s < s1; ++s) {
+      double* acc = sc.partial.data() + 3 * s * S;
+      std::fill(acc, acc + 3 * S, 0.0);
+      std::uint8_t live = 0;
+      const std::int32_t tri = by_tri.nonempty[s];
+      const std::int64_t e1 = by_tri.start[tri + 1];
+      for (std::int64_t e = by_tri.start[tri]; e < e1; ++e) {
+        const std::int64_t p = by_tri.item[e];
+        // The walk jumps between pixel rows: fetch a later item's data early.
+        if (e + kAhead < e1) {
+          const std::int64_t pa = by_tri.item[e + kAhead];
+          __builtin_prefetch(grad_out + pa * C);
+          __builtin_prefetch(prm.uv + 2 * pa);
+        }
+        if (!item_terms(prm, items, grad_out, grad_uv, want_xyw, tri, p, value.data(), &t)) continue;
+        live = 1;
         const T* g = grad_out + p * C;
-        // Zero incoming gradient: skip.
-        bool any = false;
-        for (std::int64_t c = 0; c < C && !any; ++c) any = g[c] != T(0);
-        if (!any) continue;
-        live[i] = kToW;
-        const std::int32_t* tri = tris + 3 * static_cast<std::int64_t>(tri_id[p] - 1);
-        const PixelWeights pw = pixel_weights(clip, tri, uv, perspective, items, p);
-        const T* a[3] = {attr + tri[0] * C, attr + tri[1] * C, attr + tri[2] * C};
-        double g_lambda[3];
-        if (!perspective) {
-          // dL/dlambda_k = g . A_k.
-          for (int k = 0; k < 3; ++k) {
-            double d = 0.0;
-            for (std::int64_t c = 0; c < C; ++c) d += static_cast<double>(g[c]) * a[k][c];
-            g_lambda[k] = d;
-            grad_w[3 * i + k] = 0.0;
-          }
-        } else {
-          // A at this pixel, then G_k = dL/dq_k = g . (A_k - A) / s.
-          for (std::int64_t c = 0; c < C; ++c)
-            value[c] = pw.weight[0] * a[0][c] + pw.weight[1] * a[1][c] + pw.weight[2] * a[2][c];
-          double G[3];
-          for (int k = 0; k < 3; ++k) {
-            double d = 0.0;
-            for (std::int64_t c = 0; c < C; ++c) d += static_cast<double>(g[c]) * (a[k][c] - value[c]);
-            G[k] = d * pw.inv_s;
-          }
-          if (pw.from_clip) {
-            // q_k = F_k / D does not depend on u, v.
-            for (int k = 0; k < 3; ++k) g_lambda[k] = 0.0;
-            if (grad_clip) clip_weights_backward(pw, items.width, items.height, G, &grad_xyw[9 * i]);
-            live[i] = kToXYW;
-          } else {
-            // q_k = lambda_k / w_k: dL/dlambda_k = G_k / w_k ; dL/dw_k = -G_k q_k / w_k.
-            for (int k = 0; k < 3; ++k) {
-              g_lambda[k] = G[k] * pw.inv_w[k];
-              grad_w[3 * i + k] = -G[k] * pw.q[k] * pw.inv_w[k];
+        for (int k = 0; k < 3; ++k) {
+          double* o = acc + k * S;
+          // dL/dA_k += weight_k g.
+          for (std::int64_t c = 0; c < SA; ++c) o[c] += t.weight[k] * static_cast<double>(g[c]);
+          if (SC == 1) {
+            o[SA] += t.grad_w[k];
+          } else if (SC == 3) {
+            if (t.clipped) {
+              o[SA] += t.xyw[3 * k];
+              o[SA + 1] += t.xyw[3 * k + 1];
+              o[SA + 2] += t.xyw[3 * k + 2];
+            } else {
+              o[SA + 2] += t.grad_w[k];
             }
           }
         }
-        for (int k = 0; k < 3; ++k) weight[3 * i + k] = pw.weight[k];
-        // u = lambda_1, v = lambda_2, lambda_0 = 1 - u - v.
-        if (grad_uv) {
-          grad_uv[2 * p] += static_cast<T>(g_lambda[1] - g_lambda[0]);
-          grad_uv[2 * p + 1] += static_cast<T>(g_lambda[2] - g_lambda[0]);
-        }
       }
-    });
-    if (!scatter) continue;
-    // Scatter in item order: dL/dA_k += weight_k g, dL/dw_k += grad_w_k (or
-    // dL/d(x, y, w)_k += grad_xyw_k). Each thread owns a range of vertices and
-    // walks all items in order, so every vertex sums its contributions in item
-    // order: the result does not depend on how many ranges there are.
-    parallel_for(0, vertex_groups, 1, [&](std::int64_t g0, std::int64_t g1) {
-      const std::int64_t v0 = g0 * per_group, v1 = std::min(N, g1 * per_group);
-      for (std::int64_t p = c0; p < c1; ++p) {
-        const std::int64_t i = p - c0;
-        if (live[i] == kSkip) continue;
-        const std::int32_t* tri = tris + 3 * static_cast<std::int64_t>(tri_id[p] - 1);
-        const T* g = grad_out + p * C;
-        for (int k = 0; k < 3; ++k) {
-          if (tri[k] < v0 || tri[k] >= v1) continue;
-          if (grad_attr) {
-            T* ga = grad_attr + tri[k] * C;
-            const double wk = weight[3 * i + k];
-            for (std::int64_t c = 0; c < C; ++c) ga[c] += static_cast<T>(wk * g[c]);
-          }
-          if (!grad_clip) continue;
-          T* gc = grad_clip + 4 * static_cast<std::int64_t>(tri[k]);
-          if (live[i] == kToXYW) {
-            const double* gk = &grad_xyw[9 * i + 3 * k];
-            gc[0] += static_cast<T>(gk[0]);
-            gc[1] += static_cast<T>(gk[1]);
-            gc[3] += static_cast<T>(gk[2]);
-          } else {
-            gc[3] += static_cast<T>(grad_w[3 * i + k]);
-          }
-        }
-      }
-    });
-  }
+      sc.live[s] = live;
+    }
+  });
+
+  // 3. Each vertex adds its corners' sums in corner order, once.
+  detail::gather_corners(prm.tris, by_tri.nonempty.data(), used, sc.live.data(), sc.partial.data(), S,
+                         prm.num_vertices, &sc.by_vertex, [&](std::int64_t v, const double* total) {
+                           if (grad_attr)
+                             for (std::int64_t c = 0; c < C; ++c) grad_attr[v * C + c] += static_cast<T>(total[c]);
+                           T* gc = grad_clip ? grad_clip + 4 * v : nullptr;
+                           if (SC == 1) {
+                             gc[3] += static_cast<T>(total[SA]);
+                           } else if (SC == 3) {
+                             gc[0] += static_cast<T>(total[SA]);
+                             gc[1] += static_cast<T>(total[SA + 1]);
+                             gc[3] += static_cast<T>(total[SA + 2]);
+                           }
+                         });
 }
 
 template <class T>

@@ -78,9 +78,11 @@ struct InterpolateGrads {
 //   linear:      dL/dA_k += g lambda_k,  dL/dlambda_k = g . A_k;
 //   dL/du += dL/dlambda_1 - dL/dlambda_0,  dL/dv += dL/dlambda_2 - dL/dlambda_0.
 // grad_out: items x C. Background pixels and items whose incoming
-// gradient is zero contribute nothing. Per-vertex sums are added in item
-// order, so results are bit-identical for any thread count. Divisions by s
-// and w_k are guarded so the result stays finite.
+// gradient is zero contribute nothing. Sums are taken in float64 in a fixed
+// order (each triangle's items in item order, then each vertex's triangles in
+// the order of their first items) and added to the outputs once per vertex,
+// so results are bit-identical for any thread count and triangle order.
+// Divisions by s and w_k are guarded so the result stays finite.
 template <class T>
 void interpolate_backward(const InterpolateParams<T>& p, const T* grad_out, const InterpolateGrads<T>& grads);
 

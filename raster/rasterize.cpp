@@ -1,5 +1,6 @@
 // Rasterizer forward (tiled, watertight, deterministic depth test) and its
-// adjoint (per-pixel contributions scattered in pixel order).
+// adjoint (per-pixel contributions summed per triangle in pixel order, then
+// gathered per vertex: docs/determinism.md, "Scatter by gathering").
 //
 // Forward: project vertices; classify triangles in parallel over fixed
 // triangle chunks (frustum reject, area, culling, pixel bounding box) while
@@ -20,6 +21,8 @@
 
 #include "autodiff/error.h"
 #include "autodiff/parallel.h"
+#include "raster/buckets.h"
+#include "raster/corner_gather.h"
 #include "raster/guarded_math.h"
 #include "raster/project.h"
 #include "raster/rasterize_setup.h"
@@ -414,8 +417,9 @@ void pixel_grad_homogeneous(const detail::Vertices& vx, const std::int32_t* tri,
 // Per-call buffers of rasterize_backward, reused through a pool.
 struct BackwardScratch {
   detail::Vertices v;
-  std::vector<double> acc_screen, acc_clip, contrib;
-  std::vector<std::int8_t> kind;
+  detail::Buckets by_tri, by_vertex;
+  std::vector<double> acc_screen, acc_clip, partial;
+  std::vector<std::uint8_t> kind;
 };
 detail::ScratchPool<BackwardScratch> g_backward_pool;
 
@@ -441,71 +445,77 @@ void rasterize_backward(const RasterParams<T>& p, const std::int32_t* tri_id, co
   detail::project_vertices_into(clip, num_vertices, W, H, &sc.v);
   const detail::Vertices& v = sc.v;
 
-  // Per-vertex accumulators: screen (x, y, z_ndc) and clip (x, y, z, w),
-  // zeroed in parallel (reused buffers).
+  // Scatter by gathering (docs/determinism.md): 1. covered pixels grouped by
+  // triangle, in pixel order; used triangles numbered by first pixel.
+  detail::bucket_items(P, p.num_tris, [&](std::int64_t q) -> std::int64_t { return tri_id[q] - 1; }, &sc.by_tri);
+  const detail::Buckets& by_tri = sc.by_tri;
+  const std::int64_t used = static_cast<std::int64_t>(by_tri.nonempty.size());
+
+  // 2. Per triangle, in parallel: each pixel's contribution, summed per corner
+  // in pixel order. Corner k of used triangle s: 7 doubles at (3 s + k) 7,
+  // screen (x, y, z_ndc) then clip (x, y, z, w); kind[s]: 0 no gradient,
+  // 1 screen (all vertices in front), 2 clip (homogeneous form).
+  constexpr std::int64_t S = 7;
+  std::vector<double>& partial = sc.partial;
+  std::vector<std::uint8_t>& kind = sc.kind;
+  partial.resize(static_cast<std::size_t>(3 * S * used));
+  kind.resize(static_cast<std::size_t>(used));
+  parallel_for(0, used, 16, [&](std::int64_t s0, std::int64_t s1) {
+    double out[12];
+    for (std::int64_t s = s0; s < s1; ++s) {
+      double* acc = &partial[static_cast<std::size_t>(3 * S * s)];
+      std::fill(acc, acc + 3 * S, 0.0);
+      const std::int64_t t = by_tri.nonempty[s];
+      const std::int32_t* tri = tris + 3 * t;
+      const bool clipped = detail::needs_clipping(v, tri);
+      std::uint8_t k = 0;
+      for (std::int64_t e = by_tri.start[t]; e < by_tri.start[t + 1]; ++e) {
+        const std::int64_t q = by_tri.item[e];
+        const double gu = grad_uv[2 * q], gv = grad_uv[2 * q + 1];
+        const double gd = grad_depth ? static_cast<double>(grad_depth[q]) : 0.0;
+        // Zero incoming gradient: skip.
+        if (gu == 0.0 && gv == 0.0 && gd == 0.0) continue;
+        const double px = static_cast<double>(q % W) + 0.5, py = static_cast<double>(q / W) + 0.5;
+        std::fill(out, out + 12, 0.0);
+        if (!clipped) {
+          pixel_grad_screen(&v.screen[3 * static_cast<std::size_t>(tri[0])],
+                            &v.screen[3 * static_cast<std::size_t>(tri[1])],
+                            &v.screen[3 * static_cast<std::size_t>(tri[2])], px, py, gu, gv, gd, out);
+          for (int j = 0; j < 3; ++j)
+            for (int d = 0; d < 3; ++d) acc[j * S + d] += out[3 * j + d];
+          k = 1;
+        } else {
+          pixel_grad_homogeneous(v, tri, W, H, px, py, gu, gv, gd, out);
+          for (int j = 0; j < 3; ++j)
+            for (int d = 0; d < 4; ++d) acc[j * S + 3 + d] += out[4 * j + d];
+          k = 2;
+        }
+      }
+      kind[s] = k;
+    }
+  });
+  bool any_screen = false, any_clip = false;
+  for (std::uint8_t k : kind) {
+    any_screen |= k == 1;
+    any_clip |= k == 2;
+  }
+
+  // 3. Per-vertex accumulators, screen (x, y, z_ndc) and clip (x, y, z, w):
+  // zeroed in parallel, then each vertex adds its corners in corner order.
   std::vector<double>& acc_screen = sc.acc_screen;
   std::vector<double>& acc_clip = sc.acc_clip;
   acc_screen.resize(3 * static_cast<std::size_t>(num_vertices));
   parallel_fill(acc_screen.data(), 3 * num_vertices);
-  bool any_screen = false, any_clip = false;
-
-  // Pixels in chunks: contributions in parallel, then added in pixel order.
-  constexpr std::int64_t kChunk = 16384;
-  std::vector<double>& contrib = sc.contrib;
-  std::vector<std::int8_t>& kind = sc.kind;  // 0 none, 1 screen, 2 homogeneous
-  // Pooled, so allocated once per pool entry; sized to the chunk actually used
-  // (a small image never zero-fills the full kChunk rows).
-  const std::int64_t chunk_len = std::min(kChunk, P);
-  contrib.resize(12 * static_cast<std::size_t>(chunk_len));
-  kind.resize(static_cast<std::size_t>(chunk_len));
-  for (std::int64_t c0 = 0; c0 < P; c0 += kChunk) {
-    const std::int64_t c1 = std::min(P, c0 + kChunk);
-    parallel_for(c0, c1, 1024, [&](std::int64_t lo, std::int64_t hi) {
-      for (std::int64_t p = lo; p < hi; ++p) {
-        std::int8_t& k = kind[p - c0];
-        k = 0;
-        const std::int32_t id = tri_id[p];
-        if (id == 0) continue;
-        const double gu = grad_uv[2 * p], gv = grad_uv[2 * p + 1];
-        const double gd = grad_depth ? static_cast<double>(grad_depth[p]) : 0.0;
-        // Zero incoming gradient: skip.
-        if (gu == 0.0 && gv == 0.0 && gd == 0.0) continue;
-        const std::int32_t* tri = tris + 3 * static_cast<std::int64_t>(id - 1);
-        const double px = static_cast<double>(p % W) + 0.5, py = static_cast<double>(p / W) + 0.5;
-        double* out = &contrib[12 * (p - c0)];
-        std::fill(out, out + 12, 0.0);
-        if (!detail::needs_clipping(v, tri)) {
-          pixel_grad_screen(&v.screen[3 * static_cast<std::size_t>(tri[0])],
-                            &v.screen[3 * static_cast<std::size_t>(tri[1])],
-                            &v.screen[3 * static_cast<std::size_t>(tri[2])], px, py, gu, gv, gd, out);
-          k = 1;
-        } else {
-          pixel_grad_homogeneous(v, tri, W, H, px, py, gu, gv, gd, out);
-          k = 2;
-        }
-      }
-    });
-    // Scatter in pixel order (deterministic for any thread count / triangle order).
-    for (std::int64_t p = c0; p < c1; ++p) {
-      const std::int8_t k = kind[p - c0];
-      if (k == 0) continue;
-      const std::int32_t* tri = tris + 3 * static_cast<std::int64_t>(tri_id[p] - 1);
-      const double* g = &contrib[12 * (p - c0)];
-      if (k == 1) {
-        any_screen = true;
-        for (int j = 0; j < 3; ++j)
-          for (int d = 0; d < 3; ++d) acc_screen[3 * static_cast<std::size_t>(tri[j]) + d] += g[3 * j + d];
-      } else {
-        if (!any_clip) {
-          acc_clip.resize(4 * static_cast<std::size_t>(num_vertices));
-          parallel_fill(acc_clip.data(), 4 * num_vertices);
-          any_clip = true;
-        }
-        for (int j = 0; j < 3; ++j)
-          for (int d = 0; d < 4; ++d) acc_clip[4 * static_cast<std::size_t>(tri[j]) + d] += g[4 * j + d];
-      }
-    }
+  if (any_clip) {
+    acc_clip.resize(4 * static_cast<std::size_t>(num_vertices));
+    parallel_fill(acc_clip.data(), 4 * num_vertices);
   }
+  detail::gather_corners(tris, by_tri.nonempty.data(), used, kind.data(), partial.data(), S, num_vertices,
+                         &sc.by_vertex, [&](std::int64_t i, const double* total) {
+                           for (int d = 0; d < 3; ++d) acc_screen[3 * i + d] = total[d];
+                           if (any_clip)
+                             for (int d = 0; d < 4; ++d) acc_clip[4 * i + d] = total[3 + d];
+                         });
 
   // Screen -> NDC -> clip per vertex with the projection adjoints.
   if (any_screen) screen_to_clip_backward(clip, num_vertices, W, H, acc_screen.data(), 3, grad_clip);

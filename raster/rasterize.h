@@ -83,8 +83,9 @@ void rasterize_forward(const RasterParams<T>& p, std::int32_t* tri_id, T* uv, T*
 // Triangles crossing the near plane use the homogeneous form of the same
 // function (u = w1 F1/D, v = w2 F2/D, depth = sum z_k F_k / D with
 // F_k = det[s, V_k+1, V_k+2], D = det[V0, V1, V2]); see docs/rasterizer.md.
-// Contributions are added in pixel order, so the result is bit-identical for
-// any thread count and any triangle order.
+// Contributions are summed per triangle in pixel order, then per vertex over
+// its triangles by first pixel (docs/determinism.md, "Scatter by gathering"),
+// so the result is bit-identical for any thread count and any triangle order.
 template <class T>
 void rasterize_backward(const RasterParams<T>& p, const std::int32_t* tri_id, const T* grad_uv,
                         const T* grad_depth, T* grad_clip);
