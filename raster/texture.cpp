@@ -297,7 +297,10 @@ struct TapBuckets {
 template <class T>
 detail::ScratchPool<TapBuckets<T>> g_bucket_pool;
 
-constexpr std::int64_t kChunk = 4096;  // samples whose buckets exist at once
+// Samples x bands whose buckets exist at once (a chunk of 32768 samples with
+// two bands): fewer, larger chunks mean fewer fork/joins; the buckets' size
+// stays the same for any number of bands.
+constexpr std::int64_t kChunkTimesBands = 65536;
 constexpr std::int64_t kBlock = 256;   // samples per bucket block (one task)
 
 // Texel bands for the scatter: about one per thread, a power of two texels wide
@@ -347,14 +350,15 @@ void texture_backward(const TextureParams<T>& p, const T* grad_out, const Textur
     acc = scratch.data<double>();
   }
 
-  // Samples in chunks of kChunk, each in blocks of kBlock (one task each):
+  // Samples in chunks, each in blocks of kBlock (one task each):
   // uv gradients and taps in parallel, every tap filed under its texel band;
   // then one task per band adds its taps, block after block. Each texel so
   // sees its adds in sample order whatever the number of bands or threads.
   const int stride = p.filter == Filter::Nearest ? 1 : p.filter == Filter::Trilinear ? kMaxTaps : 4;
   const std::int64_t acc_texels = levels_used == 1 ? base_texels : p.layout.total_texels;
   const Bands bands = texel_bands(acc_texels, std::min(num_threads(), 16));
-  const std::int64_t blocks_per_chunk = (std::min(S, kChunk) + kBlock - 1) / kBlock;
+  const std::int64_t chunk = std::max<std::int64_t>(kBlock, kChunkTimesBands / bands.count / kBlock * kBlock);
+  const std::int64_t blocks_per_chunk = (std::min(S, chunk) + kBlock - 1) / kBlock;
   // Pooled, so an optimization loop does not fault in fresh pages every call.
   auto lease = g_bucket_pool<T>.take();
   std::vector<TapEntry<T>>& entries = lease->entries;
@@ -365,8 +369,8 @@ void texture_backward(const TextureParams<T>& p, const T* grad_out, const Textur
     count.resize(static_cast<std::size_t>(blocks_per_chunk * bands.count));
   }
 
-  for (std::int64_t c0 = 0; c0 < S; c0 += kChunk) {
-    const std::int64_t c1 = std::min(S, c0 + kChunk);
+  for (std::int64_t c0 = 0; c0 < S; c0 += chunk) {
+    const std::int64_t c1 = std::min(S, c0 + chunk);
     const std::int64_t blocks = (c1 - c0 + kBlock - 1) / kBlock;
     // Taps of kAhead samples first, their texels prefetched, so that the texel
     // reads after them overlap instead of waiting one by one. Bilinear (the
@@ -387,10 +391,13 @@ void texture_backward(const TextureParams<T>& p, const T* grad_out, const Textur
           for (std::int64_t c = 0; c < C && !any; ++c) any = g[c] != T(0);
           live[i] = any;
           if (!any) continue;
-          if constexpr (kBilinear)
-            bilinear_taps<true>(p.layout.levels[0], p.uv[2 * (s0 + i)], p.uv[2 * (s0 + i) + 1], p.v_down, 1.0, p.wrap,
-                                taps[i]);
-          else
+          if constexpr (kBilinear) {
+            const double u = p.uv[2 * (s0 + i)], v = p.uv[2 * (s0 + i) + 1];
+            if (reads_texels)  // the weights' uv derivatives are needed
+              bilinear_taps<true>(p.layout.levels[0], u, v, p.v_down, 1.0, p.wrap, taps[i]);
+            else
+              bilinear_taps<false>(p.layout.levels[0], u, v, p.v_down, 1.0, p.wrap, taps[i]);
+          } else
             taps[i] = sample_taps<T, true>(p, s0 + i);
           if (reads_texels)
             for (int k = 0; k < (kBilinear ? 4 : taps[i].n); ++k)
