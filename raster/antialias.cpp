@@ -158,26 +158,8 @@ void antialias_forward(const AntialiasParams<T>& prm, T* out, std::vector<Antial
     if (detail::pair_owns_direction(horizontal, sb[0] - sa[0], sb[1] - sa[1])) found.push_back({in, outp, e.a, e.b, e.t});
   };
 
-  std::vector<std::vector<AntialiasPair>> rows(static_cast<std::size_t>(H));
-  std::vector<std::int64_t> candidates(static_cast<std::size_t>(H), 0);
-  parallel_for(0, H, 4, [&](std::int64_t y0, std::int64_t y1) {
-    for (std::int64_t y = y0; y < y1; ++y) {
-      const std::int32_t* row = tri_id + y * W;
-      std::int64_t count = 0;
-      for (std::int64_t x = 0; x < W; ++x) {
-        const std::int64_t p = y * W + x;
-        if (x + 1 < W && row[x] != row[x + 1]) {
-          ++count;
-          evaluate(p, p + 1, true, rows[y]);
-        }
-        if (y + 1 < H && row[x] != row[x + W]) {
-          ++count;
-          evaluate(p, p + W, false, rows[y]);
-        }
-      }
-      candidates[y] = count;
-    }
-  });
+  std::vector<std::vector<AntialiasPair>> rows;
+  const std::int64_t candidates = detail::for_each_id_boundary(tri_id, W, H, rows, evaluate);
 
   // Apply in row order (a pixel can be written by up to four pairs).
   std::size_t total = 0;
@@ -195,7 +177,7 @@ void antialias_forward(const AntialiasParams<T>& prm, T* out, std::vector<Antial
       if (pairs_out) pairs_out->push_back(pr);
     }
   if (stats) {
-    stats->candidate_pairs = std::accumulate(candidates.begin(), candidates.end(), std::int64_t(0));
+    stats->candidate_pairs = candidates;
     stats->blended_pairs = static_cast<std::int64_t>(total);
   }
 }

@@ -6,7 +6,9 @@
 #pragma once
 
 #include <cstdint>
+#include <vector>
 
+#include "autodiff/parallel.h"
 #include "raster/antialias.h"
 #include "raster/rasterize_setup.h"
 
@@ -24,6 +26,38 @@ inline bool pair_owns_direction(bool horizontal, double dx, double dy) {
   dx = dx < 0 ? -dx : dx;
   dy = dy < 0 ? -dy : dy;
   return horizontal ? dy >= dx : dx > dy;
+}
+
+// Calls evaluate(p, q, horizontal, rows[y]) for every pair of neighbouring
+// pixels p (row y) and q = its right (horizontal) or lower neighbour whose
+// triangle ids differ, rows in parallel; evaluate may append pairs to the
+// row's list. Returns how many such pairs there were.
+template <class Pair, class Evaluate>
+std::int64_t for_each_id_boundary(const std::int32_t* tri_id, std::int64_t W, std::int64_t H,
+                                  std::vector<std::vector<Pair>>& rows, Evaluate evaluate) {
+  rows.assign(static_cast<std::size_t>(H), {});
+  std::vector<std::int64_t> candidates(static_cast<std::size_t>(H), 0);
+  parallel_for(0, H, 4, [&](std::int64_t y0, std::int64_t y1) {
+    for (std::int64_t y = y0; y < y1; ++y) {
+      const std::int32_t* row = tri_id + y * W;
+      std::int64_t count = 0;
+      for (std::int64_t x = 0; x < W; ++x) {
+        const std::int64_t p = y * W + x;
+        if (x + 1 < W && row[x] != row[x + 1]) {
+          ++count;
+          evaluate(p, p + 1, true, rows[y]);
+        }
+        if (y + 1 < H && row[x] != row[x + W]) {
+          ++count;
+          evaluate(p, p + W, false, rows[y]);
+        }
+      }
+      candidates[y] = count;
+    }
+  });
+  std::int64_t total = 0;
+  for (const std::int64_t c : candidates) total += c;
+  return total;
 }
 
 // Interior edges crossed at most between two pixel centres.

@@ -8,7 +8,6 @@
 #include <algorithm>
 #include <cassert>
 #include <cmath>
-#include <numeric>
 
 #include "autodiff/parallel.h"
 #include "raster/guarded_math.h"
@@ -162,26 +161,8 @@ void visibility_antialias_forward(const VisibilityAntialiasParams<T>& prm, T* ou
     found.push_back({f, b, BoundaryKind::Intersection, {trf[0], trf[1], trf[2], trb[0], trb[1], trb[2]}, x.t});
   };
 
-  std::vector<std::vector<VisibilityPair>> rows(static_cast<std::size_t>(H));
-  std::vector<std::int64_t> candidates(static_cast<std::size_t>(H), 0);
-  parallel_for(0, H, 4, [&](std::int64_t y0, std::int64_t y1) {
-    for (std::int64_t y = y0; y < y1; ++y) {
-      const std::int32_t* row = tri_id + y * W;
-      std::int64_t count = 0;
-      for (std::int64_t x = 0; x < W; ++x) {
-        const std::int64_t p = y * W + x;
-        if (x + 1 < W && row[x] != row[x + 1]) {
-          ++count;
-          evaluate(p, p + 1, true, rows[y]);
-        }
-        if (y + 1 < H && row[x] != row[x + W]) {
-          ++count;
-          evaluate(p, p + W, false, rows[y]);
-        }
-      }
-      candidates[y] = count;
-    }
-  });
+  std::vector<std::vector<VisibilityPair>> rows;
+  const std::int64_t candidates = detail::for_each_id_boundary(tri_id, W, H, rows, evaluate);
 
   // Apply in row order (a pixel can be written by up to four pairs).
   std::size_t total = 0;
@@ -201,7 +182,7 @@ void visibility_antialias_forward(const VisibilityAntialiasParams<T>& prm, T* ou
       if (pairs_out) pairs_out->push_back(pr);
     }
   if (stats) {
-    stats->candidate_pairs = std::accumulate(candidates.begin(), candidates.end(), std::int64_t(0));
+    stats->candidate_pairs = candidates;
     stats->intersection_pairs = crossings;
     stats->edge_pairs = static_cast<std::int64_t>(total) - crossings;
   }

@@ -3,6 +3,8 @@
 
 #include <catch2/catch.hpp>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <string>
@@ -40,6 +42,16 @@ inline bool all_finite(const Tensor& t) {
   for (double x : t.to_vector())
     if (!(x - x == 0)) return false;
   return true;
+}
+
+// max_i |a_i - b_i| / max_i |b_i|: how far a is from b, relative to b's size.
+inline double max_relative_difference(const std::vector<double>& a, const std::vector<double>& b) {
+  double worst = 0, scale = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    worst = std::max(worst, std::abs(a[i] - b[i]));
+    scale = std::max(scale, std::abs(b[i]));
+  }
+  return worst / scale;
 }
 
 }  // namespace gr::testing

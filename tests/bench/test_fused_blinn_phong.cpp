@@ -3,25 +3,12 @@
 // its sums do not depend on the thread count.
 #include <catch2/catch.hpp>
 
-#include <algorithm>
-#include <cmath>
-
 #include "fused_blinn_phong.h"
+#include "test_support.h"
 
 using namespace gr;
 
-namespace {
-
-double max_relative_difference(const std::vector<double>& a, const std::vector<double>& b) {
-  double worst = 0, scale = 0;
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    worst = std::max(worst, std::abs(a[i] - b[i]));
-    scale = std::max(scale, std::abs(b[i]));
-  }
-  return worst / scale;
-}
-
-}  // namespace
+using gr::testing::max_relative_difference;
 
 TEST_CASE("fused baseline: the hand-fused pass gives the tape's loss and gradients in float64",
           "[bench][fused]") {
