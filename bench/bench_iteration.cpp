@@ -10,7 +10,10 @@
 //                              is the cost of the reverse sweep.
 //   Args {size, threads, fragment_mode}. Counters: covered (fraction of
 //   pixels), fresh_allocs_iter2 (storage_stats().fresh_allocations over the
-//   timed iterations, after one warm-up iteration: should be 0).
+//   timed iterations, after one warm-up iteration: should be 0), and the
+//   roofline columns GB/s, of_peak (bench/roofline.h) of the compulsory
+//   traffic: mesh, colours and target read once, plus with the backward the
+//   positions' and colours' gradients written once.
 // BM_IterationCoverage:        forward + backward at 1024 x 1024, 1 thread, with
 //   the sphere scaled to cover about 5%, 25% or 75% of the screen.
 //   Args {coverage_percent, fragment_mode}.
@@ -20,6 +23,7 @@
 
 #include "ops/ops.h"
 #include "raster/procedural.h"
+#include "roofline.h"
 
 namespace {
 
@@ -97,7 +101,7 @@ Tensor iteration_loss(const Scene& s, bool fragment_mode, double* covered = null
 
 // One warm-up iteration, then the timed ones; counts fresh allocations in the timed part.
 template <class Step>
-void run(benchmark::State& state, Scene& s, bool fragment_mode, Step step) {
+void run(benchmark::State& state, Scene& s, bool fragment_mode, bool with_backward, Step step) {
   double covered = 0;
   {
     Tensor loss = iteration_loss(s, fragment_mode, &covered);
@@ -109,6 +113,8 @@ void run(benchmark::State& state, Scene& s, bool fragment_mode, Step step) {
   for (auto _ : state) step();
   state.counters["covered"] = covered;
   state.counters["fresh_allocs_iter2"] = double(storage_stats().fresh_allocations - fresh0);
+  const double read = bench::bytes_of({s.positions, s.colours, s.triangles, s.target});
+  bench::report_traffic(state, with_backward ? read + bench::bytes_of({s.positions, s.colours}) : read);
 }
 
 void forward_step(const Scene& s, bool fragment_mode) {
@@ -131,7 +137,7 @@ void BM_IterationForward(benchmark::State& state) {
   Scene s = make_scene(static_cast<int>(state.range(0)), kDefaultCoverage);
   const bool frag = state.range(2) != 0;
   set_num_threads(static_cast<int>(state.range(1)));
-  run(state, s, frag, [&] { forward_step(s, frag); });
+  run(state, s, frag, false, [&] { forward_step(s, frag); });
   set_num_threads(0);
 }
 
@@ -139,7 +145,7 @@ void BM_IterationForwardBackward(benchmark::State& state) {
   Scene s = make_scene(static_cast<int>(state.range(0)), kDefaultCoverage);
   const bool frag = state.range(2) != 0;
   set_num_threads(static_cast<int>(state.range(1)));
-  run(state, s, frag, [&] { forward_backward_step(s, frag); });
+  run(state, s, frag, true, [&] { forward_backward_step(s, frag); });
   set_num_threads(0);
 }
 
@@ -147,7 +153,7 @@ void BM_IterationCoverage(benchmark::State& state) {
   Scene s = make_scene(1024, state.range(0) / 100.0);
   const bool frag = state.range(1) != 0;
   set_num_threads(1);
-  run(state, s, frag, [&] { forward_backward_step(s, frag); });
+  run(state, s, frag, true, [&] { forward_backward_step(s, frag); });
   set_num_threads(0);
 }
 
