@@ -60,6 +60,46 @@ std::int64_t for_each_id_boundary(const std::int32_t* tri_id, std::int64_t W, st
   return total;
 }
 
+// The one-sided blend of a pair whose boundary crosses the segment from the
+// inside centre to the outside centre at t: the pixel on the far side of
+// t = 1/2 (target) takes weight w = |t - 1/2| of the other's colour (source).
+struct BlendStep {
+  std::int64_t target, source;
+  double w;
+};
+template <class Pair>
+BlendStep blend_step(const Pair& pr) {
+  const bool outward = pr.t > 0.5;
+  return {outward ? pr.outside : pr.inside, outward ? pr.inside : pr.outside, outward ? pr.t - 0.5 : 0.5 - pr.t};
+}
+
+// out[target] += w (image[source] - image[target]), C channels.
+template <class T>
+void apply_blend(const BlendStep& b, const T* image, T* out, int C) {
+  for (int c = 0; c < C; ++c) {
+    const double d = double(image[b.source * C + c]) - double(image[b.target * C + c]);
+    out[b.target * C + c] = static_cast<T>(double(out[b.target * C + c]) + b.w * d);
+  }
+}
+
+// The blends' adjoint to the image (P pixels, C channels): the identity plus,
+// in pair order, -w g[target] to the target and +w g[target] to the source.
+template <class T, class Pair>
+void blend_image_adjoint(const std::vector<Pair>& pairs, const T* grad_out, T* grad_image, std::int64_t P, int C) {
+  parallel_for(0, P * C, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
+    for (std::int64_t i = lo; i < hi; ++i) grad_image[i] += grad_out[i];
+  });
+  for (const Pair& pr : pairs) {
+    const BlendStep b = blend_step(pr);
+    for (int c = 0; c < C; ++c) {
+      const double g = double(grad_out[b.target * C + c]);
+      if (g == 0.0) continue;
+      grad_image[b.target * C + c] -= static_cast<T>(b.w * g);
+      grad_image[b.source * C + c] += static_cast<T>(b.w * g);
+    }
+  }
+}
+
 // Interior edges crossed at most between two pixel centres.
 constexpr int kMaxWalk = 16;
 

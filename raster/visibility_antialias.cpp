@@ -171,13 +171,7 @@ void visibility_antialias_forward(const VisibilityAntialiasParams<T>& prm, T* ou
   if (pairs_out) pairs_out->reserve(pairs_out->size() + total);
   for (const auto& r : rows)
     for (const VisibilityPair& pr : r) {
-      const bool outward = pr.t > 0.5;
-      const std::int64_t target = outward ? pr.outside : pr.inside, source = outward ? pr.inside : pr.outside;
-      const double w = outward ? pr.t - 0.5 : 0.5 - pr.t;
-      for (int c = 0; c < C; ++c) {
-        const double d = double(image[source * C + c]) - double(image[target * C + c]);
-        out[target * C + c] = static_cast<T>(double(out[target * C + c]) + w * d);
-      }
+      detail::apply_blend(detail::blend_step(pr), image, out, C);
       crossings += pr.kind == BoundaryKind::Intersection;
       if (pairs_out) pairs_out->push_back(pr);
     }
@@ -200,30 +194,8 @@ void visibility_antialias_backward(const VisibilityAntialiasParams<T>& prm, cons
   const int W = prm.width, H = prm.height, C = prm.channels;
   const std::int64_t P = static_cast<std::int64_t>(W) * H;
   const std::int64_t n_pairs = static_cast<std::int64_t>(pairs.size());
-  auto target_of = [](const VisibilityPair& pr, std::int64_t* target, std::int64_t* source, double* w) {
-    const bool outward = pr.t > 0.5;
-    *target = outward ? pr.outside : pr.inside;
-    *source = outward ? pr.inside : pr.outside;
-    *w = outward ? pr.t - 0.5 : 0.5 - pr.t;
-  };
-
   // Colours: identity plus the blend weights, in pair order.
-  if (grad_image) {
-    parallel_for(0, P * C, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
-      for (std::int64_t i = lo; i < hi; ++i) grad_image[i] += grad_out[i];
-    });
-    for (const VisibilityPair& pr : pairs) {
-      std::int64_t target, source;
-      double w;
-      target_of(pr, &target, &source, &w);
-      for (int c = 0; c < C; ++c) {
-        const double g = double(grad_out[target * C + c]);
-        if (g == 0.0) continue;
-        grad_image[target * C + c] -= static_cast<T>(w * g);
-        grad_image[source * C + c] += static_cast<T>(w * g);
-      }
-    }
-  }
+  if (grad_image) detail::blend_image_adjoint(pairs, grad_out, grad_image, P, C);
   if (!grad_clip || n_pairs == 0) return;
 
   // Per pair: screen (x, y, z_ndc) gradients of up to six vertices, in parallel ...
@@ -233,9 +205,7 @@ void visibility_antialias_backward(const VisibilityAntialiasParams<T>& prm, cons
   parallel_for(0, n_pairs, 2048, [&](std::int64_t lo, std::int64_t hi) {
     for (std::int64_t i = lo; i < hi; ++i) {
       const VisibilityPair& pr = pairs[i];
-      std::int64_t target, source;
-      double w;
-      target_of(pr, &target, &source, &w);
+      const std::int64_t target = detail::blend_step(pr).target;
       // dL/dt = g[target] . (image[inside] - image[outside]); zero: skip.
       double gt = 0.0;
       for (int c = 0; c < C; ++c)
