@@ -23,6 +23,7 @@ namespace {
 
 constexpr int kMaxTaps = 8;
 constexpr int kAhead = 8;  // samples whose texels are prefetched together
+constexpr int kScatterAhead = 32;  // taps ahead whose texel gradients the scatter prefetches
 
 struct Taps {
   int n = 0;
@@ -316,6 +317,14 @@ Bands texel_bands(std::int64_t texels, std::int64_t threads) {
   b.count = (texels + (std::int64_t(1) << b.shift) - 1) >> b.shift;
   return b;
 }
+
+// True if the sample's incoming gradient has a non-zero channel (a zero one adds nothing).
+template <class T>
+inline bool live(const T* g, std::int64_t C) {
+  for (std::int64_t c = 0; c < C; ++c)
+    if (g[c] != T(0)) return true;
+  return false;
+}
 }  // namespace
 
 template <class T>
@@ -380,17 +389,37 @@ void texture_backward(const TextureParams<T>& p, const T* grad_out, const Textur
       std::int32_t* counts = texels ? &count[j * bands.count] : nullptr;
       if (counts) std::fill(counts, counts + bands.count, 0);
       const std::int64_t s_end = std::min(c1, c0 + (j + 1) * kBlock);
+      if constexpr (kBilinear) {
+        if (!reads_texels) {
+          // The forward saved the uv Jacobian: no texel is read, so the taps
+          // need no prefetch group and stay in registers.
+          for (std::int64_t s = c0 + j * kBlock; s < s_end; ++s) {
+            const T* g = grad_out + s * C;
+            if (!live(g, C)) continue;
+            if (grad_uv) {
+              const T* ju = uv_jacobian + s * 2 * C;
+              grad_uv[2 * s] += static_cast<T>(dot_channels(g, ju, C));
+              grad_uv[2 * s + 1] += static_cast<T>(dot_channels(g, ju + C, C));
+            }
+            if (!texels) continue;
+            Taps t;
+            bilinear_taps<false>(p.layout.levels[0], p.uv[2 * s], p.uv[2 * s + 1], p.v_down, 1.0, p.wrap, t);
+            for (int k = 0; k < 4; ++k) {
+              const std::int64_t band = t.index[k] >> bands.shift;
+              entries[(j * bands.count + band) * bucket_size + counts[band]++] = {
+                  static_cast<std::uint32_t>(t.index[k]), static_cast<std::uint32_t>(s - c0), static_cast<T>(t.w[k])};
+            }
+          }
+          return;
+        }
+      }
       for (std::int64_t s0 = c0 + j * kBlock; s0 < s_end; s0 += kAhead) {
         const int n = static_cast<int>(std::min<std::int64_t>(kAhead, s_end - s0));
         Taps taps[kAhead];
-        bool live[kAhead];
+        bool is_live[kAhead];
         for (int i = 0; i < n; ++i) {
-          const T* g = grad_out + (s0 + i) * C;
-          // Zero incoming gradient: skip.
-          bool any = false;
-          for (std::int64_t c = 0; c < C && !any; ++c) any = g[c] != T(0);
-          live[i] = any;
-          if (!any) continue;
+          is_live[i] = live(grad_out + (s0 + i) * C, C);
+          if (!is_live[i]) continue;
           if constexpr (kBilinear) {
             const double u = p.uv[2 * (s0 + i)], v = p.uv[2 * (s0 + i) + 1];
             if (reads_texels)  // the weights' uv derivatives are needed
@@ -404,7 +433,7 @@ void texture_backward(const TextureParams<T>& p, const T* grad_out, const Textur
               __builtin_prefetch(texel(p, taps[i].index[k], base_texels));
         }
         for (int i = 0; i < n; ++i) {
-          if (!live[i]) continue;
+          if (!is_live[i]) continue;
           const std::int64_t s = s0 + i;
           const Taps& t = taps[i];
           const int nt = kBilinear ? 4 : t.n;
@@ -470,7 +499,7 @@ void texture_backward(const TextureParams<T>& p, const T* grad_out, const Textur
             const TapEntry<T>* e = &entries[(j * bands.count + b) * bucket_size];
             const std::int32_t n = count[j * bands.count + b];
             for (std::int32_t q = 0; q < n; ++q) {
-              if (q + kAhead < n) __builtin_prefetch(sums + e[q + kAhead].texel * C, 1);
+              if (q + kScatterAhead < n) __builtin_prefetch(sums + e[q + kScatterAhead].texel * C, 1);
               auto* a = sums + e[q].texel * C;
               const T* g = grad_out + (c0 + e[q].sample) * C;
               const double w = e[q].w;
