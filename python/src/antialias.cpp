@@ -62,22 +62,29 @@ std::shared_ptr<Topology> build_topology(Address tri, std::int64_t triangles) {
 
 std::shared_ptr<AntialiasState> antialias_forward(Context& ctx, const Mesh& mesh, const Topology& topology,
                                                   Address color, std::int64_t channels, int height, int width,
-                                                  Address rast, Address out, int threads) {
+                                                  Address rast, Address out, bool visibility, int threads) {
   KernelCall call(threads);
-  check_mesh(mesh, "antialias");
+  const char* op = visibility ? "visibility_antialias" : "antialias";
+  check_mesh(mesh, op);
   if (topology.triangles != mesh.triangles)
-    throw ValueError("antialias: 'topology_hash' was built for " + std::to_string(topology.triangles) +
+    throw ValueError(std::string(op) + ": 'topology_hash' was built for " + std::to_string(topology.triangles) +
                      " triangles but 'tri' has " + std::to_string(mesh.triangles));
   const std::int64_t pixels = static_cast<std::int64_t>(height) * width;
   auto state = std::make_shared<AntialiasState>();
-  state->pairs.resize(static_cast<std::size_t>(mesh.images));
+  state->visibility = visibility;
+  (visibility ? state->visibility_pairs.resize(static_cast<std::size_t>(mesh.images))
+              : state->pairs.resize(static_cast<std::size_t>(mesh.images)));
   ctx.reserve(mesh.images);
   dispatch(mesh.f64, [&](auto tag) {
     using T = decltype(tag);
-    check_rast_ids(at<const T>(rast), mesh.images * pixels, mesh.triangles, "rast", "antialias");
+    check_rast_ids(at<const T>(rast), mesh.images * pixels, mesh.triangles, "rast", op);
     for_each_image(mesh.images, [&](std::int64_t b) {
       const auto p = image_params<T>(ctx.image(b), mesh, topology, color, rast, channels, height, width, b);
-      raster::antialias_forward(p, at<T>(out) + pixels * channels * b, &state->pairs[b]);
+      T* image_out = at<T>(out) + pixels * channels * b;
+      if (visibility)
+        raster::visibility_antialias_forward(p, image_out, &state->visibility_pairs[b]);
+      else
+        raster::antialias_forward(p, image_out, &state->pairs[b]);
     });
   });
   return state;
@@ -104,7 +111,11 @@ void antialias_backward(Context& ctx, const Mesh& mesh, const Topology& topology
         grad.assign(4 * static_cast<std::size_t>(mesh.vertices), T(0));
         g.clip = grad.data();
       }
-      raster::antialias_backward(p, state.pairs[b], at<const T>(grad_out) + pixels * channels * b, g);
+      const T* image_grad_out = at<const T>(grad_out) + pixels * channels * b;
+      if (state.visibility)
+        raster::visibility_antialias_backward(p, state.visibility_pairs[b], image_grad_out, g);
+      else
+        raster::antialias_backward(p, state.pairs[b], image_grad_out, g);
       if (!grad_pos) return;
       for (T& v : grad) v = static_cast<T>(pos_gradient_boost * v);
       if (mesh.instanced) add_flipped(grad.data(), mesh.vertices, at<T>(grad_pos) + mesh.pos_offset(b));

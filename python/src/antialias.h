@@ -1,5 +1,7 @@
 // antialias in nvdiffrast's layout, and its topology "hash" (our edge
-// adjacency, built from the triangle indices alone, as nvdiffrast's is).
+// adjacency, built from the triangle indices alone, as nvdiffrast's is);
+// visibility_antialias (every visibility boundary, intersections included)
+// through the same calls.
 #pragma once
 
 #include <memory>
@@ -8,6 +10,7 @@
 #include "python/src/common.h"
 #include "python/src/rasterize.h"
 #include "raster/antialias.h"
+#include "raster/visibility_antialias.h"
 
 namespace gr::python {
 
@@ -18,15 +21,19 @@ struct Topology {
 };
 std::shared_ptr<Topology> build_topology(Address tri, std::int64_t triangles);
 
-// What the backward needs: per image, the blended pixel pairs.
+// What the backward needs: per image, the blended pixel pairs (of
+// visibility_antialias when `visibility`).
 struct AntialiasState {
+  bool visibility = false;
   std::vector<std::vector<raster::AntialiasPair>> pairs;
+  std::vector<std::vector<raster::VisibilityPair>> visibility_pairs;
 };
 
-// color, out: [images, H, W, C]; rast: the G-buffer for mesh.
+// color, out: [images, H, W, C]; rast: the G-buffer for mesh. visibility:
+// visibility_antialias instead of antialias.
 std::shared_ptr<AntialiasState> antialias_forward(Context& ctx, const Mesh& mesh, const Topology& topology,
                                                   Address color, std::int64_t channels, int height, int width,
-                                                  Address rast, Address out, int threads);
+                                                  Address rast, Address out, bool visibility, int threads);
 // Accumulates into grad_color (zeroed, or 0) and grad_pos (zeroed, or 0);
 // the position gradient is multiplied by pos_gradient_boost.
 void antialias_backward(Context& ctx, const Mesh& mesh, const Topology& topology, const AntialiasState& state,

@@ -5,10 +5,10 @@ import os as _os
 
 from .. import _core as _gradraster_core
 from .ops import (RasterizeCpuContext, rasterize, DepthPeeler, interpolate, texture, texture_construct_mip,
-                  antialias, antialias_construct_topology_hash)
+                  antialias, antialias_construct_topology_hash, visibility_antialias)
 
 __all__ = ['RasterizeCpuContext', 'rasterize', 'DepthPeeler', 'interpolate', 'texture', 'texture_construct_mip',
-           'antialias', 'antialias_construct_topology_hash']
+           'antialias', 'antialias_construct_topology_hash', 'visibility_antialias']
 
 # Fresh pages are expensive, and every iteration of a fitting loop allocates
 # image-sized tensors: keep freed memory for reuse (docs/python.md, "Memory").

@@ -325,11 +325,11 @@ _ANTIALIAS_SCRATCH = _core.Context()
 
 class _AntialiasFunc(torch.autograd.Function):
     @staticmethod
-    def forward(ctx, color, rast, pos, tri, topology, boost):
+    def forward(ctx, color, rast, pos, tri, topology, boost, visibility):
         mesh = _antialias_mesh(color, rast, pos, tri)
         out = torch.empty_like(color)
         state = _core.antialias_forward(_ANTIALIAS_SCRATCH, mesh, topology, color.data_ptr(), color.shape[3], rast.shape[1],
-                                        rast.shape[2], rast.data_ptr(), out.data_ptr(), _threads())
+                                        rast.shape[2], rast.data_ptr(), out.data_ptr(), visibility, _threads())
         ctx.save_for_backward(color, rast, pos, tri)
         ctx.topology, ctx.state, ctx.boost = topology, state, boost
         return out
@@ -339,14 +339,25 @@ class _AntialiasFunc(torch.autograd.Function):
         color, rast, pos, tri = ctx.saved_tensors
         mesh = _antialias_mesh(color, rast, pos, tri)
         dy = dy.contiguous()
-        need_color, _, need_pos, _, _, _ = ctx.needs_input_grad
+        need_color, _, need_pos = ctx.needs_input_grad[:3]
         g_color = torch.zeros_like(color) if need_color else None
         g_pos = torch.zeros_like(pos) if need_pos else None
         _core.antialias_backward(_ANTIALIAS_SCRATCH, mesh, ctx.topology, ctx.state, color.data_ptr(), color.shape[3],
                                  rast.shape[1], rast.shape[2], rast.data_ptr(), dy.data_ptr(),
                                  g_color.data_ptr() if g_color is not None else 0,
                                  g_pos.data_ptr() if g_pos is not None else 0, ctx.boost, _threads())
-        return g_color, None, g_pos, None, None, None
+        return g_color, None, g_pos, None, None, None, None
+
+
+def _apply_antialias(color, rast, pos, tri, topology_hash, pos_gradient_boost, visibility):
+    if isinstance(pos_gradient_boost, bool) or not isinstance(pos_gradient_boost, numbers.Real) \
+            or not (abs(float(pos_gradient_boost)) < float('inf')):
+        raise ValueError(f"'pos_gradient_boost' must be a finite number, got {pos_gradient_boost!r}")
+    if topology_hash is None:
+        topology_hash = antialias_construct_topology_hash(tri)
+    elif not isinstance(topology_hash, _core.Topology):
+        raise TypeError("'topology_hash' must come from antialias_construct_topology_hash(tri)")
+    return _AntialiasFunc.apply(color, rast, pos, tri, topology_hash, float(pos_gradient_boost), visibility)
 
 
 def antialias(color, rast, pos, tri, topology_hash=None, pos_gradient_boost=1.0):
@@ -358,14 +369,19 @@ def antialias(color, rast, pos, tri, topology_hash=None, pos_gradient_boost=1.0)
     by pos_gradient_boost). topology_hash: from
     antialias_construct_topology_hash(tri), built here when None.
     """
-    if isinstance(pos_gradient_boost, bool) or not isinstance(pos_gradient_boost, numbers.Real) \
-            or not (abs(float(pos_gradient_boost)) < float('inf')):
-        raise ValueError(f"'pos_gradient_boost' must be a finite number, got {pos_gradient_boost!r}")
-    if topology_hash is None:
-        topology_hash = antialias_construct_topology_hash(tri)
-    elif not isinstance(topology_hash, _core.Topology):
-        raise TypeError("'topology_hash' must come from antialias_construct_topology_hash(tri)")
-    return _AntialiasFunc.apply(color, rast, pos, tri, topology_hash, float(pos_gradient_boost))
+    return _apply_antialias(color, rast, pos, tri, topology_hash, pos_gradient_boost, False)
+
+
+def visibility_antialias(color, rast, pos, tri, topology_hash=None, pos_gradient_boost=1.0):
+    """Antialias every visibility boundary, including the curves where two
+    surfaces cut through each other (not in nvdiffrast; docs/visibility_antialias.md).
+
+    Arguments and result as antialias. Where nothing interpenetrates it
+    equals antialias bit for bit; at an intersection curve it blends the two
+    surfaces and sends the gradient to both triangles' vertices, which
+    antialias cannot do.
+    """
+    return _apply_antialias(color, rast, pos, tri, topology_hash, pos_gradient_boost, True)
 
 
 # ----------------------------------------------------------------------------
