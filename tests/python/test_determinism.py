@@ -12,8 +12,9 @@ def pipeline(glctx, dtype):
     rast, db = dr.rasterize(glctx, pos, tri, (96, 80))
     out, da = dr.interpolate(attr, rast, tri, db, diff_attrs='all')
     img = dr.antialias(torch.cat([out, da], -1), rast, pos, tri)
-    loss = (img * img).sum()
-    return [rast, db, img] + list(torch.autograd.grad(loss, (pos, attr)))
+    vis = dr.visibility_antialias(out, rast, pos, tri)  # 200 random triangles interpenetrate
+    loss = (img * img).sum() + (vis * vis).sum()
+    return [rast, db, img, vis] + list(torch.autograd.grad(loss, (pos, attr)))
 
 
 @pytest.mark.parametrize('dtype', [torch.float32, torch.float64])
