@@ -279,12 +279,13 @@ void texture_forward(const TextureParams<T>& p, T* out, T* uv_jacobian) {
 }
 
 namespace {
-// One texel gradient to add: dL/d texel += w g_sample.
+// One texel gradient to add: dL/d texel += w g_sample. Packed (9 bytes for
+// float): the buckets are written once and read once, so their size is time.
 template <class T>
-struct TapEntry {
-  std::uint32_t texel;   // in the all-levels buffer (below 2^32 for sides <= 32768)
-  std::uint32_t sample;  // within the chunk
+struct [[gnu::packed]] TapEntry {
+  std::uint32_t texel;  // in the all-levels buffer (below 2^32 for sides <= 32768)
   T w;
+  std::uint8_t sample;  // within the block of kBlock samples
 };
 
 // The adjoint's per-chunk tap buckets, reused across calls: for every block of
@@ -302,7 +303,7 @@ detail::ScratchPool<TapBuckets<T>> g_bucket_pool;
 // two bands): fewer, larger chunks mean fewer fork/joins; the buckets' size
 // stays the same for any number of bands.
 constexpr std::int64_t kChunkTimesBands = 65536;
-constexpr std::int64_t kBlock = 256;   // samples per bucket block (one task)
+constexpr std::int64_t kBlock = 256;   // samples per bucket block (one task; TapEntry::sample fits)
 
 // Texel bands for the scatter: about one per thread, a power of two texels wide
 // (band = texel >> shift), so a tap finds its band with a shift.
@@ -407,7 +408,7 @@ void texture_backward(const TextureParams<T>& p, const T* grad_out, const Textur
             for (int k = 0; k < 4; ++k) {
               const std::int64_t band = t.index[k] >> bands.shift;
               entries[(j * bands.count + band) * bucket_size + counts[band]++] = {
-                  static_cast<std::uint32_t>(t.index[k]), static_cast<std::uint32_t>(s - c0), static_cast<T>(t.w[k])};
+                  static_cast<std::uint32_t>(t.index[k]), static_cast<T>(t.w[k]), static_cast<std::uint8_t>(s - c0 - j * kBlock)};
             }
           }
           return;
@@ -477,7 +478,7 @@ void texture_backward(const TextureParams<T>& p, const T* grad_out, const Textur
           for (int k = 0; k < nt; ++k) {
             const std::int64_t band = t.index[k] >> bands.shift;
             TapEntry<T>& e = entries[(j * bands.count + band) * bucket_size + counts[band]++];
-            e = {static_cast<std::uint32_t>(t.index[k]), static_cast<std::uint32_t>(s - c0), static_cast<T>(t.w[k])};
+            e = {static_cast<std::uint32_t>(t.index[k]), static_cast<T>(t.w[k]), static_cast<std::uint8_t>(s - c0 - j * kBlock)};
           }
         }
       }
@@ -501,7 +502,7 @@ void texture_backward(const TextureParams<T>& p, const T* grad_out, const Textur
             for (std::int32_t q = 0; q < n; ++q) {
               if (q + kScatterAhead < n) __builtin_prefetch(sums + e[q + kScatterAhead].texel * C, 1);
               auto* a = sums + e[q].texel * C;
-              const T* g = grad_out + (c0 + e[q].sample) * C;
+              const T* g = grad_out + (c0 + j * kBlock + e[q].sample) * C;
               const double w = e[q].w;
               for (std::int64_t c = 0; c < C; ++c) a[c] += w * g[c];
             }
