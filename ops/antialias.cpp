@@ -9,6 +9,7 @@
 
 #include "autodiff/tape.h"
 #include "ops/check.h"
+#include "raster/blended_pairs.h"
 
 namespace gr {
 namespace {
@@ -61,7 +62,8 @@ AntialiasTopology antialias_topology(const Tensor& triangles, const Tensor& posi
 
 Tensor antialias(const Tensor& image, const GBuffer& gbuffer, const Tensor& clip, const Tensor& triangles,
                  const AntialiasOptions& options) {
-  const std::string op = "antialias";
+  const char* name = options.visibility ? "visibility_antialias" : "antialias";  // a literal: the tape keeps it
+  const std::string op = name;
   detail::check_clip_and_triangles(clip, triangles, op);
   detail::check_float(image, op, "image");
   if (image.rank() != 3 || image.size(2) < 1)
@@ -95,7 +97,7 @@ Tensor antialias(const Tensor& image, const GBuffer& gbuffer, const Tensor& clip
 
   Tensor out = Tensor::empty(image.shape(), image.dtype());
   const bool rec = should_record({image, clip});
-  auto pairs = std::make_shared<std::vector<raster::AntialiasPair>>();
+  auto pairs = std::make_shared<raster::BlendedPairs>();
   dispatch_float(clip.dtype(), op, [&](auto tag) {
     using T = decltype(tag);
     // Default topology: weld vertices with equal clip rows.
@@ -106,19 +108,20 @@ Tensor antialias(const Tensor& image, const GBuffer& gbuffer, const Tensor& clip
     p.tris = triangles.data<std::int32_t>();
     p.num_tris = m;
     p.topology = topology.get();
-    raster::antialias_forward(p, out.data<T>(), rec ? pairs.get() : nullptr, options.stats);
+    raster::blend_boundaries_forward(options.visibility, p, out.data<T>(), rec ? pairs.get() : nullptr,
+                                     {options.stats, options.visibility_stats});
   });
   if (rec) {
-    record("antialias", {image, clip}, {&out},
-           [image = image.detach(), clip = clip.detach(), pairs, boost](AdjointContext& ctx) {
+    record(name, {image, clip}, {&out},
+           [image = image.detach(), clip = clip.detach(), pairs, boost, name](AdjointContext& ctx) {
              const Tensor& g = ctx.grad_output();
              Tensor g_image = ctx.needs_grad(0) ? Tensor::zeros(image.shape(), image.dtype()) : Tensor();
              Tensor g_clip = ctx.needs_grad(1) ? Tensor::zeros(clip.shape(), clip.dtype()) : Tensor();
-             dispatch_float(image.dtype(), "antialias", [&](auto tag) {
+             dispatch_float(image.dtype(), name, [&](auto tag) {
                using T = decltype(tag);
                auto ptr = [](Tensor& t) { return t.defined() ? t.data<T>() : nullptr; };
-               raster::antialias_backward(image_params<T>(image, clip), *pairs, g.data<T>(),
-                                          {ptr(g_image), ptr(g_clip)});
+               raster::blend_boundaries_backward(image_params<T>(image, clip), *pairs, g.data<T>(),
+                                                 {ptr(g_image), ptr(g_clip)});
                if (g_clip.defined() && boost != 1.0) {
                  T* d = g_clip.data<T>();
                  for (std::int64_t i = 0; i < g_clip.numel(); ++i) d[i] = static_cast<T>(boost * d[i]);

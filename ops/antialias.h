@@ -13,6 +13,7 @@
 #include "autodiff/tensor.h"
 #include "ops/rasterize.h"
 #include "raster/antialias.h"
+#include "raster/visibility_antialias.h"
 
 namespace gr {
 
@@ -34,6 +35,11 @@ struct AntialiasOptions {
   // this factor (faster silhouette motion); the image gradient and the
   // forward are unchanged. Finite; 1 = the plain adjoint.
   double pos_gradient_boost = 1.0;
+  // Blend every visibility boundary, intersection curves included
+  // (visibility_antialias, ops/visibility_antialias.h), not only the
+  // silhouettes found from the topology.
+  bool visibility = false;
+  raster::VisibilityAntialiasStats* visibility_stats = nullptr;  // with visibility: its pair counts
 };
 
 // image [H, W, C] (same dtype as clip), gbuffer = rasterize(clip, triangles,

@@ -10,7 +10,7 @@
 #include "autodiff/parallel.h"
 #include "autodiff/tape.h"
 #include "ops/check.h"
-#include "raster/antialias.h"
+#include "raster/blended_pairs.h"
 #include "raster/interpolate.h"
 
 namespace gr {
@@ -265,7 +265,8 @@ Tensor interpolate_batch(const Tensor& attributes, const Tensor& clip, const GBu
 
 Tensor antialias_batch(const Tensor& image, const GBuffer& gbuffer, const Tensor& clip, const Tensor& triangles,
                        const AntialiasOptions& options) {
-  const std::string op = "antialias_batch";
+  const char* name = options.visibility ? "visibility_antialias_batch" : "antialias_batch";  // the tape keeps it
+  const std::string op = name;
   detail::check_float(clip, op, "clip");
   detail::check_float(image, op, "image");
   if (image.rank() != 4 || image.size(3) < 1)
@@ -290,7 +291,7 @@ Tensor antialias_batch(const Tensor& image, const GBuffer& gbuffer, const Tensor
   // One topology per distinct position set: the given one, else welded by clip rows.
   const std::int64_t topologies = options.topology ? 0 : pos.shared ? 1 : B;
   std::vector<AntialiasTopology> topology(static_cast<std::size_t>(topologies));
-  auto pairs = std::make_shared<std::vector<std::vector<raster::AntialiasPair>>>(static_cast<std::size_t>(B));
+  auto pairs = std::make_shared<std::vector<raster::BlendedPairs>>(static_cast<std::size_t>(B));
   // What the forward and the adjoint both read of image b.
   auto image_params = [=](auto tag, const Tensor& img, const PerImage& c, std::int64_t b) {
     using T = decltype(tag);
@@ -318,16 +319,16 @@ Tensor antialias_batch(const Tensor& image, const GBuffer& gbuffer, const Tensor
       p.tris = triangles.data<std::int32_t>();
       p.num_tris = triangles.size(0);
       p.topology = options.topology ? options.topology.get() : topology[pos.shared ? 0 : b].get();
-      raster::antialias_forward(p, out.data<T>() + b * P * C, &(*pairs)[b]);
+      raster::blend_boundaries_forward(options.visibility, p, out.data<T>() + b * P * C, &(*pairs)[b]);
     });
   });
   if (should_record({image, clip})) {
-    record("antialias_batch", {image, clip}, {&out},
-           [image = image.detach(), clip = clip.detach(), pos, pairs, boost, B, P, C, N, image_params](
+    record(name, {image, clip}, {&out},
+           [image = image.detach(), clip = clip.detach(), pos, pairs, boost, B, P, C, N, image_params, name](
                AdjointContext& ctx) {
              PerImage c = pos;
              c.t = &clip;
-             dispatch_float(clip.dtype(), "antialias_batch", [&](auto tag) {
+             dispatch_float(clip.dtype(), name, [&](auto tag) {
                using T = decltype(tag);
                Tensor g_image = ctx.needs_grad(0) ? Tensor::zeros(image.shape(), image.dtype()) : Tensor();
                GradOf g_clip(c, ctx.needs_grad(1) ? B : 0);
@@ -336,7 +337,7 @@ Tensor antialias_batch(const Tensor& image, const GBuffer& gbuffer, const Tensor
                  raster::AntialiasGrads<T> g;
                  if (g_image.defined()) g.image = g_image.data<T>() + b * P * C;
                  if (ctx.needs_grad(1)) g.clip = g_clip.at<T>(c, b);
-                 raster::antialias_backward(p, (*pairs)[b], ctx.grad_output().data<T>() + b * P * C, g);
+                 raster::blend_boundaries_backward(p, (*pairs)[b], ctx.grad_output().data<T>() + b * P * C, g);
                  if (g.clip && boost != 1.0)
                    for (std::int64_t i = 0; i < 4 * N; ++i) g.clip[i] = static_cast<T>(boost * g.clip[i]);
                });

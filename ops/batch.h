@@ -40,7 +40,8 @@ Tensor interpolate_batch(const Tensor& attributes, const Tensor& clip, const GBu
 
 // image [B, H, W, C], gbuffer [B, H, W], clip [N, 4] or [B, N, 4] -> [B, H, W, C].
 // Without options.topology, each image's topology welds vertices by that
-// image's clip rows, as antialias does.
+// image's clip rows, as antialias does. options.visibility: visibility_antialias
+// per image.
 Tensor antialias_batch(const Tensor& image, const GBuffer& gbuffer, const Tensor& clip, const Tensor& triangles,
                        const AntialiasOptions& options = {});
 

@@ -28,6 +28,7 @@ struct VisibilityAntialiasOptions {
   // welding vertices with equal clip-space rows (pass one in loops).
   AntialiasTopology topology;
   raster::VisibilityAntialiasStats* stats = nullptr;  // if set, receives the pair counts
+  double pos_gradient_boost = 1.0;  // as antialias's: scales the gradient to clip
 };
 
 // image [H, W, C] (same dtype as clip), gbuffer = rasterize(clip, triangles,
@@ -52,6 +53,8 @@ struct VisibilityAntialiasOptions {
 // w-divide adjoints to clip. The G-buffer gets no gradient. Bit-identical for
 // any thread count; no NaN/Inf for coplanar or nearly parallel faces
 // (crossings of depth steps under 1e-12 are ignored; quotients guarded).
+// Equal to antialias(image, gbuffer, clip, triangles, {.visibility = true,
+// ...}); batches: antialias_batch with options.visibility.
 Tensor visibility_antialias(const Tensor& image, const GBuffer& gbuffer, const Tensor& clip, const Tensor& triangles,
                             const VisibilityAntialiasOptions& options = {});
 

@@ -71,20 +71,14 @@ std::shared_ptr<AntialiasState> antialias_forward(Context& ctx, const Mesh& mesh
                      " triangles but 'tri' has " + std::to_string(mesh.triangles));
   const std::int64_t pixels = static_cast<std::int64_t>(height) * width;
   auto state = std::make_shared<AntialiasState>();
-  state->visibility = visibility;
-  (visibility ? state->visibility_pairs.resize(static_cast<std::size_t>(mesh.images))
-              : state->pairs.resize(static_cast<std::size_t>(mesh.images)));
+  state->pairs.resize(static_cast<std::size_t>(mesh.images));
   ctx.reserve(mesh.images);
   dispatch(mesh.f64, [&](auto tag) {
     using T = decltype(tag);
     check_rast_ids(at<const T>(rast), mesh.images * pixels, mesh.triangles, "rast", op);
     for_each_image(mesh.images, [&](std::int64_t b) {
       const auto p = image_params<T>(ctx.image(b), mesh, topology, color, rast, channels, height, width, b);
-      T* image_out = at<T>(out) + pixels * channels * b;
-      if (visibility)
-        raster::visibility_antialias_forward(p, image_out, &state->visibility_pairs[b]);
-      else
-        raster::antialias_forward(p, image_out, &state->pairs[b]);
+      raster::blend_boundaries_forward(visibility, p, at<T>(out) + pixels * channels * b, &state->pairs[b]);
     });
   });
   return state;
@@ -111,11 +105,7 @@ void antialias_backward(Context& ctx, const Mesh& mesh, const Topology& topology
         grad.assign(4 * static_cast<std::size_t>(mesh.vertices), T(0));
         g.clip = grad.data();
       }
-      const T* image_grad_out = at<const T>(grad_out) + pixels * channels * b;
-      if (state.visibility)
-        raster::visibility_antialias_backward(p, state.visibility_pairs[b], image_grad_out, g);
-      else
-        raster::antialias_backward(p, state.pairs[b], image_grad_out, g);
+      raster::blend_boundaries_backward(p, state.pairs[b], at<const T>(grad_out) + pixels * channels * b, g);
       if (!grad_pos) return;
       for (T& v : grad) v = static_cast<T>(pos_gradient_boost * v);
       if (mesh.instanced) add_flipped(grad.data(), mesh.vertices, at<T>(grad_pos) + mesh.pos_offset(b));

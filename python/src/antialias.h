@@ -9,8 +9,7 @@
 
 #include "python/src/common.h"
 #include "python/src/rasterize.h"
-#include "raster/antialias.h"
-#include "raster/visibility_antialias.h"
+#include "raster/blended_pairs.h"
 
 namespace gr::python {
 
@@ -24,9 +23,7 @@ std::shared_ptr<Topology> build_topology(Address tri, std::int64_t triangles);
 // What the backward needs: per image, the blended pixel pairs (of
 // visibility_antialias when `visibility`).
 struct AntialiasState {
-  bool visibility = false;
-  std::vector<std::vector<raster::AntialiasPair>> pairs;
-  std::vector<std::vector<raster::VisibilityPair>> visibility_pairs;
+  std::vector<raster::BlendedPairs> pairs;
 };
 
 // color, out: [images, H, W, C]; rast: the G-buffer for mesh. visibility:

@@ -497,3 +497,62 @@ TEST_CASE("visibility_antialias: bad arguments throw with messages naming the ar
   bad_ids.tri_id.data<std::int32_t>()[3] = 7;
   throws([&] { visibility_antialias(image, bad_ids, clip, tris); }, "tri_id[3]");
 }
+
+TEST_CASE("visibility_antialias: a batch (antialias_batch with visibility) equals one call per image bit for bit",
+          "[ops][visibility_antialias][batch]") {
+  const int W = 24, H = 20;
+  const Tensor tris = pair_triangles();
+  // Image 0: the intersection along x; image 1: along y.
+  const Tensor clips = concat({reshape(crossing_clip(true), {1, 6, 4}), reshape(crossing_clip(false), {1, 6, 4})}, 0);
+  const Tensor colours = testing::random_input({2, 6, 3}, 0, 1, 11);
+  const Tensor weights = testing::random_input({2, H, W, 3}, -1, 1, 12);
+  auto run = [&](bool batched) {
+    Tensor clip = clips.detach().set_requires_grad(), col = colours.detach().set_requires_grad();
+    std::vector<Tensor> images;
+    if (batched) {
+      AntialiasOptions o;
+      o.visibility = true;
+      const GBuffer gb = rasterize_batch(clip, tris, {W, H});
+      images.push_back(antialias_batch(interpolate_batch(col, clip, gb, tris), gb, clip, tris, o));
+    } else {
+      for (int b = 0; b < 2; ++b) {
+        const Tensor c = reshape(slice(clip, 0, b, b + 1), {6, 4}), a = reshape(slice(col, 0, b, b + 1), {6, 3});
+        const GBuffer gb = rasterize(c, tris, {W, H});
+        images.push_back(reshape(visibility_antialias(interpolate(a, c, gb, tris), gb, c, tris), {1, H, W, 3}));
+      }
+    }
+    const Tensor img = concat(images, 0);
+    backward(sum(mul(img, weights)));
+    std::vector<double> out = img.to_vector();
+    for (const Tensor& g : {clip.grad(), col.grad()})
+      for (double x : g.to_vector()) out.push_back(x);
+    return out;
+  };
+  const std::vector<double> separate = run(false);
+  for (int threads : {1, 2, 8}) {
+    set_num_threads(threads);
+    CHECK(run(true) == separate);
+  }
+  set_num_threads(0);
+}
+
+TEST_CASE("visibility_antialias: pos_gradient_boost scales only the clip gradient",
+          "[ops][visibility_antialias]") {
+  const int W = 24, H = 20;
+  const Tensor tris = pair_triangles();
+  const Tensor weights = testing::random_input({H, W, 3}, -1, 1, 13);
+  auto grads = [&](double boost) {
+    Tensor clip = crossing_clip(true).set_requires_grad();
+    const GBuffer gb = rasterize(clip.detach(), tris, {W, H});
+    Tensor image = testing::random_input({H, W, 3}, 0, 1, 14).set_requires_grad();
+    VisibilityAntialiasOptions o;
+    o.pos_gradient_boost = boost;
+    backward(sum(mul(visibility_antialias(image, gb, clip, tris, o), weights)));
+    return std::make_pair(clip.grad().to_vector(), image.grad().to_vector());
+  };
+  const auto [clip1, image1] = grads(1.0);
+  const auto [clip3, image3] = grads(3.0);
+  REQUIRE(std::any_of(clip1.begin(), clip1.end(), [](double g) { return g != 0.0; }));
+  for (std::size_t i = 0; i < clip1.size(); ++i) CHECK(clip3[i] == Approx(3.0 * clip1[i]).epsilon(1e-15).margin(0));
+  CHECK(image3 == image1);
+}
