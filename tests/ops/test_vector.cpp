@@ -3,6 +3,7 @@
 // gradients at and near zero length, and argument validation.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 
 #include "ops/ops.h"
@@ -138,6 +139,25 @@ TEST_CASE("normalize: gradient matches finite differences near zero length", "[o
   // Below eps the op is v / eps, a linear map.
   Tensor u = random_input({3, 3}, -1e-5, 1e-5, 44);
   require_gradcheck("normalize below eps", [](const Inputs& in) { return normalize(in[0], 1e-3); }, {u}, opt);
+}
+
+TEST_CASE("normalize: rows of 3 give the per-row formula's bits, float32 and float64, across block edges",
+          "[ops][vector]") {
+  // v[r] / max(sqrt(x^2 + y^2 + z^2), eps), summed and divided in double, rounded once.
+  for (DType dtype : {DType::Float32, DType::Float64})
+    for (std::int64_t rows : {1, 127, 128, 129, 1000}) {
+      Tensor v = Tensor::uniform({rows, 3}, -3, 3, 45, dtype);
+      if (rows > 2) v = concat({slice(v, 0, 0, rows - 2), Tensor::zeros({2, 3}, dtype)}, 0);  // zero rows: / eps
+      const std::vector<double> in = v.to_vector(), out = normalize(v).to_vector();
+      for (std::int64_t r = 0; r < rows; ++r) {
+        const double x = in[3 * r], y = in[3 * r + 1], z = in[3 * r + 2];
+        const double d = std::max(std::sqrt(x * x + y * y + z * z), kNormalizeEps);
+        for (int j = 0; j < 3; ++j) {
+          const double expected = dtype == DType::Float32 ? double(float(in[3 * r + j] / d)) : in[3 * r + j] / d;
+          REQUIRE(out[3 * r + j] == expected);
+        }
+      }
+    }
 }
 
 TEST_CASE("normalize: unit results, and the documented finite gradient g / eps at zero", "[ops][vector]") {
