@@ -174,6 +174,17 @@ Tensor binary(const char* name, Tensor a, Tensor b, bool uses_y, Fwd fwd, DA da,
             accumulate_operand<T>(ctx, input, v, [&](std::int64_t i, std::int64_t, std::int64_t) {
               return T(f(pg[i], pa[i], pb[i], y_at(i)));
             });
+          } else if (va.full() && vb.scalar()) {  // e.g. maximum(x, 0.0): flat as well
+            const T* pa = ra.p;
+            const T b0 = rb.p[0];
+            accumulate_operand<T>(ctx, input, v, [&](std::int64_t i, std::int64_t, std::int64_t) {
+              return T(f(pg[i], pa[i], b0, y_at(i)));
+            });
+          } else if (va.scalar() && vb.full()) {
+            const T a0 = ra.p[0], *pb = rb.p;
+            accumulate_operand<T>(ctx, input, v, [&](std::int64_t i, std::int64_t, std::int64_t) {
+              return T(f(pg[i], a0, pb[i], y_at(i)));
+            });
           } else {
             accumulate_operand<T>(ctx, input, v, [&](std::int64_t i, std::int64_t r, std::int64_t j) {
               return T(f(pg[i], ra(r, j), rb(r, j), y_at(i)));

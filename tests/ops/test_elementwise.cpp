@@ -21,7 +21,7 @@ Tensor grad_of(const std::function<Tensor(const Tensor&)>& f, const std::vector<
 }  // namespace
 
 // One gradcheck test per binary op, with operands broadcast along rows,
-// columns and from rank 0.
+// columns and from rank 0 (either side).
 #define BINARY_GRADCHECK_TEST(op, expr, lo_b, hi_b)                                              \
   TEST_CASE(#op ": gradient matches finite differences with broadcasting", "[ops][elementwise][gradcheck]") { \
     Tensor a = random_input({4, 3}, -2, 2, 1);                                                   \
@@ -33,6 +33,13 @@ Tensor grad_of(const std::function<Tensor(const Tensor&)>& f, const std::vector<
         return expr;                                                                             \
       }, {a, b});                                                                                \
     }                                                                                            \
+    /* a rank-0 first operand against a full second one */                                     \
+    Tensor s = random_input({}, -2, 2, 3), full_b = random_input({4, 3}, lo_b, hi_b, 4);         \
+    require_gradcheck(#op " scalar first", [](const Inputs& in) {                                \
+      const Tensor& x = in[0];                                                                   \
+      const Tensor& y = in[1];                                                                   \
+      return expr;                                                                               \
+    }, {s, full_b});                                                                             \
   }
 
 BINARY_GRADCHECK_TEST(add, x + y, -2, 2)
