@@ -93,6 +93,49 @@ void normalize_rows3(const T* v, T* out, T* denom, std::int64_t rows, double eps
   }
 }
 
+// normalize's adjoint on rows of 3, the general loop's operations in the same
+// order: per row n.g and 1/d, spread to one value per element, then
+// (g - n (n.g)) / d as one flat loop; rows at or below eps take g / eps after.
+template <class T>
+void normalize_adjoint_rows3(const T* n, const T* g, const T* denom, T* out, std::int64_t rows, double eps) {
+  constexpr std::int64_t kRows = 128;
+  Acc ng3[3 * kRows], inv3[3 * kRows];
+  for (std::int64_t r0 = 0; r0 < rows; r0 += kRows) {
+    const std::int64_t m = std::min(kRows, rows - r0);
+    const T *nb = n + 3 * r0, *gb = g + 3 * r0;
+    for (std::int64_t i = 0; i < m; ++i) {
+      const Acc ng = Acc(nb[3 * i]) * Acc(gb[3 * i]) + Acc(nb[3 * i + 1]) * Acc(gb[3 * i + 1]) +
+                     Acc(nb[3 * i + 2]) * Acc(gb[3 * i + 2]);
+      const Acc inv = 1 / Acc(denom[r0 + i]);
+      ng3[3 * i] = ng3[3 * i + 1] = ng3[3 * i + 2] = ng;
+      inv3[3 * i] = inv3[3 * i + 1] = inv3[3 * i + 2] = inv;
+    }
+    T* ob = out + 3 * r0;
+    for (std::int64_t e = 0; e < 3 * m; ++e) ob[e] = T((Acc(gb[e]) - Acc(nb[e]) * ng3[e]) * inv3[e]);
+    for (std::int64_t i = 0; i < m; ++i)
+      if (!(denom[r0 + i] > T(eps)))  // below eps the op is v / eps: dL/dv = g / eps
+        for (int j = 0; j < 3; ++j) ob[3 * i + j] = T(Acc(gb[3 * i + j]) / eps);
+  }
+}
+
+// out[r, j] = g[r] y[r, j]. Rows of 3 in blocks, g spread to one factor per
+// element first, so the products are one flat loop the compiler vectorizes.
+template <class T>
+void scale_rows(const T* g, const T* y, T* out, std::int64_t rows, std::int64_t k) {
+  if (k != 3) {
+    for (std::int64_t r = 0; r < rows; ++r)
+      for (std::int64_t j = 0; j < k; ++j) out[r * k + j] = g[r] * y[r * k + j];
+    return;
+  }
+  constexpr std::int64_t kRows = 128;
+  T g3[3 * kRows];
+  for (std::int64_t r0 = 0; r0 < rows; r0 += kRows) {
+    const std::int64_t n = std::min(kRows, rows - r0);
+    for (std::int64_t i = 0; i < n; ++i) g3[3 * i] = g3[3 * i + 1] = g3[3 * i + 2] = g[r0 + i];
+    for (std::int64_t e = 0; e < 3 * n; ++e) out[3 * r0 + e] = g3[e] * y[3 * r0 + e];
+  }
+}
+
 }  // namespace
 
 Tensor dot(const Tensor& a, const Tensor& b) {
@@ -127,10 +170,7 @@ Tensor dot(const Tensor& a, const Tensor& b) {
           const T* py = other.data<T>();
           T* pf = full.data<T>();
           parallel_for(0, g.numel(), row_grain(k), [&](std::int64_t lo, std::int64_t hi) {
-            for (std::int64_t r = lo; r < hi; ++r) {
-              const T gr = pg[r];
-              for (std::int64_t j = 0; j < k; ++j) pf[r * k + j] = gr * py[r * k + j];
-            }
+            scale_rows(pg + lo, py + lo * k, pf + lo * k, hi - lo, k);
           });
           ctx.accumulate(input, reduce_raw(full, ctx.input_shape(input)));
         };
@@ -262,6 +302,10 @@ Tensor normalize(const Tensor& v, double eps) {
         const T *pd = denom.data<T>(), *pn = n.data<T>(), *pg = g.data<T>();
         T* po = gv.data<T>();
         parallel_for(0, rows, row_grain(k), [&](std::int64_t lo, std::int64_t hi) {
+          if (k == 3) {
+            normalize_adjoint_rows3(pn + 3 * lo, pg + 3 * lo, pd + lo, po + 3 * lo, hi - lo, eps);
+            return;
+          }
           for (std::int64_t r = lo; r < hi; ++r) {
             if (pd[r] > T(eps)) {
               const Acc inv = 1 / Acc(pd[r]);

@@ -141,20 +141,33 @@ TEST_CASE("normalize: gradient matches finite differences near zero length", "[o
   require_gradcheck("normalize below eps", [](const Inputs& in) { return normalize(in[0], 1e-3); }, {u}, opt);
 }
 
-TEST_CASE("normalize: rows of 3 give the per-row formula's bits, float32 and float64, across block edges",
+TEST_CASE("normalize: rows of 3 give the per-row formulas' bits, float32 and float64, across block edges",
           "[ops][vector]") {
-  // v[r] / max(sqrt(x^2 + y^2 + z^2), eps), summed and divided in double, rounded once.
+  // Forward v / d with d = max(sqrt(x^2 + y^2 + z^2), eps); adjoint (g - n (n.g)) / d, or
+  // g / eps at or below eps; each summed and divided in double and rounded once.
   for (DType dtype : {DType::Float32, DType::Float64})
     for (std::int64_t rows : {1, 127, 128, 129, 1000}) {
       Tensor v = Tensor::uniform({rows, 3}, -3, 3, 45, dtype);
       if (rows > 2) v = concat({slice(v, 0, 0, rows - 2), Tensor::zeros({2, 3}, dtype)}, 0);  // zero rows: / eps
-      const std::vector<double> in = v.to_vector(), out = normalize(v).to_vector();
+      v.set_requires_grad();
+      const Tensor g = Tensor::uniform({rows, 3}, -1, 1, 46, dtype);
+      const Tensor n = normalize(v);
+      backward(n, g);
+      const std::vector<double> in = v.to_vector(), out = n.to_vector(), gin = g.to_vector(),
+                                gout = v.grad().to_vector();
+      auto round = [&](double x) { return dtype == DType::Float32 ? double(float(x)) : x; };
       for (std::int64_t r = 0; r < rows; ++r) {
         const double x = in[3 * r], y = in[3 * r + 1], z = in[3 * r + 2];
         const double d = std::max(std::sqrt(x * x + y * y + z * z), kNormalizeEps);
+        const double stored_d = round(d);
+        double ng = 0;
+        for (int j = 0; j < 3; ++j) ng += out[3 * r + j] * gin[3 * r + j];
         for (int j = 0; j < 3; ++j) {
-          const double expected = dtype == DType::Float32 ? double(float(in[3 * r + j] / d)) : in[3 * r + j] / d;
-          REQUIRE(out[3 * r + j] == expected);
+          REQUIRE(out[3 * r + j] == round(in[3 * r + j] / d));
+          const double expected = stored_d > round(kNormalizeEps)
+                                      ? round((gin[3 * r + j] - out[3 * r + j] * ng) * (1 / stored_d))
+                                      : round(gin[3 * r + j] / kNormalizeEps);
+          REQUIRE(gout[3 * r + j] == expected);
         }
       }
     }
