@@ -14,6 +14,7 @@
 #include <cmath>
 #include <cstdio>
 #include <type_traits>
+#include <vector>
 
 #include "autodiff/parallel.h"
 #include "autodiff/tape.h"
@@ -56,6 +57,8 @@ Reader<T> reader(const detail::RowView& v) {
 
 std::int64_t row_grain(std::int64_t k) { return std::max<std::int64_t>(1, kElementwiseGrain / std::max<std::int64_t>(1, k)); }
 
+constexpr std::int64_t kRowBlock = 768;  // elements per block when a row operand is repeated
+
 // out[r, j] = f(a(r, j), b(r, j)) over an output of rows x k.
 template <class T, class F>
 void map2(const detail::RowView& va, const detail::RowView& vb, T* out, F f) {
@@ -71,7 +74,23 @@ void map2(const detail::RowView& va, const detail::RowView& vb, T* out, F f) {
     } else if (va.scalar() && vb.full()) {
       const T av = a.p[0];
       for (std::int64_t i = lo; i < hi; ++i) out[i] = f(av, b.p[i]);
-    } else {  // a row or a column operand: walk the output row by row
+    } else if ((va.full() && vb.row()) || (va.row() && vb.full())) {
+      // A row operand (a [k] vector against [rows, k]): repeated over a block
+      // of rows once, so each block is one flat loop.
+      const T* row = va.row() ? a.p : b.p;
+      const T* other = va.row() ? b.p : a.p;
+      const std::int64_t block_rows = std::max<std::int64_t>(1, kRowBlock / k);
+      std::vector<T> repeated(static_cast<std::size_t>(std::min(block_rows, r1 - r0) * k));
+      for (std::size_t e = 0; e < repeated.size(); ++e) repeated[e] = row[e % k];
+      for (std::int64_t b0 = r0; b0 < r1; b0 += block_rows) {
+        const std::int64_t e0 = b0 * k, e1 = std::min(r1, b0 + block_rows) * k;
+        const T* rep = repeated.data() - e0;
+        if (va.row())
+          for (std::int64_t e = e0; e < e1; ++e) out[e] = f(rep[e], other[e]);
+        else
+          for (std::int64_t e = e0; e < e1; ++e) out[e] = f(other[e], rep[e]);
+      }
+    } else {  // a column operand, or both broadcast: walk the output row by row
       for (std::int64_t r = r0; r < r1; ++r) {
         const T* ar = a.p + r * a.rs;
         const T* br = b.p + r * b.rs;

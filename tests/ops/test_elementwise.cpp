@@ -58,6 +58,24 @@ TEST_CASE("add and mul: forward values follow NumPy broadcasting", "[ops][elemen
   CHECK((col + row).shape() == Shape{2, 3});
 }
 
+TEST_CASE("a row operand against many rows gives every element, on either side, float32 and float64",
+          "[ops][elementwise]") {
+  for (DType dtype : {DType::Float32, DType::Float64})
+    for (std::int64_t k : {3, 5})
+      for (std::int64_t rows : {1, 255, 257, 70000}) {
+        const Tensor m = Tensor::uniform({rows, k}, -2, 2, 7, dtype), v = Tensor::uniform({k}, -2, 2, 8, dtype);
+        const std::vector<double> mv = m.to_vector(), vv = v.to_vector(), d1 = (v - m).to_vector(),
+                                  d2 = (m - v).to_vector();
+        bool all_equal = true;
+        for (std::int64_t e = 0; e < rows * k; ++e) {
+          const double a = vv[e % k] - mv[e], b = mv[e] - vv[e % k];
+          all_equal &= dtype == DType::Float32 ? d1[e] == double(float(a)) && d2[e] == double(float(b))
+                                                : d1[e] == a && d2[e] == b;
+        }
+        CHECK(all_equal);
+      }
+}
+
 // One gradcheck test per unary op, on random inputs inside its domain.
 #define UNARY_GRADCHECK_TEST(op, expr, lo, hi)                                                  \
   TEST_CASE(#op ": gradient matches finite differences", "[ops][elementwise][gradcheck]") {    \
