@@ -271,7 +271,8 @@ void sweep_scene(const std::string& name, bool supersampled, const std::string& 
     points.push_back({r.settings.soft_sigma > 0 ? "soft " + sigma_text(r.settings.soft_sigma)
                                                 : (!r.settings.antialias ? "x" : r.settings.visibility ? "vis x" : "aa x") +
                                                       std::to_string(r.settings.supersample),
-                      r.ms, r.position_error, r.settings.dtype == DType::Float64, r.settings.antialias});
+                      r.ms, r.position_error, r.settings.dtype == DType::Float64, r.settings.antialias,
+                      r.settings.antialias && r.settings.visibility});
   for (std::size_t i : pareto_frontier(points)) rows[i].pareto = true;
 
   std::printf("forward+backward: median of %d interleaved runs, %d threads\n\n", kTimedRuns, kThreads);

@@ -21,6 +21,12 @@ struct Box {
 
 bool usable(const FrontierPoint& p) { return p.ms > 0 && p.error > 0; }
 
+// A square outline of half-size r, 2 px thick, centred at (x, y).
+void square(Canvas& c, int x, int y, int r, Rgb colour) {
+  c.rect(x - r, y - r, x + r, y - r + 1, colour), c.rect(x - r, y + r - 1, x + r, y + r, colour);
+  c.rect(x - r, y - r, x - r + 1, y + r, colour), c.rect(x + r - 1, y - r, x + r, y + r, colour);
+}
+
 }  // namespace
 
 std::vector<std::size_t> pareto_frontier(const std::vector<FrontierPoint>& points) {
@@ -64,7 +70,9 @@ Tensor plot_frontier(const std::vector<FrontierPoint>& points, const std::string
     if (!usable(p)) continue;
     const int x = int(plot.x(p.ms)), y = int(plot.y(p.error));
     const Rgb colour = p.float64 ? blue : orange;
-    if (p.antialias)
+    if (p.visibility)
+      square(c, x, y, kRadius + 2, colour);
+    else if (p.antialias)
       c.disc(x, y, kRadius, colour);
     else
       c.ring(x, y, kRadius, colour);
@@ -90,12 +98,14 @@ Tensor plot_frontier(const std::vector<FrontierPoint>& points, const std::string
     c.text(chosen.x0, chosen.y0, p.label, grey);
     taken.push_back(chosen);
   }
-  // Legend in the top margin: f32 orange, f64 blue, filled = antialias, ring = none.
-  int lx = f.width - f.right - 300;
+  // Legend in the top margin: f32 orange, f64 blue, filled = antialias, square =
+  // visibility_antialias, ring = none.
+  int lx = f.width - f.right - 350;
   const int ly = f.top / 2;
   c.disc(lx, ly, kRadius, orange), c.text(lx + 9, ly - 5, "f32", black), lx += 50;
   c.disc(lx, ly, kRadius, blue), c.text(lx + 9, ly - 5, "f64", black), lx += 50;
   c.disc(lx, ly, kRadius, grey), c.text(lx + 9, ly - 5, "aa", black), lx += 42;
+  square(c, lx, ly, kRadius + 2, grey), c.text(lx + 11, ly - 5, "vis", black), lx += 52;
   c.ring(lx, ly, kRadius, grey), c.text(lx + 9, ly - 5, "no aa", black), lx += 66;
   c.line(lx - 6, ly, lx + 10, ly, black, 2), c.text(lx + 15, ly - 5, "pareto", black);
   return plot.image();

@@ -15,6 +15,7 @@ struct FrontierPoint {
   double error = 0;   // y (> 0; other points are left out)
   bool float64 = false;    // blue, else orange
   bool antialias = false;  // filled disc, else a ring
+  bool visibility = false;  // visibility_antialias: a hollow square (drawn around an aa disc at the same spot)
 };
 
 // Indices of the points on the Pareto frontier (no other point is both at
