@@ -39,6 +39,15 @@ using detail::kTilePixels;
 using detail::scan_triangle;
 using detail::TileBuffer;
 
+// One triangle in one tile's list: its id and its pixel box clipped to the
+// tile, in tile-local pixels, so the scan reads the box from the list (in
+// sequence) instead of from the per-triangle array (a cache miss per entry).
+struct BinEntry {
+  std::int32_t id;
+  std::uint8_t x0, y0, x1, y1;
+};
+static_assert(kTile <= 256, "tile-local box coordinates are 8-bit");
+
 // Per-call buffers, reused across calls through a pool (allocated and
 // page-faulted once; nothing is zero-filled serially).
 struct ForwardScratch {
@@ -47,7 +56,7 @@ struct ForwardScratch {
   std::vector<double> zmin;           // per triangle, front_to_back only
   std::vector<std::int32_t> count;    // chunks x tiles: counts, then fill cursors
   std::vector<std::int64_t> offset;   // tiles + 1
-  std::vector<std::int32_t> bin;      // triangle ids, tile by tile
+  std::vector<BinEntry> bin;          // triangles, tile by tile
   std::vector<RasterStats> chunk_stats;
 };
 detail::ScratchPool<ForwardScratch> g_forward_pool;
@@ -96,7 +105,7 @@ T saturate(double x) {
 template <class T>
 void scan_tile(const detail::Vertices& v, const RasterParams<T>& p, const ForwardScratch& sc,
                int tiles_x, int tile, int width, int height, bool front_to_back,
-               std::vector<std::int32_t>& order, TileBuffer& tb) {
+               std::vector<BinEntry>& order, TileBuffer& tb) {
   const std::int32_t* tris = p.tris;
   const int tx0 = (tile % tiles_x) * kTile, ty0 = (tile / tiles_x) * kTile;
   const int tx1 = std::min(tx0 + kTile, width) - 1, ty1 = std::min(ty0 + kTile, height) - 1;
@@ -116,20 +125,24 @@ void scan_tile(const detail::Vertices& v, const RasterParams<T>& p, const Forwar
         tb.fid[y * kTile + x] = empty ? std::numeric_limits<std::int32_t>::max() : p.floor_id[px] - 1;
       }
   }
-  const std::int32_t* list = sc.bin.data() + sc.offset[tile];
+  const BinEntry* list = sc.bin.data() + sc.offset[tile];
   const std::int64_t n = sc.offset[tile + 1] - sc.offset[tile];
+  auto scan = [&](const BinEntry& b) {
+    const detail::PixelBox box{tx0 + b.x0, ty0 + b.y0, tx0 + b.x1, ty0 + b.y1};
+    scan_triangle(v, tris, b.id, box, tx0, ty0, tx1, ty1, width, height, tb);
+  };
   if (!front_to_back) {
-    for (std::int64_t i = 0; i < n; ++i)
-      scan_triangle(v, tris, list[i], sc.box[list[i]], tx0, ty0, tx1, ty1, width, height, tb);
+    for (std::int64_t i = 0; i < n; ++i) scan(list[i]);
     return;
   }
   order.assign(list, list + n);
   const double* zmin = sc.zmin.data();
-  std::sort(order.begin(), order.end(), [zmin](std::int32_t a, std::int32_t b) {
-    return zmin[a] < zmin[b] || (zmin[a] == zmin[b] && a < b);
+  std::sort(order.begin(), order.end(), [zmin](const BinEntry& a, const BinEntry& b) {
+    return zmin[a.id] < zmin[b.id] || (zmin[a.id] == zmin[b.id] && a.id < b.id);
   });
   int since = 0;  // triangles scanned since zmax was last refreshed
-  for (const std::int32_t t : order) {
+  for (const BinEntry& e : order) {
+    const std::int32_t t = e.id;
     if (tb.covered == area && (since >= 8 || tb.zmax == std::numeric_limits<double>::infinity())) {
       // Refresh the tile's farthest stored depth (unused slots hold +inf).
       double m = -std::numeric_limits<double>::infinity();
@@ -139,7 +152,7 @@ void scan_tile(const detail::Vertices& v, const RasterParams<T>& p, const Forwar
       since = 0;
     }
     if (zmin[t] > tb.zmax) continue;
-    scan_triangle(v, tris, t, sc.box[t], tx0, ty0, tx1, ty1, width, height, tb);
+    scan(e);
     ++since;
   }
 }
@@ -161,6 +174,9 @@ Grid make_grid(std::int64_t num_tris, int width, int height) {
   g.chunks = (num_tris + g.chunk - 1) / g.chunk;
   return g;
 }
+
+// Boxes of at most this many pixel centres get the exact coverage test in classification.
+constexpr int kExactRejectBox = 4;
 
 // Phase 2 (parallel over the triangle chunks): classify every triangle,
 // keep its pixel box (and, front to back, its depth lower bound), and count
@@ -184,7 +200,14 @@ RasterStats classify_and_count(const RasterParams<T>& p, const Grid& g, ForwardS
       for (std::int64_t t = c * g.chunk; t < t1; ++t) {
         const std::int32_t* tri = p.tris + 3 * t;
         detail::PixelBox& b = sc.box[t];
-        const detail::TriClass k = detail::classify_triangle(v, tri, g.width, g.height, cull, &b);
+        detail::TriClass k = detail::classify_triangle(v, tri, g.width, g.height, cull, &b);
+        // Most triangles of a finely tessellated mesh have boxes of a few pixel
+        // centres and cover none of them: reject those exactly, now that their
+        // vertices are in cache, instead of binning and setting them up again.
+        if (k == detail::TriClass::Raster &&
+            (b.x1 - b.x0 + 1) * (b.y1 - b.y0 + 1) <= kExactRejectBox &&
+            !detail::covers_pixel_centre(v, tri, g.width, g.height, b))
+          k = detail::TriClass::NoPixel;
         switch (k) {
           case detail::TriClass::Outside: ++st.culled_outside; break;
           case detail::TriClass::ZeroArea: ++st.culled_zero_area; break;
@@ -247,11 +270,16 @@ void fill_bins(std::int64_t num_tris, const Grid& g, ForwardScratch& sc) {
       for (std::int64_t t = c * g.chunk; t < t1; ++t) {
         const detail::PixelBox& b = sc.box[t];
         if (b.x0 > b.x1) continue;
-        for (int ty = b.y0 / kTile; ty <= b.y1 / kTile; ++ty)
+        for (int ty = b.y0 / kTile; ty <= b.y1 / kTile; ++ty) {
+          const int y0 = std::max(b.y0 - ty * kTile, 0), y1 = std::min(b.y1 - ty * kTile, kTile - 1);
           for (int tx = b.x0 / kTile; tx <= b.x1 / kTile; ++tx) {
+            const int x0 = std::max(b.x0 - tx * kTile, 0), x1 = std::min(b.x1 - tx * kTile, kTile - 1);
             const int i = ty * g.tiles_x + tx;
-            sc.bin[sc.offset[i] + fill[i]++] = static_cast<std::int32_t>(t);
+            sc.bin[sc.offset[i] + fill[i]++] = {static_cast<std::int32_t>(t), static_cast<std::uint8_t>(x0),
+                                                static_cast<std::uint8_t>(y0), static_cast<std::uint8_t>(x1),
+                                                static_cast<std::uint8_t>(y1)};
           }
+        }
       }
     }
   });
@@ -278,7 +306,7 @@ void scan_tiles(const RasterParams<T>& p, const Grid& g, const ForwardScratch& s
   const int W = g.width, H = g.height;
   parallel_for(0, static_cast<std::int64_t>(busy.size()), 1, [&](std::int64_t lo, std::int64_t hi) {
     std::unique_ptr<TileBuffer> tb(new TileBuffer);
-    std::vector<std::int32_t> order;
+    std::vector<BinEntry> order;
     for (std::int64_t n = lo; n < hi; ++n) {
       const int tile = busy[n];
       scan_tile(sc.v, p, sc, g.tiles_x, tile, W, H, p.settings.front_to_back, order, *tb);
