@@ -102,6 +102,16 @@ T saturate(double x) {
   return static_cast<T>(x > kMax ? kMax : x < -kMax ? -kMax : x);
 }
 
+// The vertices of a mesh's triangles are scattered over arrays larger than
+// the cache: the loops over triangles ask for them this many triangles ahead.
+constexpr int kPrefetchAhead = 8;
+inline void prefetch_vertices(const detail::Vertices& v, const std::int32_t* tri) {
+  for (int k = 0; k < 3; ++k) {
+    __builtin_prefetch(&v.screen[3 * static_cast<std::size_t>(tri[k])]);
+    __builtin_prefetch(&v.outcode[tri[k]]);
+  }
+}
+
 template <class T>
 void scan_tile(const detail::Vertices& v, const RasterParams<T>& p, const ForwardScratch& sc,
                int tiles_x, int tile, int width, int height, bool front_to_back,
@@ -132,7 +142,13 @@ void scan_tile(const detail::Vertices& v, const RasterParams<T>& p, const Forwar
     scan_triangle(v, tris, b.id, box, tx0, ty0, tx1, ty1, width, height, tb);
   };
   if (!front_to_back) {
-    for (std::int64_t i = 0; i < n; ++i) scan(list[i]);
+    // A tile's triangles are sparse in the triangle array: their indices are
+    // fetched two look-aheads early, their vertices one.
+    for (std::int64_t i = 0; i < n; ++i) {
+      if (i + 2 * kPrefetchAhead < n) __builtin_prefetch(tris + 3 * static_cast<std::int64_t>(list[i + 2 * kPrefetchAhead].id));
+      if (i + kPrefetchAhead < n) prefetch_vertices(v, tris + 3 * static_cast<std::int64_t>(list[i + kPrefetchAhead].id));
+      scan(list[i]);
+    }
     return;
   }
   order.assign(list, list + n);
@@ -199,6 +215,7 @@ RasterStats classify_and_count(const RasterParams<T>& p, const Grid& g, ForwardS
       const std::int64_t t1 = std::min(p.num_tris, (c + 1) * g.chunk);
       for (std::int64_t t = c * g.chunk; t < t1; ++t) {
         const std::int32_t* tri = p.tris + 3 * t;
+        if (t + kPrefetchAhead < t1) prefetch_vertices(v, tri + 3 * kPrefetchAhead);
         detail::PixelBox& b = sc.box[t];
         detail::TriClass k = detail::classify_triangle(v, tri, g.width, g.height, cull, &b);
         // Most triangles of a finely tessellated mesh have boxes of a few pixel

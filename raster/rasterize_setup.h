@@ -32,6 +32,10 @@ struct Vertices {
   std::vector<double> clip;    // N x 4
   std::vector<double> screen;  // N x 3: sx, sy, z_ndc (valid when front[i])
   std::vector<std::uint8_t> front;
+  // Frustum outcode: bit k set when the vertex is beyond plane k of w <= 0,
+  // x > w, x < -w, y > w, y < -w, z < -w, z > w (so a triangle whose three
+  // codes share a bit is outside, without reading the clip coordinates).
+  std::vector<std::uint8_t> outcode;
 };
 template <class T>
 Vertices project_vertices(const T* clip, std::int64_t num_vertices, int width, int height);
