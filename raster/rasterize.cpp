@@ -58,6 +58,12 @@ struct ForwardScratch {
   std::vector<std::int64_t> offset;   // tiles + 1
   std::vector<BinEntry> bin;          // triangles, tile by tile
   std::vector<RasterStats> chunk_stats;
+  // Fragments of small triangles (detail::box_fragments), binned like the
+  // triangles: per chunk in triangle order, then tile by tile.
+  std::vector<std::vector<detail::Fragment>> chunk_frag;
+  std::vector<std::int32_t> fcount;  // chunks x tiles: counts, then fill cursors
+  std::vector<std::int64_t> foffset;  // tiles + 1
+  std::vector<detail::Fragment> frag;
 };
 detail::ScratchPool<ForwardScratch> g_forward_pool;
 
@@ -135,6 +141,7 @@ void scan_tile(const detail::Vertices& v, const RasterParams<T>& p, const Forwar
         tb.fid[y * kTile + x] = empty ? std::numeric_limits<std::int32_t>::max() : p.floor_id[px] - 1;
       }
   }
+  detail::resolve_fragments(sc.frag.data() + sc.foffset[tile], sc.foffset[tile + 1] - sc.foffset[tile], tb);
   const BinEntry* list = sc.bin.data() + sc.offset[tile];
   const std::int64_t n = sc.offset[tile + 1] - sc.offset[tile];
   auto scan = [&](const BinEntry& b) {
@@ -191,9 +198,6 @@ Grid make_grid(std::int64_t num_tris, int width, int height) {
   return g;
 }
 
-// Boxes of at most this many pixel centres get the exact coverage test in classification.
-constexpr int kExactRejectBox = 4;
-
 // Phase 2 (parallel over the triangle chunks): classify every triangle,
 // keep its pixel box (and, front to back, its depth lower bound), and count
 // each chunk's triangles per tile. Returns the summed triangle counts.
@@ -207,10 +211,16 @@ RasterStats classify_and_count(const RasterParams<T>& p, const Grid& g, ForwardS
   if (f2b) sc.zmin.resize(static_cast<std::size_t>(p.num_tris));
   sc.count.resize(static_cast<std::size_t>(g.chunks) * g.tiles);
   sc.chunk_stats.assign(static_cast<std::size_t>(g.chunks), RasterStats{});
+  sc.fcount.resize(static_cast<std::size_t>(g.chunks) * g.tiles);
+  if (sc.chunk_frag.size() < static_cast<std::size_t>(g.chunks)) sc.chunk_frag.resize(static_cast<std::size_t>(g.chunks));
   parallel_for(0, g.chunks, 1, [&](std::int64_t c0, std::int64_t c1) {
     for (std::int64_t c = c0; c < c1; ++c) {
       std::int32_t* cnt = &sc.count[static_cast<std::size_t>(c) * g.tiles];
       std::fill(cnt, cnt + g.tiles, 0);
+      std::int32_t* fcnt = &sc.fcount[static_cast<std::size_t>(c) * g.tiles];
+      std::fill(fcnt, fcnt + g.tiles, 0);
+      std::vector<detail::Fragment>& frag = sc.chunk_frag[c];
+      frag.clear();
       RasterStats& st = sc.chunk_stats[c];
       const std::int64_t t1 = std::min(p.num_tris, (c + 1) * g.chunk);
       for (std::int64_t t = c * g.chunk; t < t1; ++t) {
@@ -218,13 +228,24 @@ RasterStats classify_and_count(const RasterParams<T>& p, const Grid& g, ForwardS
         if (t + kPrefetchAhead < t1) prefetch_vertices(v, tri + 3 * kPrefetchAhead);
         detail::PixelBox& b = sc.box[t];
         detail::TriClass k = detail::classify_triangle(v, tri, g.width, g.height, cull, &b);
-        // Most triangles of a finely tessellated mesh have boxes of a few pixel
-        // centres and cover none of them: reject those exactly, now that their
-        // vertices are in cache, instead of binning and setting them up again.
+        // Triangles of a finely tessellated mesh mostly have boxes of a few
+        // pixel centres: evaluate those now, while their vertices are in
+        // cache, instead of binning them and setting them up again per tile.
+        // Covering no centre, they are rejected; else their fragments are binned.
+        bool small = false;
         if (k == detail::TriClass::Raster &&
-            (b.x1 - b.x0 + 1) * (b.y1 - b.y0 + 1) <= kExactRejectBox &&
-            !detail::covers_pixel_centre(v, tri, g.width, g.height, b))
-          k = detail::TriClass::NoPixel;
+            (b.x1 - b.x0 + 1) * (b.y1 - b.y0 + 1) <= detail::kMaxFragmentBox) {
+          detail::Fragment f[detail::kMaxFragmentBox];
+          int emitted = 0;
+          if (detail::box_fragments(v, p.tris, static_cast<std::int32_t>(t), b, g.width, g.height, g.tiles_x, f,
+                                    &emitted) == 0)
+            k = detail::TriClass::NoPixel;
+          for (int i = 0; i < emitted; ++i) {
+            ++fcnt[f[i].where / kTilePixels];
+            frag.push_back(f[i]);
+          }
+          small = true;
+        }
         switch (k) {
           case detail::TriClass::Outside: ++st.culled_outside; break;
           case detail::TriClass::ZeroArea: ++st.culled_zero_area; break;
@@ -233,7 +254,7 @@ RasterStats classify_and_count(const RasterParams<T>& p, const Grid& g, ForwardS
           case detail::TriClass::Clipped: ++st.clipped_near; break;
           case detail::TriClass::Raster: ++st.rasterized; break;
         }
-        if (k != detail::TriClass::Raster && k != detail::TriClass::Clipped) {
+        if ((k != detail::TriClass::Raster && k != detail::TriClass::Clipped) || small) {
           b = {1, 1, 0, 0};  // not binned
           continue;
         }
@@ -275,6 +296,19 @@ void bin_offsets(const Grid& g, ForwardScratch& sc) {
   }
   sc.offset[g.tiles] = run;
   sc.bin.resize(static_cast<std::size_t>(run));
+  sc.foffset.resize(static_cast<std::size_t>(g.tiles) + 1);
+  run = 0;
+  for (int i = 0; i < g.tiles; ++i) {
+    sc.foffset[i] = run;
+    for (std::int64_t c = 0; c < g.chunks; ++c) {
+      std::int32_t& a = sc.fcount[static_cast<std::size_t>(c) * g.tiles + i];
+      const std::int64_t n = a;
+      a = static_cast<std::int32_t>(run - sc.foffset[i]);
+      run += n;
+    }
+  }
+  sc.foffset[g.tiles] = run;
+  sc.frag.resize(static_cast<std::size_t>(run));
 }
 
 // Phase 4 (parallel over the same chunks): each chunk writes its triangle ids
@@ -283,6 +317,11 @@ void fill_bins(std::int64_t num_tris, const Grid& g, ForwardScratch& sc) {
   parallel_for(0, g.chunks, 1, [&](std::int64_t c0, std::int64_t c1) {
     for (std::int64_t c = c0; c < c1; ++c) {
       std::int32_t* fill = &sc.count[static_cast<std::size_t>(c) * g.tiles];
+      std::int32_t* ffill = &sc.fcount[static_cast<std::size_t>(c) * g.tiles];
+      for (const detail::Fragment& f : sc.chunk_frag[c]) {
+        const int i = f.where / kTilePixels;
+        sc.frag[sc.foffset[i] + ffill[i]++] = f;
+      }
       const std::int64_t t1 = std::min(num_tris, (c + 1) * g.chunk);
       for (std::int64_t t = c * g.chunk; t < t1; ++t) {
         const detail::PixelBox& b = sc.box[t];
@@ -319,7 +358,7 @@ void scan_tiles(const RasterParams<T>& p, const Grid& g, const ForwardScratch& s
                 T* depth, double* key_depth) {
   std::vector<int> busy;
   for (int i = 0; i < g.tiles; ++i)
-    if (sc.offset[i + 1] > sc.offset[i]) busy.push_back(i);
+    if (sc.offset[i + 1] > sc.offset[i] || sc.foffset[i + 1] > sc.foffset[i]) busy.push_back(i);
   const int W = g.width, H = g.height;
   parallel_for(0, static_cast<std::int64_t>(busy.size()), 1, [&](std::int64_t lo, std::int64_t hi) {
     std::unique_ptr<TileBuffer> tb(new TileBuffer);

@@ -364,23 +364,6 @@ void setup_edges(const Vertices& v, const std::int32_t* tri, int width, int heig
   out->z_test = true;
 }
 
-bool covers_pixel_centre(const Vertices& v, const std::int32_t* tri, int width, int height,
-                         const PixelBox& b) {
-  TriSetup s;
-  setup_edges(v, tri, width, height, &s);
-  const Edge &e0 = s.e[0], &e1 = s.e[1], &e2 = s.e[2];
-  for (int y = b.y0; y <= b.y1; ++y) {
-    const double py = y + 0.5;
-    const double r0 = e0.row(py), r1 = e1.row(py), r2 = e2.row(py);
-    for (int x = b.x0; x <= b.x1; ++x) {
-      const double px = x + 0.5;
-      if (e0.inside(e0.eval(px, r0)) && e1.inside(e1.eval(px, r1)) && e2.inside(e2.eval(px, r2)))
-        return true;
-    }
-  }
-  return false;
-}
-
 template void check_finite<float>(const float*, std::int64_t, const char*, const char*);
 template void check_finite<double>(const double*, std::int64_t, const char*, const char*);
 template Vertices project_vertices<float>(const float*, std::int64_t, int, int);

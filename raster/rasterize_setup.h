@@ -120,13 +120,6 @@ TriClass classify_triangle(const Vertices& v, const std::int32_t* tri, int width
 void setup_edges(const Vertices& v, const std::int32_t* tri, int width, int height,
                  TriSetup* out);
 
-// Whether some pixel centre of box b is inside the triangle by the scan's own
-// coverage test (same edge values, same tie rule), so a triangle for which it
-// is false writes no pixel anywhere. For small boxes of unclipped triangles,
-// whose vertex data are still in cache right after classify_triangle.
-bool covers_pixel_centre(const Vertices& v, const std::int32_t* tri, int width, int height,
-                         const PixelBox& b);
-
 // Homogeneous screen vertex V = (W/2 (x + w), H/2 (w - y), w).
 struct HVec {
   double x, y, w;
