@@ -116,6 +116,11 @@ struct PixelBox {
 TriClass classify_triangle(const Vertices& v, const std::int32_t* tri, int width, int height,
                            int cull, PixelBox* box);
 
+// The two halves of setup_edges for a triangle with every vertex in front:
+// the edges (returns 2A), then the weights mu, mz and z_test.
+double setup_screen_edges(const Vertices& v, const std::int32_t* tri, TriSetup* out);
+void setup_screen_weights(const Vertices& v, const std::int32_t* tri, double a2, TriSetup* out);
+
 // Edge functions of a triangle that classify_triangle accepted.
 void setup_edges(const Vertices& v, const std::int32_t* tri, int width, int height,
                  TriSetup* out);
