@@ -4,7 +4,9 @@
 //
 // Forward: project vertices; classify triangles in parallel over fixed
 // triangle chunks (frustum reject, area, culling, pixel bounding box) while
-// counting each chunk's triangles per kTile x kTile screen tile; offsets chunk
+// counting each chunk's triangles per kTile x kTile screen tile (triangles
+// with boxes of a few pixel centres are evaluated right there and binned as
+// fragments, detail::box_fragments); offsets chunk
 // by chunk within each tile, then a fill per chunk, so every tile lists its triangles
 // in ascending order for any thread count; then parallel_for over the
 // non-empty tiles, each owning its pixels (empty tiles are never visited), so the
