@@ -4,7 +4,9 @@
 //
 // Forward: project vertices; classify triangles in parallel over fixed
 // triangle chunks (frustum reject, area, culling, pixel bounding box) while
-// counting each chunk's triangles per kTile x kTile screen tile; offsets chunk
+// counting each chunk's triangles per kTile x kTile screen tile (triangles
+// with boxes of a few pixel centres are evaluated right there and binned as
+// fragments, detail::box_fragments); offsets chunk
 // by chunk within each tile, then a fill per chunk, so every tile lists its triangles
 // in ascending order for any thread count; then parallel_for over the
 // non-empty tiles, each owning its pixels (empty tiles are never visited), so the
@@ -39,6 +41,15 @@ using detail::kTilePixels;
 using detail::scan_triangle;
 using detail::TileBuffer;
 
+// One triangle in one tile's list: its id and its pixel box clipped to the
+// tile, in tile-local pixels, so the scan reads the box from the list (in
+// sequence) instead of from the per-triangle array (a cache miss per entry).
+struct BinEntry {
+  std::int32_t id;
+  std::uint8_t x0, y0, x1, y1;
+};
+static_assert(kTile <= 256, "tile-local box coordinates are 8-bit");
+
 // Per-call buffers, reused across calls through a pool (allocated and
 // page-faulted once; nothing is zero-filled serially).
 struct ForwardScratch {
@@ -47,8 +58,14 @@ struct ForwardScratch {
   std::vector<double> zmin;           // per triangle, front_to_back only
   std::vector<std::int32_t> count;    // chunks x tiles: counts, then fill cursors
   std::vector<std::int64_t> offset;   // tiles + 1
-  std::vector<std::int32_t> bin;      // triangle ids, tile by tile
+  std::vector<BinEntry> bin;          // triangles, tile by tile
   std::vector<RasterStats> chunk_stats;
+  // Fragments of small triangles (detail::box_fragments), binned like the
+  // triangles: per chunk in triangle order, then tile by tile.
+  std::vector<std::vector<detail::Fragment>> chunk_frag;
+  std::vector<std::int32_t> fcount;  // chunks x tiles: counts, then fill cursors
+  std::vector<std::int64_t> foffset;  // tiles + 1
+  std::vector<detail::Fragment> frag;
 };
 detail::ScratchPool<ForwardScratch> g_forward_pool;
 
@@ -93,10 +110,20 @@ T saturate(double x) {
   return static_cast<T>(x > kMax ? kMax : x < -kMax ? -kMax : x);
 }
 
+// The vertices of a mesh's triangles are scattered over arrays larger than
+// the cache: the loops over triangles ask for them this many triangles ahead.
+constexpr int kPrefetchAhead = 8;
+inline void prefetch_vertices(const detail::Vertices& v, const std::int32_t* tri) {
+  for (int k = 0; k < 3; ++k) {
+    __builtin_prefetch(&v.screen[3 * static_cast<std::size_t>(tri[k])]);
+    __builtin_prefetch(&v.outcode[tri[k]]);
+  }
+}
+
 template <class T>
 void scan_tile(const detail::Vertices& v, const RasterParams<T>& p, const ForwardScratch& sc,
                int tiles_x, int tile, int width, int height, bool front_to_back,
-               std::vector<std::int32_t>& order, TileBuffer& tb) {
+               std::vector<BinEntry>& order, TileBuffer& tb) {
   const std::int32_t* tris = p.tris;
   const int tx0 = (tile % tiles_x) * kTile, ty0 = (tile / tiles_x) * kTile;
   const int tx1 = std::min(tx0 + kTile, width) - 1, ty1 = std::min(ty0 + kTile, height) - 1;
@@ -116,20 +143,31 @@ void scan_tile(const detail::Vertices& v, const RasterParams<T>& p, const Forwar
         tb.fid[y * kTile + x] = empty ? std::numeric_limits<std::int32_t>::max() : p.floor_id[px] - 1;
       }
   }
-  const std::int32_t* list = sc.bin.data() + sc.offset[tile];
+  detail::resolve_fragments(sc.frag.data() + sc.foffset[tile], sc.foffset[tile + 1] - sc.foffset[tile], tb);
+  const BinEntry* list = sc.bin.data() + sc.offset[tile];
   const std::int64_t n = sc.offset[tile + 1] - sc.offset[tile];
+  auto scan = [&](const BinEntry& b) {
+    const detail::PixelBox box{tx0 + b.x0, ty0 + b.y0, tx0 + b.x1, ty0 + b.y1};
+    scan_triangle(v, tris, b.id, box, tx0, ty0, tx1, ty1, width, height, tb);
+  };
   if (!front_to_back) {
-    for (std::int64_t i = 0; i < n; ++i)
-      scan_triangle(v, tris, list[i], sc.box[list[i]], tx0, ty0, tx1, ty1, width, height, tb);
+    // A tile's triangles are sparse in the triangle array: their indices are
+    // fetched two look-aheads early, their vertices one.
+    for (std::int64_t i = 0; i < n; ++i) {
+      if (i + 2 * kPrefetchAhead < n) __builtin_prefetch(tris + 3 * static_cast<std::int64_t>(list[i + 2 * kPrefetchAhead].id));
+      if (i + kPrefetchAhead < n) prefetch_vertices(v, tris + 3 * static_cast<std::int64_t>(list[i + kPrefetchAhead].id));
+      scan(list[i]);
+    }
     return;
   }
   order.assign(list, list + n);
   const double* zmin = sc.zmin.data();
-  std::sort(order.begin(), order.end(), [zmin](std::int32_t a, std::int32_t b) {
-    return zmin[a] < zmin[b] || (zmin[a] == zmin[b] && a < b);
+  std::sort(order.begin(), order.end(), [zmin](const BinEntry& a, const BinEntry& b) {
+    return zmin[a.id] < zmin[b.id] || (zmin[a.id] == zmin[b.id] && a.id < b.id);
   });
   int since = 0;  // triangles scanned since zmax was last refreshed
-  for (const std::int32_t t : order) {
+  for (const BinEntry& e : order) {
+    const std::int32_t t = e.id;
     if (tb.covered == area && (since >= 8 || tb.zmax == std::numeric_limits<double>::infinity())) {
       // Refresh the tile's farthest stored depth (unused slots hold +inf).
       double m = -std::numeric_limits<double>::infinity();
@@ -139,7 +177,7 @@ void scan_tile(const detail::Vertices& v, const RasterParams<T>& p, const Forwar
       since = 0;
     }
     if (zmin[t] > tb.zmax) continue;
-    scan_triangle(v, tris, t, sc.box[t], tx0, ty0, tx1, ty1, width, height, tb);
+    scan(e);
     ++since;
   }
 }
@@ -175,16 +213,41 @@ RasterStats classify_and_count(const RasterParams<T>& p, const Grid& g, ForwardS
   if (f2b) sc.zmin.resize(static_cast<std::size_t>(p.num_tris));
   sc.count.resize(static_cast<std::size_t>(g.chunks) * g.tiles);
   sc.chunk_stats.assign(static_cast<std::size_t>(g.chunks), RasterStats{});
+  sc.fcount.resize(static_cast<std::size_t>(g.chunks) * g.tiles);
+  if (sc.chunk_frag.size() < static_cast<std::size_t>(g.chunks)) sc.chunk_frag.resize(static_cast<std::size_t>(g.chunks));
   parallel_for(0, g.chunks, 1, [&](std::int64_t c0, std::int64_t c1) {
     for (std::int64_t c = c0; c < c1; ++c) {
       std::int32_t* cnt = &sc.count[static_cast<std::size_t>(c) * g.tiles];
       std::fill(cnt, cnt + g.tiles, 0);
+      std::int32_t* fcnt = &sc.fcount[static_cast<std::size_t>(c) * g.tiles];
+      std::fill(fcnt, fcnt + g.tiles, 0);
+      std::vector<detail::Fragment>& frag = sc.chunk_frag[c];
+      frag.clear();
       RasterStats& st = sc.chunk_stats[c];
       const std::int64_t t1 = std::min(p.num_tris, (c + 1) * g.chunk);
       for (std::int64_t t = c * g.chunk; t < t1; ++t) {
         const std::int32_t* tri = p.tris + 3 * t;
+        if (t + kPrefetchAhead < t1) prefetch_vertices(v, tri + 3 * kPrefetchAhead);
         detail::PixelBox& b = sc.box[t];
-        const detail::TriClass k = detail::classify_triangle(v, tri, g.width, g.height, cull, &b);
+        detail::TriClass k = detail::classify_triangle(v, tri, g.width, g.height, cull, &b);
+        // Triangles of a finely tessellated mesh mostly have boxes of a few
+        // pixel centres: evaluate those now, while their vertices are in
+        // cache, instead of binning them and setting them up again per tile.
+        // Covering no centre, they are rejected; else their fragments are binned.
+        bool small = false;
+        if (k == detail::TriClass::Raster &&
+            (b.x1 - b.x0 + 1) * (b.y1 - b.y0 + 1) <= detail::kMaxFragmentBox) {
+          detail::Fragment f[detail::kMaxFragmentBox];
+          int emitted = 0;
+          if (detail::box_fragments(v, p.tris, static_cast<std::int32_t>(t), b, g.width, g.height, g.tiles_x, f,
+                                    &emitted) == 0)
+            k = detail::TriClass::NoPixel;
+          for (int i = 0; i < emitted; ++i) {
+            ++fcnt[f[i].where / kTilePixels];
+            frag.push_back(f[i]);
+          }
+          small = true;
+        }
         switch (k) {
           case detail::TriClass::Outside: ++st.culled_outside; break;
           case detail::TriClass::ZeroArea: ++st.culled_zero_area; break;
@@ -193,7 +256,7 @@ RasterStats classify_and_count(const RasterParams<T>& p, const Grid& g, ForwardS
           case detail::TriClass::Clipped: ++st.clipped_near; break;
           case detail::TriClass::Raster: ++st.rasterized; break;
         }
-        if (k != detail::TriClass::Raster && k != detail::TriClass::Clipped) {
+        if ((k != detail::TriClass::Raster && k != detail::TriClass::Clipped) || small) {
           b = {1, 1, 0, 0};  // not binned
           continue;
         }
@@ -235,6 +298,19 @@ void bin_offsets(const Grid& g, ForwardScratch& sc) {
   }
   sc.offset[g.tiles] = run;
   sc.bin.resize(static_cast<std::size_t>(run));
+  sc.foffset.resize(static_cast<std::size_t>(g.tiles) + 1);
+  run = 0;
+  for (int i = 0; i < g.tiles; ++i) {
+    sc.foffset[i] = run;
+    for (std::int64_t c = 0; c < g.chunks; ++c) {
+      std::int32_t& a = sc.fcount[static_cast<std::size_t>(c) * g.tiles + i];
+      const std::int64_t n = a;
+      a = static_cast<std::int32_t>(run - sc.foffset[i]);
+      run += n;
+    }
+  }
+  sc.foffset[g.tiles] = run;
+  sc.frag.resize(static_cast<std::size_t>(run));
 }
 
 // Phase 4 (parallel over the same chunks): each chunk writes its triangle ids
@@ -243,15 +319,25 @@ void fill_bins(std::int64_t num_tris, const Grid& g, ForwardScratch& sc) {
   parallel_for(0, g.chunks, 1, [&](std::int64_t c0, std::int64_t c1) {
     for (std::int64_t c = c0; c < c1; ++c) {
       std::int32_t* fill = &sc.count[static_cast<std::size_t>(c) * g.tiles];
+      std::int32_t* ffill = &sc.fcount[static_cast<std::size_t>(c) * g.tiles];
+      for (const detail::Fragment& f : sc.chunk_frag[c]) {
+        const int i = f.where / kTilePixels;
+        sc.frag[sc.foffset[i] + ffill[i]++] = f;
+      }
       const std::int64_t t1 = std::min(num_tris, (c + 1) * g.chunk);
       for (std::int64_t t = c * g.chunk; t < t1; ++t) {
         const detail::PixelBox& b = sc.box[t];
         if (b.x0 > b.x1) continue;
-        for (int ty = b.y0 / kTile; ty <= b.y1 / kTile; ++ty)
+        for (int ty = b.y0 / kTile; ty <= b.y1 / kTile; ++ty) {
+          const int y0 = std::max(b.y0 - ty * kTile, 0), y1 = std::min(b.y1 - ty * kTile, kTile - 1);
           for (int tx = b.x0 / kTile; tx <= b.x1 / kTile; ++tx) {
+            const int x0 = std::max(b.x0 - tx * kTile, 0), x1 = std::min(b.x1 - tx * kTile, kTile - 1);
             const int i = ty * g.tiles_x + tx;
-            sc.bin[sc.offset[i] + fill[i]++] = static_cast<std::int32_t>(t);
+            sc.bin[sc.offset[i] + fill[i]++] = {static_cast<std::int32_t>(t), static_cast<std::uint8_t>(x0),
+                                                static_cast<std::uint8_t>(y0), static_cast<std::uint8_t>(x1),
+                                                static_cast<std::uint8_t>(y1)};
           }
+        }
       }
     }
   });
@@ -274,11 +360,11 @@ void scan_tiles(const RasterParams<T>& p, const Grid& g, const ForwardScratch& s
                 T* depth, double* key_depth) {
   std::vector<int> busy;
   for (int i = 0; i < g.tiles; ++i)
-    if (sc.offset[i + 1] > sc.offset[i]) busy.push_back(i);
+    if (sc.offset[i + 1] > sc.offset[i] || sc.foffset[i + 1] > sc.foffset[i]) busy.push_back(i);
   const int W = g.width, H = g.height;
   parallel_for(0, static_cast<std::int64_t>(busy.size()), 1, [&](std::int64_t lo, std::int64_t hi) {
     std::unique_ptr<TileBuffer> tb(new TileBuffer);
-    std::vector<std::int32_t> order;
+    std::vector<BinEntry> order;
     for (std::int64_t n = lo; n < hi; ++n) {
       const int tile = busy[n];
       scan_tile(sc.v, p, sc, g.tiles_x, tile, W, H, p.settings.front_to_back, order, *tb);

@@ -34,8 +34,8 @@ struct RasterStats {
   std::int64_t culled_outside = 0;    // entirely outside one frustum plane (or w <= 0)
   std::int64_t culled_zero_area = 0;  // zero (homogeneous) area
   std::int64_t culled_face = 0;       // removed by the Cull setting
-  std::int64_t culled_no_pixel = 0;   // bounding box contains no pixel centre
-  std::int64_t rasterized = 0;        // binned and scanned, all vertices in front of the near plane
+  std::int64_t culled_no_pixel = 0;   // box contains no pixel centre, or (box of <= 4 centres) covers none
+  std::int64_t rasterized = 0;        // scanned (binned, or small-box fragments), all vertices in front of the near plane
   std::int64_t clipped_near = 0;      // binned and scanned, crossing the near plane / w = 0
 };
 

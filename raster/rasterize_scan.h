@@ -32,6 +32,27 @@ struct TileBuffer {
   std::int32_t fid[kTilePixels];
 };
 
+// A covered pixel centre of a small triangle, computed before binning:
+// where = tile * kTilePixels + slot; z, u, v as the scan computes them, after
+// the triangle's depth range test.
+struct Fragment {
+  double z, u, v;
+  std::int32_t id, where;
+};
+
+// Small-box path, run in classification while the triangle's vertices are in
+// cache: evaluates triangle t (unclipped) at the pixel centres of its whole
+// box b (at most kMaxFragmentBox of them) with the scan's expressions, writes
+// the covered ones that pass the depth range test to out, and returns the
+// number of covered centres (0: the triangle writes no pixel).
+constexpr int kMaxFragmentBox = 4;
+int box_fragments(const Vertices& v, const std::int32_t* tris, std::int32_t t, const PixelBox& b, int width,
+                  int height, int tiles_x, Fragment* out, int* emitted);
+
+// Resolves fragments of one tile into tb (the peeling floor and the
+// (depth, id) test, as for a scanned triangle; the order does not matter).
+void resolve_fragments(const Fragment* f, std::int64_t n, TileBuffer& tb);
+
 // Scans triangle t (tris[3t..3t+2]) over its pixel box b clipped to the tile
 // [tx0, tx1] x [ty0, ty1] (inclusive pixel indices; the tile's pixel (x, y) is
 // tb slot (y - ty0) kTile + x - tx0).

@@ -108,6 +108,7 @@ void project_vertices_into(const T* clip, std::int64_t n, int width, int height,
   v.clip.resize(4 * n);
   v.screen.resize(3 * n);
   v.front.resize(n);
+  v.outcode.resize(n);
   const double hw = 0.5 * width, hh = 0.5 * height;
   parallel_for(0, n, 8192, [&](std::int64_t lo, std::int64_t hi) {
     for (std::int64_t i = lo; i < hi; ++i) {
@@ -121,6 +122,9 @@ void project_vertices_into(const T* clip, std::int64_t n, int width, int height,
       v.screen[3 * i + 1] = ok ? sy : 0.0;
       v.screen[3 * i + 2] = ok ? zn : 0.0;
       v.front[i] = ok;
+      v.outcode[i] = static_cast<std::uint8_t>((c[3] <= 0.0) | (c[0] > c[3]) << 1 | (c[0] < -c[3]) << 2 |
+                                               (c[1] > c[3]) << 3 | (c[1] < -c[3]) << 4 |
+                                               (c[2] < -c[3]) << 5 | (c[2] > c[3]) << 6);
     }
   });
 }
@@ -236,19 +240,8 @@ double homogeneous_det(const Vertices& v, const std::int32_t* tri, int width, in
 
 TriClass classify_triangle(const Vertices& v, const std::int32_t* tri, int width, int height,
                            int cull, PixelBox* box) {
-  const double* c[3] = {&v.clip[4 * static_cast<std::size_t>(tri[0])],
-                        &v.clip[4 * static_cast<std::size_t>(tri[1])],
-                        &v.clip[4 * static_cast<std::size_t>(tri[2])]};
   // Entirely outside one frustum plane (including behind the camera).
-  auto all = [&](auto outside) { return outside(c[0]) && outside(c[1]) && outside(c[2]); };
-  if (all([](const double* p) { return p[3] <= 0.0; }) ||
-      all([](const double* p) { return p[0] > p[3]; }) ||
-      all([](const double* p) { return p[0] < -p[3]; }) ||
-      all([](const double* p) { return p[1] > p[3]; }) ||
-      all([](const double* p) { return p[1] < -p[3]; }) ||
-      all([](const double* p) { return p[2] < -p[3]; }) ||
-      all([](const double* p) { return p[2] > p[3]; }))
-    return TriClass::Outside;
+  if (v.outcode[tri[0]] & v.outcode[tri[1]] & v.outcode[tri[2]]) return TriClass::Outside;
 
   // Orientation: 2A > 0 (screen) or D < 0 (homogeneous) is a front face.
   const bool clipped = needs_clipping(v, tri);
@@ -276,7 +269,10 @@ TriClass classify_triangle(const Vertices& v, const std::int32_t* tri, int width
     maxy = std::max({p[0][1], p[1][1], p[2][1]});
   } else {
     double poly[3][4], near[4][4], pos[5][4];
-    for (int k = 0; k < 3; ++k) std::copy(c[k], c[k] + 4, poly[k]);
+    for (int k = 0; k < 3; ++k) {
+      const double* c = &v.clip[4 * static_cast<std::size_t>(tri[k])];
+      std::copy(c, c + 4, poly[k]);
+    }
     // Sutherland-Hodgman against the near plane z >= -w ...
     const int n1 = clip_polygon(poly, 3, near, [](const double* p) { return p[2] + p[3]; });
     // ... and against w >= eps so every remaining vertex projects.
@@ -307,40 +303,51 @@ TriClass classify_triangle(const Vertices& v, const std::int32_t* tri, int width
   return clipped ? TriClass::Clipped : TriClass::Raster;
 }
 
+double setup_screen_edges(const Vertices& v, const std::int32_t* tri, TriSetup* out) {
+  // Screen form: e_k = sign(2A) E_ab; screen_edge per edge, written in place
+  // (this runs per triangle and tile).
+  const double* p[3] = {&v.screen[3 * static_cast<std::size_t>(tri[0])],
+                        &v.screen[3 * static_cast<std::size_t>(tri[1])],
+                        &v.screen[3 * static_cast<std::size_t>(tri[2])]};
+  const double a2 = (p[0][0] - p[1][0]) * (p[2][1] - p[1][1]) - (p[0][1] - p[1][1]) * (p[2][0] - p[1][0]);
+  const double sign = a2 > 0.0 ? 1.0 : -1.0;
+  for (int k = 0; k < 3; ++k) {
+    const int ia = k == 2 ? 0 : k + 1, ib = k == 0 ? 2 : k - 1;
+    const double *pa = p[ia], *pb = p[ib];
+    double sg = sign;
+    // Canonical order (screen_less): by x, then y, then vertex index.
+    const bool swap = pb[0] != pa[0] ? pb[0] < pa[0] : pb[1] != pa[1] ? pb[1] < pa[1] : tri[ib] < tri[ia];
+    if (swap) {
+      std::swap(pa, pb);
+      sg = -sg;
+    }
+    Edge& e = out->e[k];
+    e.ax = pa[0];
+    e.ay = pa[1];
+    e.dx = sg * (pb[0] - pa[0]);
+    e.dy = sg * (pb[1] - pa[1]);
+    e.c = 0.0;
+    e.tie = tie_rule(e.dx, e.dy);
+  }
+  return a2;
+}
+
+void setup_screen_weights(const Vertices& v, const std::int32_t* tri, double a2, TriSetup* out) {
+  // lambda_k = e_k / |2A|, depth = sum lambda_k z_k.
+  const double inv = 1.0 / std::abs(a2);
+  bool z_test = false;
+  for (int k = 0; k < 3; ++k) {
+    const double z = v.screen[3 * static_cast<std::size_t>(tri[k]) + 2];
+    out->e[k].mu = inv;
+    out->e[k].mz = z * inv;
+    z_test |= z > 1.0;
+  }
+  out->z_test = z_test;
+}
+
 void setup_edges(const Vertices& v, const std::int32_t* tri, int width, int height, TriSetup* out) {
   if (!needs_clipping(v, tri)) {
-    // Screen form: e_k = sign(2A) E_ab, lambda_k = e_k / |2A|, depth = sum lambda_k z_k.
-    // screen_edge per edge, written in place (this runs per triangle and tile).
-    const double* p[3] = {&v.screen[3 * static_cast<std::size_t>(tri[0])],
-                          &v.screen[3 * static_cast<std::size_t>(tri[1])],
-                          &v.screen[3 * static_cast<std::size_t>(tri[2])]};
-    const double a2 = (p[0][0] - p[1][0]) * (p[2][1] - p[1][1]) - (p[0][1] - p[1][1]) * (p[2][0] - p[1][0]);
-    const double sign = a2 > 0.0 ? 1.0 : -1.0;
-    const double inv = 1.0 / std::abs(a2);
-    bool z_test = false;
-    for (int k = 0; k < 3; ++k) {
-      const int ia = k == 2 ? 0 : k + 1, ib = k == 0 ? 2 : k - 1;
-      const double *pa = p[ia], *pb = p[ib];
-      double sg = sign;
-      // Canonical order (screen_less): by x, then y, then vertex index.
-      const bool swap = pb[0] != pa[0] ? pb[0] < pa[0] : pb[1] != pa[1] ? pb[1] < pa[1] : tri[ib] < tri[ia];
-      if (swap) {
-        std::swap(pa, pb);
-        sg = -sg;
-      }
-      Edge& e = out->e[k];
-      e.ax = pa[0];
-      e.ay = pa[1];
-      e.dx = sg * (pb[0] - pa[0]);
-      e.dy = sg * (pb[1] - pa[1]);
-      e.c = 0.0;
-      e.tie = tie_rule(e.dx, e.dy);
-      const double z = p[k][2];
-      e.mu = inv;
-      e.mz = z * inv;
-      z_test |= z > 1.0;
-    }
-    out->z_test = z_test;
+    setup_screen_weights(v, tri, setup_screen_edges(v, tri, out), out);
     return;
   }
   // Homogeneous form: inside iff F_k / D > 0, with F_k = det[s, V_a, V_b].

@@ -32,6 +32,10 @@ struct Vertices {
   std::vector<double> clip;    // N x 4
   std::vector<double> screen;  // N x 3: sx, sy, z_ndc (valid when front[i])
   std::vector<std::uint8_t> front;
+  // Frustum outcode: bit k set when the vertex is beyond plane k of w <= 0,
+  // x > w, x < -w, y > w, y < -w, z < -w, z > w (so a triangle whose three
+  // codes share a bit is outside, without reading the clip coordinates).
+  std::vector<std::uint8_t> outcode;
 };
 template <class T>
 Vertices project_vertices(const T* clip, std::int64_t num_vertices, int width, int height);
@@ -111,6 +115,11 @@ struct PixelBox {
 // cull: 0 none, +1 drop back faces, -1 drop front faces.
 TriClass classify_triangle(const Vertices& v, const std::int32_t* tri, int width, int height,
                            int cull, PixelBox* box);
+
+// The two halves of setup_edges for a triangle with every vertex in front:
+// the edges (returns 2A), then the weights mu, mz and z_test.
+double setup_screen_edges(const Vertices& v, const std::int32_t* tri, TriSetup* out);
+void setup_screen_weights(const Vertices& v, const std::int32_t* tri, double a2, TriSetup* out);
 
 // Edge functions of a triangle that classify_triangle accepted.
 void setup_edges(const Vertices& v, const std::int32_t* tri, int width, int height,
