@@ -187,14 +187,9 @@ bool clip_less(const Vertices& v, std::int32_t a, std::int32_t b) {
 // or (horizontal edge) towards +y, i.e. the gradient (dy, -dx) points there.
 bool tie_rule(double dx, double dy) { return dy > 0.0 || (dy == 0.0 && dx < 0.0); }
 
-// Screen-space edge a->b times sign: e = sign * E_ab(p).
-Edge screen_edge(const Vertices& v, std::int32_t a, std::int32_t b, double sign) {
-  if (screen_less(v, b, a)) {
-    std::swap(a, b);
-    sign = -sign;
-  }
-  const double* pa = &v.screen[3 * static_cast<std::size_t>(a)];
-  const double* pb = &v.screen[3 * static_cast<std::size_t>(b)];
+// Screen-space edge from pa to pb (screen x, y; already in canonical order)
+// times sign.
+Edge edge_between(const double* pa, const double* pb, double sign) {
   Edge e{};
   e.ax = pa[0];
   e.ay = pa[1];
@@ -203,6 +198,15 @@ Edge screen_edge(const Vertices& v, std::int32_t a, std::int32_t b, double sign)
   e.c = 0.0;
   e.tie = tie_rule(e.dx, e.dy);
   return e;
+}
+
+// Screen-space edge a->b times sign: e = sign * E_ab(p).
+Edge screen_edge(const Vertices& v, std::int32_t a, std::int32_t b, double sign) {
+  if (screen_less(v, b, a)) {
+    std::swap(a, b);
+    sign = -sign;
+  }
+  return edge_between(&v.screen[3 * static_cast<std::size_t>(a)], &v.screen[3 * static_cast<std::size_t>(b)], sign);
 }
 
 // Homogeneous edge a->b times sign: e = sign * det[s, V_a, V_b], s = (px, py, 1).
@@ -321,13 +325,7 @@ double setup_screen_edges(const Vertices& v, const std::int32_t* tri, TriSetup* 
       std::swap(pa, pb);
       sg = -sg;
     }
-    Edge& e = out->e[k];
-    e.ax = pa[0];
-    e.ay = pa[1];
-    e.dx = sg * (pb[0] - pa[0]);
-    e.dy = sg * (pb[1] - pa[1]);
-    e.c = 0.0;
-    e.tie = tie_rule(e.dx, e.dy);
+    out->e[k] = edge_between(pa, pb, sg);
   }
   return a2;
 }
