@@ -18,6 +18,7 @@
 #include "raster/corner_gather.h"
 #include "raster/guarded_math.h"
 #include "raster/rasterize_setup.h"
+#include "raster/triangle_groups.h"
 
 namespace gr::raster {
 namespace {
@@ -319,6 +320,7 @@ detail::ScratchPool<BackwardScratch> g_backward_pool;
 // Step 2 of the adjoint (below): what it reads and where it sums.
 template <class T>
 struct CornerSums {
+  const detail::Buckets& by_tri;
   const Items& items;
   const T* grad_out;
   T* grad_uv;
@@ -334,7 +336,7 @@ struct CornerSums {
 // plane). kC as in item_terms.
 template <int kC, class T>
 void sum_corners(const InterpolateParams<T>& prm, const CornerSums<T>& cs) {
-  const detail::Buckets& by_tri = cs.sc->by_tri;
+  const detail::Buckets& by_tri = cs.by_tri;
   const std::int64_t used = static_cast<std::int64_t>(by_tri.nonempty.size());
   const std::int64_t C = kC > 0 ? kC : prm.channels;
   const std::int64_t SA = cs.SA, SC = cs.SC, S = SA + SC;
@@ -421,8 +423,10 @@ void interpolate_backward(const InterpolateParams<T>& prm, const T* grad_out, co
   auto lease = g_backward_pool.take();
   BackwardScratch& sc = *lease;
   const std::int32_t* tri_id = prm.tri_id;
-  detail::bucket_items(P, prm.num_tris, [&](std::int64_t p) -> std::int64_t { return tri_id[p] - 1; }, &sc.by_tri);
-  const detail::Buckets& by_tri = sc.by_tri;
+  const detail::Buckets* shared = prm.groups ? prm.groups->by_triangle(tri_id, P, prm.num_tris) : nullptr;
+  if (!shared)
+    detail::bucket_items(P, prm.num_tris, [&](std::int64_t p) -> std::int64_t { return tri_id[p] - 1; }, &sc.by_tri);
+  const detail::Buckets& by_tri = shared ? *shared : sc.by_tri;
   const std::int64_t used = static_cast<std::int64_t>(by_tri.nonempty.size());
 
   // 2. Per triangle, each item's terms summed per corner in item order
@@ -432,7 +436,7 @@ void interpolate_backward(const InterpolateParams<T>& prm, const T* grad_out, co
   const std::int64_t S = SA + SC;
   sc.partial.resize(static_cast<std::size_t>(3 * used * S));
   sc.live.resize(static_cast<std::size_t>(used));
-  const CornerSums<T> sums{items, grad_out, grad_uv, want_xyw, SA, SC, &sc};
+  const CornerSums<T> sums{by_tri, items, grad_out, grad_uv, want_xyw, SA, SC, &sc};
   switch (C) {  // the usual channel counts get unrolled channel loops
     case 1: sum_corners<1>(prm, sums); break;
     case 2: sum_corners<2>(prm, sums); break;

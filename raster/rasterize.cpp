@@ -11,6 +11,7 @@
 // (depth, id) test needs no atomics and is order independent. Buffers come
 // from a scratch pool and are reused across calls.
 #include "raster/rasterize.h"
+#include "raster/triangle_groups.h"
 
 #include <algorithm>
 #include <cassert>
@@ -450,7 +451,7 @@ void parallel_fill(double* data, std::int64_t n) {
 
 template <class T>
 void rasterize_backward(const RasterParams<T>& p, const std::int32_t* tri_id, const T* grad_uv, const T* grad_depth,
-                        T* grad_clip) {
+                        T* grad_clip, TriangleGroups* groups) {
   const T* clip = p.clip;
   const std::int64_t num_vertices = p.num_vertices;
   const std::int32_t* tris = p.tris;
@@ -463,8 +464,10 @@ void rasterize_backward(const RasterParams<T>& p, const std::int32_t* tri_id, co
 
   // Scatter by gathering (docs/determinism.md): 1. covered pixels grouped by
   // triangle, in pixel order; used triangles numbered by first pixel.
-  detail::bucket_items(P, p.num_tris, [&](std::int64_t q) -> std::int64_t { return tri_id[q] - 1; }, &sc.by_tri);
-  const detail::Buckets& by_tri = sc.by_tri;
+  const detail::Buckets* shared = groups ? groups->by_triangle(tri_id, P, p.num_tris) : nullptr;
+  if (!shared)
+    detail::bucket_items(P, p.num_tris, [&](std::int64_t q) -> std::int64_t { return tri_id[q] - 1; }, &sc.by_tri);
+  const detail::Buckets& by_tri = shared ? *shared : sc.by_tri;
   const std::int64_t used = static_cast<std::int64_t>(by_tri.nonempty.size());
 
   // 2. Per triangle, in parallel: each pixel's contribution, summed per corner
@@ -545,7 +548,8 @@ void rasterize_backward(const RasterParams<T>& p, const std::int32_t* tri_id, co
 
 #define GR_INSTANTIATE(T)                                                                                \
   template void rasterize_forward<T>(const RasterParams<T>&, std::int32_t*, T*, T*, RasterStats*, double*); \
-  template void rasterize_backward<T>(const RasterParams<T>&, const std::int32_t*, const T*, const T*, T*);
+  template void rasterize_backward<T>(const RasterParams<T>&, const std::int32_t*, const T*, const T*, T*, \
+                                      TriangleGroups*);
 GR_INSTANTIATE(float)
 GR_INSTANTIATE(double)
 #undef GR_INSTANTIATE
