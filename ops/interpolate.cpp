@@ -104,9 +104,10 @@ Tensor interpolate_items(const Tensor& attributes, const Tensor& clip, const Ten
     record(pixel_index.defined() ? "interpolate_fragments" : "interpolate", {attributes, clip, uv}, {&out},
            [attributes, clip, triangles, tri_id, uv = uv.detach(), width, height, pixel_index,
             perspective, groups](AdjointContext& ctx) {
-             Tensor g_attr = ctx.needs_grad(0) ? Tensor::zeros(attributes.shape(), attributes.dtype()) : Tensor();
-             Tensor g_clip = ctx.needs_grad(1) ? Tensor::zeros(clip.shape(), clip.dtype()) : Tensor();
-             Tensor g_uv = ctx.needs_grad(2) ? Tensor::zeros(uv.shape(), uv.dtype()) : Tensor();
+             // The kernel adds (+=) into the gradients summed so far.
+             Tensor g_attr = ctx.accumulation_buffer(0);
+             Tensor g_clip = ctx.accumulation_buffer(1);
+             Tensor g_uv = ctx.accumulation_buffer(2);
              dispatch_float(attributes.dtype(), kOp, [&](auto tag) {
                using T = decltype(tag);
                auto ptr = [](Tensor& t) { return t.defined() ? t.data<T>() : nullptr; };
@@ -115,9 +116,6 @@ Tensor interpolate_items(const Tensor& attributes, const Tensor& clip, const Ten
                p.groups = groups.get();
                raster::interpolate_backward(p, ctx.grad_output().data<T>(), {ptr(g_attr), ptr(g_clip), ptr(g_uv)});
              });
-             if (g_attr.defined()) ctx.accumulate(0, g_attr);
-             if (g_clip.defined()) ctx.accumulate(1, g_clip);
-             if (g_uv.defined()) ctx.accumulate(2, g_uv);
            });
   }
   return out;
