@@ -132,6 +132,27 @@ void AdjointContext::accumulate(std::size_t input, const Tensor& grad) {
     accumulate_leaf_grad(*in.leaf, grad);
 }
 
+Tensor AdjointContext::accumulation_buffer(std::size_t input) {
+  const Tape::InputRef& in = node_.inputs.at(input);
+  if (!in.defined || !in.requires_grad) return Tensor();
+  if (in.slot < 0) {  // a leaf: other threads may add into its gradient, so add once at the end
+    Tensor zeros = Tensor::zeros(in.shape, in.dtype);
+    leaf_buffers_.emplace_back(input, zeros);
+    return zeros;
+  }
+  Tensor& g = tape_.slot_grads_[static_cast<std::size_t>(in.slot)];
+  if (!g.defined())
+    g = Tensor::zeros(in.shape, in.dtype);
+  else if (g.impl_ptr().use_count() != 1 || g.impl()->storage.use_count() != 1)  // shared: add into a copy
+    g = g.copy();
+  return g;
+}
+
+void AdjointContext::add_leaf_buffers() {
+  for (const auto& [input, buffer] : leaf_buffers_) accumulate_leaf_grad(*node_.inputs.at(input).leaf, buffer);
+  leaf_buffers_.clear();
+}
+
 // The grad() contract (autodiff/tensor.h): every input of a node the sweep ran
 // that requires a gradient ends up with one, zeros if the adjoint gave none
 // (e.g. a nearest-filter texture's uv). So whether a leaf has a gradient
@@ -176,6 +197,7 @@ void Tape::run_backward(const Tensor& output, const Tensor& upstream) {
                         "', whose saved values were freed by an earlier backward(); run the forward computation again");
       AdjointContext ctx(*this, node);
       node.adjoint(ctx);
+      ctx.add_leaf_buffers();
       give_zero_grads(node);
     }
     // Release what the sweep has passed: saved values, inputs, output grads.

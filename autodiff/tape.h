@@ -38,6 +38,7 @@
 #include <functional>
 #include <initializer_list>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "autodiff/tensor.h"
@@ -110,6 +111,13 @@ class AdjointContext {
   bool needs_grad(std::size_t input) const;
   // Adds `grad` (same shape and dtype as input i) into dL/d(input i).
   void accumulate(std::size_t input, const Tensor& grad);
+  // For kernels that add into a buffer (+=): a buffer whose contents the
+  // adjoint adds its part of dL/d(input i) to, instead of calling accumulate.
+  // For a recorded input it is the gradient summed so far when nothing else
+  // holds it (no zero fill, no addition pass), else a copy of that sum, or
+  // zeros if there is none yet. For a leaf it is zeros, added to the leaf's
+  // gradient when the adjoint returns. Undefined if input i needs no gradient.
+  Tensor accumulation_buffer(std::size_t input);
   // Shape and dtype of input i (adjoints that reduce a broadcast gradient need them).
   const Shape& input_shape(std::size_t i) const { return node_.inputs.at(i).shape; }
   DType input_dtype(std::size_t i) const { return node_.inputs.at(i).dtype; }
@@ -117,8 +125,11 @@ class AdjointContext {
  private:
   friend class Tape;
   AdjointContext(Tape& tape, Tape::Node& node) : tape_(tape), node_(node) {}
+  // Adds the leaves' accumulation buffers to their gradients (after the adjoint).
+  void add_leaf_buffers();
   Tape& tape_;
   Tape::Node& node_;
+  std::vector<std::pair<std::size_t, Tensor>> leaf_buffers_;
 };
 
 // True if gradient mode is on and any defined tensor in `inputs` requires grad.

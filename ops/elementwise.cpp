@@ -338,8 +338,14 @@ Tensor pow(const Tensor& a, double p) {
         T* d = ga.data<T>();
         const T* x = a.data<T>();
         const T* gp = g.data<T>();
-        power(x, d, a.numel(), p - 1);
         const T pt = T(p);
+        if (p == 2) {  // a^1 = a: one pass, the same products as below
+          parallel_for(0, a.numel(), kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
+            for (std::int64_t i = lo; i < hi; ++i) d[i] = gp[i] * pt * x[i];
+          });
+          return;
+        }
+        power(x, d, a.numel(), p - 1);
         parallel_for(0, a.numel(), kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
           for (std::int64_t i = lo; i < hi; ++i)
             d[i] = (x[i] == T(0) && p < 1) ? T(0) : gp[i] * pt * d[i];

@@ -10,6 +10,7 @@
 #include "autodiff/tape.h"
 #include "ops/broadcast.h"
 #include "raster/fragments.h"
+#include "raster/triangle_groups.h"
 
 namespace gr {
 namespace {
@@ -63,6 +64,7 @@ Fragments fragments(const GBuffer& gbuffer) {
                               fr.tri_id.data<std::int32_t>());
   });
   fr.uv = gather_fragments(gbuffer.uv, fr);
+  fr.groups = std::make_shared<raster::TriangleGroups>();
   return fr;
 }
 

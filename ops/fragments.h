@@ -28,6 +28,9 @@ struct Fragments {
   Tensor uv;           // [F, 2]: the pixels' barycentrics, gathered from gbuffer.uv (differentiable)
   int width = 0;
   int height = 0;
+  // The fragments' grouping by triangle, shared by the interpolate adjoints
+  // over them (as GBuffer::groups).
+  std::shared_ptr<raster::TriangleGroups> groups;
   std::int64_t count() const { return pixel_index.defined() ? pixel_index.size(0) : 0; }
 };
 

@@ -6,6 +6,7 @@
 #include "autodiff/tape.h"
 #include "ops/check.h"
 #include "raster/interpolate.h"
+#include "raster/triangle_groups.h"
 
 namespace gr {
 namespace {
@@ -89,7 +90,8 @@ raster::InterpolateParams<T> params(const Tensor& attributes, const Tensor& clip
 // the adjoint to attributes, clip and uv. pixel_index undefined: image form.
 Tensor interpolate_items(const Tensor& attributes, const Tensor& clip, const Tensor& triangles,
                          const Tensor& tri_id, const Tensor& uv, int width, int height, const Tensor& pixel_index,
-                         bool perspective, const Tensor& background, const Shape& out_shape) {
+                         bool perspective, const Tensor& background, const Shape& out_shape,
+                         const std::shared_ptr<raster::TriangleGroups>& groups) {
   Tensor out = Tensor::empty(out_shape, attributes.dtype());
   dispatch_float(attributes.dtype(), kOp, [&](auto tag) {
     using T = decltype(tag);
@@ -101,20 +103,19 @@ Tensor interpolate_items(const Tensor& attributes, const Tensor& clip, const Ten
   if (should_record({attributes, clip, uv})) {
     record(pixel_index.defined() ? "interpolate_fragments" : "interpolate", {attributes, clip, uv}, {&out},
            [attributes, clip, triangles, tri_id, uv = uv.detach(), width, height, pixel_index,
-            perspective](AdjointContext& ctx) {
-             Tensor g_attr = ctx.needs_grad(0) ? Tensor::zeros(attributes.shape(), attributes.dtype()) : Tensor();
-             Tensor g_clip = ctx.needs_grad(1) ? Tensor::zeros(clip.shape(), clip.dtype()) : Tensor();
-             Tensor g_uv = ctx.needs_grad(2) ? Tensor::zeros(uv.shape(), uv.dtype()) : Tensor();
+            perspective, groups](AdjointContext& ctx) {
+             // The kernel adds (+=) into the gradients summed so far.
+             Tensor g_attr = ctx.accumulation_buffer(0);
+             Tensor g_clip = ctx.accumulation_buffer(1);
+             Tensor g_uv = ctx.accumulation_buffer(2);
              dispatch_float(attributes.dtype(), kOp, [&](auto tag) {
                using T = decltype(tag);
                auto ptr = [](Tensor& t) { return t.defined() ? t.data<T>() : nullptr; };
-               raster::interpolate_backward(
-                   params<T>(attributes, clip, triangles, tri_id, uv, width, height, pixel_index, perspective),
-                   ctx.grad_output().data<T>(), {ptr(g_attr), ptr(g_clip), ptr(g_uv)});
+               raster::InterpolateParams<T> p =
+                   params<T>(attributes, clip, triangles, tri_id, uv, width, height, pixel_index, perspective);
+               p.groups = groups.get();
+               raster::interpolate_backward(p, ctx.grad_output().data<T>(), {ptr(g_attr), ptr(g_clip), ptr(g_uv)});
              });
-             if (g_attr.defined()) ctx.accumulate(0, g_attr);
-             if (g_clip.defined()) ctx.accumulate(1, g_clip);
-             if (g_uv.defined()) ctx.accumulate(2, g_uv);
            });
   }
   return out;
@@ -137,7 +138,7 @@ Tensor interpolate(const Tensor& attributes, const Tensor& clip, const GBuffer& 
     detail::check_finite(background, kOp, "background");
   }
   return interpolate_items(attributes, clip, triangles, gbuffer.tri_id, gbuffer.uv, int(w), int(h), Tensor(),
-                           options.perspective, background, {h, w, c});
+                           options.perspective, background, {h, w, c}, gbuffer.groups);
 }
 
 Tensor interpolate(const Tensor& attributes, const Tensor& clip, const Fragments& fragments, const Tensor& triangles,
@@ -149,7 +150,7 @@ Tensor interpolate(const Tensor& attributes, const Tensor& clip, const Fragments
   check_fragments(fragments, clip, triangles);
   return interpolate_items(attributes, clip, triangles, fragments.tri_id, fragments.uv, fragments.width,
                            fragments.height, fragments.pixel_index, options.perspective, Tensor(),
-                           {fragments.count(), attributes.size(1)});
+                           {fragments.count(), attributes.size(1)}, fragments.groups);
 }
 
 InterpolatedWithDerivatives interpolate_with_derivatives(const Tensor& attributes, const Tensor& clip,

@@ -3,6 +3,7 @@
 
 #include "autodiff/tape.h"
 #include "ops/check.h"
+#include "raster/triangle_groups.h"
 
 namespace gr {
 namespace {
@@ -47,10 +48,11 @@ GBuffer rasterize_layer(const Tensor& clip, const Tensor& triangles, const Raste
                               key_depth);
   });
   if (should_record({clip})) {
+    gb.groups = std::make_shared<raster::TriangleGroups>();
     // The backward trusts what the forward checked: same clip, triangles and
     // settings, and the forward's own tri_id.
     record("rasterize", {clip}, {&gb.uv, &gb.depth},
-           [clip, triangles, settings, tri_id = gb.tri_id](AdjointContext& ctx) {
+           [clip, triangles, settings, tri_id = gb.tri_id, groups = gb.groups](AdjointContext& ctx) {
              const Tensor& g_uv = ctx.grad_output(0);
              const Tensor& g_depth = ctx.grad_output(1);
              Tensor uv_grad = g_uv.defined() ? g_uv : Tensor::zeros({tri_id.size(0), tri_id.size(1), 2}, clip.dtype());
@@ -59,7 +61,7 @@ GBuffer rasterize_layer(const Tensor& clip, const Tensor& triangles, const Raste
                using T = decltype(tag);
                raster::rasterize_backward(params<T>(clip, triangles, settings), tri_id.data<std::int32_t>(),
                                           uv_grad.data<T>(), g_depth.defined() ? g_depth.data<T>() : nullptr,
-                                          g.data<T>());
+                                          g.data<T>(), groups.get());
              });
              ctx.accumulate(0, g);
            });

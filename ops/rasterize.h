@@ -7,6 +7,8 @@
 // adjoint chains through their adjoints (docs/decisions.md).
 #pragma once
 
+#include <memory>
+
 #include "autodiff/tensor.h"
 #include "raster/rasterize.h"
 
@@ -27,6 +29,9 @@ struct GBuffer {
   Tensor uv;      // [H, W, 2]: screen-space barycentrics (u, v) of vertices 1 and 2
   Tensor depth;   // [H, W]: z_ndc (raster::kBackgroundDepth on background)
   raster::RasterStats stats;
+  // Set when recorded: the pixels' grouping by triangle, made by the first
+  // adjoint that needs it and reused by the others (raster/triangle_groups.h).
+  std::shared_ptr<raster::TriangleGroups> groups;
   int width() const { return static_cast<int>(tri_id.size(1)); }
   int height() const { return static_cast<int>(tri_id.size(0)); }
 };

@@ -18,6 +18,7 @@
 #include "raster/corner_gather.h"
 #include "raster/guarded_math.h"
 #include "raster/rasterize_setup.h"
+#include "raster/triangle_groups.h"
 
 namespace gr::raster {
 namespace {
@@ -84,46 +85,68 @@ void homogeneous_vertices(const T* clip, const std::int32_t* tri, int width, int
 
 // Weights of the three vertices at one pixel: A = sum_k weight_k A_k.
 // Perspective: q_k = lambda_k / w_k, s = sum q_k, weight_k = q_k / s; also
-// returns 1/w_k, q_k and 1/s for the adjoint. Clipped triangles take q_k from
-// the clip positions and the pixel centre e instead: q_k = F_k / D with
+// returns q_k and 1/s for the adjoint. Clipped triangles take q_k from the clip
+// positions and the pixel centre e instead: q_k = F_k / D with
 // F_k = e . (V_k+1 x V_k+2), D = V_0 . (V_1 x V_2) (docs/rasterizer.md). That is
 // the same value (rasterize stores lambda_k = w_k F_k / D), but it stays exact
 // at w_k = 0, where lambda_k = 0 and lambda_k / w_k loses the vertex's weight.
-struct PixelWeights {
-  double lambda[3], weight[3], inv_w[3], q[3], inv_s;
-  bool from_clip = false;  // q_k = F_k / D; then V, e and inv_d are set
-  detail::HVec V[3], e;
-  double inv_d;
+//
+// The part that does not depend on the pixel (1/w_k, or V_k, the cross products
+// and 1/D) is TriangleWeights, computed once per triangle by the adjoint's
+// per-triangle walk; pixel_weights finishes it for one pixel. Same arithmetic
+// in the same order either way, so the forward and the adjoint agree bit for bit.
+struct TriangleWeights {
+  bool perspective = true;
+  bool from_clip = false;    // q_k = F_k / D; then V, cr and inv_d are set
+  double inv_w[3];           // perspective, not from_clip: 1 / w_k
+  detail::HVec V[3], cr[3];  // from_clip: V_k and V_k+1 x V_k+2
+  double inv_d;              // from_clip: 1 / D
 };
 
 template <class T>
-PixelWeights pixel_weights(const T* clip, const std::int32_t* tri, const T* uv, bool perspective,
-                           const Items& items, std::int64_t p) {
+TriangleWeights triangle_weights(const T* clip, const std::int32_t* tri, bool perspective, const Items& items) {
+  TriangleWeights tw;
+  tw.perspective = perspective;
+  if (!perspective) return tw;
+  if (items.any_behind && is_clipped(clip, tri)) {
+    tw.from_clip = true;
+    homogeneous_vertices(clip, tri, items.width, items.height, tw.V);
+    tw.inv_d = safe_inv(detail::dot(tw.V[0], detail::cross(tw.V[1], tw.V[2])));
+    for (int k = 0; k < 3; ++k) tw.cr[k] = detail::cross(tw.V[(k + 1) % 3], tw.V[(k + 2) % 3]);
+  } else {
+    for (int k = 0; k < 3; ++k) tw.inv_w[k] = safe_inv(static_cast<double>(clip[4 * static_cast<std::int64_t>(tri[k]) + 3]));
+  }
+  return tw;
+}
+
+struct PixelWeights {
+  double lambda[3], weight[3], q[3], inv_s;
+  detail::HVec e;  // from_clip: the pixel centre
+};
+
+template <class T>
+inline PixelWeights pixel_weights(const TriangleWeights& tw, const T* uv, const Items& items, std::int64_t p) {
   PixelWeights pw;
   const double u = uv[2 * p], v = uv[2 * p + 1];
   pw.lambda[0] = 1.0 - u - v;
   pw.lambda[1] = u;
   pw.lambda[2] = v;
-  if (!perspective) {
+  if (!tw.perspective) {
     for (int k = 0; k < 3; ++k) pw.weight[k] = pw.lambda[k];
     return pw;
   }
   double s = 0.0;
-  if (items.any_behind && is_clipped(clip, tri)) {
+  if (tw.from_clip) {
     // q_k = F_k / D.
-    pw.from_clip = true;
-    homogeneous_vertices(clip, tri, items.width, items.height, pw.V);
     pw.e = items.centre(p);
-    pw.inv_d = safe_inv(detail::dot(pw.V[0], detail::cross(pw.V[1], pw.V[2])));
     for (int k = 0; k < 3; ++k) {
-      pw.q[k] = detail::dot(pw.e, detail::cross(pw.V[(k + 1) % 3], pw.V[(k + 2) % 3])) * pw.inv_d;
+      pw.q[k] = detail::dot(pw.e, tw.cr[k]) * tw.inv_d;
       s += pw.q[k];
     }
   } else {
     // q_k = lambda_k / w_k.
     for (int k = 0; k < 3; ++k) {
-      pw.inv_w[k] = safe_inv(static_cast<double>(clip[4 * static_cast<std::int64_t>(tri[k]) + 3]));
-      pw.q[k] = pw.lambda[k] * pw.inv_w[k];
+      pw.q[k] = pw.lambda[k] * tw.inv_w[k];
       s += pw.q[k];
     }
   }
@@ -132,13 +155,21 @@ PixelWeights pixel_weights(const T* clip, const std::int32_t* tri, const T* uv, 
   return pw;
 }
 
+// Both parts for one pixel (the forward and the derivatives, which walk pixels).
+template <class T>
+PixelWeights pixel_weights(const T* clip, const std::int32_t* tri, const T* uv, bool perspective,
+                           const Items& items, std::int64_t p) {
+  return pixel_weights(triangle_weights(clip, tri, perspective, items), uv, items, p);
+}
+
 // Adjoint of q_k = F_k / D (clipped triangles) for dL/dq_k = G_k, written as
 // dL/d(x, y, w) of the three vertices to xyw[3k..3k+2]. dL/dD = -sum_k G_k q_k / D
 // is 0 (G_k = g . (A_k - A) / s and sum_k q_k (A_k - A) = 0), so only
 // dL/dF_k = G_k / D is propagated: dF_k/dV_a = V_b x e, dF_k/dV_b = e x V_a
 // (a, b = k+1, k+2), then V -> clip: dx = W/2 gV.x, dy = -H/2 gV.y,
 // dw = W/2 gV.x + H/2 gV.y + gV.w.
-void clip_weights_backward(const PixelWeights& pw, int width, int height, const double* G, double* xyw) {
+void clip_weights_backward(const TriangleWeights& tw, const detail::HVec& e, int width, int height, const double* G,
+                           double* xyw) {
   detail::HVec gV[3] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}};
   auto add = [](detail::HVec& acc, const detail::HVec& d, double g) {
     acc.x += g * d.x;
@@ -147,9 +178,9 @@ void clip_weights_backward(const PixelWeights& pw, int width, int height, const 
   };
   for (int k = 0; k < 3; ++k) {
     const int a = (k + 1) % 3, b = (k + 2) % 3;
-    const double gF = G[k] * pw.inv_d;
-    add(gV[a], detail::cross(pw.V[b], pw.e), gF);
-    add(gV[b], detail::cross(pw.e, pw.V[a]), gF);
+    const double gF = G[k] * tw.inv_d;
+    add(gV[a], detail::cross(tw.V[b], e), gF);
+    add(gV[b], detail::cross(e, tw.V[a]), gF);
   }
   const double hw = 0.5 * width, hh = 0.5 * height;
   for (int k = 0; k < 3; ++k) {
@@ -203,21 +234,39 @@ struct ItemTerms {
   bool clipped;
 };
 
-// Per-item terms of the adjoint (formulas in interpolate.h) for item p on
-// triangle t (0-based); adds dL/du, dL/dv to grad_uv (its own entries only).
-// False when the incoming gradient is zero. value: scratch of C doubles.
+// The triangle of the items being summed: its weights' per-triangle part and
+// the attribute rows of its vertices.
 template <class T>
-bool item_terms(const InterpolateParams<T>& prm, const Items& items, const T* grad_out, T* grad_uv, bool want_xyw,
-                std::int64_t t, std::int64_t p, double* value, ItemTerms* out) {
+struct TriangleTerms {
+  TriangleWeights weights;
+  const T* a[3];
+};
+
+template <class T>
+TriangleTerms<T> triangle_terms(const InterpolateParams<T>& prm, const Items& items, std::int64_t t) {
+  const std::int32_t* tri = prm.tris + 3 * t;
   const std::int64_t C = prm.channels;
+  return {triangle_weights(prm.clip, tri, prm.perspective, items),
+          {prm.attr + tri[0] * C, prm.attr + tri[1] * C, prm.attr + tri[2] * C}};
+}
+
+// Per-item terms of the adjoint (formulas in interpolate.h) for item p on
+// triangle tt; adds dL/du, dL/dv to grad_uv (its own entries only). False
+// when the incoming gradient is zero. value: scratch of C doubles. kC: the
+// channel count when the caller fixed it at compile time (0: prm.channels),
+// so the short channel loops unroll; the arithmetic is the same either way.
+template <int kC, class T>
+inline bool item_terms(const InterpolateParams<T>& prm, const Items& items, const TriangleTerms<T>& tt,
+                       const T* grad_out, T* grad_uv, bool want_xyw, std::int64_t p, double* value, ItemTerms* out) {
+  const std::int64_t C = kC > 0 ? kC : prm.channels;
   const T* g = grad_out + p * C;
   // Zero incoming gradient: skip.
   bool any = false;
   for (std::int64_t c = 0; c < C && !any; ++c) any = g[c] != T(0);
   if (!any) return false;
-  const std::int32_t* tri = prm.tris + 3 * t;
-  const PixelWeights pw = pixel_weights(prm.clip, tri, prm.uv, prm.perspective, items, p);
-  const T* a[3] = {prm.attr + tri[0] * C, prm.attr + tri[1] * C, prm.attr + tri[2] * C};
+  const TriangleWeights& tw = tt.weights;
+  const PixelWeights pw = pixel_weights(tw, prm.uv, items, p);
+  const T* const* a = tt.a;
   double g_lambda[3];
   out->clipped = false;
   if (!prm.perspective) {
@@ -238,16 +287,16 @@ bool item_terms(const InterpolateParams<T>& prm, const Items& items, const T* gr
       for (std::int64_t c = 0; c < C; ++c) d += static_cast<double>(g[c]) * (a[k][c] - value[c]);
       G[k] = d * pw.inv_s;
     }
-    if (pw.from_clip) {
+    if (tw.from_clip) {
       // q_k = F_k / D does not depend on u, v.
       for (int k = 0; k < 3; ++k) g_lambda[k] = 0.0;
-      if (want_xyw) clip_weights_backward(pw, items.width, items.height, G, out->xyw);
+      if (want_xyw) clip_weights_backward(tw, pw.e, items.width, items.height, G, out->xyw);
       out->clipped = true;
     } else {
       // q_k = lambda_k / w_k: dL/dlambda_k = G_k / w_k ; dL/dw_k = -G_k q_k / w_k.
       for (int k = 0; k < 3; ++k) {
-        g_lambda[k] = G[k] * pw.inv_w[k];
-        out->grad_w[k] = -G[k] * pw.q[k] * pw.inv_w[k];
+        g_lambda[k] = G[k] * tw.inv_w[k];
+        out->grad_w[k] = -G[k] * pw.q[k] * tw.inv_w[k];
       }
     }
   }
@@ -267,6 +316,79 @@ struct BackwardScratch {
   std::vector<std::uint8_t> live;
 };
 detail::ScratchPool<BackwardScratch> g_backward_pool;
+
+// Step 2 of the adjoint (below): what it reads and where it sums.
+template <class T>
+struct CornerSums {
+  const detail::Buckets& by_tri;
+  const Items& items;
+  const T* grad_out;
+  T* grad_uv;
+  bool want_xyw;
+  std::int64_t SA, SC;  // per corner: SA attribute sums, then SC clip sums (0, 1: w, 3: x, y, w)
+  BackwardScratch* sc;
+};
+
+// Per used triangle, in parallel (in first-item order: a sweep down the image),
+// each item's terms summed per corner in item order. Corner k of used triangle
+// s holds S = SA + SC doubles at (3 s + k) S: dL/dA_k (SA = C values, or 0),
+// then dL/dw_k (SC = 1) or dL/d(x, y, w)_k (SC = 3: a vertex behind the near
+// plane). kC as in item_terms.
+template <int kC, class T>
+void sum_corners(const InterpolateParams<T>& prm, const CornerSums<T>& cs) {
+  const detail::Buckets& by_tri = cs.by_tri;
+  const std::int64_t used = static_cast<std::int64_t>(by_tri.nonempty.size());
+  const std::int64_t C = kC > 0 ? kC : prm.channels;
+  const std::int64_t SA = cs.SA, SC = cs.SC, S = SA + SC;
+  const T* grad_out = cs.grad_out;
+  T* grad_uv = cs.grad_uv;
+  double* partial = cs.sc->partial.data();
+  std::uint8_t* live_of = cs.sc->live.data();
+  constexpr std::int64_t kAhead = 4;
+  parallel_for(0, used, 16, [&](std::int64_t s0, std::int64_t s1) {
+    std::vector<double> value(static_cast<std::size_t>(C));
+    ItemTerms t;
+    for (std::int64_t s = s0; s < s1; ++s) {
+      double* acc = partial + 3 * s * S;
+      std::fill(acc, acc + 3 * S, 0.0);
+      std::uint8_t live = 0;
+      const std::int32_t tri = by_tri.nonempty[s];
+      const TriangleTerms<T> tt = triangle_terms(prm, cs.items, tri);
+      const std::int64_t e1 = by_tri.start[tri + 1];
+      for (std::int64_t e = by_tri.start[tri]; e < e1; ++e) {
+        const std::int64_t p = by_tri.item[e];
+        // The walk jumps between pixel rows: fetch a later item's data early.
+        if (e + kAhead < e1) {
+          const std::int64_t pa = by_tri.item[e + kAhead];
+          __builtin_prefetch(grad_out + pa * C);
+          __builtin_prefetch(prm.uv + 2 * pa);
+          if (grad_uv) __builtin_prefetch(grad_uv + 2 * pa);
+        }
+        if (!item_terms<kC>(prm, cs.items, tt, grad_out, grad_uv, cs.want_xyw, p, value.data(), &t)) continue;
+        live = 1;
+        const T* g = grad_out + p * C;
+        for (int k = 0; k < 3; ++k) {
+          double* o = acc + k * S;
+          // dL/dA_k += weight_k g.
+          if (SA)
+            for (std::int64_t c = 0; c < C; ++c) o[c] += t.weight[k] * static_cast<double>(g[c]);
+          if (SC == 1) {
+            o[SA] += t.grad_w[k];
+          } else if (SC == 3) {
+            if (t.clipped) {
+              o[SA] += t.xyw[3 * k];
+              o[SA + 1] += t.xyw[3 * k + 1];
+              o[SA + 2] += t.xyw[3 * k + 2];
+            } else {
+              o[SA + 2] += t.grad_w[k];
+            }
+          }
+        }
+      }
+      live_of[s] = live;
+    }
+  });
+}
 
 }  // namespace
 
@@ -288,7 +410,9 @@ void interpolate_backward(const InterpolateParams<T>& prm, const T* grad_out, co
       std::vector<double> value(static_cast<std::size_t>(C));
       ItemTerms t;
       for (std::int64_t p = lo; p < hi; ++p)
-        if (prm.tri_id[p] != 0) item_terms(prm, items, grad_out, grad_uv, false, prm.tri_id[p] - 1, p, value.data(), &t);
+        if (prm.tri_id[p] != 0)
+          item_terms<0>(prm, items, triangle_terms(prm, items, prm.tri_id[p] - 1), grad_out, grad_uv, false, p,
+                        value.data(), &t);
     });
     return;
   }
@@ -299,61 +423,27 @@ void interpolate_backward(const InterpolateParams<T>& prm, const T* grad_out, co
   auto lease = g_backward_pool.take();
   BackwardScratch& sc = *lease;
   const std::int32_t* tri_id = prm.tri_id;
-  detail::bucket_items(P, prm.num_tris, [&](std::int64_t p) -> std::int64_t { return tri_id[p] - 1; }, &sc.by_tri);
-  const detail::Buckets& by_tri = sc.by_tri;
+  const detail::Buckets* shared = prm.groups ? prm.groups->by_triangle(tri_id, P, prm.num_tris) : nullptr;
+  if (!shared)
+    detail::bucket_items(P, prm.num_tris, [&](std::int64_t p) -> std::int64_t { return tri_id[p] - 1; }, &sc.by_tri);
+  const detail::Buckets& by_tri = shared ? *shared : sc.by_tri;
   const std::int64_t used = static_cast<std::int64_t>(by_tri.nonempty.size());
 
-  // 2. Per triangle, in parallel (in first-item order: a sweep down the image),
-  // each item's terms summed per corner in item order. Corner k of used
-  // triangle s holds S doubles at (3 s + k) S:
-  // dL/dA_k (C values, if grad_attr), then dL/dw_k (grad_clip) or
-  // dL/d(x, y, w)_k (grad_clip with a vertex behind the near plane).
+  // 2. Per triangle, each item's terms summed per corner in item order
+  // (sum_corners).
   const std::int64_t SA = grad_attr ? C : 0;
   const std::int64_t SC = grad_clip ? (want_xyw ? 3 : 1) : 0;
   const std::int64_t S = SA + SC;
-  constexpr std::int64_t kAhead = 4;
   sc.partial.resize(static_cast<std::size_t>(3 * used * S));
   sc.live.resize(static_cast<std::size_t>(used));
-  parallel_for(0, used, 16, [&](std::int64_t s0, std::int64_t s1) {
-    std::vector<double> value(static_cast<std::size_t>(C));
-    ItemTerms t;
-    for (std::int64_t s = s0; s < s1; ++s) {
-      double* acc = sc.partial.data() + 3 * s * S;
-      std::fill(acc, acc + 3 * S, 0.0);
-      std::uint8_t live = 0;
-      const std::int32_t tri = by_tri.nonempty[s];
-      const std::int64_t e1 = by_tri.start[tri + 1];
-      for (std::int64_t e = by_tri.start[tri]; e < e1; ++e) {
-        const std::int64_t p = by_tri.item[e];
-        // The walk jumps between pixel rows: fetch a later item's data early.
-        if (e + kAhead < e1) {
-          const std::int64_t pa = by_tri.item[e + kAhead];
-          __builtin_prefetch(grad_out + pa * C);
-          __builtin_prefetch(prm.uv + 2 * pa);
-        }
-        if (!item_terms(prm, items, grad_out, grad_uv, want_xyw, tri, p, value.data(), &t)) continue;
-        live = 1;
-        const T* g = grad_out + p * C;
-        for (int k = 0; k < 3; ++k) {
-          double* o = acc + k * S;
-          // dL/dA_k += weight_k g.
-          for (std::int64_t c = 0; c < SA; ++c) o[c] += t.weight[k] * static_cast<double>(g[c]);
-          if (SC == 1) {
-            o[SA] += t.grad_w[k];
-          } else if (SC == 3) {
-            if (t.clipped) {
-              o[SA] += t.xyw[3 * k];
-              o[SA + 1] += t.xyw[3 * k + 1];
-              o[SA + 2] += t.xyw[3 * k + 2];
-            } else {
-              o[SA + 2] += t.grad_w[k];
-            }
-          }
-        }
-      }
-      sc.live[s] = live;
-    }
-  });
+  const CornerSums<T> sums{by_tri, items, grad_out, grad_uv, want_xyw, SA, SC, &sc};
+  switch (C) {  // the usual channel counts get unrolled channel loops
+    case 1: sum_corners<1>(prm, sums); break;
+    case 2: sum_corners<2>(prm, sums); break;
+    case 3: sum_corners<3>(prm, sums); break;
+    case 4: sum_corners<4>(prm, sums); break;
+    default: sum_corners<0>(prm, sums); break;
+  }
 
   // 3. Each vertex adds its corners' sums in corner order, once.
   detail::gather_corners(prm.tris, by_tri.nonempty.data(), used, sc.live.data(), sc.partial.data(), S,

@@ -19,6 +19,8 @@
 
 namespace gr::raster {
 
+class TriangleGroups;  // raster/triangle_groups.h
+
 // Inputs of one interpolate call, shared by the forward, the adjoint and the
 // derivatives. Image form (pixel_index null): the items are the width x
 // height pixels, tri_id and uv hold H*W and H*W*2 values (tri_id 0 =
@@ -43,6 +45,9 @@ struct InterpolateParams {
   std::int64_t count = 0;                     // fragment form only
   bool perspective = true;
   const T* background = nullptr;  // image form: C values for tri_id 0 (null = zeros)
+  // Adjoint only, optional: the items' grouping by triangle, shared with the
+  // other adjoints over this tri_id (raster/triangle_groups.h).
+  TriangleGroups* groups = nullptr;
   // Pixels (image form) or fragments.
   std::int64_t items() const { return pixel_index ? count : static_cast<std::int64_t>(width) * height; }
 };

@@ -13,6 +13,7 @@
 // (depth, id) test needs no atomics and is order independent. Buffers come
 // from a scratch pool and are reused across calls.
 #include "raster/rasterize.h"
+#include "raster/triangle_groups.h"
 
 #include <algorithm>
 #include <cassert>
@@ -407,15 +408,31 @@ void rasterize_forward(const RasterParams<T>& p, std::int32_t* tri_id, T* uv, T*
 
 namespace {
 
+// A triangle's screen positions (x_k, y_k, z_ndc) and 1 / 2A, 2A = E(p0; p1, p2):
+// the part of pixel_grad_screen that does not depend on the pixel, computed
+// once per triangle.
+struct ScreenTriangle {
+  const double *p0, *p1, *p2;
+  double inv;
+};
+
+inline double edge_function(double qx, double qy, const double* a, const double* b) {
+  return (qx - a[0]) * (b[1] - a[1]) - (qy - a[1]) * (b[0] - a[0]);
+}
+
+ScreenTriangle screen_triangle(const detail::Vertices& v, const std::int32_t* tri) {
+  ScreenTriangle st{&v.screen[3 * static_cast<std::size_t>(tri[0])], &v.screen[3 * static_cast<std::size_t>(tri[1])],
+                    &v.screen[3 * static_cast<std::size_t>(tri[2])], 0.0};
+  st.inv = safe_inv(edge_function(st.p0[0], st.p0[1], st.p1, st.p2));
+  return st;
+}
+
 // Gradient of the screen-space triangle functions at one pixel: the adjoint of
 //   u = E_20/2A, v = E_01/2A, depth = (1-u-v) z0 + u z1 + v z2
 // w.r.t. the screen positions (x_k, y_k) and z_k = z_ndc; out[3k..3k+2].
-void pixel_grad_screen(const double* p0, const double* p1, const double* p2, double px, double py,
-                       double gu, double gv, double gd, double* out) {
-  // Edge function E(q; a, b) and its partials w.r.t. a and b (accumulated).
-  auto edge = [](double qx, double qy, const double* a, const double* b) {
-    return (qx - a[0]) * (b[1] - a[1]) - (qy - a[1]) * (b[0] - a[0]);
-  };
+inline void pixel_grad_screen(const ScreenTriangle& st, double px, double py, double gu, double gv, double gd,
+                              double* out) {
+  // Partials of the edge function E(q; a, b) w.r.t. a and b (accumulated).
   auto edge_grad = [](double qx, double qy, const double* a, const double* b, double g, double* ga,
                       double* gb) {
     ga[0] += g * (qy - b[1]);
@@ -423,9 +440,9 @@ void pixel_grad_screen(const double* p0, const double* p1, const double* p2, dou
     gb[0] += g * (a[1] - qy);
     gb[1] += g * (qx - a[0]);
   };
-  const double a2 = edge(p0[0], p0[1], p1, p2);
-  const double inv = safe_inv(a2);
-  const double u = edge(px, py, p2, p0) * inv, v = edge(px, py, p0, p1) * inv;
+  const double *p0 = st.p0, *p1 = st.p1, *p2 = st.p2;
+  const double inv = st.inv;
+  const double u = edge_function(px, py, p2, p0) * inv, v = edge_function(px, py, p0, p1) * inv;
   // Depth reaches u and v too.
   const double gu2 = gu + gd * (p1[2] - p0[2]), gv2 = gv + gd * (p2[2] - p0[2]);
   // Quotient rule on u = E_20/2A, v = E_01/2A.
@@ -520,7 +537,7 @@ void parallel_fill(double* data, std::int64_t n) {
 
 template <class T>
 void rasterize_backward(const RasterParams<T>& p, const std::int32_t* tri_id, const T* grad_uv, const T* grad_depth,
-                        T* grad_clip) {
+                        T* grad_clip, TriangleGroups* groups) {
   const T* clip = p.clip;
   const std::int64_t num_vertices = p.num_vertices;
   const std::int32_t* tris = p.tris;
@@ -533,8 +550,10 @@ void rasterize_backward(const RasterParams<T>& p, const std::int32_t* tri_id, co
 
   // Scatter by gathering (docs/determinism.md): 1. covered pixels grouped by
   // triangle, in pixel order; used triangles numbered by first pixel.
-  detail::bucket_items(P, p.num_tris, [&](std::int64_t q) -> std::int64_t { return tri_id[q] - 1; }, &sc.by_tri);
-  const detail::Buckets& by_tri = sc.by_tri;
+  const detail::Buckets* shared = groups ? groups->by_triangle(tri_id, P, p.num_tris) : nullptr;
+  if (!shared)
+    detail::bucket_items(P, p.num_tris, [&](std::int64_t q) -> std::int64_t { return tri_id[q] - 1; }, &sc.by_tri);
+  const detail::Buckets& by_tri = shared ? *shared : sc.by_tri;
   const std::int64_t used = static_cast<std::int64_t>(by_tri.nonempty.size());
 
   // 2. Per triangle, in parallel: each pixel's contribution, summed per corner
@@ -554,9 +573,13 @@ void rasterize_backward(const RasterParams<T>& p, const std::int32_t* tri_id, co
       const std::int64_t t = by_tri.nonempty[s];
       const std::int32_t* tri = tris + 3 * t;
       const bool clipped = detail::needs_clipping(v, tri);
+      const ScreenTriangle st = clipped ? ScreenTriangle{} : screen_triangle(v, tri);
       std::uint8_t k = 0;
-      for (std::int64_t e = by_tri.start[t]; e < by_tri.start[t + 1]; ++e) {
+      const std::int64_t e1 = by_tri.start[t + 1];
+      for (std::int64_t e = by_tri.start[t]; e < e1; ++e) {
         const std::int64_t q = by_tri.item[e];
+        // The walk jumps between pixel rows: fetch a later pixel's gradient early.
+        if (e + 4 < e1) __builtin_prefetch(grad_uv + 2 * static_cast<std::int64_t>(by_tri.item[e + 4]));
         const double gu = grad_uv[2 * q], gv = grad_uv[2 * q + 1];
         const double gd = grad_depth ? static_cast<double>(grad_depth[q]) : 0.0;
         // Zero incoming gradient: skip.
@@ -564,9 +587,7 @@ void rasterize_backward(const RasterParams<T>& p, const std::int32_t* tri_id, co
         const double px = static_cast<double>(q % W) + 0.5, py = static_cast<double>(q / W) + 0.5;
         std::fill(out, out + 12, 0.0);
         if (!clipped) {
-          pixel_grad_screen(&v.screen[3 * static_cast<std::size_t>(tri[0])],
-                            &v.screen[3 * static_cast<std::size_t>(tri[1])],
-                            &v.screen[3 * static_cast<std::size_t>(tri[2])], px, py, gu, gv, gd, out);
+          pixel_grad_screen(st, px, py, gu, gv, gd, out);
           for (int j = 0; j < 3; ++j)
             for (int d = 0; d < 3; ++d) acc[j * S + d] += out[3 * j + d];
           k = 1;
@@ -613,7 +634,8 @@ void rasterize_backward(const RasterParams<T>& p, const std::int32_t* tri_id, co
 
 #define GR_INSTANTIATE(T)                                                                                \
   template void rasterize_forward<T>(const RasterParams<T>&, std::int32_t*, T*, T*, RasterStats*, double*); \
-  template void rasterize_backward<T>(const RasterParams<T>&, const std::int32_t*, const T*, const T*, T*);
+  template void rasterize_backward<T>(const RasterParams<T>&, const std::int32_t*, const T*, const T*, T*, \
+                                      TriangleGroups*);
 GR_INSTANTIATE(float)
 GR_INSTANTIATE(double)
 #undef GR_INSTANTIATE

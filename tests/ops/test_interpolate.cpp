@@ -1,5 +1,7 @@
 #include <catch2/catch.hpp>
 
+#include <algorithm>
+
 #include "ops/ops.h"
 #include "test_support.h"
 
@@ -125,4 +127,40 @@ TEST_CASE("interpolate op: mismatched shapes and dtypes throw with clear message
   empty.tri_id = Tensor::zeros({0, 8}, DType::Int32);
   empty.uv = Tensor::zeros({0, 8, 2}, DType::Float64);
   CHECK_THROWS_AS(interpolate(attr, clip, empty, tris), ValueError);
+}
+
+TEST_CASE("interpolate op: adjoints share one G-buffer's grouping by triangle, and a copy given another tri_id "
+          "groups its own pixels", "[ops][interpolate][rasterize]") {
+  // Two interpolations and the rasterize adjoint over one G-buffer share its
+  // groups; a copy of it with another image's tri_id and uv must not reuse
+  // them, in either order of the adjoints. The reference runs without groups.
+  Tensor tris = Tensor::from_vector<std::int32_t>({0, 1, 2, 3, 4, 5}, {2, 3});
+  Tensor attr = random_input({6, 3}, -1, 1, 43).set_requires_grad();
+  Tensor weights = random_input({16, 20, 3}, -1, 1, 44);
+  const Tensor clip0 = clip_of_two_triangles();
+  const Tensor moved = clip0 * Tensor::from_values({0.8, 1.1, 1.0, 1.0}, {4}, DType::Float64);
+  for (bool mixed_first : {false, true}) {
+    INFO("mixed copy recorded first " << mixed_first);
+    auto grads = [&](bool shared) {
+      Tensor clip = clip0.copy().set_requires_grad();
+      GBuffer gb = rasterize(clip, tris, {20, 16});
+      GBuffer other = rasterize(moved, tris, {20, 16});
+      GBuffer mixed = gb;  // gb's groups, other's pixels
+      mixed.tri_id = other.tri_id;
+      mixed.uv = other.uv;
+      if (!shared) gb.groups.reset(), mixed.groups.reset();
+      REQUIRE((shared ? mixed.groups == gb.groups && gb.groups != nullptr : !gb.groups));
+      Tensor a = mixed_first ? interpolate(attr, clip, mixed, tris) : interpolate(attr, clip, gb, tris);
+      Tensor b = mixed_first ? interpolate(attr, clip, gb, tris) : interpolate(attr, clip, mixed, tris);
+      Tensor c = interpolate(attr * 2.0, clip, gb, tris);
+      backward(sum((a + b * 3.0 + c) * weights));
+      std::vector<Tensor> g = {attr.grad().copy(), clip.grad().copy()};
+      attr.zero_grad();
+      return g;
+    };
+    const std::vector<Tensor> ref = grads(false), got = grads(true);
+    for (std::size_t i = 0; i < ref.size(); ++i) REQUIRE(got[i].to_vector() == ref[i].to_vector());
+    const std::vector<double> ga = ref[0].to_vector();
+    REQUIRE(std::any_of(ga.begin(), ga.end(), [](double x) { return x != 0.0; }));
+  }
 }
