@@ -1,8 +1,11 @@
 #include "autodiff/tensor.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <random>
+
+#include "autodiff/parallel.h"
 
 namespace gr {
 namespace {
@@ -33,7 +36,14 @@ Tensor Tensor::empty(const Shape& shape, DType dtype) {
 
 Tensor Tensor::zeros(const Shape& shape, DType dtype) {
   Tensor t = empty(shape, dtype);
-  std::memset(t.impl_->storage->data(), 0, static_cast<std::size_t>(shape.numel()) * dtype_size(dtype));
+  // Large buffers (gradients of images) are cleared by all threads.
+  constexpr std::int64_t kChunk = std::int64_t(1) << 20;  // bytes per task
+  auto* bytes = static_cast<unsigned char*>(t.impl_->storage->data());
+  const std::int64_t n = shape.numel() * static_cast<std::int64_t>(dtype_size(dtype));
+  parallel_for(0, (n + kChunk - 1) / kChunk, 1, [&](std::int64_t c0, std::int64_t c1) {
+    const std::int64_t lo = c0 * kChunk, hi = std::min(n, c1 * kChunk);
+    std::memset(bytes + lo, 0, static_cast<std::size_t>(hi - lo));
+  });
   return t;
 }
 
