@@ -64,7 +64,8 @@ Fragments fragments(const GBuffer& gbuffer) {
                               fr.tri_id.data<std::int32_t>());
   });
   fr.uv = gather_fragments(gbuffer.uv, fr);
-  fr.groups = std::make_shared<raster::TriangleGroups>();
+  fr.groups = std::make_shared<raster::TriangleGroups>(fr.tri_id.data<std::int32_t>(),
+                                                       std::make_shared<Tensor>(fr.tri_id));
   return fr;
 }
 

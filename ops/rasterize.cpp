@@ -48,7 +48,8 @@ GBuffer rasterize_layer(const Tensor& clip, const Tensor& triangles, const Raste
                               key_depth);
   });
   if (should_record({clip})) {
-    gb.groups = std::make_shared<raster::TriangleGroups>();
+    gb.groups = std::make_shared<raster::TriangleGroups>(gb.tri_id.data<std::int32_t>(),
+                                                         std::make_shared<Tensor>(gb.tri_id));
     // The backward trusts what the forward checked: same clip, triangles and
     // settings, and the forward's own tri_id.
     record("rasterize", {clip}, {&gb.uv, &gb.depth},

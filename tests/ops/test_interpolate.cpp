@@ -164,3 +164,33 @@ TEST_CASE("interpolate op: adjoints share one G-buffer's grouping by triangle, a
     REQUIRE(std::any_of(ga.begin(), ga.end(), [](double x) { return x != 0.0; }));
   }
 }
+
+TEST_CASE("interpolate op: a G-buffer given a new tri_id after a backward never reuses the old grouping, even "
+          "where the new buffer could take the old one's memory", "[ops][interpolate][rasterize]") {
+  Tensor tris = Tensor::from_vector<std::int32_t>({0, 1, 2, 3, 4, 5}, {2, 3});
+  Tensor attr = random_input({6, 3}, -1, 1, 45).set_requires_grad();
+  Tensor weights = random_input({16, 20, 3}, -1, 1, 46);
+  const Tensor moved = clip_of_two_triangles() * Tensor::from_values({0.8, 1.1, 1.0, 1.0}, {4}, DType::Float64);
+  auto attr_grad = [&](const GBuffer& gb, const Tensor& clip) {
+    backward(sum(interpolate(attr, clip, gb, tris) * weights));
+    const std::vector<double> g = attr.grad().to_vector();
+    attr.zero_grad();
+    return g;
+  };
+  Tensor clip = clip_of_two_triangles().set_requires_grad();
+  GBuffer gb = rasterize(clip, tris, {20, 16});
+  attr_grad(gb, clip);  // groups gb's pixels
+  // Replace tri_id by the moved scene's ids, in a buffer of the same size
+  // allocated right after the old one is dropped.
+  const GBuffer other = rasterize(moved, tris, {20, 16});
+  gb.tri_id = Tensor();
+  gb.tri_id = Tensor::empty({16, 20}, DType::Int32);
+  std::copy(other.tri_id.data<std::int32_t>(), other.tri_id.data<std::int32_t>() + 16 * 20,
+            gb.tri_id.data<std::int32_t>());
+  gb.uv = other.uv;
+  GBuffer fresh = gb;
+  fresh.groups.reset();
+  const std::vector<double> reused = attr_grad(gb, moved), ungrouped = attr_grad(fresh, moved);
+  REQUIRE(std::any_of(ungrouped.begin(), ungrouped.end(), [](double x) { return x != 0.0; }));
+  CHECK(reused == ungrouped);
+}
