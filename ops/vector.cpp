@@ -71,6 +71,13 @@ Acc row_length(const T* v, std::int64_t k) {
   return std::sqrt(s);
 }
 
+// per_element[3 i + j] = per_row[i] for j < 3: a row's value beside each of
+// its elements, so the loop that uses it is flat and vectorizes.
+template <class V>
+void spread_rows3(const V* per_row, V* per_element, std::int64_t rows) {
+  for (std::int64_t i = 0; i < rows; ++i) per_element[3 * i] = per_element[3 * i + 1] = per_element[3 * i + 2] = per_row[i];
+}
+
 // normalize's forward on rows of 3, the general loop's operations in the same
 // order (so the same bits), in blocks: the lengths, one denominator per
 // element, then the divisions as one flat loop the compiler vectorizes.
@@ -85,10 +92,8 @@ void normalize_rows3(const T* v, T* out, T* denom, std::int64_t rows, double eps
       const Acc a = x[3 * i], b = x[3 * i + 1], c = x[3 * i + 2];
       d[i] = std::max<Acc>(std::sqrt(a * a + b * b + c * c), eps);
     }
-    for (std::int64_t i = 0; i < n; ++i) {
-      denom[r0 + i] = T(d[i]);
-      d3[3 * i] = d3[3 * i + 1] = d3[3 * i + 2] = d[i];
-    }
+    for (std::int64_t i = 0; i < n; ++i) denom[r0 + i] = T(d[i]);
+    spread_rows3(d, d3, n);
     for (std::int64_t e = 0; e < 3 * n; ++e) out[3 * r0 + e] = T(Acc(x[e]) / d3[e]);
   }
 }
@@ -99,17 +104,17 @@ void normalize_rows3(const T* v, T* out, T* denom, std::int64_t rows, double eps
 template <class T>
 void normalize_adjoint_rows3(const T* n, const T* g, const T* denom, T* out, std::int64_t rows, double eps) {
   constexpr std::int64_t kRows = 128;
-  Acc ng3[3 * kRows], inv3[3 * kRows];
+  Acc ng[kRows], inv[kRows], ng3[3 * kRows], inv3[3 * kRows];
   for (std::int64_t r0 = 0; r0 < rows; r0 += kRows) {
     const std::int64_t m = std::min(kRows, rows - r0);
     const T *nb = n + 3 * r0, *gb = g + 3 * r0;
     for (std::int64_t i = 0; i < m; ++i) {
-      const Acc ng = Acc(nb[3 * i]) * Acc(gb[3 * i]) + Acc(nb[3 * i + 1]) * Acc(gb[3 * i + 1]) +
-                     Acc(nb[3 * i + 2]) * Acc(gb[3 * i + 2]);
-      const Acc inv = 1 / Acc(denom[r0 + i]);
-      ng3[3 * i] = ng3[3 * i + 1] = ng3[3 * i + 2] = ng;
-      inv3[3 * i] = inv3[3 * i + 1] = inv3[3 * i + 2] = inv;
+      ng[i] = Acc(nb[3 * i]) * Acc(gb[3 * i]) + Acc(nb[3 * i + 1]) * Acc(gb[3 * i + 1]) +
+              Acc(nb[3 * i + 2]) * Acc(gb[3 * i + 2]);
+      inv[i] = 1 / Acc(denom[r0 + i]);
     }
+    spread_rows3(ng, ng3, m);
+    spread_rows3(inv, inv3, m);
     T* ob = out + 3 * r0;
     for (std::int64_t e = 0; e < 3 * m; ++e) ob[e] = T((Acc(gb[e]) - Acc(nb[e]) * ng3[e]) * inv3[e]);
     for (std::int64_t i = 0; i < m; ++i)
@@ -131,7 +136,7 @@ void scale_rows(const T* g, const T* y, T* out, std::int64_t rows, std::int64_t 
   T g3[3 * kRows];
   for (std::int64_t r0 = 0; r0 < rows; r0 += kRows) {
     const std::int64_t n = std::min(kRows, rows - r0);
-    for (std::int64_t i = 0; i < n; ++i) g3[3 * i] = g3[3 * i + 1] = g3[3 * i + 2] = g[r0 + i];
+    spread_rows3(g + r0, g3, n);
     for (std::int64_t e = 0; e < 3 * n; ++e) out[3 * r0 + e] = g3[e] * y[3 * r0 + e];
   }
 }

@@ -382,6 +382,18 @@ void texture_backward(const TextureParams<T>& p, const T* grad_out, const Textur
   for (std::int64_t c0 = 0; c0 < S; c0 += chunk) {
     const std::int64_t c1 = std::min(S, c0 + chunk);
     const std::int64_t blocks = (c1 - c0 + kBlock - 1) / kBlock;
+    // dL/du = g . d out/du (likewise v), from the forward's Jacobian.
+    auto uv_grad_from_jacobian = [&](std::int64_t s, const T* g) {
+      const T* ju = uv_jacobian + s * 2 * C;
+      grad_uv[2 * s] += static_cast<T>(dot_channels(g, ju, C));
+      grad_uv[2 * s + 1] += static_cast<T>(dot_channels(g, ju + C, C));
+    };
+    // Files tap (texel, w) of sample s under its texel band in block j's buckets.
+    auto file_tap = [&](std::int32_t* counts, std::int64_t j, std::int64_t s, std::int64_t texel, double w) {
+      const std::int64_t band = texel >> bands.shift;
+      entries[(j * bands.count + band) * bucket_size + counts[band]++] = {
+          static_cast<std::uint32_t>(texel), static_cast<T>(w), static_cast<std::uint8_t>(s - c0 - j * kBlock)};
+    };
     // Taps of kAhead samples first, their texels prefetched, so that the texel
     // reads after them overlap instead of waiting one by one. Bilinear (the
     // common filter) gets its own instance, with a constant tap count.
@@ -397,19 +409,11 @@ void texture_backward(const TextureParams<T>& p, const T* grad_out, const Textur
           for (std::int64_t s = c0 + j * kBlock; s < s_end; ++s) {
             const T* g = grad_out + s * C;
             if (!live(g, C)) continue;
-            if (grad_uv) {
-              const T* ju = uv_jacobian + s * 2 * C;
-              grad_uv[2 * s] += static_cast<T>(dot_channels(g, ju, C));
-              grad_uv[2 * s + 1] += static_cast<T>(dot_channels(g, ju + C, C));
-            }
+            if (grad_uv) uv_grad_from_jacobian(s, g);
             if (!texels) continue;
             Taps t;
             bilinear_taps<false>(p.layout.levels[0], p.uv[2 * s], p.uv[2 * s + 1], p.v_down, 1.0, p.wrap, t);
-            for (int k = 0; k < 4; ++k) {
-              const std::int64_t band = t.index[k] >> bands.shift;
-              entries[(j * bands.count + band) * bucket_size + counts[band]++] = {
-                  static_cast<std::uint32_t>(t.index[k]), static_cast<T>(t.w[k]), static_cast<std::uint8_t>(s - c0 - j * kBlock)};
-            }
+            for (int k = 0; k < 4; ++k) file_tap(counts, j, s, t.index[k], t.w[k]);
           }
           return;
         }
@@ -459,10 +463,7 @@ void texture_backward(const TextureParams<T>& p, const T* grad_out, const Textur
             }
           }
           if (grad_uv && uv_jacobian) {
-            // dL/du = g . d out/du (likewise v), from the forward's Jacobian.
-            const T* ju = uv_jacobian + s * 2 * C;
-            grad_uv[2 * s] += static_cast<T>(dot_channels(g, ju, C));
-            grad_uv[2 * s + 1] += static_cast<T>(dot_channels(g, ju + C, C));
+            uv_grad_from_jacobian(s, g);
           } else if (grad_uv) {
             // dL/du = g . sum_t dw_t/du texel_t (likewise v).
             double gu = 0.0, gv = 0.0;
@@ -475,11 +476,7 @@ void texture_backward(const TextureParams<T>& p, const T* grad_out, const Textur
             grad_uv[2 * s + 1] += static_cast<T>(gv);
           }
           if (!texels) continue;
-          for (int k = 0; k < nt; ++k) {
-            const std::int64_t band = t.index[k] >> bands.shift;
-            TapEntry<T>& e = entries[(j * bands.count + band) * bucket_size + counts[band]++];
-            e = {static_cast<std::uint32_t>(t.index[k]), static_cast<T>(t.w[k]), static_cast<std::uint8_t>(s - c0 - j * kBlock)};
-          }
+          for (int k = 0; k < nt; ++k) file_tap(counts, j, s, t.index[k], t.w[k]);
         }
       }
     };
