@@ -92,6 +92,16 @@ void sum_into_operand(const RowView& v, Term term, T* out) {
       for (std::int64_t b = b0; b < b1; ++b) {
         double* acc = partial.data() + b * k;
         const std::int64_t r1 = std::min(rows, (b + 1) * kSumBlock);
+        if (k == 3) {  // the same sums in registers (through memory each add waits on a store)
+          double a0 = 0, a1 = 0, a2 = 0;
+          for (std::int64_t r = b * kSumBlock; r < r1; ++r) {
+            a0 += double(term(3 * r, r, 0));
+            a1 += double(term(3 * r + 1, r, 1));
+            a2 += double(term(3 * r + 2, r, 2));
+          }
+          acc[0] = a0, acc[1] = a1, acc[2] = a2;
+          continue;
+        }
         for (std::int64_t r = b * kSumBlock; r < r1; ++r)
           for (std::int64_t j = 0; j < k; ++j) acc[j] += double(term(r * k + j, r, j));
       }

@@ -92,7 +92,25 @@ void map2(const detail::RowView& va, const detail::RowView& vb, T* out, F f) {
         else
           for (std::int64_t e = e0; e < e1; ++e) out[e] = f(other[e], rep[e]);
       }
-    } else {  // a column operand, or both broadcast: walk the output row by row
+    } else if ((va.full() && vb.column()) || (va.column() && vb.full())) {
+      // A column operand (a [..., 1] against [..., k]): each value spread over
+      // its row for a block of rows, so each block is one flat loop (read with
+      // strides, the compiler would gather).
+      const T* column = va.column() ? a.p : b.p;
+      const T* other = va.column() ? b.p : a.p;
+      const std::int64_t block_rows = std::max<std::int64_t>(1, kRowBlock / k);
+      std::vector<T> spread(static_cast<std::size_t>(std::min(block_rows, r1 - r0) * k));
+      for (std::int64_t b0 = r0; b0 < r1; b0 += block_rows) {
+        const std::int64_t b1 = std::min(r1, b0 + block_rows), e0 = b0 * k, e1 = b1 * k;
+        for (std::int64_t r = b0; r < b1; ++r)
+          for (std::int64_t j = 0; j < k; ++j) spread[static_cast<std::size_t>((r - b0) * k + j)] = column[r];
+        const T* rep = spread.data() - e0;
+        if (va.column())
+          for (std::int64_t e = e0; e < e1; ++e) out[e] = f(rep[e], other[e]);
+        else
+          for (std::int64_t e = e0; e < e1; ++e) out[e] = f(other[e], rep[e]);
+      }
+    } else {  // both broadcast: walk the output row by row
       for (std::int64_t r = r0; r < r1; ++r) {
         const T* ar = a.p + r * a.rs;
         const T* br = b.p + r * b.rs;
@@ -206,6 +224,16 @@ Tensor binary(const char* name, Tensor a, Tensor b, bool uses_y, Fwd fwd, DA da,
             accumulate_operand<T>(ctx, input, v, [&](std::int64_t i, std::int64_t, std::int64_t) {
               return T(f(pg[i], a0, pb[i], y_at(i)));
             });
+          } else if (va.full() && vb.column()) {  // e.g. albedo * max(n.l, 0): no strided reads
+            const T *pa = ra.p, *pb = rb.p;
+            accumulate_operand<T>(ctx, input, v, [&](std::int64_t i, std::int64_t r, std::int64_t) {
+              return T(f(pg[i], pa[i], pb[r], y_at(i)));
+            });
+          } else if (va.column() && vb.full()) {
+            const T *pa = ra.p, *pb = rb.p;
+            accumulate_operand<T>(ctx, input, v, [&](std::int64_t i, std::int64_t r, std::int64_t) {
+              return T(f(pg[i], pa[r], pb[i], y_at(i)));
+            });
           } else {
             accumulate_operand<T>(ctx, input, v, [&](std::int64_t i, std::int64_t r, std::int64_t j) {
               return T(f(pg[i], ra(r, j), rb(r, j), y_at(i)));
@@ -271,19 +299,23 @@ void integer_power(const T* x, T* out, std::int64_t count, long long n) {
   }
 }
 
-// x^p elementwise: repeated squaring for integer |p| <= 64, std::pow otherwise.
+// out[i] = x[i]^p for i in [lo, hi): repeated squaring for integer |p| <= 64,
+// std::pow otherwise.
+template <class T>
+void power_range(const T* x, T* out, std::int64_t lo, std::int64_t hi, double p) {
+  if (p == std::floor(p) && std::fabs(p) <= 64) {
+    integer_power(x + lo, out + lo, hi - lo, static_cast<long long>(std::fabs(p)));
+    if (p < 0)
+      for (std::int64_t i = lo; i < hi; ++i) out[i] = T(1) / out[i];
+  } else {
+    for (std::int64_t i = lo; i < hi; ++i) out[i] = T(std::pow(x[i], T(p)));
+  }
+}
+
+// x^p elementwise.
 template <class T>
 void power(const T* x, T* out, std::int64_t n, double p) {
-  const bool small_integer = p == std::floor(p) && std::fabs(p) <= 64;
-  parallel_for(0, n, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
-    if (small_integer) {
-      integer_power(x + lo, out + lo, hi - lo, static_cast<long long>(std::fabs(p)));
-      if (p < 0)
-        for (std::int64_t i = lo; i < hi; ++i) out[i] = T(1) / out[i];
-    } else {
-      for (std::int64_t i = lo; i < hi; ++i) out[i] = T(std::pow(x[i], T(p)));
-    }
-  });
+  parallel_for(0, n, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) { power_range(x, out, lo, hi, p); });
 }
 
 }  // namespace
@@ -345,10 +377,13 @@ Tensor pow(const Tensor& a, double p) {
           });
           return;
         }
-        power(x, d, a.numel(), p - 1);
+        // a^(p-1), then the product, per chunk while the chunk is in cache.
         parallel_for(0, a.numel(), kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
-          for (std::int64_t i = lo; i < hi; ++i)
-            d[i] = (x[i] == T(0) && p < 1) ? T(0) : gp[i] * pt * d[i];
+          power_range(x, d, lo, hi, p - 1);
+          if (p < 1)
+            for (std::int64_t i = lo; i < hi; ++i) d[i] = x[i] == T(0) ? T(0) : gp[i] * pt * d[i];
+          else
+            for (std::int64_t i = lo; i < hi; ++i) d[i] = gp[i] * pt * d[i];
         });
       });
       ctx.accumulate(0, ga);

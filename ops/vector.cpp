@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <type_traits>
 
 #include "autodiff/parallel.h"
 #include "autodiff/tape.h"
@@ -78,23 +79,52 @@ void spread_rows3(const V* per_row, V* per_element, std::int64_t rows) {
   for (std::int64_t i = 0; i < rows; ++i) per_element[3 * i] = per_element[3 * i + 1] = per_element[3 * i + 2] = per_row[i];
 }
 
+// One element of normalize's forward, x / d with d = max(|v|, eps) in double.
+// float64 divides (exact results such as (3, 4) / 5 = (0.6, 0.8) stay exact).
+// float32 multiplies by the double 1 / d, which is within 2 double ulps of
+// x / d, so rounding to float gives x / d's float except when the quotient lies
+// within those 2 ulps of a float rounding boundary (about 1 element in 10^8);
+// three double divisions per row were most of the op's time.
+template <class T>
+T normalized(Acc x, Acc d, Acc inv_d) {
+  if constexpr (std::is_same_v<T, float>)
+    return T(x * inv_d);
+  else
+    return T(x / d);
+}
+
+constexpr std::int64_t kRows3Block = 128;  // rows per block of the rows-of-3 kernels
+
+// s[i] = a[3i] b[3i] + a[3i+1] b[3i+1] + a[3i+2] b[3i+2] in double for
+// i < rows <= kRows3Block, added left to right from 0 (the per-row loops'
+// order, so the same bits): the products as one flat loop the compiler
+// vectorizes, then the sums.
+template <class T>
+void row_dots3(const T* a, const T* b, Acc* s, std::int64_t rows) {
+  Acc prod[3 * kRows3Block];
+  for (std::int64_t e = 0; e < 3 * rows; ++e) prod[e] = Acc(a[e]) * Acc(b[e]);
+  for (std::int64_t i = 0; i < rows; ++i) s[i] = Acc(0) + prod[3 * i] + prod[3 * i + 1] + prod[3 * i + 2];
+}
+
 // normalize's forward on rows of 3, the general loop's operations in the same
 // order (so the same bits), in blocks: the lengths, one denominator per
-// element, then the divisions as one flat loop the compiler vectorizes.
+// element, then the quotients as one flat loop the compiler vectorizes.
 template <class T>
 void normalize_rows3(const T* v, T* out, T* denom, std::int64_t rows, double eps) {
-  constexpr std::int64_t kRows = 128;
-  Acc d[kRows], d3[3 * kRows];
+  constexpr std::int64_t kRows = kRows3Block;
+  Acc d[kRows], inv[kRows], d3[3 * kRows], inv3[3 * kRows];
   for (std::int64_t r0 = 0; r0 < rows; r0 += kRows) {
     const std::int64_t n = std::min(kRows, rows - r0);
     const T* x = v + 3 * r0;
-    for (std::int64_t i = 0; i < n; ++i) {
-      const Acc a = x[3 * i], b = x[3 * i + 1], c = x[3 * i + 2];
-      d[i] = std::max<Acc>(std::sqrt(a * a + b * b + c * c), eps);
-    }
+    row_dots3(x, x, d, n);
+    for (std::int64_t i = 0; i < n; ++i) d[i] = std::max<Acc>(std::sqrt(d[i]), eps);
     for (std::int64_t i = 0; i < n; ++i) denom[r0 + i] = T(d[i]);
     spread_rows3(d, d3, n);
-    for (std::int64_t e = 0; e < 3 * n; ++e) out[3 * r0 + e] = T(Acc(x[e]) / d3[e]);
+    if constexpr (std::is_same_v<T, float>) {
+      for (std::int64_t i = 0; i < n; ++i) inv[i] = 1 / d[i];
+      spread_rows3(inv, inv3, n);
+    }
+    for (std::int64_t e = 0; e < 3 * n; ++e) out[3 * r0 + e] = normalized<T>(x[e], d3[e], inv3[e]);
   }
 }
 
@@ -103,16 +133,13 @@ void normalize_rows3(const T* v, T* out, T* denom, std::int64_t rows, double eps
 // (g - n (n.g)) / d as one flat loop; rows at or below eps take g / eps after.
 template <class T>
 void normalize_adjoint_rows3(const T* n, const T* g, const T* denom, T* out, std::int64_t rows, double eps) {
-  constexpr std::int64_t kRows = 128;
+  constexpr std::int64_t kRows = kRows3Block;
   Acc ng[kRows], inv[kRows], ng3[3 * kRows], inv3[3 * kRows];
   for (std::int64_t r0 = 0; r0 < rows; r0 += kRows) {
     const std::int64_t m = std::min(kRows, rows - r0);
     const T *nb = n + 3 * r0, *gb = g + 3 * r0;
-    for (std::int64_t i = 0; i < m; ++i) {
-      ng[i] = Acc(nb[3 * i]) * Acc(gb[3 * i]) + Acc(nb[3 * i + 1]) * Acc(gb[3 * i + 1]) +
-              Acc(nb[3 * i + 2]) * Acc(gb[3 * i + 2]);
-      inv[i] = 1 / Acc(denom[r0 + i]);
-    }
+    row_dots3(nb, gb, ng, m);
+    for (std::int64_t i = 0; i < m; ++i) inv[i] = 1 / Acc(denom[r0 + i]);
     spread_rows3(ng, ng3, m);
     spread_rows3(inv, inv3, m);
     T* ob = out + 3 * r0;
@@ -154,6 +181,15 @@ Tensor dot(const Tensor& a, const Tensor& b) {
     T* po = out.data<T>();
     // out[r] = sum_j a[r, j] b[r, j], one row per output element.
     parallel_for(0, out.numel(), row_grain(k), [&](std::int64_t lo, std::int64_t hi) {
+      if (k == 3) {
+        Acc s[kRows3Block];
+        for (std::int64_t r0 = lo; r0 < hi; r0 += kRows3Block) {
+          const std::int64_t n = std::min(kRows3Block, hi - r0);
+          row_dots3(pa + 3 * r0, pb + 3 * r0, s, n);
+          for (std::int64_t i = 0; i < n; ++i) po[r0 + i] = T(s[i]);
+        }
+        return;
+      }
       for (std::int64_t r = lo; r < hi; ++r) {
         Acc s = 0;
         for (std::int64_t j = 0; j < k; ++j) s += Acc(pa[r * k + j]) * Acc(pb[r * k + j]);
@@ -282,16 +318,15 @@ Tensor normalize(const Tensor& v, double eps) {
     const T* pv = v.data<T>();
     T* po = out.data<T>();
     T* pd = denom.data<T>();
-    // out[r, :] = v[r, :] / max(|v[r]|, eps) (divided, not multiplied by 1 / d:
-    // exact results such as (3, 4) / 5 = (0.6, 0.8) stay exact).
+    // out[r, :] = v[r, :] / max(|v[r]|, eps) (see normalized()).
     parallel_for(0, rows, row_grain(k), [&](std::int64_t lo, std::int64_t hi) {
       if (k == 3) {
         normalize_rows3(pv + 3 * lo, po + 3 * lo, pd + lo, hi - lo, eps);
         return;
       }
       for (std::int64_t r = lo; r < hi; ++r) {
-        const Acc d = std::max<Acc>(row_length(pv + r * k, k), eps);
-        for (std::int64_t j = 0; j < k; ++j) po[r * k + j] = T(Acc(pv[r * k + j]) / d);
+        const Acc d = std::max<Acc>(row_length(pv + r * k, k), eps), inv_d = 1 / d;
+        for (std::int64_t j = 0; j < k; ++j) po[r * k + j] = normalized<T>(pv[r * k + j], d, inv_d);
         pd[r] = T(d);
       }
     });

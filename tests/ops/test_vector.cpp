@@ -143,8 +143,8 @@ TEST_CASE("normalize: gradient matches finite differences near zero length", "[o
 
 TEST_CASE("normalize: rows of 3 give the per-row formulas' bits, float32 and float64, across block edges",
           "[ops][vector]") {
-  // Forward v / d with d = max(sqrt(x^2 + y^2 + z^2), eps); adjoint (g - n (n.g)) / d, or
-  // g / eps at or below eps; each summed and divided in double and rounded once.
+  // Forward v / d with d = max(sqrt(x^2 + y^2 + z^2), eps) (float32: v times the double 1 / d);
+  // adjoint (g - n (n.g)) / d, or g / eps at or below eps; each in double, rounded once.
   for (DType dtype : {DType::Float32, DType::Float64})
     for (std::int64_t rows : {1, 127, 128, 129, 1000}) {
       Tensor v = Tensor::uniform({rows, 3}, -3, 3, 45, dtype);
@@ -163,7 +163,7 @@ TEST_CASE("normalize: rows of 3 give the per-row formulas' bits, float32 and flo
         double ng = 0;
         for (int j = 0; j < 3; ++j) ng += out[3 * r + j] * gin[3 * r + j];
         for (int j = 0; j < 3; ++j) {
-          REQUIRE(out[3 * r + j] == round(in[3 * r + j] / d));
+          REQUIRE(out[3 * r + j] == (dtype == DType::Float32 ? round(in[3 * r + j] * (1 / d)) : in[3 * r + j] / d));
           const double expected = stored_d > round(kNormalizeEps)
                                       ? round((gin[3 * r + j] - out[3 * r + j] * ng) * (1 / stored_d))
                                       : round(gin[3 * r + j] / kNormalizeEps);
@@ -171,6 +171,20 @@ TEST_CASE("normalize: rows of 3 give the per-row formulas' bits, float32 and flo
         }
       }
     }
+}
+
+TEST_CASE("normalize: float32 results are the correctly rounded quotients, exact ones included", "[ops][vector]") {
+  // The float32 path multiplies by 1 / d in double; rounding to float hides that on these rows.
+  const std::int64_t rows = 100000;
+  const Tensor v = Tensor::uniform({rows, 3}, -3, 3, 47, DType::Float32);
+  const std::vector<double> in = v.to_vector(), out = normalize(v).to_vector();
+  std::int64_t differing = 0;
+  for (std::int64_t r = 0; r < rows; ++r) {
+    const double x = in[3 * r], y = in[3 * r + 1], z = in[3 * r + 2], d = std::sqrt(x * x + y * y + z * z);
+    for (int j = 0; j < 3; ++j) differing += out[3 * r + j] != double(float(in[3 * r + j] / d));
+  }
+  CHECK(differing == 0);
+  CHECK(normalize(Tensor::from_values({3, 4, 0}, {3})).to_vector() == std::vector<double>{0.6f, 0.8f, 0});
 }
 
 TEST_CASE("normalize: unit results, and the documented finite gradient g / eps at zero", "[ops][vector]") {
