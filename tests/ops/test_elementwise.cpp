@@ -76,6 +76,62 @@ TEST_CASE("a row operand against many rows gives every element, on either side, 
       }
 }
 
+TEST_CASE("a column operand against many rows gives every element and gradient, on either side, float32 and float64",
+          "[ops][elementwise]") {
+  // [rows, k] with [rows, 1]: the forward spreads the column over blocks of rows,
+  // the adjoint reads it per row; both must equal the per-element formulas. For
+  // float32 each operation is done in double and rounded, which gives float's
+  // own result (double rounding is harmless for + - * / with 53 >= 2 * 24 + 2 bits).
+  for (DType dtype : {DType::Float32, DType::Float64})
+    for (std::int64_t k : {1, 3, 5, 1000})
+      for (std::int64_t rows : {1, 255, 257, 3000}) {
+        if (k * rows > 400000) continue;
+        Tensor m = Tensor::uniform({rows, k}, 0.5, 2, 9, dtype), c = Tensor::uniform({rows, 1}, 0.5, 2, 10, dtype);
+        m.set_requires_grad();
+        c.set_requires_grad();
+        const Tensor g = Tensor::uniform({rows, k}, -1, 1, 11, dtype);
+        const Tensor product = c * m, quotient = m / c;
+        backward(sum(product * g) + sum(quotient * g));  // each receives exactly g
+        auto round = [&](double x) { return dtype == DType::Float32 ? double(float(x)) : x; };
+        const std::vector<double> mv = m.to_vector(), cv = c.to_vector(), gv = g.to_vector(), pv = product.to_vector(),
+                                  qv = quotient.to_vector(), gm = m.grad().to_vector(), gc = c.grad().to_vector();
+        bool all_equal = true;
+        for (std::int64_t r = 0; r < rows; ++r) {
+          double column_sum_mul = 0, column_sum_div = 0;
+          for (std::int64_t j = 0; j < k; ++j) {
+            const std::int64_t e = r * k + j;
+            all_equal &= pv[e] == round(cv[r] * mv[e]) && qv[e] == round(mv[e] / cv[r]);
+            // dm = g c + g / c; dc = sum_j g m (mul), sum_j -g y / c (div), each summed in double.
+            all_equal &= gm[e] == round(round(gv[e] * cv[r]) + round(gv[e] / cv[r]));
+            column_sum_mul += round(gv[e] * mv[e]);
+            column_sum_div += round(-round(gv[e] * qv[e]) / cv[r]);
+          }
+          all_equal &= gc[r] == round(round(column_sum_mul) + round(column_sum_div));
+        }
+        CHECK(all_equal);
+      }
+}
+
+TEST_CASE("a [3] operand's gradient from [N, 3] is summed per block of 4096 rows, blocks in order", "[ops][elementwise]") {
+  // The sum behind a light's gradient: rows in blocks of kSumBlock, each summed in
+  // double from 0, then the blocks added in order, rounded once.
+  const std::int64_t rows = 3 * 4096 + 77;
+  Tensor light = Tensor::from_values({1, 2, 3}, {3});
+  light.set_requires_grad();
+  const Tensor p = Tensor::uniform({rows, 3}, -1, 1, 12), g = Tensor::uniform({rows, 3}, -1, 1, 13);
+  backward(light - p, g);
+  const std::vector<double> gv = g.to_vector(), got = light.grad().to_vector();
+  for (int j = 0; j < 3; ++j) {
+    double total = 0;
+    for (std::int64_t b = 0; b < rows; b += 4096) {
+      double block = 0;
+      for (std::int64_t r = b; r < std::min(rows, b + 4096); ++r) block += gv[3 * r + j];
+      total += block;
+    }
+    CHECK(got[j] == double(float(total)));
+  }
+}
+
 // One gradcheck test per unary op, on random inputs inside its domain.
 #define UNARY_GRADCHECK_TEST(op, expr, lo, hi)                                                  \
   TEST_CASE(#op ": gradient matches finite differences", "[ops][elementwise][gradcheck]") {    \
