@@ -159,7 +159,7 @@ void scale_rows(const T* g, const T* y, T* out, std::int64_t rows, std::int64_t 
       for (std::int64_t j = 0; j < k; ++j) out[r * k + j] = g[r] * y[r * k + j];
     return;
   }
-  constexpr std::int64_t kRows = 128;
+  constexpr std::int64_t kRows = kRows3Block;
   T g3[3 * kRows];
   for (std::int64_t r0 = 0; r0 < rows; r0 += kRows) {
     const std::int64_t n = std::min(kRows, rows - r0);
@@ -168,12 +168,29 @@ void scale_rows(const T* g, const T* y, T* out, std::int64_t rows, std::int64_t 
   }
 }
 
+// A dot operand on rows of 3: the tensor's rows, or its one row [3] repeated
+// over all of them (a light or half vector against [N, 3] pixels), read from a
+// per-chunk block of repeats instead of an [N, 3] copy.
+template <class T>
+struct Rows3 {
+  const T* p;
+  bool repeated;
+  T block[3 * kRows3Block];
+  Rows3(const T* data, bool row) : p(data), repeated(row) {
+    if (row)
+      for (std::int64_t e = 0; e < 3 * kRows3Block; ++e) block[e] = data[e % 3];
+  }
+  const T* at(std::int64_t r0) const { return repeated ? block : p + 3 * r0; }  // rows r0 .. r0 + kRows3Block
+};
+
 }  // namespace
 
 Tensor dot(const Tensor& a, const Tensor& b) {
   const Shape full = vector_pair(a, b, "dot", "a", "b");
   const std::int64_t k = full[-1];
-  const Tensor ea = expand_raw_full(a, full), eb = expand_raw_full(b, full);
+  // Rows of 3 read a single-row operand in place; anything else is expanded.
+  const bool a_row = k == 3 && a.numel() == 3, b_row = k == 3 && b.numel() == 3;
+  const Tensor ea = a_row ? a : expand_raw_full(a, full), eb = b_row ? b : expand_raw_full(b, full);
   Tensor out = Tensor::empty(last_to_one(full), a.dtype());
   dispatch_float(a.dtype(), "dot", [&](auto tag) {
     using T = decltype(tag);
@@ -182,10 +199,11 @@ Tensor dot(const Tensor& a, const Tensor& b) {
     // out[r] = sum_j a[r, j] b[r, j], one row per output element.
     parallel_for(0, out.numel(), row_grain(k), [&](std::int64_t lo, std::int64_t hi) {
       if (k == 3) {
+        const Rows3<T> ra(pa, a_row), rb(pb, b_row);
         Acc s[kRows3Block];
         for (std::int64_t r0 = lo; r0 < hi; r0 += kRows3Block) {
           const std::int64_t n = std::min(kRows3Block, hi - r0);
-          row_dots3(pa + 3 * r0, pb + 3 * r0, s, n);
+          row_dots3(ra.at(r0), rb.at(r0), s, n);
           for (std::int64_t i = 0; i < n; ++i) po[r0 + i] = T(s[i]);
         }
         return;
@@ -198,25 +216,31 @@ Tensor dot(const Tensor& a, const Tensor& b) {
     });
   });
   if (should_record({a, b})) {
-    record("dot", {a, b}, {&out}, [ea, eb, k](AdjointContext& ctx) {
+    record("dot", {a, b}, {&out}, [ea, eb, a_row, b_row, k, full](AdjointContext& ctx) {
       const Tensor& g = ctx.grad_output();
       if (!g.defined()) return;
       dispatch_float(g.dtype(), "dot", [&](auto tag) {
         using T = decltype(tag);
         // dL/dx[r, j] = g[r] y[r, j] for (x, y) = (a, b) and (b, a).
-        auto side = [&](std::size_t input, const Tensor& other) {
+        auto side = [&](std::size_t input, const Tensor& other, bool other_row) {
           if (!ctx.needs_grad(input)) return;
-          Tensor full = Tensor::empty(other.shape(), other.dtype());
+          Tensor grad_full = Tensor::empty(full, other.dtype());
           const T* pg = g.data<T>();
           const T* py = other.data<T>();
-          T* pf = full.data<T>();
+          T* pf = grad_full.data<T>();
           parallel_for(0, g.numel(), row_grain(k), [&](std::int64_t lo, std::int64_t hi) {
-            scale_rows(pg + lo, py + lo * k, pf + lo * k, hi - lo, k);
+            if (k != 3) {
+              scale_rows(pg + lo, py + lo * k, pf + lo * k, hi - lo, k);
+              return;
+            }
+            const Rows3<T> y(py, other_row);
+            for (std::int64_t r0 = lo; r0 < hi; r0 += kRows3Block)
+              scale_rows(pg + r0, y.at(r0), pf + 3 * r0, std::min(kRows3Block, hi - r0), 3);
           });
-          ctx.accumulate(input, reduce_raw(full, ctx.input_shape(input)));
+          ctx.accumulate(input, reduce_raw(grad_full, ctx.input_shape(input)));
         };
-        side(0, eb);
-        side(1, ea);
+        side(0, eb, b_row);
+        side(1, ea, a_row);
       });
     });
   }

@@ -120,6 +120,35 @@ TEST_CASE("length: values, and a zero gradient at the zero vector", "[ops][vecto
   CHECK(length(t).item() == Approx(5e-25).epsilon(1e-6));
 }
 
+TEST_CASE("dot: a [3] operand against rows of 3 equals its expanded copy, values and gradients, on either side",
+          "[ops][vector]") {
+  // The single row is read in place, never copied to [N, 3]; nothing may change.
+  for (DType dtype : {DType::Float32, DType::Float64})
+    for (std::int64_t rows : {1, 127, 129, 9000})
+      for (bool row_first : {true, false}) {
+        const Tensor m = Tensor::uniform({rows, 3}, -2, 2, 50, dtype), v = Tensor::uniform({3}, -2, 2, 51, dtype);
+        const Tensor g = Tensor::uniform({rows, 1}, -1, 1, 52, dtype);
+        Tensor m1 = m.copy().set_requires_grad(), v1 = v.copy().set_requires_grad();
+        Tensor m2 = m.copy().set_requires_grad();
+        Tensor ve = concat(std::vector<Tensor>(static_cast<std::size_t>(rows), reshape(v, {1, 3})), 0).set_requires_grad();
+        const Tensor in_place = row_first ? dot(v1, m1) : dot(m1, v1), expanded = row_first ? dot(ve, m2) : dot(m2, ve);
+        CHECK(in_place.to_vector() == expanded.to_vector());
+        backward(sum(in_place * g) + sum(expanded * g));  // two graphs with their own leaves
+        CHECK(m1.grad().to_vector() == m2.grad().to_vector());
+        // v's gradient: the expanded copy's rows summed in blocks of 4096 rows (double, blocks in order).
+        const std::vector<double> gve = ve.grad().to_vector(), gv = v1.grad().to_vector();
+        for (int j = 0; j < 3; ++j) {
+          double total = 0;
+          for (std::int64_t b = 0; b < rows; b += 4096) {
+            double block = 0;
+            for (std::int64_t r = b; r < std::min(rows, b + 4096); ++r) block += gve[3 * r + j];
+            total += block;
+          }
+          CHECK(gv[j] == (dtype == DType::Float32 ? double(float(total)) : total));
+        }
+      }
+}
+
 // --- normalize ---------------------------------------------------------------
 
 TEST_CASE("normalize: gradient matches finite differences for random vectors", "[ops][vector][gradcheck]") {
