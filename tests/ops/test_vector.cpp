@@ -135,15 +135,10 @@ TEST_CASE("dot: a [3] operand against rows of 3 equals its expanded copy, values
         CHECK(in_place.to_vector() == expanded.to_vector());
         backward(sum(in_place * g) + sum(expanded * g));  // two graphs with their own leaves
         CHECK(m1.grad().to_vector() == m2.grad().to_vector());
-        // v's gradient: the expanded copy's rows summed in blocks of 4096 rows (double, blocks in order).
+        // v's gradient: the expanded copy's rows summed as any [N, 3] -> [3] is.
         const std::vector<double> gve = ve.grad().to_vector(), gv = v1.grad().to_vector();
         for (int j = 0; j < 3; ++j) {
-          double total = 0;
-          for (std::int64_t b = 0; b < rows; b += 4096) {
-            double block = 0;
-            for (std::int64_t r = b; r < std::min(rows, b + 4096); ++r) block += gve[3 * r + j];
-            total += block;
-          }
+          const double total = gr::testing::blocked_column_sum(gve, rows, 3, j);
           CHECK(gv[j] == (dtype == DType::Float32 ? double(float(total)) : total));
         }
       }
