@@ -23,13 +23,6 @@ Vec3<T> load(const T* p) {
   return {p[0], p[1], p[2]};
 }
 
-template <class T>
-void store(const Vec3<T>& v, T* p) {
-  p[0] = v.x;
-  p[1] = v.y;
-  p[2] = v.z;
-}
-
 // Adjoint of u = w / |w| (u already computed): dL/dw = (g - u (u . g)) / |w|.
 template <class T>
 Vec3<T> normalize_adjoint(const Vec3<T>& u, T inv_length, const Vec3<T>& g) {
@@ -94,9 +87,9 @@ void shade_lanes(LaneBlock<T>& b, std::int64_t m, const Vec3<T>& light, const Ve
     const V h = half * ih;
     const T nl = n.dot(l), nh = n.dot(h);
     // Selections between values computed either way, so the loop vectorizes.
-    const T diffuse = std::max(nl, T(0)), m_ = std::max(nh, T(0));
-    const T m31 = pow31(m_);
-    const V r = a * diffuse + V{1, 1, 1} * (T(0.5) * m31 * m_) - t;
+    const T diffuse = std::max(nl, T(0)), lobe = std::max(nh, T(0));
+    const T m31 = pow31(lobe);
+    const V r = a * diffuse + V{1, 1, 1} * (T(0.5) * m31 * lobe) - t;
     b.loss[i] = r.dot(r);
     // Backward, in reverse order.
     const V g = r * scale;
