@@ -147,9 +147,14 @@ void normalize_adjoint_rows3(const T* n, const T* g, const T* denom, T* out, std
     spread_rows3(inv, inv3, m);
     T* ob = out + 3 * r0;
     for (std::int64_t e = 0; e < 3 * m; ++e) ob[e] = T((Acc(gb[e]) - Acc(nb[e]) * ng3[e]) * inv3[e]);
+    // Below eps the op is v / eps: dL/dv = g / eps, which is g itself where g is
+    // +-0 (the background of an image, where no gradient arrives): no division.
     for (std::int64_t i = 0; i < m; ++i)
-      if (!(denom[r0 + i] > T(eps)))  // below eps the op is v / eps: dL/dv = g / eps
-        for (int j = 0; j < 3; ++j) ob[3 * i + j] = T(Acc(gb[3 * i + j]) / eps);
+      if (!(denom[r0 + i] > T(eps)))
+        for (int j = 0; j < 3; ++j) {
+          const T gj = gb[3 * i + j];
+          ob[3 * i + j] = gj == T(0) ? gj : T(Acc(gj) / eps);
+        }
   }
 }
 
