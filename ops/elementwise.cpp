@@ -76,36 +76,26 @@ void map2(const detail::RowView& va, const detail::RowView& vb, T* out, F f) {
     } else if (va.scalar() && vb.full()) {
       const T av = a.p[0];
       for (std::int64_t i = lo; i < hi; ++i) out[i] = f(av, b.p[i]);
-    } else if ((va.full() && vb.row()) || (va.row() && vb.full())) {
-      // A row operand (a [k] vector against [rows, k]): repeated over a block
-      // of rows once, so each block is one flat loop.
-      const T* row = va.row() ? a.p : b.p;
-      const T* other = va.row() ? b.p : a.p;
+    } else if ((va.full() && (vb.row() || vb.column())) || ((va.row() || va.column()) && vb.full())) {
+      // A row operand (a [k] vector against [rows, k]) repeated, or a column
+      // operand (a [..., 1] against [..., k]) spread over its row, for a block
+      // of rows at a time, so each block is one flat loop (read with strides,
+      // the compiler would gather).
+      const bool a_small = !va.full();
+      const detail::RowView& small = a_small ? va : vb;
+      const T* values = a_small ? a.p : b.p;
+      const T* other = a_small ? b.p : a.p;
       const std::int64_t block_rows = std::max<std::int64_t>(1, kRowBlock / k);
-      std::vector<T> repeated(static_cast<std::size_t>(std::min(block_rows, r1 - r0) * k));
-      for (std::size_t e = 0; e < repeated.size(); ++e) repeated[e] = row[e % k];
-      for (std::int64_t b0 = r0; b0 < r1; b0 += block_rows) {
-        const std::int64_t e0 = b0 * k, e1 = std::min(r1, b0 + block_rows) * k;
-        const T* rep = repeated.data() - e0;
-        if (va.row())
-          for (std::int64_t e = e0; e < e1; ++e) out[e] = f(rep[e], other[e]);
-        else
-          for (std::int64_t e = e0; e < e1; ++e) out[e] = f(other[e], rep[e]);
-      }
-    } else if ((va.full() && vb.column()) || (va.column() && vb.full())) {
-      // A column operand (a [..., 1] against [..., k]): each value spread over
-      // its row for a block of rows, so each block is one flat loop (read with
-      // strides, the compiler would gather).
-      const T* column = va.column() ? a.p : b.p;
-      const T* other = va.column() ? b.p : a.p;
-      const std::int64_t block_rows = std::max<std::int64_t>(1, kRowBlock / k);
-      std::vector<T> spread(static_cast<std::size_t>(std::min(block_rows, r1 - r0) * k));
+      std::vector<T> block(static_cast<std::size_t>(std::min(block_rows, r1 - r0) * k));
+      if (small.row())  // the same for every block
+        for (std::size_t e = 0; e < block.size(); ++e) block[e] = values[e % k];
       for (std::int64_t b0 = r0; b0 < r1; b0 += block_rows) {
         const std::int64_t b1 = std::min(r1, b0 + block_rows), e0 = b0 * k, e1 = b1 * k;
-        for (std::int64_t r = b0; r < b1; ++r)
-          for (std::int64_t j = 0; j < k; ++j) spread[static_cast<std::size_t>((r - b0) * k + j)] = column[r];
-        const T* rep = spread.data() - e0;
-        if (va.column())
+        if (small.column())
+          for (std::int64_t r = b0; r < b1; ++r)
+            for (std::int64_t j = 0; j < k; ++j) block[static_cast<std::size_t>((r - b0) * k + j)] = values[r];
+        const T* rep = block.data() - e0;
+        if (a_small)
           for (std::int64_t e = e0; e < e1; ++e) out[e] = f(rep[e], other[e]);
         else
           for (std::int64_t e = e0; e < e1; ++e) out[e] = f(other[e], rep[e]);
