@@ -21,6 +21,8 @@
 #include "autodiff/parallel.h"
 #include "autodiff/tape.h"
 #include "ops/broadcast.h"
+#include "ops/elementwise_formulas.h"
+#include "ops/fusion_trace.h"
 #include "ops/promote.h"
 
 namespace gr {
@@ -29,6 +31,8 @@ namespace {
 using detail::check_float;
 using detail::check_same_float;
 using detail::expand_raw;
+using detail::power_range;
+using detail::selected_gradient;
 using detail::reduce_raw;
 
 // out[i] = f(a[i]); a is full or scalar.
@@ -271,37 +275,6 @@ Tensor compare(const char* name, Tensor a, Tensor b, Rel rel) {
                       [&](auto x, auto z) { return rel(x, z) ? decltype(x)(1) : decltype(x)(0); });
 }
 
-// x^n for an integer n >= 0 by repeated squaring, one bit of n at a time over a
-// block of elements so that each step is a plain vectorizable loop.
-template <class T>
-void integer_power(const T* x, T* out, std::int64_t count, long long n) {
-  constexpr std::int64_t kBlock = 256;
-  T base[kBlock];
-  for (std::int64_t i0 = 0; i0 < count; i0 += kBlock) {
-    const std::int64_t m = count - i0 < kBlock ? count - i0 : kBlock;
-    for (std::int64_t i = 0; i < m; ++i) { out[i0 + i] = T(1); base[i] = x[i0 + i]; }
-    for (long long e = n; e > 0; e >>= 1) {
-      if (e & 1)
-        for (std::int64_t i = 0; i < m; ++i) out[i0 + i] *= base[i];
-      if (e > 1)
-        for (std::int64_t i = 0; i < m; ++i) base[i] *= base[i];
-    }
-  }
-}
-
-// out[i] = x[i]^p for i in [lo, hi): repeated squaring for integer |p| <= 64,
-// std::pow otherwise.
-template <class T>
-void power_range(const T* x, T* out, std::int64_t lo, std::int64_t hi, double p) {
-  if (p == std::floor(p) && std::fabs(p) <= 64) {
-    integer_power(x + lo, out + lo, hi - lo, static_cast<long long>(std::fabs(p)));
-    if (p < 0)
-      for (std::int64_t i = lo; i < hi; ++i) out[i] = T(1) / out[i];
-  } else {
-    for (std::int64_t i = lo; i < hi; ++i) out[i] = T(std::pow(x[i], T(p)));
-  }
-}
-
 // x^p elementwise.
 template <class T>
 void power(const T* x, T* out, std::int64_t n, double p) {
@@ -315,19 +288,26 @@ Tensor scalar_like(const Tensor& a, double value) {
   return Tensor::scalar(value, a.dtype());
 }
 
-Tensor add(const Tensor& a, const Tensor& b) { return add_or_sub("add", a, b, false); }
-Tensor sub(const Tensor& a, const Tensor& b) { return add_or_sub("sub", a, b, true); }
+// The ops the fused row interpreter replays note themselves on an active trace
+// (ops/fusion_trace.h).
+static Tensor traced(detail::FusedOp op, const Tensor& a, const Tensor& b, Tensor out, double param = 0) {
+  detail::trace_step(op, a, b, out, param);
+  return out;
+}
+
+Tensor add(const Tensor& a, const Tensor& b) { return traced(detail::FusedOp::Add, a, b, add_or_sub("add", a, b, false)); }
+Tensor sub(const Tensor& a, const Tensor& b) { return traced(detail::FusedOp::Sub, a, b, add_or_sub("sub", a, b, true)); }
 
 Tensor mul(const Tensor& a, const Tensor& b) {
-  return binary("mul", a, b, false, [](auto x, auto z) { return x * z; },
+  return traced(detail::FusedOp::Mul, a, b, binary("mul", a, b, false, [](auto x, auto z) { return x * z; },
                 [](auto g, auto, auto z, auto) { return g * z; },
-                [](auto g, auto x, auto, auto) { return g * x; });
+                [](auto g, auto x, auto, auto) { return g * x; }));
 }
 
 Tensor div(const Tensor& a, const Tensor& b) {
-  return binary("div", a, b, true, [](auto x, auto z) { return x / z; },
+  return traced(detail::FusedOp::Div, a, b, binary("div", a, b, true, [](auto x, auto z) { return x / z; },
                 [](auto g, auto, auto z, auto) { return g / z; },
-                [](auto g, auto, auto z, auto y) { return -(g * y) / z; });
+                [](auto g, auto, auto z, auto y) { return -(g * y) / z; }));
 }
 
 Tensor pow(const Tensor& a, const Tensor& b) {
@@ -356,63 +336,33 @@ Tensor pow(const Tensor& a, double p) {
       Tensor ga = Tensor::empty(a.shape(), a.dtype());
       dispatch_float(a.dtype(), "pow", [&](auto tag) {
         using T = decltype(tag);
-        // dL/da = g p a^(p-1); 0 where a == 0 and p < 1 (the derivative diverges).
+        // dL/da = g p a^(p-1) (detail::power_adjoint_range).
         T* d = ga.data<T>();
-        const T* x = a.data<T>();
-        const T* gp = g.data<T>();
-        const T pt = T(p);
-        if (p == 2) {  // a^1 = a: one pass, the same products as below
-          parallel_for(0, a.numel(), kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
-            for (std::int64_t i = lo; i < hi; ++i) d[i] = gp[i] * pt * x[i];
-          });
-          return;
-        }
-        // a^(p-1), then the product, per chunk while the chunk is in cache.
-        parallel_for(0, a.numel(), kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
-          power_range(x, d, lo, hi, p - 1);
-          if (p < 1)
-            for (std::int64_t i = lo; i < hi; ++i) d[i] = x[i] == T(0) ? T(0) : gp[i] * pt * d[i];
-          else
-            for (std::int64_t i = lo; i < hi; ++i) d[i] = gp[i] * pt * d[i];
-        });
+        const T *x = a.data<T>(), *gp = g.data<T>();
+        parallel_for(0, a.numel(), kElementwiseGrain,
+                     [&](std::int64_t lo, std::int64_t hi) { detail::power_adjoint_range(gp, x, d, lo, hi, p); });
       });
       ctx.accumulate(0, ga);
     });
   }
-  return out;
-}
-
-// The gradient of the selected operand of min/max: g where `selected`, g / 2 at
-// a tie, else +0. Chosen with bit masks, not branches: on random signs a
-// branch mispredicts half the time (the compiler turns ternaries back into
-// branches here), and the masks vectorize.
-template <class T>
-T selected_gradient(T g, bool selected, bool tie) {
-  using Bits = std::conditional_t<sizeof(T) == 4, std::uint32_t, std::uint64_t>;
-  const T half = g * T(0.5);  // = g / 2 exactly
-  Bits g_bits, half_bits;
-  std::memcpy(&g_bits, &g, sizeof g);
-  std::memcpy(&half_bits, &half, sizeof half);
-  const Bits bits = (g_bits & (Bits(0) - Bits(selected))) | (half_bits & (Bits(0) - Bits(tie)));
-  T out;
-  std::memcpy(&out, &bits, sizeof out);
-  return out;
+  return traced(detail::FusedOp::Pow, a, Tensor(), out, p);
 }
 
 Tensor minimum(const Tensor& a, const Tensor& b) {
-  return binary("minimum", a, b, false, [](auto x, auto z) { return z < x ? z : x; },
+  return traced(detail::FusedOp::Minimum, a, b, binary("minimum", a, b, false, [](auto x, auto z) { return z < x ? z : x; },
                 [](auto g, auto x, auto z, auto) { return selected_gradient(g, x < z, x == z); },
-                [](auto g, auto x, auto z, auto) { return selected_gradient(g, z < x, x == z); });
+                [](auto g, auto x, auto z, auto) { return selected_gradient(g, z < x, x == z); }));
 }
 
 Tensor maximum(const Tensor& a, const Tensor& b) {
-  return binary("maximum", a, b, false, [](auto x, auto z) { return z > x ? z : x; },
+  return traced(detail::FusedOp::Maximum, a, b, binary("maximum", a, b, false, [](auto x, auto z) { return z > x ? z : x; },
                 [](auto g, auto x, auto z, auto) { return selected_gradient(g, x > z, x == z); },
-                [](auto g, auto x, auto z, auto) { return selected_gradient(g, z > x, x == z); });
+                [](auto g, auto x, auto z, auto) { return selected_gradient(g, z > x, x == z); }));
 }
 
 Tensor neg(const Tensor& a) {
-  return unary("neg", a, [](auto x) { return -x; }, [](auto g, auto, auto) { return -g; });
+  return traced(detail::FusedOp::Neg, a, Tensor(),
+                unary("neg", a, [](auto x) { return -x; }, [](auto g, auto, auto) { return -g; }));
 }
 
 Tensor exp(const Tensor& a) {

@@ -1,12 +1,14 @@
 #include "ops/map_rows.h"
 
 #include <cstring>
+#include <optional>
 #include <string>
 
 #include "autodiff/parallel.h"
 #include "autodiff/storage.h"
 #include "autodiff/tape.h"
 #include "ops/check.h"
+#include "ops/fused_rows.h"
 
 namespace gr {
 namespace {
@@ -90,10 +92,44 @@ std::vector<Tensor> block_shared(const std::vector<Tensor>& shared, bool leaves)
   return out;
 }
 
-}  // namespace
+// f called on block 0, and its fused program (null if f is not replayable or
+// fusion is off). With gradients on, the block runs on a private tape with the
+// inputs needing a gradient as leaves, so a value f computes from them by an
+// op the trace does not know is never taken for a constant.
+struct Probe {
+  Tensor first;
+  std::shared_ptr<const detail::FusedRows> fused;
+};
 
-Tensor map_rows(const RowFunction& f, const std::vector<Tensor>& rows, const std::vector<Tensor>& shared,
-                const MapRowsOptions& options) {
+Probe probe(const RowFunction& f, const std::vector<Tensor>& rows, const std::vector<Tensor>& shared, const Blocks& blocks,
+            bool fuse) {
+  std::optional<ScopedTape> tape;
+  std::optional<NoGradGuard> no_grad;
+  if (grad_mode_enabled())
+    tape.emplace();
+  else
+    no_grad.emplace();
+  const std::vector<Tensor> r0 = block_rows(rows, blocks, 0, true), s0 = block_shared(shared, true);
+  detail::FusionTrace trace;
+  Probe p;
+  try {
+    p.first = f(r0, s0);
+  } catch (const TapeError& e) {
+    throw TapeError(std::string(kOp) + ": f used a recorded tensor it captured; pass it in `rows` or `shared` (" +
+                    e.what() + ")");
+  }
+  check_block_output(p.first, 0, blocks.count == 0 ? 0 : blocks.hi(0), Tensor());
+  if (fuse) {
+    std::vector<bool> rows_grad, shared_grad;
+    for (const Tensor& r : rows) rows_grad.push_back(r.requires_grad());
+    for (const Tensor& t : shared) shared_grad.push_back(t.defined() && t.requires_grad());
+    p.fused = detail::FusedRows::compile(trace, r0, s0, p.first, rows_grad, shared_grad);
+  }
+  p.first = p.first.detach();
+  return p;
+}
+
+Blocks check_inputs(const RowFunction& f, const std::vector<Tensor>& rows, const MapRowsOptions& options) {
   if (!f) throw ValueError(std::string(kOp) + ": f is empty");
   if (options.block_rows < 1)
     throw ValueError(std::string(kOp) + ": block_rows must be at least 1, got " + std::to_string(options.block_rows));
@@ -107,31 +143,45 @@ Tensor map_rows(const RowFunction& f, const std::vector<Tensor>& rows, const std
                        " rows but rows[0] has " + std::to_string(rows[0].size(0)));
   }
   const std::int64_t n = rows[0].size(0);
-  const Blocks blocks{n, options.block_rows, (n + options.block_rows - 1) / options.block_rows};
+  return Blocks{n, options.block_rows, (n + options.block_rows - 1) / options.block_rows};
+}
 
-  // Forward without recording. Block 0 (or the empty input) first: it fixes the output's shape.
-  Tensor out;
-  {
-    NoGradGuard no_grad;
-    const std::int64_t hi0 = blocks.count == 0 ? 0 : blocks.hi(0);
-    Tensor first = f(block_rows(rows, blocks, 0, false), block_shared(shared, false));
-    check_block_output(first, 0, hi0, Tensor());
-    out = Tensor::empty(with_rows(first.shape(), n), first.dtype());
-    write_rows(out, first, 0, hi0);
-    parallel_for(1, blocks.count, 1, [&](std::int64_t b0, std::int64_t b1) {
-      NoGradGuard no_grad_here;  // grad mode is per thread
-      for (std::int64_t b = b0; b < b1; ++b) {
-        Tensor block = f(block_rows(rows, blocks, b, false), block_shared(shared, false));
-        check_block_output(block, blocks.lo(b), blocks.hi(b), first);
-        write_rows(out, block, blocks.lo(b), blocks.hi(b));
-      }
-    });
-  }
+}  // namespace
+
+bool map_rows_fuses(const RowFunction& f, const std::vector<Tensor>& rows, const std::vector<Tensor>& shared,
+                    const MapRowsOptions& options) {
+  const Blocks blocks = check_inputs(f, rows, options);
+  return probe(f, rows, shared, blocks, options.fuse).fused != nullptr;
+}
+
+Tensor map_rows(const RowFunction& f, const std::vector<Tensor>& rows, const std::vector<Tensor>& shared,
+                const MapRowsOptions& options) {
+  const Blocks blocks = check_inputs(f, rows, options);
+  const std::int64_t n = blocks.rows;
+  // Block 0 (or the empty input) first, eagerly: it fixes the output's shape,
+  // and f's trace on it becomes the fused program (ops/fused_rows.h) the
+  // other blocks run, when every op f used can be replayed.
+  const Probe p = probe(f, rows, shared, blocks, options.fuse);
+  const std::shared_ptr<const detail::FusedRows> fused = p.fused;
+  Tensor out = Tensor::empty(with_rows(p.first.shape(), n), p.first.dtype());
+  write_rows(out, p.first, 0, blocks.count == 0 ? 0 : blocks.hi(0));
+  parallel_for(1, blocks.count, 1, [&](std::int64_t b0, std::int64_t b1) {
+    if (fused) {
+      fused->forward(rows, out, blocks.lo(b0), blocks.hi(b1 - 1));
+      return;
+    }
+    NoGradGuard no_grad;  // grad mode is per thread
+    for (std::int64_t b = b0; b < b1; ++b) {
+      Tensor block = f(block_rows(rows, blocks, b, false), block_shared(shared, false));
+      check_block_output(block, blocks.lo(b), blocks.hi(b), p.first);
+      write_rows(out, block, blocks.lo(b), blocks.hi(b));
+    }
+  });
 
   std::vector<Tensor> inputs(rows);
   inputs.insert(inputs.end(), shared.begin(), shared.end());
   if (!should_record(inputs)) return out;
-  record(kOp, inputs, {&out}, [f, rows, shared, blocks](AdjointContext& ctx) {
+  record(kOp, inputs, {&out}, [f, rows, shared, blocks, fused](AdjointContext& ctx) {
     const Tensor& g = ctx.grad_output();
     if (!g.defined()) return;
     const std::size_t nr = rows.size(), ns = shared.size();
@@ -143,6 +193,12 @@ Tensor map_rows(const RowFunction& f, const std::vector<Tensor>& rows, const std
     parallel_for(0, blocks.count, 1, [&](std::int64_t b0, std::int64_t b1) {
       for (std::int64_t b = b0; b < b1; ++b) {
         const std::int64_t lo = blocks.lo(b), hi = blocks.hi(b);
+        if (fused) {
+          const std::vector<Tensor> s = fused->backward(rows, g, row_grads, lo, hi);
+          for (std::size_t j = 0; j < ns; ++j)
+            if (ctx.needs_grad(nr + j)) shared_grads[b * ns + j] = s[j];
+          continue;
+        }
         ScopedTape tape;  // the block's graph, recomputed (checkpointing)
         std::vector<Tensor> r = block_rows(rows, blocks, b, true), s = block_shared(shared, true);
         Tensor block = f(r, s);

@@ -7,23 +7,31 @@
 //     return r[1] * maximum(dot(r[2], l), 0.0);          // r = {p, albedo, n}, [N, 3] each
 //   }, {p, albedo, n}, {light});
 //
-// Forward: f runs on each block of block_rows rows (copies of the rows of every
-// `rows` input; the `shared` inputs whole), without recording, blocks in
-// parallel, and the blocks' outputs fill one [N, ...] tensor. map_rows records
-// one node. Its adjoint runs f again per block on a private tape
-// (checkpointing: recompute instead of store), backpropagates the block's
-// slice of the output gradient, writes the rows' gradients in place and sums
-// the shared inputs' gradients over blocks in block order.
+// Forward: f runs on the first block (block_rows rows; copies of the rows of
+// every `rows` input, the `shared` inputs whole) while its ops are traced.
+// When every op f used can be replayed (ops/fused_rows.h: the arithmetic
+// ops, minimum/maximum, pow with a number, dot and normalize, on rows, columns,
+// shared vectors and constants), the other blocks run that trace through the
+// fused interpreter: one pass over the inputs in chunks of 256 rows held in
+// cache, forward and, in the adjoint, forward again and backward. Otherwise f
+// is called on each block, without recording, blocks in parallel, and its
+// adjoint runs f again per block on a private tape (checkpointing: recompute
+// instead of store). Either way map_rows records one node, writes the rows'
+// gradients in place and sums the shared inputs' gradients over blocks in
+// block order.
 //
 // f must be row-wise (output row i depends only on row i of each `rows` input
-// and on the shared inputs), return one row per input row, and be safe to call
-// from several threads at once (it is called once per block, concurrently).
-// Then the output, and the gradients of the `rows` inputs, are bit-identical
-// to calling f on the whole inputs; the shared inputs' gradients are summed
-// per block and then over blocks in order, so they are the same for any
-// thread count and equal to the unblocked graph's up to rounding. Every
-// differentiable value must enter f through `rows` or `shared`: a recorded
-// tensor captured by f throws TapeError.
+// and on the shared inputs), return one row per input row, do the same ops on
+// every block (no branching on values or on the block's size: the trace of
+// the first block stands for all), and be safe to call from several threads
+// at once. Then the output, and the gradients of the `rows` inputs, are
+// bit-identical to calling f on the whole inputs, fused or not; the shared
+// inputs' gradients are summed per block and then over blocks in order, so
+// they are the same for any thread count and equal to the unblocked graph's
+// up to rounding. Every differentiable value must enter f through `rows` or
+// `shared`: a recorded tensor captured by f throws TapeError. Small tensors f
+// creates itself (at most 64 elements, such as 0.5 or a fixed direction) are
+// constants, taken from the first block's call.
 #pragma once
 
 #include <functional>
@@ -39,6 +47,9 @@ struct MapRowsOptions {
   // Rows per block. The default keeps a block's dozen [rows, 3] float32
   // intermediates (about 50 KiB each) within a core's L2 cache.
   std::int64_t block_rows = 4096;
+  // Replay f's trace with the fused interpreter (ops/fused_rows.h) when every
+  // op it used can be replayed; false: call f per block as well.
+  bool fuse = true;
 };
 
 // rows: defined tensors of rank >= 1 sharing their leading size N; shared: any
@@ -47,5 +58,10 @@ struct MapRowsOptions {
 // block is not [block rows, ...] of one shape and float dtype.
 Tensor map_rows(const RowFunction& f, const std::vector<Tensor>& rows, const std::vector<Tensor>& shared = {},
                 const MapRowsOptions& options = {});
+
+// Whether map_rows(f, rows, shared, options) would run the fused interpreter
+// (it calls f once on the first block, without recording on the thread's tape).
+bool map_rows_fuses(const RowFunction& f, const std::vector<Tensor>& rows, const std::vector<Tensor>& shared = {},
+                    const MapRowsOptions& options = {});
 
 }  // namespace gr

@@ -17,6 +17,8 @@
 #include "autodiff/tape.h"
 #include "ops/broadcast.h"
 #include "ops/elementwise.h"
+#include "ops/elementwise_formulas.h"
+#include "ops/fusion_trace.h"
 
 namespace gr {
 namespace {
@@ -77,21 +79,6 @@ Acc row_length(const T* v, std::int64_t k) {
 template <class V>
 void spread_rows3(const V* per_row, V* per_element, std::int64_t rows) {
   for (std::int64_t i = 0; i < rows; ++i) per_element[3 * i] = per_element[3 * i + 1] = per_element[3 * i + 2] = per_row[i];
-}
-
-// One element of normalize's forward, x / d with d = max(|v|, eps) in double.
-// float64 divides (exact results such as (3, 4) / 5 = (0.6, 0.8) stay exact).
-// float32 multiplies by the double 1 / d, which is within 2 double ulps of
-// x / d, so rounding to float gives x / d's float except when the quotient lies
-// within those 2 ulps of a float rounding boundary (a chance of order 2^-28 per
-// element; none among the 300,000 values tests/ops/test_vector.cpp checks);
-// three double divisions per row were most of the op's time.
-template <class T>
-T normalized(Acc x, Acc d, Acc inv_d) {
-  if constexpr (std::is_same_v<T, float>)
-    return T(x * inv_d);
-  else
-    return T(x / d);
 }
 
 constexpr std::int64_t kRows3Block = 128;  // rows per block of the rows-of-3 kernels
@@ -252,6 +239,7 @@ Tensor dot(const Tensor& a, const Tensor& b) {
       });
     });
   }
+  detail::trace_step(detail::FusedOp::Dot, a, b, out);
   return out;
 }
 
@@ -358,7 +346,7 @@ Tensor normalize(const Tensor& v, double eps) {
       }
       for (std::int64_t r = lo; r < hi; ++r) {
         const Acc d = std::max<Acc>(row_length(pv + r * k, k), eps), inv_d = 1 / d;
-        for (std::int64_t j = 0; j < k; ++j) po[r * k + j] = normalized<T>(pv[r * k + j], d, inv_d);
+        for (std::int64_t j = 0; j < k; ++j) po[r * k + j] = detail::normalized<T>(pv[r * k + j], d, inv_d);
         pd[r] = T(d);
       }
     });
@@ -396,6 +384,7 @@ Tensor normalize(const Tensor& v, double eps) {
       ctx.accumulate(0, gv);
     });
   }
+  detail::trace_step(detail::FusedOp::Normalize, v, Tensor(), out, eps);
   return out;
 }
 

@@ -1,0 +1,602 @@
+#include "ops/fused_rows.h"
+
+#include <algorithm>
+#include <cmath>
+#include <type_traits>
+#include <unordered_map>
+#include <unordered_set>
+
+#include "ops/elementwise_formulas.h"
+
+namespace gr::detail {
+namespace {
+
+constexpr std::int64_t kLanes = 256;        // rows per chunk: a value's component is 1 KiB (float32)
+constexpr std::int64_t kMaxConstant = 64;   // elements of a tensor f captured that is taken as a constant
+
+}  // namespace
+
+struct FusedRows::Value {
+  bool varying = false;     // one lane per row; else one value for every row (shared input or constant)
+  int rank = 0;             // varying: 1 ([P]) or 2 ([P, width])
+  int width = 1;            // components
+  std::int64_t array = -1;  // varying: its first lane array; uniform: its first element in uniforms_
+  bool produced = false;    // the result of an instruction
+  bool needs_grad = false;  // depends on an input that needs a gradient
+  bool live = false;        // the result depends on it
+  std::int64_t grad = -1;   // varying: first gradient lane array; shared: first partial-sum array
+  std::int64_t aux = -1;    // normalize's result: the lane array of its lengths max(|v|, eps)
+};
+
+struct FusedRows::Operand {
+  int value = -1;
+  bool spread = false;  // its one component is read by every component (a column or a scalar)
+};
+
+struct FusedRows::Instr {
+  FusedOp op;
+  Operand a, b;             // b.value == -1 for unary ops
+  int out = -1;
+  int components = 1;       // components the operands are read at (dot: the vectors' length)
+  double param = 0;         // pow's exponent, normalize's eps
+  bool a_first = false, b_first = false;  // the operand's first gradient contribution: assigned, not added
+  bool backward = false;    // its result receives a gradient
+};
+
+// ---------------------------------------------------------------- compile
+
+std::shared_ptr<const FusedRows> FusedRows::compile(const FusionTrace& trace, const std::vector<Tensor>& rows,
+                                                    const std::vector<Tensor>& shared, const Tensor& result,
+                                                    const std::vector<bool>& rows_grad, const std::vector<bool>& shared_grad) {
+  if (rows.empty() || !result.defined() || !is_floating(result.dtype())) return nullptr;
+  const std::int64_t P = rows[0].size(0);
+  // More rows than a constant may have elements: a tensor derived from the
+  // rows by an op the trace does not know can never pass for a constant.
+  if (P <= kMaxConstant) return nullptr;
+  auto prog = std::make_shared<FusedRows>();
+  FusedRows& p = *prog;
+  p.dtype_ = result.dtype();
+  std::unordered_map<const TensorImpl*, int> ids;
+  std::unordered_set<const TensorImpl*> opaque;  // seen but not replayable: using it fails the compile
+
+  auto add_varying = [&](int rank, int width) {
+    Value v;
+    v.varying = true, v.rank = rank, v.width = width, v.array = p.arena_arrays_;
+    p.arena_arrays_ += width;
+    p.values_.push_back(v);
+    return int(p.values_.size()) - 1;
+  };
+  auto add_uniform = [&](const Tensor& t) {
+    Value v;
+    v.width = int(t.numel()), v.array = std::int64_t(p.uniforms_.size());
+    dispatch_float(t.dtype(), "map_rows", [&](auto tag) {
+      const auto* d = t.data<decltype(tag)>();
+      for (std::int64_t e = 0; e < t.numel(); ++e) p.uniforms_.push_back(double(d[e]));
+    });
+    p.values_.push_back(v);
+    return int(p.values_.size()) - 1;
+  };
+  auto row_shaped = [&](const Tensor& t) {
+    return t.dtype() == p.dtype_ && (t.rank() == 1 || t.rank() == 2) && t.size(0) == P && t.numel() >= P;
+  };
+
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    const Tensor& t = rows[i];
+    int id = -1;
+    if (row_shaped(t)) {
+      id = add_varying(int(t.rank()), t.rank() == 2 ? int(t.size(1)) : 1);
+      p.values_[id].needs_grad = rows_grad[i];
+      ids[t.impl()] = id;
+    } else {
+      opaque.insert(t.impl());
+    }
+    p.row_values_.push_back(id);
+  }
+  for (std::size_t j = 0; j < shared.size(); ++j) {
+    const Tensor& t = shared[j];
+    p.shared_shapes_.push_back(t.defined() ? t.shape() : Shape());
+    int id = -1;
+    if (t.defined() && t.dtype() == p.dtype_ && t.rank() <= 1 && t.numel() >= 1) {
+      id = add_uniform(t);
+      p.values_[id].needs_grad = shared_grad[j];
+      ids[t.impl()] = id;
+    } else if (t.defined()) {
+      opaque.insert(t.impl());
+    }
+    p.shared_values_.push_back(id);
+  }
+
+  // The value an operand refers to: known, or a small constant f captured; -1 if neither.
+  auto lookup = [&](const Tensor& t) {
+    if (!t.defined()) return -1;
+    const auto it = ids.find(t.impl());
+    if (it != ids.end()) return it->second;
+    if (opaque.count(t.impl()) || t.requires_grad() || t.dtype() != p.dtype_ || t.rank() > 1 || t.numel() < 1 ||
+        t.numel() > kMaxConstant)
+      return -1;
+    return ids[t.impl()] = add_uniform(t);
+  };
+  // How an operand is read at `components` components of a result of rank
+  // out_rank: whole, spread (a column or a scalar) or not at all (-1).
+  auto operand = [&](int id, int out_rank, int components) -> Operand {
+    if (id < 0) return {};
+    const Value& v = p.values_[id];
+    if (v.varying) {
+      if (v.rank == out_rank && v.width == components) return {id, false};
+      if (out_rank == 2 && v.rank == 2 && v.width == 1) return {id, true};
+      return {};
+    }
+    if (v.width == 1) return {id, true};
+    if (out_rank == 2 && v.width == components) return {id, false};
+    return {};
+  };
+
+  for (const TracedStep& s : trace.steps) {
+    const Tensor& out = s.out;
+    const bool unary = s.op == FusedOp::Neg || s.op == FusedOp::Pow || s.op == FusedOp::Normalize;
+    Instr in;
+    in.op = s.op;
+    in.param = s.param;
+    const int ida = lookup(s.a), idb = unary ? -1 : lookup(s.b);
+    bool ok = row_shaped(out) && ida >= 0 && (unary || idb >= 0);
+    const int out_rank = int(out.rank()), out_width = out.rank() == 2 ? int(out.size(1)) : 1;
+    if (ok) {
+      if (s.op == FusedOp::Dot) {
+        in.components = int(s.a.size(-1));
+        ok = out_rank == 2 && out_width == 1 && s.b.size(-1) == in.components;
+        if (ok) in.a = operand(ida, 2, in.components), in.b = operand(idb, 2, in.components);
+        ok = ok && in.a.value >= 0 && in.b.value >= 0 && !in.a.spread && !in.b.spread;
+      } else {
+        in.components = out_width;
+        in.a = operand(ida, out_rank, out_width);
+        if (!unary) in.b = operand(idb, out_rank, out_width);
+        ok = in.a.value >= 0 && (unary || in.b.value >= 0);
+        if (ok && unary) ok = p.values_[ida].varying && !in.a.spread;                 // same shape as out
+        if (ok && s.op == FusedOp::Normalize) ok = out_rank == 2;                      // rows of vectors
+      }
+      // At least one operand has rows (ops on shared values alone are not replayed).
+      ok = ok && (p.values_[in.a.value].varying || (!unary && p.values_[in.b.value].varying));
+    }
+    if (!ok) {
+      opaque.insert(out.impl());
+      continue;
+    }
+    in.out = add_varying(out_rank, out_width);
+    Value& o = p.values_[in.out];
+    o.produced = true;
+    o.needs_grad = p.values_[in.a.value].needs_grad || (!unary && p.values_[in.b.value].needs_grad);
+    if (s.op == FusedOp::Normalize) o.aux = p.arena_arrays_++;
+    ids[out.impl()] = in.out;
+    p.instrs_.push_back(in);
+  }
+
+  const auto it = ids.find(result.impl());
+  if (it == ids.end() || !p.values_[it->second].produced) return nullptr;
+  p.result_ = it->second;
+
+  // Liveness (what the result depends on) and, in reverse order, which values
+  // receive a gradient and which contribution to each comes first.
+  p.values_[p.result_].live = true;
+  for (auto i = p.instrs_.rbegin(); i != p.instrs_.rend(); ++i)
+    if (p.values_[i->out].live) {
+      p.values_[i->a.value].live = true;
+      if (i->b.value >= 0) p.values_[i->b.value].live = true;
+    }
+  std::vector<bool> has_grad(p.values_.size(), false);
+  has_grad[p.result_] = p.values_[p.result_].needs_grad;
+  for (auto i = p.instrs_.rbegin(); i != p.instrs_.rend(); ++i) {
+    i->backward = has_grad[i->out] && p.values_[i->out].live;
+    if (!i->backward) continue;
+    auto take = [&](const Operand& o, bool& first) {
+      if (o.value < 0 || !p.values_[o.value].needs_grad) return;
+      first = !has_grad[o.value];
+      has_grad[o.value] = true;
+    };
+    take(i->a, i->a_first);
+    take(i->b, i->b_first);
+  }
+  for (std::size_t v = 0; v < p.values_.size(); ++v) {
+    if (!has_grad[v]) continue;
+    Value& val = p.values_[v];
+    if (val.varying) {
+      val.grad = p.arena_arrays_;
+      p.arena_arrays_ += val.width;
+    } else {
+      val.grad = p.partial_arrays_;
+      p.partial_arrays_ += val.width;
+    }
+  }
+  return prog;
+}
+
+// ---------------------------------------------------------------- evaluation
+
+namespace {
+
+// Component j of an operand within a chunk: a lane array, or one value for all lanes.
+template <class T>
+struct Read {
+  const T* p;
+  T v;
+};
+template <class T>
+struct ArrayRead {
+  const T* p;
+  T operator()(std::int64_t i) const { return p[i]; }
+};
+template <class T>
+struct ConstRead {
+  T v;
+  T operator()(std::int64_t) const { return v; }
+};
+
+// f(x, z) with x and z as readers of their kind, so each combination is its own plain loop.
+template <class T, class F>
+void with_reads(const Read<T>& a, const Read<T>& b, F f) {
+  auto with_b = [&](auto x) {
+    if (b.p) f(x, ArrayRead<T>{b.p});
+    else f(x, ConstRead<T>{b.v});
+  };
+  if (a.p) with_b(ArrayRead<T>{a.p});
+  else with_b(ConstRead<T>{a.v});
+}
+
+// Rows [0, n) of a [rows, width] array to `width` lane arrays (dst + j kLanes),
+// and back; rows of 1 and 3 as loops of constant stride, which vectorize.
+template <class T>
+void deinterleave(const T* src, std::int64_t width, T* dst, std::int64_t n) {
+  if (width == 1) {
+    std::copy(src, src + n, dst);
+  } else if (width == 3) {
+    for (std::int64_t l = 0; l < n; ++l)
+      for (int j = 0; j < 3; ++j) dst[j * kLanes + l] = src[3 * l + j];
+  } else {
+    for (std::int64_t j = 0; j < width; ++j)
+      for (std::int64_t l = 0; l < n; ++l) dst[j * kLanes + l] = src[l * width + j];
+  }
+}
+template <class T>
+void interleave(const T* src, std::int64_t width, T* dst, std::int64_t n) {
+  if (width == 1) {
+    std::copy(src, src + n, dst);
+  } else if (width == 3) {
+    for (std::int64_t l = 0; l < n; ++l)
+      for (int j = 0; j < 3; ++j) dst[3 * l + j] = src[j * kLanes + l];
+  } else {
+    for (std::int64_t j = 0; j < width; ++j)
+      for (std::int64_t l = 0; l < n; ++l) dst[l * width + j] = src[j * kLanes + l];
+  }
+}
+
+}  // namespace
+
+// One call's evaluation state: a lane array for every value's component, its
+// gradient's and normalize's lengths, and double lane arrays for the shared
+// inputs' partial gradient sums. Chunks of up to kLanes rows run through it.
+template <class T>
+class FusedEvaluator {
+ public:
+  using Value = FusedRows::Value;
+  using Operand = FusedRows::Operand;
+  using Instr = FusedRows::Instr;
+
+  explicit FusedEvaluator(const FusedRows& p)
+      : p_(p), arena_(new T[std::size_t(p.arena_arrays_ * kLanes)]), partial_(std::size_t(p.partial_arrays_ * kLanes), 0.0) {}
+
+  // Loads rows [c0, c0 + n) of the inputs the result depends on and runs the forward.
+  void forward(const std::vector<Tensor>& rows, std::int64_t c0, std::int64_t n) {
+    n_ = n;
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+      const int v = p_.row_values_[i];
+      if (v < 0 || !p_.values_[v].live) continue;
+      const Value& val = p_.values_[v];
+      deinterleave(rows[i].data<T>() + c0 * val.width, val.width, lanes(val.array), n);
+    }
+    for (const Instr& in : p_.instrs_)
+      if (p_.values_[in.out].live) run_forward(in);
+  }
+
+  // Writes the lane arrays from `array` on (or zeros, for array < 0) to n_ rows of width `width`.
+  void store(std::int64_t array, std::int64_t width, T* dst_rows) const {
+    if (array < 0)
+      std::fill(dst_rows, dst_rows + n_ * width, T(0));
+    else
+      interleave(lanes(array), width, dst_rows, n_);
+  }
+  void store_result(T* out_rows) const { store(p_.values_[p_.result_].array, p_.values_[p_.result_].width, out_rows); }
+
+  // The backward of the chunk last run forward, from upstream rows `g_rows`;
+  // writes the row inputs' gradients where row_grads[i] is defined.
+  void backward(const T* g_rows, std::vector<Tensor>& row_grads, std::int64_t c0) {
+    const Value& r = p_.values_[p_.result_];
+    deinterleave(g_rows, r.width, lanes(r.grad), n_);
+    for (auto i = p_.instrs_.rbegin(); i != p_.instrs_.rend(); ++i)
+      if (i->backward) run_backward(*i);
+    for (std::size_t i = 0; i < row_grads.size(); ++i) {
+      if (!row_grads[i].defined()) continue;
+      const int v = p_.row_values_[i];
+      const std::int64_t width = row_grads[i].numel() / std::max<std::int64_t>(1, row_grads[i].size(0));
+      T* dst = row_grads[i].data<T>() + c0 * width;
+      store(v < 0 ? -1 : p_.values_[v].grad, width, dst);
+    }
+  }
+
+  // Shared input j's gradient over every chunk run so far: each lane
+  // position's double sum, added over positions in order.
+  Tensor shared_grad(std::size_t j) const {
+    const int v = p_.shared_values_[j];
+    if (v < 0 || p_.values_[v].grad < 0) return Tensor();
+    const Value& val = p_.values_[v];
+    Tensor out = Tensor::empty(p_.shared_shapes_[j], p_.dtype_);
+    for (int c = 0; c < val.width; ++c) {
+      const double* s = partial_.data() + (val.grad + c) * kLanes;
+      double total = 0;
+      for (std::int64_t l = 0; l < kLanes; ++l) total += s[l];
+      out.data<T>()[c] = T(total);
+    }
+    return out;
+  }
+
+ private:
+  T* lanes(std::int64_t array) { return arena_.get() + array * kLanes; }
+  const T* lanes(std::int64_t array) const { return arena_.get() + array * kLanes; }
+
+  Read<T> read(const Operand& o, int j) {
+    const Value& v = p_.values_[o.value];
+    const int c = o.spread ? 0 : j;
+    if (v.varying) return {lanes(v.array + c), T(0)};
+    return {nullptr, T(p_.uniforms_[std::size_t(v.array + c)])};
+  }
+
+  void run_forward(const Instr& in) {
+    const Value& o = p_.values_[in.out];
+    const std::int64_t n = n_;
+    auto binary = [&](auto f) {
+      for (int j = 0; j < in.components; ++j) {
+        T* out = lanes(o.array + j);
+        with_reads(read(in.a, j), read(in.b, j), [&](auto x, auto z) {
+          for (std::int64_t l = 0; l < n; ++l) out[l] = T(f(x(l), z(l)));
+        });
+      }
+    };
+    switch (in.op) {  // the eager ops' formulas (ops/elementwise.cpp, ops/vector.cpp)
+      case FusedOp::Add: binary([](T x, T z) { return x + z; }); break;
+      case FusedOp::Sub: binary([](T x, T z) { return x - z; }); break;
+      case FusedOp::Mul: binary([](T x, T z) { return x * z; }); break;
+      case FusedOp::Div: binary([](T x, T z) { return x / z; }); break;
+      case FusedOp::Minimum: binary([](T x, T z) { return z < x ? z : x; }); break;
+      case FusedOp::Maximum: binary([](T x, T z) { return z > x ? z : x; }); break;
+      case FusedOp::Neg:
+        for (int j = 0; j < in.components; ++j) {
+          const T* x = read(in.a, j).p;
+          T* out = lanes(o.array + j);
+          for (std::int64_t l = 0; l < n; ++l) out[l] = -x[l];
+        }
+        break;
+      case FusedOp::Pow:
+        for (int j = 0; j < in.components; ++j) power_range(read(in.a, j).p, lanes(o.array + j), 0, n, in.param);
+        break;
+      case FusedOp::Dot: {  // sum_j a_j b_j in double from 0, rounded once
+        double s[kLanes];
+        std::fill(s, s + n, 0.0);
+        for (int j = 0; j < in.components; ++j)
+          with_reads(read(in.a, j), read(in.b, j), [&](auto x, auto z) {
+            for (std::int64_t l = 0; l < n; ++l) s[l] += double(x(l)) * double(z(l));
+          });
+        T* out = lanes(o.array);
+        for (std::int64_t l = 0; l < n; ++l) out[l] = T(s[l]);
+        break;
+      }
+      case FusedOp::Normalize: {  // v / d, d = max(|v|, eps) in double (detail::normalized)
+        double d[kLanes], inv[kLanes];
+        std::fill(d, d + n, 0.0);
+        for (int j = 0; j < in.components; ++j) {
+          const T* x = read(in.a, j).p;
+          for (std::int64_t l = 0; l < n; ++l) d[l] += double(x[l]) * double(x[l]);
+        }
+        T* len = lanes(o.aux);
+        for (std::int64_t l = 0; l < n; ++l) {
+          d[l] = std::max<double>(std::sqrt(d[l]), in.param);
+          len[l] = T(d[l]);
+          inv[l] = 1 / d[l];
+        }
+        for (int j = 0; j < in.components; ++j) {
+          const T* x = read(in.a, j).p;
+          T* out = lanes(o.array + j);
+          for (std::int64_t l = 0; l < n; ++l) out[l] = normalized<T>(double(x[l]), d[l], inv[l]);
+        }
+        break;
+      }
+    }
+  }
+
+  // Where an operand's gradient terms go, component by component: its lanes
+  // (assigned for the first contribution, else added), a column's double sum
+  // over the components (rounded once at finish, as sum_into_operand does),
+  // or a shared input's partial sums. negate: the terms' negation goes in
+  // (sub's b), applied after a column's rounding as the eager -reduce(g) does.
+  class Sink {
+   public:
+    Sink(FusedEvaluator& e, const Operand& o, bool first, bool negate)
+        : e_(e), o_(o), first_(first), negate_(negate),
+          on_(o.value >= 0 && e.p_.values_[o.value].grad >= 0) {
+      if (on_ && column()) std::fill(sum_, sum_ + e.n_, 0.0);
+    }
+    bool on() const { return on_; }
+    void put(int j, const T* t) {
+      if (!on_) return;
+      const Value& v = e_.p_.values_[o_.value];
+      const std::int64_t n = e_.n_;
+      if (!v.varying) {
+        double* s = e_.partial_.data() + (v.grad + (o_.spread ? 0 : j)) * kLanes;
+        if (negate_)
+          for (std::int64_t l = 0; l < n; ++l) s[l] -= double(t[l]);
+        else
+          for (std::int64_t l = 0; l < n; ++l) s[l] += double(t[l]);
+      } else if (column()) {
+        for (std::int64_t l = 0; l < n; ++l) sum_[l] += double(t[l]);
+      } else {
+        deposit(e_.lanes(v.grad + j), t, negate_);
+      }
+    }
+    void finish() {
+      if (!on_ || !column()) return;
+      T t[kLanes];
+      for (std::int64_t l = 0; l < e_.n_; ++l) t[l] = T(sum_[l]);
+      deposit(e_.lanes(e_.p_.values_[o_.value].grad), t, negate_);
+    }
+
+   private:
+    bool column() const { return o_.spread && e_.p_.values_[o_.value].varying; }
+    void deposit(T* dst, const T* t, bool negate) {
+      const std::int64_t n = e_.n_;
+      if (first_ && negate)
+        for (std::int64_t l = 0; l < n; ++l) dst[l] = -t[l];
+      else if (first_)
+        std::copy(t, t + n, dst);
+      else if (negate)
+        for (std::int64_t l = 0; l < n; ++l) dst[l] = dst[l] + -t[l];
+      else
+        for (std::int64_t l = 0; l < n; ++l) dst[l] = dst[l] + t[l];
+    }
+    FusedEvaluator& e_;
+    Operand o_;
+    bool first_, negate_, on_;
+    double sum_[kLanes];
+  };
+
+  void run_backward(const Instr& in) {
+    const Value& o = p_.values_[in.out];
+    const std::int64_t n = n_;
+    Sink sa(*this, in.a, in.a_first, false), sb(*this, in.b, in.b_first, in.op == FusedOp::Sub);
+    T t[kLanes];
+    // Each side's terms f(g, x, z, y) per component (y: the op's result).
+    auto binary = [&](auto da, auto db) {
+      for (int j = 0; j < in.components; ++j) {
+        const T* g = lanes(o.grad + j);
+        const T* y = lanes(o.array + j);
+        with_reads(read(in.a, j), read(in.b, j), [&](auto x, auto z) {
+          if (sa.on()) {
+            for (std::int64_t l = 0; l < n; ++l) t[l] = T(da(g[l], x(l), z(l), y[l]));
+            sa.put(j, t);
+          }
+          if (sb.on()) {
+            for (std::int64_t l = 0; l < n; ++l) t[l] = T(db(g[l], x(l), z(l), y[l]));
+            sb.put(j, t);
+          }
+        });
+      }
+    };
+    switch (in.op) {  // the eager adjoints' formulas
+      case FusedOp::Add:
+      case FusedOp::Sub:
+        for (int j = 0; j < in.components; ++j) sa.put(j, lanes(o.grad + j)), sb.put(j, lanes(o.grad + j));
+        break;
+      case FusedOp::Mul: binary([](T g, T, T z, T) { return g * z; }, [](T g, T x, T, T) { return g * x; }); break;
+      case FusedOp::Div: binary([](T g, T, T z, T) { return g / z; }, [](T g, T, T z, T y) { return -(g * y) / z; }); break;
+      case FusedOp::Minimum:
+        binary([](T g, T x, T z, T) { return selected_gradient(g, x < z, x == z); },
+               [](T g, T x, T z, T) { return selected_gradient(g, z < x, x == z); });
+        break;
+      case FusedOp::Maximum:
+        binary([](T g, T x, T z, T) { return selected_gradient(g, x > z, x == z); },
+               [](T g, T x, T z, T) { return selected_gradient(g, z > x, x == z); });
+        break;
+      case FusedOp::Neg:
+        for (int j = 0; j < in.components; ++j) {
+          const T* g = lanes(o.grad + j);
+          for (std::int64_t l = 0; l < n; ++l) t[l] = -g[l];
+          sa.put(j, t);
+        }
+        break;
+      case FusedOp::Pow:
+        for (int j = 0; j < in.components; ++j) {
+          power_adjoint_range(lanes(o.grad + j), read(in.a, j).p, t, 0, n, in.param);
+          sa.put(j, t);
+        }
+        break;
+      case FusedOp::Dot: {  // dL/da_j = g b_j, dL/db_j = g a_j
+        const T* g = lanes(o.grad);
+        for (int j = 0; j < in.components; ++j)
+          with_reads(read(in.a, j), read(in.b, j), [&](auto x, auto z) {
+            if (sa.on()) {
+              for (std::int64_t l = 0; l < n; ++l) t[l] = g[l] * z(l);
+              sa.put(j, t);
+            }
+            if (sb.on()) {
+              for (std::int64_t l = 0; l < n; ++l) t[l] = g[l] * x(l);
+              sb.put(j, t);
+            }
+          });
+        break;
+      }
+      case FusedOp::Normalize: {  // (g - n (n.g)) / d; below eps g / eps (g itself for g = +-0)
+        const T* len = lanes(o.aux);
+        double ng[kLanes], inv[kLanes];
+        std::fill(ng, ng + n, 0.0);
+        for (int j = 0; j < in.components; ++j) {
+          const T *nj = lanes(o.array + j), *gj = lanes(o.grad + j);
+          for (std::int64_t l = 0; l < n; ++l) ng[l] += double(nj[l]) * double(gj[l]);
+        }
+        for (std::int64_t l = 0; l < n; ++l) inv[l] = 1 / double(len[l]);
+        const T eps = T(in.param);
+        for (int j = 0; j < in.components; ++j) {
+          const T *nj = lanes(o.array + j), *gj = lanes(o.grad + j);
+          for (std::int64_t l = 0; l < n; ++l) t[l] = T((double(gj[l]) - double(nj[l]) * ng[l]) * inv[l]);
+          for (std::int64_t l = 0; l < n; ++l)
+            if (!(len[l] > eps)) t[l] = gj[l] == T(0) ? gj[l] : T(double(gj[l]) / in.param);
+          sa.put(j, t);
+        }
+        break;
+      }
+    }
+    sa.finish();
+    sb.finish();
+  }
+
+  const FusedRows& p_;
+  std::unique_ptr<T[]> arena_;  // every lane array is written before it is read
+  std::vector<double> partial_;
+  std::int64_t n_ = 0;
+};
+
+void FusedRows::forward(const std::vector<Tensor>& rows, Tensor& out, std::int64_t lo, std::int64_t hi) const {
+  dispatch_float(dtype_, "map_rows", [&](auto tag) {
+    using T = decltype(tag);
+    FusedEvaluator<T> e(*this);
+    const std::int64_t width = values_[result_].width;
+    for (std::int64_t c0 = lo; c0 < hi; c0 += kLanes) {
+      e.forward(rows, c0, std::min(kLanes, hi - c0));
+      e.store_result(out.data<T>() + c0 * width);
+    }
+  });
+}
+
+std::vector<Tensor> FusedRows::backward(const std::vector<Tensor>& rows, const Tensor& g, std::vector<Tensor>& row_grads,
+                                        std::int64_t lo, std::int64_t hi) const {
+  std::vector<Tensor> shared(shared_values_.size());
+  if (values_[result_].grad < 0) {  // nothing the result depends on needs a gradient
+    for (Tensor& rg : row_grads)
+      if (rg.defined()) {
+        const std::int64_t width = rg.numel() / std::max<std::int64_t>(1, rg.size(0));
+        dispatch_float(dtype_, "map_rows", [&](auto tag) {
+          using T = decltype(tag);
+          std::fill(rg.data<T>() + lo * width, rg.data<T>() + hi * width, T(0));
+        });
+      }
+    return shared;
+  }
+  dispatch_float(dtype_, "map_rows", [&](auto tag) {
+    using T = decltype(tag);
+    FusedEvaluator<T> e(*this);
+    const std::int64_t width = values_[result_].width;
+    for (std::int64_t c0 = lo; c0 < hi; c0 += kLanes) {
+      e.forward(rows, c0, std::min(kLanes, hi - c0));
+      e.backward(g.data<T>() + c0 * width, row_grads, c0);
+    }
+    for (std::size_t j = 0; j < shared.size(); ++j) shared[j] = e.shared_grad(j);
+  });
+  return shared;
+}
+
+}  // namespace gr::detail

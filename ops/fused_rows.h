@@ -1,0 +1,66 @@
+// The fused row interpreter behind map_rows (issue 17, route (b);
+// docs/map_rows.md): a row-wise function traced once (ops/fusion_trace.h) is
+// replayed on chunks of kLanes rows, each value held as one array per
+// component that stays in L1, so a shading graph costs one pass over its
+// inputs instead of a pass per op. Forward and adjoint use the eager ops' own
+// per-element formulas (ops/elementwise_formulas.h and the same operation
+// order), so outputs and row gradients are bit-identical to the eager ops'.
+//
+// Replayed: add, sub, mul, div, minimum, maximum, neg, pow(x, p), dot and
+// normalize on rows of rank 1 ([P]) or 2 ([P, k]), with operands that are
+// rows of the same shape, a column [P, 1] against [P, k], a shared or
+// constant vector [k] against [P, k], or a one-element shared or constant
+// value. A trace holding anything else (another op, a broadcast outside
+// these, mixed dtypes, a captured tensor with rows) does not compile, and
+// map_rows keeps calling f per block.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "autodiff/tensor.h"
+#include "ops/fusion_trace.h"
+
+namespace gr::detail {
+
+class FusedRows {
+ public:
+  // The program of f, from its trace on one block: `rows` and `shared` are the
+  // tensors f was called with (P >= 2 rows each), `result` what it returned.
+  // rows_grad[i] / shared_grad[j]: whether that input needs a gradient.
+  // nullptr if the trace is not replayable (see above).
+  static std::shared_ptr<const FusedRows> compile(const FusionTrace& trace, const std::vector<Tensor>& rows,
+                                                  const std::vector<Tensor>& shared, const Tensor& result,
+                                                  const std::vector<bool>& rows_grad, const std::vector<bool>& shared_grad);
+
+  // out's rows [lo, hi) = f(rows' rows [lo, hi)).
+  void forward(const std::vector<Tensor>& rows, Tensor& out, std::int64_t lo, std::int64_t hi) const;
+
+  // Rows [lo, hi) with upstream gradient g (out's shape): writes those rows of
+  // row_grads[i] (each defined one; zeros where no gradient arrives) and
+  // returns the shared inputs' gradients summed over these rows (in double,
+  // per lane position, then over lanes in order; undefined where not needed).
+  std::vector<Tensor> backward(const std::vector<Tensor>& rows, const Tensor& g, std::vector<Tensor>& row_grads,
+                               std::int64_t lo, std::int64_t hi) const;
+
+  struct Value;
+  struct Operand;
+  struct Instr;
+
+ private:
+  template <class T>
+  friend class FusedEvaluator;
+
+  DType dtype_ = DType::Float32;
+  std::vector<Value> values_;
+  std::vector<int> row_values_, shared_values_;  // each input's value (-1: not replayable)
+  std::vector<Instr> instrs_;
+  std::vector<double> uniforms_;    // shared inputs' and constants' values (exact in T)
+  std::vector<Shape> shared_shapes_;
+  std::int64_t arena_arrays_ = 0;   // lane arrays: values, gradients, normalize's lengths
+  std::int64_t partial_arrays_ = 0; // double lane arrays: shared gradients' partial sums
+  int result_ = -1;
+};
+
+}  // namespace gr::detail

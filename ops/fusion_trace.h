@@ -1,0 +1,40 @@
+// What the fused row interpreter (ops/fused_rows.h) learns of a user's
+// function: while a FusionTrace is active on a thread, the ops it can replay
+// note each call (op, operands, result, scalar parameter) on it. The ops run
+// as usual; a trace only watches. An op that does not note itself leaves a
+// value the trace has never seen, which makes the function not fusable.
+#pragma once
+
+#include <vector>
+
+#include "autodiff/tensor.h"
+
+namespace gr::detail {
+
+enum class FusedOp { Add, Sub, Mul, Div, Minimum, Maximum, Neg, Pow, Dot, Normalize };
+
+struct TracedStep {
+  FusedOp op;
+  Tensor a, b, out;    // b undefined for unary ops
+  double param = 0;    // pow's exponent, normalize's eps
+};
+
+// Active on the constructing thread for its lifetime (scopes nest).
+class FusionTrace {
+ public:
+  FusionTrace();
+  ~FusionTrace();
+  FusionTrace(const FusionTrace&) = delete;
+  FusionTrace& operator=(const FusionTrace&) = delete;
+
+  std::vector<TracedStep> steps;
+
+ private:
+  FusionTrace* previous_;
+};
+
+// Called by the replayable ops after computing `out`: a no-op unless a trace
+// is active on this thread.
+void trace_step(FusedOp op, const Tensor& a, const Tensor& b, const Tensor& out, double param = 0);
+
+}  // namespace gr::detail

@@ -1,0 +1,169 @@
+// The fused row interpreter (ops/fused_rows.h) behind map_rows: every op and
+// operand form it replays gives the eager graph's values and row gradients bit
+// for bit, its gradients pass float64 gradchecks, and functions it cannot
+// replay still run, per block.
+#include <catch2/catch.hpp>
+
+#include <functional>
+#include <string>
+
+#include "ops/ops.h"
+#include "test_support.h"
+
+using namespace gr;
+using gr::testing::require_gradcheck;
+using Inputs = std::vector<Tensor>;
+
+namespace {
+
+constexpr std::int64_t kRows = 2501, kBlock = 1000;  // a partial last block
+
+// Deterministic values in [lo, hi).
+std::vector<double> values(std::int64_t n, double lo, double hi, std::uint64_t seed) {
+  std::vector<double> v(static_cast<std::size_t>(n));
+  std::uint64_t s = seed * 6364136223846793005ULL + 1442695040888963407ULL;
+  for (double& x : v) {
+    s = s * 6364136223846793005ULL + 1442695040888963407ULL;
+    x = lo + (hi - lo) * double(s >> 11) / 9007199254740992.0;
+  }
+  return v;
+}
+
+Tensor leaf(std::vector<double> v, const Shape& shape, DType dtype) {
+  Tensor t = Tensor::from_values(v, shape, dtype);
+  t.set_requires_grad();
+  return t;
+}
+
+// rows: a [N, 3] with zero rows and zeros, b [N, 3] with ties against a and
+// 0.25, c [N, 1] in [0.5, 1.5], d [N]; shared: s [3], k [] (all need gradients).
+struct Case {
+  Inputs rows, shared;
+};
+
+Case make_case(std::int64_t n, DType dtype) {
+  std::vector<double> a = values(3 * n, -1, 1, 1), b = values(3 * n, -1, 1, 2);
+  for (std::int64_t e = 0; e < 30 && e < 3 * n; ++e) a[std::size_t(e)] = 0;         // zero-length rows
+  for (std::int64_t e = 30; e < 90 && e < 3 * n; ++e) b[std::size_t(e)] = a[std::size_t(e)];  // ties
+  for (std::int64_t e = 90; e < 120 && e < 3 * n; ++e) b[std::size_t(e)] = 0.25;
+  return {{leaf(a, {n, 3}, dtype), leaf(b, {n, 3}, dtype), leaf(values(n, 0.5, 1.5, 3), {n, 1}, dtype),
+           leaf(values(n, -1, 1, 4), {n}, dtype)},
+          {leaf({0.3, -0.7, 2.0}, {3}, dtype), leaf({1.5}, {}, dtype)}};
+}
+
+struct Graph {
+  std::string name;
+  RowFunction f;
+};
+
+// Each replayed op and operand form at least once.
+std::vector<Graph> replayable_graphs() {
+  return {
+      {"arithmetic with a shared vector, a column and a scalar",
+       [](const Inputs& r, const Inputs& s) { return (r[0] - s[0]) * r[2] + r[1] / (r[2] + 2.0) - s[1] * r[1]; }},
+      {"minimum and maximum with ties",
+       [](const Inputs& r, const Inputs&) { return maximum(r[0], r[1]) - minimum(r[1], 0.25) + maximum(r[2], 0.0); }},
+      {"neg and pow with integer, negative and fractional exponents",
+       [](const Inputs& r, const Inputs&) {
+         return -pow(r[0] * r[0], 0.5) + pow(r[1], 3.0) + pow(r[2] + 2.0, -2.0) * pow(r[0], 2.0) + pow(r[2], 1.7);
+       }},
+      {"dot and normalize on rows, with a shared vector and at zero length",
+       [](const Inputs& r, const Inputs& s) {
+         return normalize(r[0]) * dot(r[1], s[0]) + normalize(r[1] - s[0]) * dot(s[0], r[0]) + dot(r[0], r[1]);
+       }},
+      {"rows of rank 1", [](const Inputs& r, const Inputs& s) { return r[3] * 2.0 - r[3] * s[1] + r[3] / (r[3] * r[3] + 1.0); }},
+      {"a constant vector f creates",
+       [](const Inputs& r, const Inputs&) {
+         const Tensor dir = Tensor::from_values({0.0, 0.6, 0.8}, {3}, r[0].dtype());
+         return r[0] * dir + dot(r[1], dir);
+       }},
+      {"a value used twice and a column subtracted",
+       [](const Inputs& r, const Inputs&) { return r[2] - r[0] + r[0] * r[0] - (r[2] - r[1]); }},
+  };
+}
+
+bool same_bits(const Tensor& a, const Tensor& b) { return a.shape() == b.shape() && a.to_vector() == b.to_vector(); }
+
+struct Run {
+  Tensor out;
+  std::vector<Tensor> grads;  // rows' then shared inputs' gradients
+};
+
+// f's output and the gradients of sum(out * w) for a fixed random w.
+Run run(const Case& c, const std::function<Tensor()>& f) {
+  for (Tensor t : c.rows) t.zero_grad();
+  for (Tensor t : c.shared) t.zero_grad();
+  Run result{f(), {}};
+  const Tensor w = Tensor::from_values(values(result.out.numel(), -1, 1, 9), result.out.shape(), result.out.dtype());
+  backward(sum(result.out * w));
+  // An input f does not use: no gradient from the eager graph, zeros from map_rows's node.
+  auto grad = [](const Tensor& t) { return t.has_grad() ? t.grad() : Tensor::zeros(t.shape(), t.dtype()); };
+  for (const Tensor& t : c.rows) result.grads.push_back(grad(t));
+  for (const Tensor& t : c.shared) result.grads.push_back(grad(t));
+  return result;
+}
+
+}  // namespace
+
+TEST_CASE("fused map_rows gives the eager graph's values and row gradients bit for bit, for every replayed op",
+          "[ops][map_rows][fused]") {
+  for (DType dtype : {DType::Float32, DType::Float64}) {
+    const Case c = make_case(kRows, dtype);
+    for (const Graph& g : replayable_graphs()) {
+      INFO(g.name << ", " << dtype_name(dtype));
+      REQUIRE(map_rows_fuses(g.f, c.rows, c.shared, MapRowsOptions{kBlock}));
+      const Run whole = run(c, [&] { return g.f(c.rows, c.shared); });
+      const Run fused = run(c, [&] { return map_rows(g.f, c.rows, c.shared, MapRowsOptions{kBlock}); });
+      const Run blocked = run(c, [&] { return map_rows(g.f, c.rows, c.shared, MapRowsOptions{kBlock, false}); });
+      CHECK(same_bits(fused.out, whole.out));
+      CHECK(same_bits(blocked.out, whole.out));
+      for (std::size_t i = 0; i < c.rows.size(); ++i) {
+        INFO("rows[" << i << "]");
+        CHECK(same_bits(fused.grads[i], whole.grads[i]));
+      }
+      // Shared inputs' gradients: summed in another order, equal up to rounding.
+      for (std::size_t j = c.rows.size(); j < whole.grads.size(); ++j) {
+        const std::vector<double> a = fused.grads[j].to_vector(), b = whole.grads[j].to_vector();
+        for (std::size_t e = 0; e < a.size(); ++e)
+          CHECK(a[e] == Approx(b[e]).epsilon(dtype == DType::Float32 ? 1e-4 : 1e-11).margin(1e-9));
+      }
+    }
+  }
+}
+
+TEST_CASE("fused map_rows gradients pass float64 gradchecks", "[ops][map_rows][fused][gradcheck]") {
+  const Case c = make_case(150, DType::Float64);
+  // The tie and zero-length rows are kinks of min/max/normalize: random rows only.
+  const Inputs random{leaf(values(450, -1, 1, 11), {150, 3}, DType::Float64), leaf(values(450, -1, 1, 12), {150, 3}, DType::Float64),
+                c.rows[2], c.rows[3], c.shared[0], c.shared[1]};
+  for (const Graph& g : replayable_graphs()) {
+    if (g.name.find("ties") != std::string::npos) continue;
+    REQUIRE(map_rows_fuses(g.f, {random[0], random[1], random[2], random[3]}, {random[4], random[5]}, MapRowsOptions{100}));
+    require_gradcheck("fused " + g.name,
+                      [f = g.f](const Inputs& in) {
+                        return map_rows(f, {in[0], in[1], in[2], in[3]}, {in[4], in[5]}, MapRowsOptions{100});
+                      },
+                      random);
+  }
+}
+
+TEST_CASE("functions with ops the interpreter does not replay run per block and give the same results",
+          "[ops][map_rows][fused]") {
+  const Case c = make_case(kRows, DType::Float64);
+  const std::vector<Graph> others = {
+      {"exp", [](const Inputs& r, const Inputs&) { return exp(r[0]) * r[2]; }},
+      {"an op on shared inputs alone", [](const Inputs& r, const Inputs& s) { return r[0] * normalize(s[0]); }},
+      {"a row-wise sum", [](const Inputs& r, const Inputs&) { return r[0] * sum(r[1], -1, true); }},
+  };
+  for (const Graph& g : others) {
+    INFO(g.name);
+    CHECK_FALSE(map_rows_fuses(g.f, c.rows, c.shared, MapRowsOptions{kBlock}));
+    const Run whole = run(c, [&] { return g.f(c.rows, c.shared); });
+    const Run blocked = run(c, [&] { return map_rows(g.f, c.rows, c.shared, MapRowsOptions{kBlock}); });
+    CHECK(same_bits(blocked.out, whole.out));
+    CHECK(same_bits(blocked.grads[0], whole.grads[0]));
+  }
+  // Too few rows in a block to tell a constant from a value with rows: not fused.
+  const Graph& first = replayable_graphs().front();
+  CHECK_FALSE(map_rows_fuses(first.f, c.rows, c.shared, MapRowsOptions{64}));
+}
