@@ -41,4 +41,14 @@ inline Tensor blinn_phong_loss(const ShadingScene& s) {
   return mean(pow(colour - s.target, 2.0));
 }
 
+// The loss's per-pixel part, row-wise for map_rows / map_rows_mean: rows
+// {p, n, albedo, target}, shared {light, cam}; mean of it = blinn_phong_loss.
+inline Tensor blinn_phong_squared_error(const std::vector<Tensor>& r, const std::vector<Tensor>& s) {
+  Tensor l = normalize(s[0] - r[0]);
+  Tensor v = normalize(s[1] - r[0]);
+  Tensor h = normalize(l + v);
+  Tensor colour = r[2] * maximum(dot(r[1], l), 0.0) + 0.5 * pow(maximum(dot(r[1], h), 0.0), 32.0);
+  return pow(colour - r[3], 2.0);
+}
+
 }  // namespace gr::bench

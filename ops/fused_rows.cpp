@@ -280,8 +280,12 @@ class FusedEvaluator {
   using Operand = FusedRows::Operand;
   using Instr = FusedRows::Instr;
 
-  explicit FusedEvaluator(const FusedRows& p)
-      : p_(p), arena_(new T[std::size_t(p.arena_arrays_ * kLanes)]), partial_(std::size_t(p.partial_arrays_ * kLanes), 0.0) {}
+  explicit FusedEvaluator(const FusedRows& p) : p_(p), scratch_(scratch()) {
+    // The thread's buffers, kept between calls: fresh ones of this size would
+    // come from mmap, a page fault per 4 KiB on every call.
+    scratch_.arena.resize(std::size_t(p.arena_arrays_ * kLanes));
+    scratch_.partial.assign(std::size_t(p.partial_arrays_ * kLanes), 0.0);
+  }
 
   // Loads rows [c0, c0 + n) of the inputs the result depends on and runs the forward.
   void forward(const std::vector<Tensor>& rows, std::int64_t c0, std::int64_t n) {
@@ -305,11 +309,15 @@ class FusedEvaluator {
   }
   void store_result(T* out_rows) const { store(p_.values_[p_.result_].array, p_.values_[p_.result_].width, out_rows); }
 
-  // The backward of the chunk last run forward, from upstream rows `g_rows`;
-  // writes the row inputs' gradients where row_grads[i] is defined.
-  void backward(const T* g_rows, std::vector<Tensor>& row_grads, std::int64_t c0) {
+  // The backward of the chunk last run forward, from upstream rows `g_rows`
+  // (or `seed` in every lane, when null); writes the row inputs' gradients
+  // where row_grads[i] is defined.
+  void backward(const T* g_rows, T seed, std::vector<Tensor>& row_grads, std::int64_t c0) {
     const Value& r = p_.values_[p_.result_];
-    deinterleave(g_rows, r.width, lanes(r.grad), n_);
+    if (g_rows)
+      deinterleave(g_rows, r.width, lanes(r.grad), n_);
+    else
+      std::fill(lanes(r.grad), lanes(r.grad) + r.width * kLanes, seed);
     for (auto i = p_.instrs_.rbegin(); i != p_.instrs_.rend(); ++i)
       if (i->backward) run_backward(*i);
     for (std::size_t i = 0; i < row_grads.size(); ++i) {
@@ -321,6 +329,15 @@ class FusedEvaluator {
     }
   }
 
+  void zero_row_grads(std::vector<Tensor>& row_grads, std::int64_t c0, std::int64_t n) {
+    n_ = n;
+    for (Tensor& rg : row_grads)
+      if (rg.defined()) {
+        const std::int64_t width = rg.numel() / std::max<std::int64_t>(1, rg.size(0));
+        store(-1, width, rg.data<T>() + c0 * width);
+      }
+  }
+
   // Shared input j's gradient over every chunk run so far: each lane
   // position's double sum, added over positions in order.
   Tensor shared_grad(std::size_t j) const {
@@ -329,7 +346,7 @@ class FusedEvaluator {
     const Value& val = p_.values_[v];
     Tensor out = Tensor::empty(p_.shared_shapes_[j], p_.dtype_);
     for (int c = 0; c < val.width; ++c) {
-      const double* s = partial_.data() + (val.grad + c) * kLanes;
+      const double* s = scratch_.partial.data() + (val.grad + c) * kLanes;
       double total = 0;
       for (std::int64_t l = 0; l < kLanes; ++l) total += s[l];
       out.data<T>()[c] = T(total);
@@ -338,8 +355,8 @@ class FusedEvaluator {
   }
 
  private:
-  T* lanes(std::int64_t array) { return arena_.get() + array * kLanes; }
-  const T* lanes(std::int64_t array) const { return arena_.get() + array * kLanes; }
+  T* lanes(std::int64_t array) { return scratch_.arena.data() + array * kLanes; }
+  const T* lanes(std::int64_t array) const { return scratch_.arena.data() + array * kLanes; }
 
   Read<T> read(const Operand& o, int j) {
     const Value& v = p_.values_[o.value];
@@ -428,7 +445,7 @@ class FusedEvaluator {
       const Value& v = e_.p_.values_[o_.value];
       const std::int64_t n = e_.n_;
       if (!v.varying) {
-        double* s = e_.partial_.data() + (v.grad + (o_.spread ? 0 : j)) * kLanes;
+        double* s = e_.scratch_.partial.data() + (v.grad + (o_.spread ? 0 : j)) * kLanes;
         if (negate_)
           for (std::int64_t l = 0; l < n; ++l) s[l] -= double(t[l]);
         else
@@ -540,11 +557,14 @@ class FusedEvaluator {
         }
         for (std::int64_t l = 0; l < n; ++l) inv[l] = 1 / double(len[l]);
         const T eps = T(in.param);
+        int below = 0;  // any lane at or below eps (rare: checked once, vectorized)
+        for (std::int64_t l = 0; l < n; ++l) below |= !(len[l] > eps);
         for (int j = 0; j < in.components; ++j) {
           const T *nj = lanes(o.array + j), *gj = lanes(o.grad + j);
           for (std::int64_t l = 0; l < n; ++l) t[l] = T((double(gj[l]) - double(nj[l]) * ng[l]) * inv[l]);
-          for (std::int64_t l = 0; l < n; ++l)
-            if (!(len[l] > eps)) t[l] = gj[l] == T(0) ? gj[l] : T(double(gj[l]) / in.param);
+          if (below)
+            for (std::int64_t l = 0; l < n; ++l)
+              if (!(len[l] > eps)) t[l] = gj[l] == T(0) ? gj[l] : T(double(gj[l]) / in.param);
           sa.put(j, t);
         }
         break;
@@ -555,48 +575,58 @@ class FusedEvaluator {
   }
 
   const FusedRows& p_;
-  std::unique_ptr<T[]> arena_;  // every lane array is written before it is read
-  std::vector<double> partial_;
+  struct Scratch {
+    std::vector<T> arena;  // every lane array is written before it is read
+    std::vector<double> partial;
+  };
+  // One per thread and type; an evaluator never runs inside another on one thread.
+  static Scratch& scratch() {
+    thread_local Scratch s;
+    return s;
+  }
+  Scratch& scratch_;
   std::int64_t n_ = 0;
 };
 
-void FusedRows::forward(const std::vector<Tensor>& rows, Tensor& out, std::int64_t lo, std::int64_t hi) const {
+// Rows [lo, hi) in chunks: the forward, writing the result's rows to `out`
+// (when given), then, when `row_grads` is given, the backward from upstream
+// rows `g` (or `seed` for every element, when g is null). Returns the shared
+// inputs' gradients over these rows.
+std::vector<Tensor> FusedRows::evaluate(const std::vector<Tensor>& rows, Tensor* out, const Tensor* g, double seed,
+                                        std::vector<Tensor>* row_grads, std::int64_t lo, std::int64_t hi) const {
+  std::vector<Tensor> shared(shared_values_.size());
   dispatch_float(dtype_, "map_rows", [&](auto tag) {
     using T = decltype(tag);
     FusedEvaluator<T> e(*this);
+    const bool backward = row_grads && values_[result_].grad >= 0;
     const std::int64_t width = values_[result_].width;
     for (std::int64_t c0 = lo; c0 < hi; c0 += kLanes) {
-      e.forward(rows, c0, std::min(kLanes, hi - c0));
-      e.store_result(out.data<T>() + c0 * width);
+      const std::int64_t n = std::min(kLanes, hi - c0);
+      if (out || backward) e.forward(rows, c0, n);
+      if (out) e.store_result(out->data<T>() + c0 * width);
+      if (backward)
+        e.backward(g ? g->data<T>() + c0 * width : nullptr, T(seed), *row_grads, c0);
+      else if (row_grads)  // nothing the result depends on needs a gradient
+        e.zero_row_grads(*row_grads, c0, n);
     }
+    if (backward)
+      for (std::size_t j = 0; j < shared.size(); ++j) shared[j] = e.shared_grad(j);
   });
+  return shared;
+}
+
+void FusedRows::forward(const std::vector<Tensor>& rows, Tensor& out, std::int64_t lo, std::int64_t hi) const {
+  evaluate(rows, &out, nullptr, 0, nullptr, lo, hi);
 }
 
 std::vector<Tensor> FusedRows::backward(const std::vector<Tensor>& rows, const Tensor& g, std::vector<Tensor>& row_grads,
                                         std::int64_t lo, std::int64_t hi) const {
-  std::vector<Tensor> shared(shared_values_.size());
-  if (values_[result_].grad < 0) {  // nothing the result depends on needs a gradient
-    for (Tensor& rg : row_grads)
-      if (rg.defined()) {
-        const std::int64_t width = rg.numel() / std::max<std::int64_t>(1, rg.size(0));
-        dispatch_float(dtype_, "map_rows", [&](auto tag) {
-          using T = decltype(tag);
-          std::fill(rg.data<T>() + lo * width, rg.data<T>() + hi * width, T(0));
-        });
-      }
-    return shared;
-  }
-  dispatch_float(dtype_, "map_rows", [&](auto tag) {
-    using T = decltype(tag);
-    FusedEvaluator<T> e(*this);
-    const std::int64_t width = values_[result_].width;
-    for (std::int64_t c0 = lo; c0 < hi; c0 += kLanes) {
-      e.forward(rows, c0, std::min(kLanes, hi - c0));
-      e.backward(g.data<T>() + c0 * width, row_grads, c0);
-    }
-    for (std::size_t j = 0; j < shared.size(); ++j) shared[j] = e.shared_grad(j);
-  });
-  return shared;
+  return evaluate(rows, nullptr, &g, 0, &row_grads, lo, hi);
+}
+
+std::vector<Tensor> FusedRows::backward_uniform(const std::vector<Tensor>& rows, double seed, std::vector<Tensor>& row_grads,
+                                                std::int64_t lo, std::int64_t hi, Tensor* out) const {
+  return evaluate(rows, out, nullptr, seed, &row_grads, lo, hi);
 }
 
 }  // namespace gr::detail

@@ -44,6 +44,11 @@ class FusedRows {
   std::vector<Tensor> backward(const std::vector<Tensor>& rows, const Tensor& g, std::vector<Tensor>& row_grads,
                                std::int64_t lo, std::int64_t hi) const;
 
+  // The backward for an upstream gradient of `seed` in every element of the
+  // result (a mean's), and, when `out` is given, the forward's rows into it.
+  std::vector<Tensor> backward_uniform(const std::vector<Tensor>& rows, double seed, std::vector<Tensor>& row_grads,
+                                       std::int64_t lo, std::int64_t hi, Tensor* out = nullptr) const;
+
   struct Value;
   struct Operand;
   struct Instr;
@@ -51,6 +56,8 @@ class FusedRows {
  private:
   template <class T>
   friend class FusedEvaluator;
+  std::vector<Tensor> evaluate(const std::vector<Tensor>& rows, Tensor* out, const Tensor* g, double seed,
+                               std::vector<Tensor>* row_grads, std::int64_t lo, std::int64_t hi) const;
 
   DType dtype_ = DType::Float32;
   std::vector<Value> values_;

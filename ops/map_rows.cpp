@@ -9,6 +9,7 @@
 #include "autodiff/tape.h"
 #include "ops/check.h"
 #include "ops/fused_rows.h"
+#include "ops/reduce.h"
 
 namespace gr {
 namespace {
@@ -154,14 +155,12 @@ bool map_rows_fuses(const RowFunction& f, const std::vector<Tensor>& rows, const
   return probe(f, rows, shared, blocks, options.fuse).fused != nullptr;
 }
 
-Tensor map_rows(const RowFunction& f, const std::vector<Tensor>& rows, const std::vector<Tensor>& shared,
-                const MapRowsOptions& options) {
-  const Blocks blocks = check_inputs(f, rows, options);
+namespace {
+
+// map_rows once block 0 has run (probe).
+Tensor map_rows_probed(const Probe& p, const RowFunction& f, const std::vector<Tensor>& rows,
+                       const std::vector<Tensor>& shared, const Blocks& blocks) {
   const std::int64_t n = blocks.rows;
-  // Block 0 (or the empty input) first, eagerly: it fixes the output's shape,
-  // and f's trace on it becomes the fused program (ops/fused_rows.h) the
-  // other blocks run, when every op f used can be replayed.
-  const Probe p = probe(f, rows, shared, blocks, options.fuse);
   const std::shared_ptr<const detail::FusedRows> fused = p.fused;
   Tensor out = Tensor::empty(with_rows(p.first.shape(), n), p.first.dtype());
   write_rows(out, p.first, 0, blocks.count == 0 ? 0 : blocks.hi(0));
@@ -224,6 +223,81 @@ Tensor map_rows(const RowFunction& f, const std::vector<Tensor>& rows, const std
     }
   });
   return out;
+}
+
+}  // namespace
+
+Tensor map_rows(const RowFunction& f, const std::vector<Tensor>& rows, const std::vector<Tensor>& shared,
+                const MapRowsOptions& options) {
+  const Blocks blocks = check_inputs(f, rows, options);
+  // Block 0 (or the empty input) first, eagerly: it fixes the output's shape,
+  // and f's trace on it becomes the fused program (ops/fused_rows.h) the
+  // other blocks run, when every op f used can be replayed.
+  return map_rows_probed(probe(f, rows, shared, blocks, options.fuse), f, rows, shared, blocks);
+}
+
+Tensor map_rows_mean(const RowFunction& f, const std::vector<Tensor>& rows, const std::vector<Tensor>& shared,
+                     const MapRowsOptions& options) {
+  const Blocks blocks = check_inputs(f, rows, options);
+  const Probe p = probe(f, rows, shared, blocks, options.fuse);
+  if (!p.fused) return mean(map_rows_probed(p, f, rows, shared, blocks));
+  const std::shared_ptr<const detail::FusedRows> fused = p.fused;
+  Tensor e = Tensor::empty(with_rows(p.first.shape(), blocks.rows), p.first.dtype());
+  std::vector<Tensor> inputs(rows);
+  inputs.insert(inputs.end(), shared.begin(), shared.end());
+  if (!should_record(inputs)) {
+    parallel_for(0, blocks.count, 1, [&](std::int64_t b0, std::int64_t b1) {
+      fused->forward(rows, e, blocks.lo(b0), blocks.hi(b1 - 1));
+    });
+    NoGradGuard no_grad;
+    return mean(e);
+  }
+  // mean(e) = sum(e) * T(1 / numel): its adjoint gives every element of e the
+  // upstream gradient times T(1 / numel), which for the usual upstream 1 is
+  // T(1 / numel) itself. The gradients for it are computed with the values.
+  const DType dtype = e.dtype();
+  auto element_grad = [dtype, count = double(e.numel())](double upstream) {
+    return dtype == DType::Float32 ? double(float(upstream) * float(1 / count)) : upstream * (1 / count);
+  };
+  // Row gradients and per-block shared ones for upstream `seed` (and e's rows, when out is given).
+  struct Grads {
+    std::vector<Tensor> rows, shared_per_block;
+  };
+  auto gradients = [rows, shared, blocks, fused](double seed, Tensor* out) {
+    const std::size_t ns = shared.size();
+    Grads g{std::vector<Tensor>(rows.size()), std::vector<Tensor>(std::size_t(blocks.count) * ns)};
+    for (std::size_t i = 0; i < rows.size(); ++i)
+      if (rows[i].requires_grad()) g.rows[i] = Tensor::empty(rows[i].shape(), rows[i].dtype());
+    parallel_for(0, blocks.count, 1, [&](std::int64_t b0, std::int64_t b1) {
+      for (std::int64_t b = b0; b < b1; ++b) {
+        const std::vector<Tensor> s = fused->backward_uniform(rows, seed, g.rows, blocks.lo(b), blocks.hi(b), out);
+        for (std::size_t j = 0; j < ns; ++j) g.shared_per_block[std::size_t(b) * ns + j] = s[j];
+      }
+    });
+    return g;
+  };
+  const Grads at_one = gradients(element_grad(1.0), &e);
+  Tensor loss;
+  {
+    NoGradGuard no_grad;
+    loss = mean(e);
+  }
+  record("map_rows_mean", inputs, {&loss}, [at_one, gradients, element_grad, nr = rows.size(), ns = shared.size(),
+                                            count = blocks.count](AdjointContext& ctx) {
+    const Tensor& upstream = ctx.grad_output();
+    if (!upstream.defined()) return;
+    // Upstream 1: the gradients computed with the values; another (a weighted loss): computed again.
+    const Grads g = upstream.item() == 1.0 ? at_one : gradients(element_grad(upstream.item()), nullptr);
+    for (std::size_t i = 0; i < nr; ++i)
+      if (g.rows[i].defined()) ctx.accumulate(i, g.rows[i]);
+    // Shared inputs: summed over blocks in block order (any thread count).
+    for (std::size_t j = 0; j < ns; ++j)
+      for (std::int64_t b = 0; b < count; ++b) {
+        const Tensor& t = g.shared_per_block[std::size_t(b) * ns + j];
+        if (ctx.needs_grad(nr + j) && t.defined()) ctx.accumulate(nr + j, t);
+      }
+  });
+  return loss;
 }
 
 }  // namespace gr

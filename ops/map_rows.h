@@ -59,6 +59,14 @@ struct MapRowsOptions {
 Tensor map_rows(const RowFunction& f, const std::vector<Tensor>& rows, const std::vector<Tensor>& shared = {},
                 const MapRowsOptions& options = {});
 
+// mean(map_rows(f, rows, shared, options)), the same bits, for a loss: when f
+// is fused, its forward and backward run in one pass at the call (an upstream
+// gradient of 1, the usual loss, then uses them; any other is computed again
+// in the backward), so f's inputs are read once. Holds the rows' gradients
+// until the backward.
+Tensor map_rows_mean(const RowFunction& f, const std::vector<Tensor>& rows, const std::vector<Tensor>& shared = {},
+                     const MapRowsOptions& options = {});
+
 // Whether map_rows(f, rows, shared, options) would run the fused interpreter
 // (it calls f once on the first block, without recording on the thread's tape).
 bool map_rows_fuses(const RowFunction& f, const std::vector<Tensor>& rows, const std::vector<Tensor>& shared = {},

@@ -167,3 +167,58 @@ TEST_CASE("functions with ops the interpreter does not replay run per block and 
   const Graph& first = replayable_graphs().front();
   CHECK_FALSE(map_rows_fuses(first.f, c.rows, c.shared, MapRowsOptions{64}));
 }
+
+TEST_CASE("map_rows_mean gives mean(f) bit for bit, for an upstream gradient of 1 and any other",
+          "[ops][map_rows][fused]") {
+  for (DType dtype : {DType::Float32, DType::Float64}) {
+    const Case c = make_case(kRows, dtype);
+    for (const Graph& g : replayable_graphs()) {
+      for (double upstream : {1.0, -2.5}) {
+        INFO(g.name << ", " << dtype_name(dtype) << ", upstream " << upstream);
+        auto grads_of = [&](const std::function<Tensor()>& loss_of) {
+          for (Tensor t : c.rows) t.zero_grad();
+          for (Tensor t : c.shared) t.zero_grad();
+          Tensor loss = loss_of();
+          backward(loss * upstream);
+          std::vector<Tensor> out{loss.detach()};
+          for (const Tensor& t : c.rows) out.push_back(t.has_grad() ? t.grad() : Tensor::zeros(t.shape(), t.dtype()));
+          for (const Tensor& t : c.shared) out.push_back(t.has_grad() ? t.grad() : Tensor::zeros(t.shape(), t.dtype()));
+          return out;
+        };
+        const auto whole = grads_of([&] { return mean(g.f(c.rows, c.shared)); });
+        const auto fused = grads_of([&] { return map_rows_mean(g.f, c.rows, c.shared, MapRowsOptions{kBlock}); });
+        CHECK(same_bits(fused[0], whole[0]));
+        for (std::size_t i = 1; i <= c.rows.size(); ++i) {
+          INFO("rows[" << i - 1 << "]");
+          CHECK(same_bits(fused[i], whole[i]));
+        }
+        for (std::size_t j = c.rows.size() + 1; j < whole.size(); ++j) {
+          const std::vector<double> a = fused[j].to_vector(), b = whole[j].to_vector();
+          for (std::size_t e = 0; e < a.size(); ++e)
+            CHECK(a[e] == Approx(b[e]).epsilon(dtype == DType::Float32 ? 1e-4 : 1e-11).margin(1e-9));
+        }
+      }
+    }
+  }
+  // Without gradients, and for a function it does not fuse: still mean(f).
+  const Case c = make_case(kRows, DType::Float64);
+  auto exp_rows = [](const Inputs& r, const Inputs&) { return exp(r[0]); };
+  CHECK(same_bits(map_rows_mean(exp_rows, c.rows, c.shared), mean(exp(c.rows[0]))));
+  NoGradGuard no_grad;
+  const Graph& first = replayable_graphs().front();
+  CHECK(same_bits(map_rows_mean(first.f, c.rows, c.shared, MapRowsOptions{kBlock}), mean(first.f(c.rows, c.shared))));
+}
+
+TEST_CASE("map_rows_mean gradients pass a float64 gradcheck", "[ops][map_rows][fused][gradcheck]") {
+  const Case c = make_case(150, DType::Float64);
+  const Inputs in{leaf(values(450, -1, 1, 13), {150, 3}, DType::Float64), leaf(values(450, -1, 1, 14), {150, 3}, DType::Float64),
+                  c.rows[2], c.rows[3], c.shared[0], c.shared[1]};
+  for (const Graph& g : replayable_graphs()) {
+    if (g.name.find("ties") != std::string::npos) continue;
+    require_gradcheck("map_rows_mean " + g.name,
+                      [f = g.f](const Inputs& x) {
+                        return map_rows_mean(f, {x[0], x[1], x[2], x[3]}, {x[4], x[5]}, MapRowsOptions{100});
+                      },
+                      in);
+  }
+}
