@@ -23,10 +23,25 @@ Vec3<T> load(const T* p) {
   return {p[0], p[1], p[2]};
 }
 
+// Dot products, lengths and the normalize adjoint's projection in Acc: T, or
+// double for float32 at the tape's precision (ops/vector.h accumulates in double).
+template <class Acc, class T>
+Acc dot(const Vec3<T>& a, const Vec3<T>& b) {
+  return Acc(a.x) * Acc(b.x) + Acc(a.y) * Acc(b.y) + Acc(a.z) * Acc(b.z);
+}
+
+// u = w / |w| with the inverse length in Acc.
+template <class Acc, class T>
+Vec3<T> scaled(const Vec3<T>& w, Acc inv_length) {
+  return {T(Acc(w.x) * inv_length), T(Acc(w.y) * inv_length), T(Acc(w.z) * inv_length)};
+}
+
 // Adjoint of u = w / |w| (u already computed): dL/dw = (g - u (u . g)) / |w|.
-template <class T>
-Vec3<T> normalize_adjoint(const Vec3<T>& u, T inv_length, const Vec3<T>& g) {
-  return (g - u * u.dot(g)) * inv_length;
+template <class Acc, class T>
+Vec3<T> normalize_adjoint(const Vec3<T>& u, Acc inv_length, const Vec3<T>& g) {
+  const Acc ug = dot<Acc>(u, g);
+  return {T((Acc(g.x) - Acc(u.x) * ug) * inv_length), T((Acc(g.y) - Acc(u.y) * ug) * inv_length),
+          T((Acc(g.z) - Acc(u.z) * ug) * inv_length)};
 }
 
 // m^31 by squaring (std::pow costs more than the rest of the pixel).
@@ -73,7 +88,7 @@ void interleave(const T (&src)[3][kLanes], std::int64_t m, T* dst) {
 }
 
 // The forward and adjoint of lanes [0, m) of a block.
-template <class T>
+template <class T, class Acc>
 void shade_lanes(LaneBlock<T>& b, std::int64_t m, const Vec3<T>& light, const Vec3<T>& cam, T scale) {
   using V = Vec3<T>;
   for (std::int64_t i = 0; i < m; ++i) {
@@ -81,11 +96,11 @@ void shade_lanes(LaneBlock<T>& b, std::int64_t m, const Vec3<T>& light, const Ve
     const V a{b.a[0][i], b.a[1][i], b.a[2][i]}, t{b.t[0][i], b.t[1][i], b.t[2][i]};
     // Forward: l, v, h = normalize(l + v), the two lobes, the residual.
     const V to_light = light - p, to_cam = cam - p;
-    const T il = 1 / std::sqrt(to_light.dot(to_light)), iv = 1 / std::sqrt(to_cam.dot(to_cam));
-    const V l = to_light * il, v = to_cam * iv, half = l + v;
-    const T ih = 1 / std::sqrt(half.dot(half));
-    const V h = half * ih;
-    const T nl = n.dot(l), nh = n.dot(h);
+    const Acc il = 1 / std::sqrt(dot<Acc>(to_light, to_light)), iv = 1 / std::sqrt(dot<Acc>(to_cam, to_cam));
+    const V l = scaled(to_light, il), v = scaled(to_cam, iv), half = l + v;
+    const Acc ih = 1 / std::sqrt(dot<Acc>(half, half));
+    const V h = scaled(half, ih);
+    const T nl = T(dot<Acc>(n, l)), nh = T(dot<Acc>(n, h));
     // Selections between values computed either way, so the loop vectorizes.
     const T diffuse = std::max(nl, T(0)), lobe = std::max(nh, T(0));
     const T m31 = pow31(lobe);
@@ -94,7 +109,7 @@ void shade_lanes(LaneBlock<T>& b, std::int64_t m, const Vec3<T>& light, const Ve
     // Backward, in reverse order.
     const V g = r * scale;
     const V ga = g * diffuse;
-    const T g_dot_a = g.dot(a), g_spec = T(0.5) * (g.x + g.y + g.z) * 32 * m31;
+    const T g_dot_a = T(dot<Acc>(g, a)), g_spec = T(0.5) * (g.x + g.y + g.z) * 32 * m31;
     const T g_nl = nl > 0 ? g_dot_a : T(0);
     const T g_nh = nh > 0 ? g_spec : T(0);
     const V gn = l * g_nl + h * g_nh;
@@ -108,7 +123,7 @@ void shade_lanes(LaneBlock<T>& b, std::int64_t m, const Vec3<T>& light, const Ve
 
 }  // namespace
 
-template <class T>
+template <class T, class Acc>
 void fused_blinn_phong(const ShadingScene& scene, FusedGradients<T>& out) {
   const std::int64_t pixels = scene.p.size(0);
   const T *P = scene.p.data<T>(), *N = scene.n.data<T>(), *A = scene.albedo.data<T>(), *target = scene.target.data<T>();
@@ -127,7 +142,7 @@ void fused_blinn_phong(const ShadingScene& scene, FusedGradients<T>& out) {
       deinterleave(N + 3 * i0, m, b.n);
       deinterleave(A + 3 * i0, m, b.a);
       deinterleave(target + 3 * i0, m, b.t);
-      shade_lanes(b, m, light, cam, scale);
+      shade_lanes<T, Acc>(b, m, light, cam, scale);
       interleave(b.ga, m, ga_out + 3 * i0);
       interleave(b.gn, m, gn_out + 3 * i0);
       // The sums in pixel order, in double.
@@ -142,7 +157,8 @@ void fused_blinn_phong(const ShadingScene& scene, FusedGradients<T>& out) {
   out.light = {T(total.light.x), T(total.light.y), T(total.light.z)};
 }
 
-template void fused_blinn_phong<float>(const ShadingScene&, FusedGradients<float>&);
-template void fused_blinn_phong<double>(const ShadingScene&, FusedGradients<double>&);
+template void fused_blinn_phong<float, float>(const ShadingScene&, FusedGradients<float>&);
+template void fused_blinn_phong<float, double>(const ShadingScene&, FusedGradients<float>&);
+template void fused_blinn_phong<double, double>(const ShadingScene&, FusedGradients<double>&);
 
 }  // namespace gr::bench

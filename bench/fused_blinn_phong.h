@@ -26,7 +26,10 @@ struct FusedGradients {
 // max(x, 0)'s derivative taken as 1 for x > 0 and 0 otherwise. The per-pixel
 // work is split over threads; the loss and the light gradient are summed in
 // fixed blocks (deterministic_sum), so results do not depend on the thread count.
-template <class T>
+// Acc: the precision of dot products, lengths and normalize's adjoint. T is
+// the fastest pass; double gives float32 the tape's own precision (its dot
+// and normalize accumulate in double), the like-for-like baseline.
+template <class T, class Acc = T>
 void fused_blinn_phong(const ShadingScene& scene, FusedGradients<T>& out);
 
 }  // namespace gr::bench

@@ -440,6 +440,13 @@ class FusedEvaluator {
       if (on_ && column()) std::fill(sum_, sum_ + e.n_, 0.0);
     }
     bool on() const { return on_; }
+    // Where to compute component j's terms: straight into the gradient's lanes
+    // when they are its first contribution as they are, else `scratch` (then put()).
+    T* target(int j, T* scratch) {
+      if (on_ && first_ && !negate_ && e_.p_.values_[o_.value].varying && !column())
+        return e_.lanes(e_.p_.values_[o_.value].grad + j);
+      return scratch;
+    }
     void put(int j, const T* t) {
       if (!on_) return;
       const Value& v = e_.p_.values_[o_.value];
@@ -467,6 +474,7 @@ class FusedEvaluator {
     bool column() const { return o_.spread && e_.p_.values_[o_.value].varying; }
     void deposit(T* dst, const T* t, bool negate) {
       const std::int64_t n = e_.n_;
+      if (t == dst) return;  // computed in place (target())
       if (first_ && negate)
         for (std::int64_t l = 0; l < n; ++l) dst[l] = -t[l];
       else if (first_)
@@ -494,12 +502,14 @@ class FusedEvaluator {
         const T* y = lanes(o.array + j);
         with_reads(read(in.a, j), read(in.b, j), [&](auto x, auto z) {
           if (sa.on()) {
-            for (std::int64_t l = 0; l < n; ++l) t[l] = T(da(g[l], x(l), z(l), y[l]));
-            sa.put(j, t);
+            T* ta = sa.target(j, t);
+            for (std::int64_t l = 0; l < n; ++l) ta[l] = T(da(g[l], x(l), z(l), y[l]));
+            sa.put(j, ta);
           }
           if (sb.on()) {
-            for (std::int64_t l = 0; l < n; ++l) t[l] = T(db(g[l], x(l), z(l), y[l]));
-            sb.put(j, t);
+            T* tb = sb.target(j, t);
+            for (std::int64_t l = 0; l < n; ++l) tb[l] = T(db(g[l], x(l), z(l), y[l]));
+            sb.put(j, tb);
           }
         });
       }
@@ -522,14 +532,16 @@ class FusedEvaluator {
       case FusedOp::Neg:
         for (int j = 0; j < in.components; ++j) {
           const T* g = lanes(o.grad + j);
-          for (std::int64_t l = 0; l < n; ++l) t[l] = -g[l];
-          sa.put(j, t);
+          T* ta = sa.target(j, t);
+          for (std::int64_t l = 0; l < n; ++l) ta[l] = -g[l];
+          sa.put(j, ta);
         }
         break;
       case FusedOp::Pow:
         for (int j = 0; j < in.components; ++j) {
-          power_adjoint_range(lanes(o.grad + j), read(in.a, j).p, t, 0, n, in.param);
-          sa.put(j, t);
+          T* ta = sa.target(j, t);
+          power_adjoint_range(lanes(o.grad + j), read(in.a, j).p, ta, 0, n, in.param);
+          sa.put(j, ta);
         }
         break;
       case FusedOp::Dot: {  // dL/da_j = g b_j, dL/db_j = g a_j
@@ -537,12 +549,14 @@ class FusedEvaluator {
         for (int j = 0; j < in.components; ++j)
           with_reads(read(in.a, j), read(in.b, j), [&](auto x, auto z) {
             if (sa.on()) {
-              for (std::int64_t l = 0; l < n; ++l) t[l] = g[l] * z(l);
-              sa.put(j, t);
+              T* ta = sa.target(j, t);
+              for (std::int64_t l = 0; l < n; ++l) ta[l] = g[l] * z(l);
+              sa.put(j, ta);
             }
             if (sb.on()) {
-              for (std::int64_t l = 0; l < n; ++l) t[l] = g[l] * x(l);
-              sb.put(j, t);
+              T* tb = sb.target(j, t);
+              for (std::int64_t l = 0; l < n; ++l) tb[l] = g[l] * x(l);
+              sb.put(j, tb);
             }
           });
         break;
@@ -561,11 +575,12 @@ class FusedEvaluator {
         for (std::int64_t l = 0; l < n; ++l) below |= !(len[l] > eps);
         for (int j = 0; j < in.components; ++j) {
           const T *nj = lanes(o.array + j), *gj = lanes(o.grad + j);
-          for (std::int64_t l = 0; l < n; ++l) t[l] = T((double(gj[l]) - double(nj[l]) * ng[l]) * inv[l]);
+          T* ta = sa.target(j, t);
+          for (std::int64_t l = 0; l < n; ++l) ta[l] = T((double(gj[l]) - double(nj[l]) * ng[l]) * inv[l]);
           if (below)
             for (std::int64_t l = 0; l < n; ++l)
-              if (!(len[l] > eps)) t[l] = gj[l] == T(0) ? gj[l] : T(double(gj[l]) / in.param);
-          sa.put(j, t);
+              if (!(len[l] > eps)) ta[l] = gj[l] == T(0) ? gj[l] : T(double(gj[l]) / in.param);
+          sa.put(j, ta);
         }
         break;
       }

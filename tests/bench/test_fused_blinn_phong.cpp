@@ -42,3 +42,19 @@ TEST_CASE("fused baseline: loss and light gradient are bit-identical for 1 2 and
   }
   set_num_threads(0);
 }
+
+TEST_CASE("fused baseline: at the tape's precision the float32 pass is closer to the tape's float32 gradients",
+          "[bench][fused]") {
+  auto scene = bench::make_shading_scene(40000, DType::Float32);
+  backward(bench::blinn_phong_loss(scene));
+  const std::vector<double> tape_n = scene.n.grad().to_vector();
+  bench::FusedGradients<float> fast, matched;
+  bench::fused_blinn_phong<float, float>(scene, fast);
+  bench::fused_blinn_phong<float, double>(scene, matched);
+  auto as_double = [](const std::vector<float>& v) { return std::vector<double>(v.begin(), v.end()); };
+  const double fast_error = max_relative_difference(as_double(fast.n), tape_n);
+  const double matched_error = max_relative_difference(as_double(matched.n), tape_n);
+  INFO("float accumulation " << fast_error << ", double accumulation " << matched_error);
+  CHECK(matched_error < fast_error);
+  CHECK(matched_error < 1e-6);
+}
