@@ -13,6 +13,7 @@ namespace {
 
 constexpr std::int64_t kLanes = 256;        // rows per chunk: a value's component is 1 KiB (float32)
 constexpr std::int64_t kMaxConstant = 64;   // elements of a tensor f captured that is taken as a constant
+constexpr std::int64_t kMaxArenaBytes = std::int64_t(16) << 20;  // wider rows than this allows run per block
 
 }  // namespace
 
@@ -77,7 +78,8 @@ std::shared_ptr<const FusedRows> FusedRows::compile(const FusionTrace& trace, co
     return int(p.values_.size()) - 1;
   };
   auto row_shaped = [&](const Tensor& t) {
-    return t.dtype() == p.dtype_ && (t.rank() == 1 || t.rank() == 2) && t.size(0) == P && t.numel() >= P;
+    return t.dtype() == p.dtype_ && (t.rank() == 1 || t.rank() == 2) && t.size(0) == P && t.numel() >= P &&
+           t.numel() / P <= kMaxArenaBytes;
   };
 
   for (std::size_t i = 0; i < rows.size(); ++i) {
@@ -206,6 +208,8 @@ std::shared_ptr<const FusedRows> FusedRows::compile(const FusionTrace& trace, co
       p.partial_arrays_ += val.width;
     }
   }
+  // Each thread keeps its lane arrays between calls: rows too wide for that run per block.
+  if (p.arena_arrays_ * kLanes * std::int64_t(dtype_size(p.dtype_)) > kMaxArenaBytes) return nullptr;
   return prog;
 }
 

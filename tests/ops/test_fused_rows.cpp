@@ -163,6 +163,12 @@ TEST_CASE("functions with ops the interpreter does not replay run per block and 
     CHECK(same_bits(blocked.out, whole.out));
     CHECK(same_bits(blocked.grads[0], whole.grads[0]));
   }
+  // Rows so wide that a thread's lane arrays would pass 16 MiB: run per block.
+  const Tensor wide = Tensor::full({100, 20000}, 0.5, DType::Float32);
+  CHECK_FALSE(map_rows_fuses([](const Inputs& r, const Inputs&) { return r[0] * r[0] + 1.0; }, {wide}, {},
+                             MapRowsOptions{100}));
+  CHECK(map_rows_fuses([](const Inputs& r, const Inputs&) { return r[0] * r[0] + 1.0; },
+                       {Tensor::full({100, 300}, 0.5, DType::Float32)}, {}, MapRowsOptions{100}));
   // Too few rows in a block to tell a constant from a value with rows: not fused.
   const Graph& first = replayable_graphs().front();
   CHECK_FALSE(map_rows_fuses(first.f, c.rows, c.shared, MapRowsOptions{64}));

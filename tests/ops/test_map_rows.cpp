@@ -72,7 +72,8 @@ TEST_CASE("map_rows: gradients of row and shared inputs pass a float64 gradcheck
   }
 }
 
-TEST_CASE("map_rows: values and gradients are bit-identical for 1 2 and 8 threads", "[ops][map_rows][determinism]") {
+TEST_CASE("map_rows and map_rows_mean: values and gradients are bit-identical for 1 2 and 8 threads",
+          "[ops][map_rows][determinism]") {
   auto scene = bench::make_shading_scene(30000, DType::Float32);
   auto run = [&](int threads) {
     set_num_threads(threads);
@@ -80,6 +81,13 @@ TEST_CASE("map_rows: values and gradients are bit-identical for 1 2 and 8 thread
                           MapRowsOptions{512});
     backward(mean(pow(out - scene.target, 2.0)));
     std::vector<Tensor> result{out.detach(), scene.n.grad(), scene.albedo.grad(), scene.light.grad()};
+    scene.n.zero_grad();
+    scene.albedo.zero_grad();
+    scene.light.zero_grad();
+    Tensor loss = map_rows_mean(bench::blinn_phong_squared_error, {scene.p, scene.n, scene.albedo, scene.target},
+                                {scene.light, scene.cam}, MapRowsOptions{512});
+    backward(loss);
+    for (const Tensor& t : {loss.detach(), scene.n.grad(), scene.albedo.grad(), scene.light.grad()}) result.push_back(t);
     scene.n.zero_grad();
     scene.albedo.zero_grad();
     scene.light.zero_grad();
