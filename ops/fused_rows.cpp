@@ -301,7 +301,48 @@ class FusedEvaluator {
       deinterleave(rows[i].data<T>() + c0 * val.width, val.width, lanes(val.array), n);
     }
     for (const Instr& in : p_.instrs_)
-      if (p_.values_[in.out].live) run_forward(in);
+      if (p_.values_[in.out].live) {
+        run_forward(in);
+        pump();
+      }
+  }
+
+  // The next chunk's rows of the inputs and outputs, asked for a few cache
+  // lines after each instruction (pump): the chunk's own loads and stores
+  // then find them in cache instead of waiting on memory, and the requests
+  // are spread out so they never fill the core's miss queue at once.
+  void plan_prefetch(const std::vector<Tensor>& rows, const Tensor* out, const Tensor* g,
+                     const std::vector<Tensor>* row_grads, std::int64_t c0, std::int64_t n) {
+    streams_.clear();
+    auto add = [&](const Tensor& t, bool write) {
+      const std::int64_t width = t.numel() / std::max<std::int64_t>(1, t.size(0));
+      streams_.push_back({reinterpret_cast<const char*>(t.data<T>() + c0 * width), n * width * std::int64_t(sizeof(T)), write});
+    };
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+      const int v = p_.row_values_[i];
+      if (v >= 0 && p_.values_[v].live) add(rows[i], false);
+    }
+    if (out) add(*out, true);
+    if (g) add(*g, false);
+    if (row_grads)
+      for (const Tensor& rg : *row_grads)
+        if (rg.defined()) add(rg, true);
+    stream_ = 0, offset_ = 0;
+    std::int64_t lines = 0;
+    for (const Stream& st : streams_) lines += (st.bytes + 63) / 64;
+    const std::int64_t steps = std::max<std::int64_t>(1, std::int64_t(p_.instrs_.size()) * (row_grads ? 2 : 1));
+    per_pump_ = (lines + steps - 1) / steps;
+  }
+  void pump() {
+    for (std::int64_t k = 0; k < per_pump_ && stream_ < streams_.size(); ++k) {
+      const Stream& st = streams_[stream_];
+      if (st.write)
+        __builtin_prefetch(st.p + offset_, 1);
+      else
+        __builtin_prefetch(st.p + offset_, 0);
+      offset_ += 64;
+      if (offset_ >= st.bytes) ++stream_, offset_ = 0;
+    }
   }
 
   // Writes the lane arrays from `array` on (or zeros, for array < 0) to n_ rows of width `width`.
@@ -323,7 +364,10 @@ class FusedEvaluator {
     else
       std::fill(lanes(r.grad), lanes(r.grad) + r.width * kLanes, seed);
     for (auto i = p_.instrs_.rbegin(); i != p_.instrs_.rend(); ++i)
-      if (i->backward) run_backward(*i);
+      if (i->backward) {
+        run_backward(*i);
+        pump();
+      }
     for (std::size_t i = 0; i < row_grads.size(); ++i) {
       if (!row_grads[i].defined()) continue;
       const int v = p_.row_values_[i];
@@ -594,6 +638,15 @@ class FusedEvaluator {
   }
 
   const FusedRows& p_;
+  struct Stream {
+    const char* p;
+    std::int64_t bytes;
+    bool write;
+  };
+  std::vector<Stream> streams_;
+  std::size_t stream_ = 0;
+  std::int64_t offset_ = 0, per_pump_ = 0;
+
   struct Scratch {
     std::vector<T> arena;  // every lane array is written before it is read
     std::vector<double> partial;
@@ -621,6 +674,8 @@ std::vector<Tensor> FusedRows::evaluate(const std::vector<Tensor>& rows, Tensor*
     const std::int64_t width = values_[result_].width;
     for (std::int64_t c0 = lo; c0 < hi; c0 += kLanes) {
       const std::int64_t n = std::min(kLanes, hi - c0);
+      if (c0 + kLanes < hi)
+        e.plan_prefetch(rows, out, g, backward ? row_grads : nullptr, c0 + kLanes, std::min(kLanes, hi - c0 - kLanes));
       if (out || backward) e.forward(rows, c0, n);
       if (out) e.store_result(out->data<T>() + c0 * width);
       if (backward)
