@@ -26,13 +26,14 @@ double compulsory_bytes() {
   return 18.0 * sizeof(Scalar<D>) * kPixels;
 }
 
-template <gr::DType D>
-void BM_BlinnPhongTape(benchmark::State& state) {
+// Forward + backward of the Blinn-Phong loss as loss(scene) builds it.
+template <gr::DType D, class Loss>
+void run_blinn_phong(benchmark::State& state, Loss loss) {
   gr::set_num_threads(static_cast<int>(state.range(0)));
   auto scene = gr::bench::make_shading_scene(kPixels, D);
   const gr::bench::StoragePeak peak;
   for (auto _ : state) {
-    gr::backward(gr::bench::blinn_phong_loss(scene));
+    gr::backward(loss(scene));
     benchmark::DoNotOptimize(scene.albedo.grad().data<Scalar<D>>());
     scene.n.zero_grad();
     scene.albedo.zero_grad();
@@ -43,45 +44,30 @@ void BM_BlinnPhongTape(benchmark::State& state) {
   gr::set_num_threads(0);
 }
 
-// The same graph through map_rows (ops/map_rows.h): blocks of block_rows
-// pixels, each block's graph recomputed in the backward pass.
+using Scene = gr::bench::ShadingScene;
+
+template <gr::DType D>
+void BM_BlinnPhongTape(benchmark::State& state) {
+  run_blinn_phong<D>(state, [](const Scene& s) { return gr::bench::blinn_phong_loss(s); });
+}
+
+// The same graph through map_rows (ops/map_rows.h) in blocks of block_rows
+// pixels, the loss's mean outside: the forward runs again in the adjoint.
 template <gr::DType D>
 void BM_BlinnPhongBlocked(benchmark::State& state) {
-  gr::set_num_threads(static_cast<int>(state.range(0)));
-  auto scene = gr::bench::make_shading_scene(kPixels, D);
-  const gr::bench::StoragePeak peak;
-  for (auto _ : state) {
-    gr::Tensor e = gr::map_rows(gr::bench::blinn_phong_squared_error, {scene.p, scene.n, scene.albedo, scene.target}, {scene.light, scene.cam},
-                                gr::MapRowsOptions{state.range(1)});
-    gr::backward(gr::mean(e));
-    benchmark::DoNotOptimize(scene.albedo.grad().data<Scalar<D>>());
-    scene.n.zero_grad();
-    scene.albedo.zero_grad();
-    scene.light.zero_grad();
-  }
-  gr::bench::report_traffic(state, compulsory_bytes<D>());
-  peak.report(state);
-  gr::set_num_threads(0);
+  run_blinn_phong<D>(state, [&](const Scene& s) {
+    return gr::mean(gr::map_rows(gr::bench::blinn_phong_squared_error, {s.p, s.n, s.albedo, s.target}, {s.light, s.cam},
+                                 gr::MapRowsOptions{state.range(1)}));
+  });
 }
 
 // The same loss through map_rows_mean: the fused interpreter's forward and
 // backward in one pass over the pixels, the gradients kept for backward().
 template <gr::DType D>
 void BM_BlinnPhongRowsMean(benchmark::State& state) {
-  gr::set_num_threads(static_cast<int>(state.range(0)));
-  auto scene = gr::bench::make_shading_scene(kPixels, D);
-  const gr::bench::StoragePeak peak;
-  for (auto _ : state) {
-    gr::backward(gr::map_rows_mean(gr::bench::blinn_phong_squared_error,
-                                   {scene.p, scene.n, scene.albedo, scene.target}, {scene.light, scene.cam}));
-    benchmark::DoNotOptimize(scene.albedo.grad().data<Scalar<D>>());
-    scene.n.zero_grad();
-    scene.albedo.zero_grad();
-    scene.light.zero_grad();
-  }
-  gr::bench::report_traffic(state, compulsory_bytes<D>());
-  peak.report(state);
-  gr::set_num_threads(0);
+  run_blinn_phong<D>(state, [](const Scene& s) {
+    return gr::map_rows_mean(gr::bench::blinn_phong_squared_error, {s.p, s.n, s.albedo, s.target}, {s.light, s.cam});
+  });
 }
 
 // Acc: the hand-fused pass's precision for dot products and lengths (float32:
