@@ -147,16 +147,6 @@ Blocks check_inputs(const RowFunction& f, const std::vector<Tensor>& rows, const
   return Blocks{n, options.block_rows, (n + options.block_rows - 1) / options.block_rows};
 }
 
-}  // namespace
-
-bool map_rows_fuses(const RowFunction& f, const std::vector<Tensor>& rows, const std::vector<Tensor>& shared,
-                    const MapRowsOptions& options) {
-  const Blocks blocks = check_inputs(f, rows, options);
-  return probe(f, rows, shared, blocks, options.fuse).fused != nullptr;
-}
-
-namespace {
-
 // map_rows once block 0 has run (probe).
 Tensor map_rows_probed(const Probe& p, const RowFunction& f, const std::vector<Tensor>& rows,
                        const std::vector<Tensor>& shared, const Blocks& blocks) {
@@ -234,6 +224,12 @@ Tensor map_rows(const RowFunction& f, const std::vector<Tensor>& rows, const std
   // and f's trace on it becomes the fused program (ops/fused_rows.h) the
   // other blocks run, when every op f used can be replayed.
   return map_rows_probed(probe(f, rows, shared, blocks, options.fuse), f, rows, shared, blocks);
+}
+
+bool map_rows_fuses(const RowFunction& f, const std::vector<Tensor>& rows, const std::vector<Tensor>& shared,
+                    const MapRowsOptions& options) {
+  const Blocks blocks = check_inputs(f, rows, options);
+  return probe(f, rows, shared, blocks, options.fuse).fused != nullptr;
 }
 
 Tensor map_rows_mean(const RowFunction& f, const std::vector<Tensor>& rows, const std::vector<Tensor>& shared,
