@@ -19,7 +19,7 @@ constexpr std::int64_t kMaxArenaBytes = std::int64_t(16) << 20;  // wider rows t
 
 struct FusedRows::Value {
   bool varying = false;     // one lane per row; else one value for every row (shared input or constant)
-  int rank = 0;             // varying: 1 ([P]) or 2 ([P, width])
+  int rank = 0;             // varying: 1 ([P], no last axis) or 2 ([P, ..., width]: the lanes' shape, then width)
   int width = 1;            // components
   std::int64_t array = -1;  // varying: its first lane array; uniform: its first element in uniforms_
   bool produced = false;    // the result of an instruction
@@ -51,12 +51,24 @@ std::shared_ptr<const FusedRows> FusedRows::compile(const FusionTrace& trace, co
                                                     const std::vector<bool>& rows_grad, const std::vector<bool>& shared_grad) {
   if (rows.empty() || !result.defined() || !is_floating(result.dtype())) return nullptr;
   const std::int64_t P = rows[0].size(0);
-  // More rows than a constant may have elements: a tensor derived from the
+  // The lanes: every axis of a row input but its last ([P] for [P, C], [P, W]
+  // for an image's [P, W, C]); values with a last axis share them.
+  std::vector<std::int64_t> lane_dims{P};
+  for (const Tensor& t : rows)
+    if (t.defined() && t.rank() >= 2) {
+      const std::vector<std::int64_t> d = t.shape().dims();
+      lane_dims.assign(d.begin(), d.end() - 1);
+      break;
+    }
+  std::int64_t lanes = 1;
+  for (std::int64_t d : lane_dims) lanes *= d;
+  // More lanes than a constant may have elements: a tensor derived from the
   // rows by an op the trace does not know can never pass for a constant.
-  if (P <= kMaxConstant) return nullptr;
+  if (P < 1 || lanes <= kMaxConstant) return nullptr;
   auto prog = std::make_shared<FusedRows>();
   FusedRows& p = *prog;
   p.dtype_ = result.dtype();
+  p.lanes_per_row_ = lanes / P;
   std::unordered_map<const TensorImpl*, int> ids;
   std::unordered_set<const TensorImpl*> opaque;  // seen but not replayable: using it fails the compile
 
@@ -77,16 +89,22 @@ std::shared_ptr<const FusedRows> FusedRows::compile(const FusionTrace& trace, co
     p.values_.push_back(v);
     return int(p.values_.size()) - 1;
   };
+  // [P] (one lane per row only) or the lanes' shape and a last axis.
   auto row_shaped = [&](const Tensor& t) {
-    return t.dtype() == p.dtype_ && (t.rank() == 1 || t.rank() == 2) && t.size(0) == P && t.numel() >= P &&
-           t.numel() / P <= kMaxArenaBytes;
+    if (t.dtype() != p.dtype_ || t.rank() < 1 || t.size(0) != P) return false;
+    if (t.rank() == 1) return p.lanes_per_row_ == 1;
+    const std::vector<std::int64_t> d = t.shape().dims();
+    return std::vector<std::int64_t>(d.begin(), d.end() - 1) == lane_dims && d.back() >= 1 &&
+           d.back() <= kMaxArenaBytes;
   };
+  auto width_of = [](const Tensor& t) { return t.rank() == 1 ? 1 : int(t.size(-1)); };
+  auto rank_of = [](const Tensor& t) { return t.rank() == 1 ? 1 : 2; };
 
   for (std::size_t i = 0; i < rows.size(); ++i) {
     const Tensor& t = rows[i];
     int id = -1;
     if (row_shaped(t)) {
-      id = add_varying(int(t.rank()), t.rank() == 2 ? int(t.size(1)) : 1);
+      id = add_varying(rank_of(t), width_of(t));
       p.values_[id].needs_grad = rows_grad[i];
       ids[t.impl()] = id;
     } else {
@@ -140,8 +158,9 @@ std::shared_ptr<const FusedRows> FusedRows::compile(const FusionTrace& trace, co
     in.op = s.op;
     in.param = s.param;
     const int ida = lookup(s.a), idb = unary ? -1 : lookup(s.b);
-    bool ok = row_shaped(out) && ida >= 0 && (unary || idb >= 0);
-    const int out_rank = int(out.rank()), out_width = out.rank() == 2 ? int(out.size(1)) : 1;
+    const bool shaped = row_shaped(out);
+    bool ok = shaped && ida >= 0 && (unary || idb >= 0);
+    const int out_rank = shaped ? rank_of(out) : 0, out_width = shaped ? width_of(out) : 0;
     if (ok) {
       if (s.op == FusedOp::Dot) {
         in.components = int(s.a.size(-1));
@@ -314,19 +333,18 @@ class FusedEvaluator {
   void plan_prefetch(const std::vector<Tensor>& rows, const Tensor* out, const Tensor* g,
                      const std::vector<Tensor>* row_grads, std::int64_t c0, std::int64_t n) {
     streams_.clear();
-    auto add = [&](const Tensor& t, bool write) {
-      const std::int64_t width = t.numel() / std::max<std::int64_t>(1, t.size(0));
+    auto add = [&](const Tensor& t, std::int64_t width, bool write) {
       streams_.push_back({reinterpret_cast<const char*>(t.data<T>() + c0 * width), n * width * std::int64_t(sizeof(T)), write});
     };
     for (std::size_t i = 0; i < rows.size(); ++i) {
       const int v = p_.row_values_[i];
-      if (v >= 0 && p_.values_[v].live) add(rows[i], false);
+      if (v < 0) continue;
+      if (p_.values_[v].live) add(rows[i], p_.values_[v].width, false);
+      if (row_grads && (*row_grads)[i].defined()) add((*row_grads)[i], p_.values_[v].width, true);
     }
-    if (out) add(*out, true);
-    if (g) add(*g, false);
-    if (row_grads)
-      for (const Tensor& rg : *row_grads)
-        if (rg.defined()) add(rg, true);
+    const std::int64_t result_width = p_.values_[p_.result_].width;
+    if (out) add(*out, result_width, true);
+    if (g) add(*g, result_width, false);
     stream_ = 0, offset_ = 0;
     std::int64_t lines = 0;
     for (const Stream& st : streams_) lines += (st.bytes + 63) / 64;
@@ -369,21 +387,11 @@ class FusedEvaluator {
         pump();
       }
     for (std::size_t i = 0; i < row_grads.size(); ++i) {
-      if (!row_grads[i].defined()) continue;
       const int v = p_.row_values_[i];
-      const std::int64_t width = row_grads[i].numel() / std::max<std::int64_t>(1, row_grads[i].size(0));
-      T* dst = row_grads[i].data<T>() + c0 * width;
-      store(v < 0 ? -1 : p_.values_[v].grad, width, dst);
+      if (!row_grads[i].defined() || v < 0) continue;  // not a value: zeroed by evaluate()
+      const Value& val = p_.values_[v];
+      store(val.grad, val.width, row_grads[i].data<T>() + c0 * val.width);
     }
-  }
-
-  void zero_row_grads(std::vector<Tensor>& row_grads, std::int64_t c0, std::int64_t n) {
-    n_ = n;
-    for (Tensor& rg : row_grads)
-      if (rg.defined()) {
-        const std::int64_t width = rg.numel() / std::max<std::int64_t>(1, rg.size(0));
-        store(-1, width, rg.data<T>() + c0 * width);
-      }
   }
 
   // Shared input j's gradient over every chunk run so far: each lane
@@ -671,17 +679,24 @@ std::vector<Tensor> FusedRows::evaluate(const std::vector<Tensor>& rows, Tensor*
     using T = decltype(tag);
     FusedEvaluator<T> e(*this);
     const bool backward = row_grads && values_[result_].grad >= 0;
+    // Gradients no lane array holds: rows f does not use, or everything when
+    // nothing the result depends on needs a gradient.
+    if (row_grads)
+      for (std::size_t i = 0; i < row_grads->size(); ++i) {
+        Tensor& rg = (*row_grads)[i];
+        if (!rg.defined() || (backward && row_values_[i] >= 0)) continue;
+        const std::int64_t per_row = rg.numel() / std::max<std::int64_t>(1, rg.size(0));
+        std::fill(rg.data<T>() + lo * per_row, rg.data<T>() + hi * per_row, T(0));
+      }
     const std::int64_t width = values_[result_].width;
-    for (std::int64_t c0 = lo; c0 < hi; c0 += kLanes) {
-      const std::int64_t n = std::min(kLanes, hi - c0);
-      if (c0 + kLanes < hi)
-        e.plan_prefetch(rows, out, g, backward ? row_grads : nullptr, c0 + kLanes, std::min(kLanes, hi - c0 - kLanes));
+    const std::int64_t first = lo * lanes_per_row_, last = hi * lanes_per_row_;  // rows to lanes
+    for (std::int64_t c0 = first; c0 < last; c0 += kLanes) {
+      const std::int64_t n = std::min(kLanes, last - c0);
+      if (c0 + kLanes < last)
+        e.plan_prefetch(rows, out, g, backward ? row_grads : nullptr, c0 + kLanes, std::min(kLanes, last - c0 - kLanes));
       if (out || backward) e.forward(rows, c0, n);
       if (out) e.store_result(out->data<T>() + c0 * width);
-      if (backward)
-        e.backward(g ? g->data<T>() + c0 * width : nullptr, T(seed), *row_grads, c0);
-      else if (row_grads)  // nothing the result depends on needs a gradient
-        e.zero_row_grads(*row_grads, c0, n);
+      if (backward) e.backward(g ? g->data<T>() + c0 * width : nullptr, T(seed), *row_grads, c0);
     }
     if (backward)
       for (std::size_t j = 0; j < shared.size(); ++j) shared[j] = e.shared_grad(j);

@@ -7,10 +7,11 @@
 // order), so outputs and row gradients are bit-identical to the eager ops'.
 //
 // Replayed: add, sub, mul, div, minimum, maximum, neg, pow(x, p), dot and
-// normalize on rows of rank 1 ([P]) or 2 ([P, k]), with operands that are
-// rows of the same shape, a column [P, 1] against [P, k], a shared or
-// constant vector [k] against [P, k], or a one-element shared or constant
-// value. A trace holding anything else (another op, a broadcast outside
+// normalize on values whose axes but the last are the lanes (the pixels: [P]
+// of [P, k] rows, [P, W] of an image's [P, W, k]; or [P] values, one lane per
+// row), with operands that are values of the same shape, a column [..., 1]
+// against [..., k], a shared or constant vector [k] against [..., k], or a
+// one-element shared or constant value. A trace holding anything else (another op, a broadcast outside
 // these, mixed dtypes, a captured tensor with rows) does not compile, and
 // map_rows keeps calling f per block.
 #pragma once
@@ -27,7 +28,7 @@ namespace gr::detail {
 class FusedRows {
  public:
   // The program of f, from its trace on one block: `rows` and `shared` are the
-  // tensors f was called with (P >= 2 rows each), `result` what it returned.
+  // tensors f was called with (P rows each), `result` what it returned.
   // rows_grad[i] / shared_grad[j]: whether that input needs a gradient.
   // nullptr if the trace is not replayable (see above).
   static std::shared_ptr<const FusedRows> compile(const FusionTrace& trace, const std::vector<Tensor>& rows,
@@ -68,6 +69,7 @@ class FusedRows {
   std::int64_t arena_arrays_ = 0;   // lane arrays: values, gradients, normalize's lengths
   std::int64_t partial_arrays_ = 0; // double lane arrays: shared gradients' partial sums
   int result_ = -1;
+  std::int64_t lanes_per_row_ = 1;  // lanes in one row of the inputs (an image row's pixels)
 };
 
 }  // namespace gr::detail

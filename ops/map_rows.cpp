@@ -15,6 +15,7 @@ namespace gr {
 namespace {
 
 constexpr const char* kOp = "map_rows";
+constexpr std::int64_t kAutoBlockPixels = 4096;
 
 // Bytes of one row (everything after the leading axis).
 std::size_t row_bytes(const Shape& shape, DType dtype) {
@@ -132,8 +133,9 @@ Probe probe(const RowFunction& f, const std::vector<Tensor>& rows, const std::ve
 
 Blocks check_inputs(const RowFunction& f, const std::vector<Tensor>& rows, const MapRowsOptions& options) {
   if (!f) throw ValueError(std::string(kOp) + ": f is empty");
-  if (options.block_rows < 1)
-    throw ValueError(std::string(kOp) + ": block_rows must be at least 1, got " + std::to_string(options.block_rows));
+  if (options.block_rows < 0)
+    throw ValueError(std::string(kOp) + ": block_rows must be at least 1 (or 0: automatic), got " +
+                     std::to_string(options.block_rows));
   if (rows.empty()) throw ValueError(std::string(kOp) + ": rows is empty; give at least one [N, ...] input");
   for (std::size_t i = 0; i < rows.size(); ++i) {
     const std::string name = "rows[" + std::to_string(i) + "]";
@@ -144,7 +146,13 @@ Blocks check_inputs(const RowFunction& f, const std::vector<Tensor>& rows, const
                        " rows but rows[0] has " + std::to_string(rows[0].size(0)));
   }
   const std::int64_t n = rows[0].size(0);
-  return Blocks{n, options.block_rows, (n + options.block_rows - 1) / options.block_rows};
+  std::int64_t size = options.block_rows;
+  if (size == 0) {  // about kAutoBlockPixels pixels: rows[0]'s axes but its first and last
+    const Tensor& r = rows[0];
+    const std::int64_t per_row = r.rank() >= 2 && n > 0 && r.size(-1) > 0 ? r.numel() / (n * r.size(-1)) : 1;
+    size = std::max<std::int64_t>(1, kAutoBlockPixels / std::max<std::int64_t>(1, per_row));
+  }
+  return Blocks{n, size, (n + size - 1) / size};
 }
 
 // map_rows once block 0 has run (probe).

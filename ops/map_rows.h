@@ -7,6 +7,9 @@
 //     return r[1] * maximum(dot(r[2], l), 0.0);          // r = {p, albedo, n}, [N, 3] each
 //   }, {p, albedo, n}, {light});
 //
+// Rows are split along the first axis: [N, C] inputs into pixels, an image's
+// [H, W, C] into rows of pixels (the fused interpreter then works on pixels).
+//
 // Forward: f runs on the first block (block_rows rows; copies of the rows of
 // every `rows` input, the `shared` inputs whole) while its ops are traced.
 // When every op f used can be replayed (ops/fused_rows.h: the arithmetic
@@ -44,9 +47,11 @@ namespace gr {
 using RowFunction = std::function<Tensor(const std::vector<Tensor>& rows, const std::vector<Tensor>& shared)>;
 
 struct MapRowsOptions {
-  // Rows per block. The default keeps a block's dozen [rows, 3] float32
-  // intermediates (about 50 KiB each) within a core's L2 cache.
-  std::int64_t block_rows = 4096;
+  // Rows per block; 0: about 4096 pixels per block (4096 rows of [N, C]
+  // inputs, 4096 / W rows of an image's [H, W, C]), which keeps a block's
+  // dozen float32 intermediates within a core's L2 cache when f runs per
+  // block and gives the threads enough blocks to share.
+  std::int64_t block_rows = 0;
   // Replay f's trace with the fused interpreter (ops/fused_rows.h) when every
   // op it used can be replayed; false: call f per block as well.
   bool fuse = true;

@@ -4,6 +4,7 @@
 // replay still run, per block.
 #include <catch2/catch.hpp>
 
+#include <atomic>
 #include <functional>
 #include <string>
 
@@ -227,4 +228,59 @@ TEST_CASE("map_rows_mean gradients pass a float64 gradcheck", "[ops][map_rows][f
                       },
                       in);
   }
+}
+
+TEST_CASE("fused map_rows on images: rows of pixels give the eager graph's bits, and gradients pass a gradcheck",
+          "[ops][map_rows][fused]") {
+  // An image's [H, W, C] rows: the interpreter's lanes are its pixels.
+  auto image_graph = [](const Inputs& r, const Inputs& s) {
+    Tensor l = normalize(s[0] - r[0]);
+    return r[2] * maximum(dot(r[1], l), 0.0) + pow(r[1] - s[1] * r[0], 2.0) / (r[2] + 1.0);
+  };
+  for (DType dtype : {DType::Float32, DType::Float64}) {
+    const std::int64_t H = 40, W = 50;
+    const Case flat = make_case(H * W, dtype);
+    const Case c{{leaf(flat.rows[0].to_vector(), {H, W, 3}, dtype), leaf(flat.rows[1].to_vector(), {H, W, 3}, dtype),
+                  leaf(flat.rows[2].to_vector(), {H, W, 1}, dtype)},
+                 flat.shared};
+    INFO(dtype_name(dtype));
+    REQUIRE(map_rows_fuses(image_graph, c.rows, c.shared, MapRowsOptions{7}));  // 7 image rows of 50 pixels
+    const Run whole = run(c, [&] { return image_graph(c.rows, c.shared); });
+    const Run fused = run(c, [&] { return map_rows(image_graph, c.rows, c.shared, MapRowsOptions{7}); });
+    CHECK(same_bits(fused.out, whole.out));
+    for (std::size_t i = 0; i < c.rows.size(); ++i) CHECK(same_bits(fused.grads[i], whole.grads[i]));
+    for (Tensor t : c.rows) t.zero_grad();
+    backward(map_rows_mean(image_graph, c.rows, c.shared, MapRowsOptions{7}));
+    const Tensor mean_grad = c.rows[1].grad();
+    for (Tensor t : c.rows) t.zero_grad();
+    backward(mean(image_graph(c.rows, c.shared)));
+    CHECK(same_bits(mean_grad, c.rows[1].grad()));
+  }
+  const Case small = make_case(6 * 20, DType::Float64);
+  const Inputs in{leaf(values(360, -1, 1, 15), {6, 20, 3}, DType::Float64),
+                  leaf(values(360, -1, 1, 16), {6, 20, 3}, DType::Float64),
+                  leaf(values(120, 0.5, 1.5, 17), {6, 20, 1}, DType::Float64), small.shared[0], small.shared[1]};
+  REQUIRE(map_rows_fuses(image_graph, {in[0], in[1], in[2]}, {in[3], in[4]}, MapRowsOptions{4}));
+  require_gradcheck("fused image rows",
+                    [&](const Inputs& x) {
+                      return map_rows(image_graph, {x[0], x[1], x[2]}, {x[3], x[4]}, MapRowsOptions{4});
+                    },
+                    in);
+}
+
+TEST_CASE("map_rows picks about 4096 pixels per block by default", "[ops][map_rows][fused]") {
+  // f is traced on the first block: the row count it sees there is the block size.
+  auto first_block = [](const Tensor& rows) {
+    std::atomic<std::int64_t> seen{-1};
+    map_rows([&](const Inputs& r, const Inputs&) {
+      std::int64_t none = -1;
+      seen.compare_exchange_strong(none, r[0].size(0));
+      return r[0] * 2.0;
+    }, {rows});
+    return seen.load();
+  };
+  CHECK(first_block(Tensor::full({10000, 3}, 1.0)) == 4096);
+  CHECK(first_block(Tensor::full({1000, 3}, 1.0)) == 1000);
+  CHECK(first_block(Tensor::full({50, 100, 3}, 1.0)) == 40);  // an image 100 pixels wide: 40 rows
+  CHECK(first_block(Tensor::full({3, 5000, 3}, 1.0)) == 1);   // wider than 4096 pixels: one row
 }

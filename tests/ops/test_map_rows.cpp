@@ -109,7 +109,7 @@ TEST_CASE("map_rows: a function that is not row-wise or inputs of different leng
   CHECK_THROWS_WITH(map_rows([](const Inputs& r, const Inputs&) { return sum(r[0], 0, true); }, {a}, {},
                              MapRowsOptions{4}),
                     Catch::Contains("one row per input row"));
-  CHECK_THROWS_AS(map_rows(identity, {a}, {}, MapRowsOptions{0}), ValueError);
+  CHECK_THROWS_WITH(map_rows(identity, {a}, {}, MapRowsOptions{-1}), Catch::Contains("block_rows must be at least 1"));
   CHECK_THROWS_AS(map_rows(identity, {}), ValueError);
   CHECK_THROWS_AS(map_rows(RowFunction(), {a}), ValueError);
   // A recorded tensor captured by f (not passed as an input) is refused: its
