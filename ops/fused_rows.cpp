@@ -6,19 +6,20 @@
 #include <unordered_map>
 #include <unordered_set>
 
+#include "ops/broadcast.h"
 #include "ops/elementwise_formulas.h"
 
 namespace gr::detail {
 namespace {
 
-constexpr std::int64_t kLanes = 256;        // rows per chunk: a value's component is 1 KiB (float32)
+constexpr std::int64_t kLanes = 256;        // lanes (pixels) per chunk: a value's component is 1 KiB (float32)
 constexpr std::int64_t kMaxConstant = 64;   // elements of a tensor f captured that is taken as a constant
 constexpr std::int64_t kMaxArenaBytes = std::int64_t(16) << 20;  // wider rows than this allows run per block
 
 }  // namespace
 
 struct FusedRows::Value {
-  bool varying = false;     // one lane per row; else one value for every row (shared input or constant)
+  bool varying = false;     // one value per lane; else one for every lane (a shared input or a constant)
   int rank = 0;             // varying: 1 ([P], no last axis) or 2 ([P, ..., width]: the lanes' shape, then width)
   int width = 1;            // components
   std::int64_t array = -1;  // varying: its first lane array; uniform: its first element in uniforms_
@@ -394,6 +395,12 @@ class FusedEvaluator {
     }
   }
 
+  // A buffer for the result's values of `lanes` lanes of `width` (the thread's, reused).
+  T* values(std::int64_t lanes, std::int64_t width) {
+    if (scratch_.values.size() < std::size_t(lanes * width)) scratch_.values.resize(std::size_t(lanes * width));
+    return scratch_.values.data();
+  }
+
   // Shared input j's gradient over every chunk run so far: each lane
   // position's double sum, added over positions in order.
   Tensor shared_grad(std::size_t j) const {
@@ -658,6 +665,7 @@ class FusedEvaluator {
   struct Scratch {
     std::vector<T> arena;  // every lane array is written before it is read
     std::vector<double> partial;
+    std::vector<T> values;  // the result's rows of a call, for their sums
   };
   // One per thread and type; an evaluator never runs inside another on one thread.
   static Scratch& scratch() {
@@ -668,12 +676,28 @@ class FusedEvaluator {
   std::int64_t n_ = 0;
 };
 
+namespace {
+
+// sums[r] = the values [r kSumBlock, (r + 1) kSumBlock) of v added in order
+// from 0 in double, as reduce's full sum adds each run (ops/broadcast.cpp);
+// the runs are independent, so they advance together.
+template <class T>
+void run_sums(const T* v, std::int64_t count, double* sums) {
+  const std::int64_t runs = (count + kSumBlock - 1) / kSumBlock, full = count / kSumBlock;
+  std::fill(sums, sums + runs, 0.0);
+  for (std::int64_t i = 0; i < kSumBlock; ++i)
+    for (std::int64_t r = 0; r < full; ++r) sums[r] += double(v[r * kSumBlock + i]);
+  for (std::int64_t i = full * kSumBlock; i < count; ++i) sums[full] += double(v[i]);
+}
+
+}  // namespace
+
 // Rows [lo, hi) in chunks: the forward, writing the result's rows to `out`
-// (when given), then, when `row_grads` is given, the backward from upstream
-// rows `g` (or `seed` for every element, when g is null). Returns the shared
-// inputs' gradients over these rows.
-std::vector<Tensor> FusedRows::evaluate(const std::vector<Tensor>& rows, Tensor* out, const Tensor* g, double seed,
-                                        std::vector<Tensor>* row_grads, std::int64_t lo, std::int64_t hi) const {
+// or its run sums to `sums` (when given), then, when `row_grads` is given, the
+// backward from upstream rows `g` (or `seed` for every element, when g is
+// null). Returns the shared inputs' gradients over these rows.
+std::vector<Tensor> FusedRows::evaluate(const std::vector<Tensor>& rows, Tensor* out, double* sums, const Tensor* g,
+                                        double seed, std::vector<Tensor>* row_grads, std::int64_t lo, std::int64_t hi) const {
   std::vector<Tensor> shared(shared_values_.size());
   dispatch_float(dtype_, "map_rows", [&](auto tag) {
     using T = decltype(tag);
@@ -694,28 +718,30 @@ std::vector<Tensor> FusedRows::evaluate(const std::vector<Tensor>& rows, Tensor*
       const std::int64_t n = std::min(kLanes, last - c0);
       if (c0 + kLanes < last)
         e.plan_prefetch(rows, out, g, backward ? row_grads : nullptr, c0 + kLanes, std::min(kLanes, last - c0 - kLanes));
-      if (out || backward) e.forward(rows, c0, n);
+      if (out || sums || backward) e.forward(rows, c0, n);
       if (out) e.store_result(out->data<T>() + c0 * width);
+      if (sums) e.store_result(e.values(last - first, width) + (c0 - first) * width);
       if (backward) e.backward(g ? g->data<T>() + c0 * width : nullptr, T(seed), *row_grads, c0);
     }
     if (backward)
       for (std::size_t j = 0; j < shared.size(); ++j) shared[j] = e.shared_grad(j);
+    if (sums) run_sums(e.values(last - first, width), (last - first) * width, sums);
   });
   return shared;
 }
 
 void FusedRows::forward(const std::vector<Tensor>& rows, Tensor& out, std::int64_t lo, std::int64_t hi) const {
-  evaluate(rows, &out, nullptr, 0, nullptr, lo, hi);
+  evaluate(rows, &out, nullptr, nullptr, 0, nullptr, lo, hi);
 }
 
 std::vector<Tensor> FusedRows::backward(const std::vector<Tensor>& rows, const Tensor& g, std::vector<Tensor>& row_grads,
                                         std::int64_t lo, std::int64_t hi) const {
-  return evaluate(rows, nullptr, &g, 0, &row_grads, lo, hi);
+  return evaluate(rows, nullptr, nullptr, &g, 0, &row_grads, lo, hi);
 }
 
 std::vector<Tensor> FusedRows::backward_uniform(const std::vector<Tensor>& rows, double seed, std::vector<Tensor>& row_grads,
-                                                std::int64_t lo, std::int64_t hi, Tensor* out) const {
-  return evaluate(rows, out, nullptr, seed, &row_grads, lo, hi);
+                                                std::int64_t lo, std::int64_t hi, double* sums) const {
+  return evaluate(rows, nullptr, sums, nullptr, seed, &row_grads, lo, hi);
 }
 
 }  // namespace gr::detail

@@ -46,9 +46,11 @@ class FusedRows {
                                std::int64_t lo, std::int64_t hi) const;
 
   // The backward for an upstream gradient of `seed` in every element of the
-  // result (a mean's), and, when `out` is given, the forward's rows into it.
+  // result (a mean's), and, when `sums` is given, the result's sums over runs
+  // of kSumBlock elements in element order, as reduce's full sum adds them
+  // (the rows' first element must start a run; ceil(elements / kSumBlock) sums).
   std::vector<Tensor> backward_uniform(const std::vector<Tensor>& rows, double seed, std::vector<Tensor>& row_grads,
-                                       std::int64_t lo, std::int64_t hi, Tensor* out = nullptr) const;
+                                       std::int64_t lo, std::int64_t hi, double* sums = nullptr) const;
 
   struct Value;
   struct Operand;
@@ -57,7 +59,7 @@ class FusedRows {
  private:
   template <class T>
   friend class FusedEvaluator;
-  std::vector<Tensor> evaluate(const std::vector<Tensor>& rows, Tensor* out, const Tensor* g, double seed,
+  std::vector<Tensor> evaluate(const std::vector<Tensor>& rows, Tensor* out, double* sums, const Tensor* g, double seed,
                                std::vector<Tensor>* row_grads, std::int64_t lo, std::int64_t hi) const;
 
   DType dtype_ = DType::Float32;
@@ -70,6 +72,9 @@ class FusedRows {
   std::int64_t partial_arrays_ = 0; // double lane arrays: shared gradients' partial sums
   int result_ = -1;
   std::int64_t lanes_per_row_ = 1;  // lanes in one row of the inputs (an image row's pixels)
+
+ public:
+  std::int64_t lanes_per_row() const { return lanes_per_row_; }
 };
 
 }  // namespace gr::detail

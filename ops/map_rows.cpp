@@ -7,6 +7,7 @@
 #include "autodiff/parallel.h"
 #include "autodiff/storage.h"
 #include "autodiff/tape.h"
+#include "ops/broadcast.h"
 #include "ops/check.h"
 #include "ops/fused_rows.h"
 #include "ops/reduce.h"
@@ -244,50 +245,51 @@ Tensor map_rows_mean(const RowFunction& f, const std::vector<Tensor>& rows, cons
                      const MapRowsOptions& options) {
   const Blocks blocks = check_inputs(f, rows, options);
   const Probe p = probe(f, rows, shared, blocks, options.fuse);
-  if (!p.fused) return mean(map_rows_probed(p, f, rows, shared, blocks));
-  const std::shared_ptr<const detail::FusedRows> fused = p.fused;
-  Tensor e = Tensor::empty(with_rows(p.first.shape(), blocks.rows), p.first.dtype());
   std::vector<Tensor> inputs(rows);
   inputs.insert(inputs.end(), shared.begin(), shared.end());
-  if (!should_record(inputs)) {
-    parallel_for(0, blocks.count, 1, [&](std::int64_t b0, std::int64_t b1) {
-      fused->forward(rows, e, blocks.lo(b0), blocks.hi(b1 - 1));
-    });
-    NoGradGuard no_grad;
-    return mean(e);
-  }
-  // mean(e) = sum(e) * T(1 / numel): its adjoint gives every element of e the
-  // upstream gradient times T(1 / numel), which for the usual upstream 1 is
-  // T(1 / numel) itself. The gradients for it are computed with the values.
-  const DType dtype = e.dtype();
-  auto element_grad = [dtype, count = double(e.numel())](double upstream) {
-    return dtype == DType::Float32 ? double(float(upstream) * float(1 / count)) : upstream * (1 / count);
+  // The loss's sum runs (reduce's kSumBlock elements) must start with blocks:
+  // true for the automatic block size; otherwise two passes, as mean(map_rows).
+  const std::int64_t per_row = p.first.size(0) > 0 ? p.first.numel() / p.first.size(0) : 0;
+  const bool aligned = per_row > 0 && (blocks.size * per_row) % detail::kSumBlock == 0;
+  if (!p.fused || !aligned || !should_record(inputs)) return mean(map_rows_probed(p, f, rows, shared, blocks));
+  const std::shared_ptr<const detail::FusedRows> fused = p.fused;
+  const DType dtype = p.first.dtype();
+  const std::int64_t count = blocks.rows * per_row, runs_per_block = blocks.size * per_row / detail::kSumBlock;
+  // mean(e) = sum(e) * T(1 / count): its adjoint gives every element of e the
+  // upstream gradient times T(1 / count), which for the usual upstream 1 is
+  // T(1 / count) itself. The gradients for it are computed with the values.
+  auto element_grad = [dtype, count](double upstream) {
+    return dtype == DType::Float32 ? double(float(upstream) * float(1 / double(count)))
+                                   : upstream * (1 / double(count));
   };
-  // Row gradients and per-block shared ones for upstream `seed` (and e's rows, when out is given).
+  // Row gradients and per-block shared ones for upstream `seed` (and e's run sums, when given).
   struct Grads {
     std::vector<Tensor> rows, shared_per_block;
   };
-  auto gradients = [rows, shared, blocks, fused](double seed, Tensor* out) {
+  auto gradients = [rows, shared, blocks, fused, runs_per_block](double seed, double* sums) {
     const std::size_t ns = shared.size();
     Grads g{std::vector<Tensor>(rows.size()), std::vector<Tensor>(std::size_t(blocks.count) * ns)};
     for (std::size_t i = 0; i < rows.size(); ++i)
       if (rows[i].requires_grad()) g.rows[i] = Tensor::empty(rows[i].shape(), rows[i].dtype());
     parallel_for(0, blocks.count, 1, [&](std::int64_t b0, std::int64_t b1) {
       for (std::int64_t b = b0; b < b1; ++b) {
-        const std::vector<Tensor> s = fused->backward_uniform(rows, seed, g.rows, blocks.lo(b), blocks.hi(b), out);
+        const std::vector<Tensor> s = fused->backward_uniform(rows, seed, g.rows, blocks.lo(b), blocks.hi(b),
+                                                              sums ? sums + b * runs_per_block : nullptr);
         for (std::size_t j = 0; j < ns; ++j) g.shared_per_block[std::size_t(b) * ns + j] = s[j];
       }
     });
     return g;
   };
-  const Grads at_one = gradients(element_grad(1.0), &e);
-  Tensor loss;
-  {
-    NoGradGuard no_grad;
-    loss = mean(e);
-  }
+  std::vector<double> sums(std::size_t((count + detail::kSumBlock - 1) / detail::kSumBlock));
+  const Grads at_one = gradients(element_grad(1.0), sums.data());
+  // The loss as mean(e) computes it: the runs added in order, rounded, times T(1 / count).
+  double total = 0;
+  for (double run : sums) total += run;
+  Tensor loss = Tensor::scalar(dtype == DType::Float32 ? double(float(total) * float(1 / double(count)))
+                                                       : total * (1 / double(count)),
+                               dtype);
   record("map_rows_mean", inputs, {&loss}, [at_one, gradients, element_grad, nr = rows.size(), ns = shared.size(),
-                                            count = blocks.count](AdjointContext& ctx) {
+                                            blocks = blocks.count](AdjointContext& ctx) {
     const Tensor& upstream = ctx.grad_output();
     if (!upstream.defined()) return;
     // Upstream 1: the gradients computed with the values; another (a weighted loss): computed again.
@@ -296,7 +298,7 @@ Tensor map_rows_mean(const RowFunction& f, const std::vector<Tensor>& rows, cons
       if (g.rows[i].defined()) ctx.accumulate(i, g.rows[i]);
     // Shared inputs: summed over blocks in block order (any thread count).
     for (std::size_t j = 0; j < ns; ++j)
-      for (std::int64_t b = 0; b < count; ++b) {
+      for (std::int64_t b = 0; b < blocks; ++b) {
         const Tensor& t = g.shared_per_block[std::size_t(b) * ns + j];
         if (ctx.needs_grad(nr + j) && t.defined()) ctx.accumulate(nr + j, t);
       }

@@ -65,10 +65,12 @@ Tensor map_rows(const RowFunction& f, const std::vector<Tensor>& rows, const std
                 const MapRowsOptions& options = {});
 
 // mean(map_rows(f, rows, shared, options)), the same bits, for a loss: when f
-// is fused, its forward and backward run in one pass at the call (an upstream
-// gradient of 1, the usual loss, then uses them; any other is computed again
-// in the backward), so f's inputs are read once. Holds the rows' gradients
-// until the backward.
+// is fused, its forward, the loss's sum and the backward run in one pass at
+// the call (an upstream gradient of 1, the usual loss, then uses them; any
+// other is computed again in the backward), so f's inputs are read once and
+// f's output is never stored. Holds the rows' gradients until the backward.
+// (With a block size whose blocks do not start reduce's runs of 4096 output
+// elements, or without gradients, it is mean(map_rows(...)).)
 Tensor map_rows_mean(const RowFunction& f, const std::vector<Tensor>& rows, const std::vector<Tensor>& shared = {},
                      const MapRowsOptions& options = {});
 
