@@ -171,7 +171,7 @@ TEST_CASE("functions with ops the interpreter does not replay run per block and 
   CHECK(map_rows_fuses([](const Inputs& r, const Inputs&) { return r[0] * r[0] + 1.0; },
                        {Tensor::full({100, 300}, 0.5, DType::Float32)}, {}, MapRowsOptions{100}));
   // Too few rows in a block to tell a constant from a value with rows: not fused.
-  const Graph& first = replayable_graphs().front();
+  const Graph first = replayable_graphs().front();
   CHECK_FALSE(map_rows_fuses(first.f, c.rows, c.shared, MapRowsOptions{64}));
 }
 
@@ -215,7 +215,7 @@ TEST_CASE("map_rows_mean gives mean(f) bit for bit, for an upstream gradient of 
   auto exp_rows = [](const Inputs& r, const Inputs&) { return exp(r[0]); };
   CHECK(same_bits(map_rows_mean(exp_rows, c.rows, c.shared), mean(exp(c.rows[0]))));
   NoGradGuard no_grad;
-  const Graph& first = replayable_graphs().front();
+  const Graph first = replayable_graphs().front();
   CHECK(same_bits(map_rows_mean(first.f, c.rows, c.shared, MapRowsOptions{kBlock}), mean(first.f(c.rows, c.shared))));
 }
 
