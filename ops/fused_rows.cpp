@@ -681,13 +681,31 @@ namespace {
 // sums[r] = the values [r kSumBlock, (r + 1) kSumBlock) of v added in order
 // from 0 in double, as reduce's full sum adds each run (ops/broadcast.cpp);
 // the runs are independent, so they advance together.
+// kRuns full runs at once, their sums in registers.
+template <int kRuns, class T>
+void full_run_sums(const T* v, double* sums) {
+  double acc[kRuns] = {};
+  for (std::int64_t i = 0; i < kSumBlock; ++i)
+    for (int r = 0; r < kRuns; ++r) acc[r] += double(v[r * kSumBlock + i]);
+  std::copy(acc, acc + kRuns, sums);
+}
+
 template <class T>
 void run_sums(const T* v, std::int64_t count, double* sums) {
-  const std::int64_t runs = (count + kSumBlock - 1) / kSumBlock, full = count / kSumBlock;
-  std::fill(sums, sums + runs, 0.0);
-  for (std::int64_t i = 0; i < kSumBlock; ++i)
-    for (std::int64_t r = 0; r < full; ++r) sums[r] += double(v[r * kSumBlock + i]);
-  for (std::int64_t i = full * kSumBlock; i < count; ++i) sums[full] += double(v[i]);
+  const std::int64_t full = count / kSumBlock;
+  std::int64_t r = 0;
+  for (; r + 4 <= full; r += 4) full_run_sums<4>(v + r * kSumBlock, sums + r);
+  switch (full - r) {
+    case 3: full_run_sums<3>(v + r * kSumBlock, sums + r); break;
+    case 2: full_run_sums<2>(v + r * kSumBlock, sums + r); break;
+    case 1: full_run_sums<1>(v + r * kSumBlock, sums + r); break;
+    default: break;
+  }
+  if (count > full * kSumBlock) {
+    double tail = 0;
+    for (std::int64_t i = full * kSumBlock; i < count; ++i) tail += double(v[i]);
+    sums[full] = tail;
+  }
 }
 
 }  // namespace
