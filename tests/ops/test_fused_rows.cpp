@@ -234,7 +234,7 @@ TEST_CASE("map_rows_mean gradients pass a float64 gradcheck", "[ops][map_rows][f
 }
 
 TEST_CASE("fused map_rows on images: rows of pixels give the eager graph's bits, and gradients pass a gradcheck",
-          "[ops][map_rows][fused]") {
+          "[ops][map_rows][fused][gradcheck]") {
   // An image's [H, W, C] rows: the interpreter's lanes are its pixels.
   auto image_graph = [](const Inputs& r, const Inputs& s) {
     Tensor l = normalize(s[0] - r[0]);
