@@ -1,7 +1,7 @@
 // The fused row interpreter behind map_rows (issue 17, route (b);
 // docs/map_rows.md): a row-wise function traced once (ops/fusion_trace.h) is
-// replayed on chunks of kLanes rows, each value held as one array per
-// component that stays in L1, so a shading graph costs one pass over its
+// replayed on chunks of 256 lanes (pixels), each value held as one array per
+// component that stays in cache, so a shading graph costs one pass over its
 // inputs instead of a pass per op. Forward and adjoint use the eager ops' own
 // per-element formulas (ops/elementwise_formulas.h and the same operation
 // order), so outputs and row gradients are bit-identical to the eager ops'.
@@ -11,9 +11,9 @@
 // of [P, k] rows, [P, W] of an image's [P, W, k]; or [P] values, one lane per
 // row), with operands that are values of the same shape, a column [..., 1]
 // against [..., k], a shared or constant vector [k] against [..., k], or a
-// one-element shared or constant value. A trace holding anything else (another op, a broadcast outside
-// these, mixed dtypes, a captured tensor with rows) does not compile, and
-// map_rows keeps calling f per block.
+// one-element shared or constant value. A trace holding anything else
+// (another op, a broadcast outside these, mixed dtypes, a captured tensor
+// with rows) does not compile, and map_rows keeps calling f per block.
 #pragma once
 
 #include <cstdint>
@@ -72,9 +72,6 @@ class FusedRows {
   std::int64_t partial_arrays_ = 0; // double lane arrays: shared gradients' partial sums
   int result_ = -1;
   std::int64_t lanes_per_row_ = 1;  // lanes in one row of the inputs (an image row's pixels)
-
- public:
-  std::int64_t lanes_per_row() const { return lanes_per_row_; }
 };
 
 }  // namespace gr::detail

@@ -15,7 +15,7 @@
 // When every op f used can be replayed (ops/fused_rows.h: the arithmetic
 // ops, minimum/maximum, pow with a number, dot and normalize, on rows, columns,
 // shared vectors and constants), the other blocks run that trace through the
-// fused interpreter: one pass over the inputs in chunks of 256 rows held in
+// fused interpreter: one pass over the inputs in chunks of 256 pixels held in
 // cache, forward and, in the adjoint, forward again and backward. Otherwise f
 // is called on each block, without recording, blocks in parallel, and its
 // adjoint runs f again per block on a private tape (checkpointing: recompute
