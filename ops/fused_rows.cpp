@@ -478,12 +478,14 @@ class FusedEvaluator {
         for (std::int64_t l = 0; l < n; ++l) {
           d[l] = std::max<double>(std::sqrt(d[l]), in.param);
           len[l] = T(d[l]);
-          inv[l] = 1 / d[l];
         }
+        if constexpr (std::is_same_v<T, float>)  // float32 multiplies by 1 / d; float64 divides
+          for (std::int64_t l = 0; l < n; ++l) inv[l] = 1 / d[l];
         for (int j = 0; j < in.components; ++j) {
           const T* x = read(in.a, j).p;
           T* out = lanes(o.array + j);
-          for (std::int64_t l = 0; l < n; ++l) out[l] = normalized<T>(double(x[l]), d[l], inv[l]);
+          for (std::int64_t l = 0; l < n; ++l)
+            out[l] = normalized<T>(double(x[l]), d[l], std::is_same_v<T, float> ? inv[l] : 0.0);
         }
         break;
       }
@@ -732,18 +734,19 @@ std::vector<Tensor> FusedRows::evaluate(const std::vector<Tensor>& rows, Tensor*
       }
     const std::int64_t width = values_[result_].width;
     const std::int64_t first = lo * lanes_per_row_, last = hi * lanes_per_row_;  // rows to lanes
+    T* const values = sums ? e.values(last - first, width) : nullptr;  // the result's values, for their sums
     for (std::int64_t c0 = first; c0 < last; c0 += kLanes) {
       const std::int64_t n = std::min(kLanes, last - c0);
       if (c0 + kLanes < last)
         e.plan_prefetch(rows, out, g, backward ? row_grads : nullptr, c0 + kLanes, std::min(kLanes, last - c0 - kLanes));
       if (out || sums || backward) e.forward(rows, c0, n);
       if (out) e.store_result(out->data<T>() + c0 * width);
-      if (sums) e.store_result(e.values(last - first, width) + (c0 - first) * width);
+      if (sums) e.store_result(values + (c0 - first) * width);
       if (backward) e.backward(g ? g->data<T>() + c0 * width : nullptr, T(seed), *row_grads, c0);
     }
     if (backward)
       for (std::size_t j = 0; j < shared.size(); ++j) shared[j] = e.shared_grad(j);
-    if (sums) run_sums(e.values(last - first, width), (last - first) * width, sums);
+    if (sums) run_sums(values, (last - first) * width, sums);
   });
   return shared;
 }
