@@ -329,6 +329,88 @@ struct CornerSums {
   BackwardScratch* sc;
 };
 
+// sum_corners' walk over one triangle in the common case, vectorized across
+// items: perspective weights from 1 / w_k (the triangle is in front of the near
+// plane) and kC > 0 channels. Each batch of items is gathered into per-lane
+// arrays, its terms computed lane by lane with item_terms' arithmetic in the
+// same order (so the same bits), then added to the corner sums in item order.
+// Writes corner k's sums to acc[k S, k S + kC) (when with_attr) and its dL/dw_k
+// to acc[k S + w_slot] (when w_slot >= 0). Returns whether any item had a
+// non-zero incoming gradient (item_terms' skip rule).
+template <int kC, class T>
+bool sum_front_items(const InterpolateParams<T>& prm, const TriangleTerms<T>& tt, const std::int32_t* item,
+                     std::int64_t count, const T* grad_out, T* grad_uv, bool with_attr, std::int64_t w_slot,
+                     std::int64_t S, double* acc) {
+  constexpr int kBatch = 8;
+  const double* inv_w = tt.weights.inv_w;
+  double A[3][kC];
+  for (int k = 0; k < 3; ++k)
+    for (int c = 0; c < kC; ++c) A[k][c] = static_cast<double>(tt.a[k][c]);
+  double sum_attr[3][kC] = {}, sum_w[3] = {};
+  bool live = false;
+  for (std::int64_t e0 = 0; e0 < count; e0 += kBatch) {
+    const int n = static_cast<int>(std::min<std::int64_t>(kBatch, count - e0));
+    // Gather (lanes past n are zeros, computed and never used); fetch the
+    // next batch's rows early, as the walk jumps between pixel rows.
+    double u[kBatch], v[kBatch], g[kC][kBatch];
+    for (int i = 0; i < kBatch; ++i) {
+      if (e0 + kBatch + i < count) {
+        const std::int64_t pa = item[e0 + kBatch + i];
+        __builtin_prefetch(grad_out + pa * kC);
+        __builtin_prefetch(prm.uv + 2 * pa);
+        if (grad_uv) __builtin_prefetch(grad_uv + 2 * pa);
+      }
+      const std::int64_t p = i < n ? item[e0 + i] : -1;
+      u[i] = p >= 0 ? static_cast<double>(prm.uv[2 * p]) : 0.0;
+      v[i] = p >= 0 ? static_cast<double>(prm.uv[2 * p + 1]) : 0.0;
+      for (int c = 0; c < kC; ++c) g[c][i] = p >= 0 ? static_cast<double>(grad_out[p * kC + c]) : 0.0;
+    }
+    // pixel_weights and item_terms, lane by lane.
+    double w[3][kBatch], grad_w[3][kBatch], du[kBatch], dv[kBatch];
+    for (int i = 0; i < kBatch; ++i) {
+      const double q[3] = {(1.0 - u[i] - v[i]) * inv_w[0], u[i] * inv_w[1], v[i] * inv_w[2]};
+      double s = 0.0;
+      for (int k = 0; k < 3; ++k) s += q[k];
+      const double inv_s = detail::safe_inv(s);
+      for (int k = 0; k < 3; ++k) w[k][i] = q[k] * inv_s;
+      double value[kC];
+      for (int c = 0; c < kC; ++c) value[c] = w[0][i] * A[0][c] + w[1][i] * A[1][c] + w[2][i] * A[2][c];
+      double g_lambda[3];
+      for (int k = 0; k < 3; ++k) {
+        double d = 0.0;
+        for (int c = 0; c < kC; ++c) d += g[c][i] * (A[k][c] - value[c]);
+        const double G = d * inv_s;
+        g_lambda[k] = G * inv_w[k];
+        grad_w[k][i] = -G * q[k] * inv_w[k];
+      }
+      du[i] = g_lambda[1] - g_lambda[0];
+      dv[i] = g_lambda[2] - g_lambda[0];
+    }
+    // In item order: dL/duv, then the corner sums.
+    for (int i = 0; i < n; ++i) {
+      bool any = false;
+      for (int c = 0; c < kC; ++c) any |= g[c][i] != 0.0;
+      if (!any) continue;
+      live = true;
+      if (grad_uv) {
+        const std::int64_t p = item[e0 + i];
+        grad_uv[2 * p] += static_cast<T>(du[i]);
+        grad_uv[2 * p + 1] += static_cast<T>(dv[i]);
+      }
+      for (int k = 0; k < 3; ++k) {
+        for (int c = 0; c < kC; ++c) sum_attr[k][c] += w[k][i] * g[c][i];
+        sum_w[k] += grad_w[k][i];
+      }
+    }
+  }
+  for (int k = 0; k < 3; ++k) {
+    if (with_attr)
+      for (int c = 0; c < kC; ++c) acc[k * S + c] = sum_attr[k][c];
+    if (w_slot >= 0) acc[k * S + w_slot] = sum_w[k];
+  }
+  return live;
+}
+
 // Per used triangle, in parallel (in first-item order: a sweep down the image),
 // each item's terms summed per corner in item order. Corner k of used triangle
 // s holds S = SA + SC doubles at (3 s + k) S: dL/dA_k (SA = C values, or 0),
@@ -355,6 +437,14 @@ void sum_corners(const InterpolateParams<T>& prm, const CornerSums<T>& cs) {
       const std::int32_t tri = by_tri.nonempty[s];
       const TriangleTerms<T> tt = triangle_terms(prm, cs.items, tri);
       const std::int64_t e1 = by_tri.start[tri + 1];
+      if constexpr (kC > 0) {
+        if (prm.perspective && !tt.weights.from_clip) {
+          const std::int64_t e0 = by_tri.start[tri];
+          live_of[s] = sum_front_items<kC>(prm, tt, by_tri.item.data() + e0, e1 - e0, grad_out, grad_uv, SA > 0,
+                                           SC == 0 ? -1 : SA + (SC == 3 ? 2 : 0), S, acc);
+          continue;
+        }
+      }
       for (std::int64_t e = by_tri.start[tri]; e < e1; ++e) {
         const std::int64_t p = by_tri.item[e];
         // The walk jumps between pixel rows: fetch a later item's data early.

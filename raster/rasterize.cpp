@@ -409,7 +409,7 @@ void rasterize_forward(const RasterParams<T>& p, std::int32_t* tri_id, T* uv, T*
 namespace {
 
 // A triangle's screen positions (x_k, y_k, z_ndc) and 1 / 2A, 2A = E(p0; p1, p2):
-// the part of pixel_grad_screen that does not depend on the pixel, computed
+// the part of pixel_grads_screen that does not depend on the pixel, computed
 // once per triangle.
 struct ScreenTriangle {
   const double *p0, *p1, *p2;
@@ -427,39 +427,53 @@ ScreenTriangle screen_triangle(const detail::Vertices& v, const std::int32_t* tr
   return st;
 }
 
-// Gradient of the screen-space triangle functions at one pixel: the adjoint of
+// Pixels the adjoint's walk over a triangle in front of the near plane takes at
+// once (lanes of its vector arithmetic).
+constexpr int kLanes = 8;
+
+// Gradient of the screen-space triangle functions at kLanes pixels: the adjoint of
 //   u = E_20/2A, v = E_01/2A, depth = (1-u-v) z0 + u z1 + v z2
-// w.r.t. the screen positions (x_k, y_k) and z_k = z_ndc; out[3k..3k+2].
-inline void pixel_grad_screen(const ScreenTriangle& st, double px, double py, double gu, double gv, double gd,
-                              double* out) {
-  // Partials of the edge function E(q; a, b) w.r.t. a and b (accumulated).
-  auto edge_grad = [](double qx, double qy, const double* a, const double* b, double g, double* ga,
-                      double* gb) {
-    ga[0] += g * (qy - b[1]);
-    ga[1] += g * (b[0] - qx);
-    gb[0] += g * (a[1] - qy);
-    gb[1] += g * (qx - a[0]);
-  };
-  const double *p0 = st.p0, *p1 = st.p1, *p2 = st.p2;
+// w.r.t. the screen positions (x_k, y_k) and z_k = z_ndc; grad[3k + d][lane].
+// The partials of E(q; a, b) = (qx-ax)(by-ay) - (qy-ay)(bx-ax) are
+// dE/da = (qy-by, bx-qx), dE/db = (ay-qy, qx-ax), dE/dq = (by-ay, ax-bx).
+inline void pixel_grads_screen(const ScreenTriangle& st, const double* px, const double* py, const double* gu,
+                               const double* gv, const double* gd, double (*grad)[kLanes]) {
+  const double x0 = st.p0[0], y0 = st.p0[1], z0 = st.p0[2];
+  const double x1 = st.p1[0], y1 = st.p1[1], z1 = st.p1[2];
+  const double x2 = st.p2[0], y2 = st.p2[1], z2 = st.p2[2];
   const double inv = st.inv;
-  const double u = edge_function(px, py, p2, p0) * inv, v = edge_function(px, py, p0, p1) * inv;
-  // Depth reaches u and v too.
-  const double gu2 = gu + gd * (p1[2] - p0[2]), gv2 = gv + gd * (p2[2] - p0[2]);
-  // Quotient rule on u = E_20/2A, v = E_01/2A.
-  const double g20 = gu2 * inv, g01 = gv2 * inv, ga2 = -(gu2 * u + gv2 * v) * inv;
-  double* g0 = out;
-  double* g1 = out + 3;
-  double* g2 = out + 6;
-  edge_grad(px, py, p2, p0, g20, g2, g0);
-  edge_grad(px, py, p0, p1, g01, g0, g1);
-  // 2A = E(p0; p1, p2) also depends on p0 as the query point: dE/dq = (by-ay, ax-bx).
-  edge_grad(p0[0], p0[1], p1, p2, ga2, g1, g2);
-  g0[0] += ga2 * (p2[1] - p1[1]);
-  g0[1] += ga2 * (p1[0] - p2[0]);
-  // Depth w.r.t. z_ndc: the barycentric weights.
-  g0[2] += gd * (1.0 - u - v);
-  g1[2] += gd * u;
-  g2[2] += gd * v;
+  for (int i = 0; i < kLanes; ++i) {
+    const double qx = px[i], qy = py[i];
+    const double u = ((qx - x2) * (y0 - y2) - (qy - y2) * (x0 - x2)) * inv;
+    const double v = ((qx - x0) * (y1 - y0) - (qy - y0) * (x1 - x0)) * inv;
+    // Depth reaches u and v too; then the quotient rule on u = E_20/2A, v = E_01/2A.
+    const double gu2 = gu[i] + gd[i] * (z1 - z0), gv2 = gv[i] + gd[i] * (z2 - z0);
+    const double g20 = gu2 * inv, g01 = gv2 * inv, ga2 = -(gu2 * u + gv2 * v) * inv;
+    // E_20 = E(q; p2, p0).
+    double g2x = 0.0 + g20 * (qy - y0), g2y = 0.0 + g20 * (x0 - qx);
+    double g0x = 0.0 + g20 * (y2 - qy), g0y = 0.0 + g20 * (qx - x2);
+    // E_01 = E(q; p0, p1).
+    g0x += g01 * (qy - y1);
+    g0y += g01 * (x1 - qx);
+    double g1x = 0.0 + g01 * (y0 - qy), g1y = 0.0 + g01 * (qx - x0);
+    // 2A = E(p0; p1, p2), p0 also as the query point.
+    g1x += ga2 * (y0 - y2);
+    g1y += ga2 * (x2 - x0);
+    g2x += ga2 * (y1 - y0);
+    g2y += ga2 * (x0 - x1);
+    g0x += ga2 * (y2 - y1);
+    g0y += ga2 * (x1 - x2);
+    // Depth w.r.t. z_ndc: the barycentric weights.
+    grad[0][i] = g0x;
+    grad[1][i] = g0y;
+    grad[2][i] = 0.0 + gd[i] * (1.0 - u - v);
+    grad[3][i] = g1x;
+    grad[4][i] = g1y;
+    grad[5][i] = 0.0 + gd[i] * u;
+    grad[6][i] = g2x;
+    grad[7][i] = g2y;
+    grad[8][i] = 0.0 + gd[i] * v;
+  }
 }
 
 // Same function in homogeneous form (any vertex behind the near plane):
@@ -517,6 +531,46 @@ void pixel_grad_homogeneous(const detail::Vertices& vx, const std::int32_t* tri,
   }
 }
 
+// The adjoint's walk over one triangle in front of the near plane, vectorized
+// across pixels: each batch of the triangle's pixels (ascending) is gathered
+// into per-lane arrays, pixel_grads_screen computes their terms, and they
+// are added to the corner sums in pixel order, skipping pixels with a zero
+// incoming gradient: the same arithmetic in the same order as pixel by pixel.
+// Writes corner k's screen sums to acc[k S, k S + 3); returns whether any
+// pixel had a gradient.
+template <class T>
+bool sum_screen_pixels(const ScreenTriangle& st, const std::int32_t* pixel, std::int64_t count, int width,
+                       const T* grad_uv, const T* grad_depth, std::int64_t S, double* acc) {
+  constexpr int kBatch = kLanes;
+  double sums[9] = {};
+  bool live = false;
+  for (std::int64_t e0 = 0; e0 < count; e0 += kBatch) {
+    const int n = static_cast<int>(std::min<std::int64_t>(kBatch, count - e0));
+    // Gather (lanes past n are zeros, computed and never used); fetch the
+    // next batch's gradients early, as the walk jumps between pixel rows.
+    double px[kBatch], py[kBatch], gu[kBatch], gv[kBatch], gd[kBatch];
+    for (int i = 0; i < kBatch; ++i) {
+      if (e0 + kBatch + i < count) __builtin_prefetch(grad_uv + 2 * static_cast<std::int64_t>(pixel[e0 + kBatch + i]));
+      const std::int64_t q = i < n ? pixel[e0 + i] : 0;
+      px[i] = static_cast<double>(q % width) + 0.5;
+      py[i] = static_cast<double>(q / width) + 0.5;
+      gu[i] = i < n ? static_cast<double>(grad_uv[2 * q]) : 0.0;
+      gv[i] = i < n ? static_cast<double>(grad_uv[2 * q + 1]) : 0.0;
+      gd[i] = i < n && grad_depth ? static_cast<double>(grad_depth[q]) : 0.0;
+    }
+    double grad[9][kBatch];
+    pixel_grads_screen(st, px, py, gu, gv, gd, grad);
+    for (int i = 0; i < n; ++i) {
+      if (gu[i] == 0.0 && gv[i] == 0.0 && gd[i] == 0.0) continue;
+      live = true;
+      for (int j = 0; j < 9; ++j) sums[j] += grad[j][i];
+    }
+  }
+  for (int k = 0; k < 3; ++k)
+    for (int d = 0; d < 3; ++d) acc[k * S + d] = sums[3 * k + d];
+  return live;
+}
+
 // Per-call buffers of rasterize_backward, reused through a pool.
 struct BackwardScratch {
   detail::Vertices v;
@@ -572,11 +626,16 @@ void rasterize_backward(const RasterParams<T>& p, const std::int32_t* tri_id, co
       std::fill(acc, acc + 3 * S, 0.0);
       const std::int64_t t = by_tri.nonempty[s];
       const std::int32_t* tri = tris + 3 * t;
-      const bool clipped = detail::needs_clipping(v, tri);
-      const ScreenTriangle st = clipped ? ScreenTriangle{} : screen_triangle(v, tri);
+      const std::int64_t e0 = by_tri.start[t], e1 = by_tri.start[t + 1];
+      if (!detail::needs_clipping(v, tri)) {
+        const bool live = sum_screen_pixels(screen_triangle(v, tri), by_tri.item.data() + e0, e1 - e0, W, grad_uv,
+                                            grad_depth, S, acc);
+        kind[s] = live ? 1 : 0;
+        continue;
+      }
+      // Clipped: the homogeneous form, pixel by pixel.
       std::uint8_t k = 0;
-      const std::int64_t e1 = by_tri.start[t + 1];
-      for (std::int64_t e = by_tri.start[t]; e < e1; ++e) {
+      for (std::int64_t e = e0; e < e1; ++e) {
         const std::int64_t q = by_tri.item[e];
         // The walk jumps between pixel rows: fetch a later pixel's gradient early.
         if (e + 4 < e1) __builtin_prefetch(grad_uv + 2 * static_cast<std::int64_t>(by_tri.item[e + 4]));
@@ -586,17 +645,10 @@ void rasterize_backward(const RasterParams<T>& p, const std::int32_t* tri_id, co
         if (gu == 0.0 && gv == 0.0 && gd == 0.0) continue;
         const double px = static_cast<double>(q % W) + 0.5, py = static_cast<double>(q / W) + 0.5;
         std::fill(out, out + 12, 0.0);
-        if (!clipped) {
-          pixel_grad_screen(st, px, py, gu, gv, gd, out);
-          for (int j = 0; j < 3; ++j)
-            for (int d = 0; d < 3; ++d) acc[j * S + d] += out[3 * j + d];
-          k = 1;
-        } else {
-          pixel_grad_homogeneous(v, tri, W, H, px, py, gu, gv, gd, out);
-          for (int j = 0; j < 3; ++j)
-            for (int d = 0; d < 4; ++d) acc[j * S + 3 + d] += out[4 * j + d];
-          k = 2;
-        }
+        pixel_grad_homogeneous(v, tri, W, H, px, py, gu, gv, gd, out);
+        for (int j = 0; j < 3; ++j)
+          for (int d = 0; d < 4; ++d) acc[j * S + 3 + d] += out[4 * j + d];
+        k = 2;
       }
       kind[s] = k;
     }

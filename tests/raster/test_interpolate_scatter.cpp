@@ -119,7 +119,55 @@ void check_thread_independence() {
   CHECK(same_bits(one, adjoint<T>(r, g, 2, false)));
 }
 
+// Attribute rows of 3 take the adjoint's vectorized walk, rows of 5 its
+// per-item walk. Two extra channels with a zero incoming gradient add only
+// zeros to each item's terms, so the first three channels' gradients, and
+// those to clip and uv, must be equal (== also takes -0 for +0).
+template <class T>
+void check_vectorized_walk(bool fragments) {
+  // Odd sizes: triangles whose item counts are not multiples of the batch.
+  const ClipScene s = grid_and_fan(97, 61, 5, 4, 24);
+  std::vector<double> g = random_vector(s.id.size() * s.C, -1, 1, 9);
+  // Every third pixel gets a zero gradient (the skip rule).
+  for (std::size_t q = 0; q < s.id.size(); q += 3)
+    for (int c = 0; c < s.C; ++c) g[q * s.C + c] = 0.0;
+  ClipScene wide = s;
+  wide.C = 5;
+  const std::vector<double> extra = random_vector(2 * static_cast<std::size_t>(s.N), -1, 1, 10);
+  wide.attr.clear();
+  for (int v = 0; v < s.N; ++v)
+    wide.attr.insert(wide.attr.end(), {s.attr[3 * v], s.attr[3 * v + 1], s.attr[3 * v + 2], extra[2 * v], extra[2 * v + 1]});
+  std::vector<double> g_wide;
+  for (std::size_t q = 0; q < s.id.size(); ++q)
+    g_wide.insert(g_wide.end(), {g[3 * q], g[3 * q + 1], g[3 * q + 2], 0.0, 0.0});
+  const std::vector<T> narrow_grad = adjoint<T>(s, cast_to<T>(g), 2, fragments);
+  const std::vector<T> wide_grad = adjoint<T>(wide, cast_to<T>(g_wide), 2, fragments);
+  const std::size_t NA = s.attr.size(), WA = wide.attr.size(), rest = narrow_grad.size() - NA;
+  REQUIRE(wide_grad.size() == WA + rest);
+  int unequal = 0, nonzero = 0;
+  for (int v = 0; v < s.N; ++v)
+    for (int c = 0; c < 3; ++c) {
+      unequal += narrow_grad[3 * v + c] != wide_grad[5 * v + c];
+      nonzero += narrow_grad[3 * v + c] != T(0);
+    }
+  for (std::size_t i = 0; i < rest; ++i) {
+    unequal += narrow_grad[NA + i] != wide_grad[WA + i];
+    nonzero += narrow_grad[NA + i] != T(0);
+  }
+  CHECK(unequal == 0);
+  CHECK(nonzero > 5000);
+}
+
 }  // namespace
+
+TEST_CASE("interpolate adjoint: the vectorized walk over rows of 3 gives the per-item walk's values",
+          "[raster][interpolate][determinism]") {
+  for (bool fragments : {false, true}) {
+    INFO((fragments ? "fragment form" : "image form"));
+    check_vectorized_walk<float>(fragments);
+    check_vectorized_walk<double>(fragments);
+  }
+}
 
 TEST_CASE("interpolate adjoint: bit-identical for 1, 2 and 8 threads, in fragment form and for reversed triangles",
           "[raster][interpolate][determinism]") {
