@@ -346,7 +346,9 @@ bool sum_front_items(const InterpolateParams<T>& prm, const TriangleTerms<T>& tt
   double A[3][kC];
   for (int k = 0; k < 3; ++k)
     for (int c = 0; c < kC; ++c) A[k][c] = static_cast<double>(tt.a[k][c]);
-  double sum_attr[3][kC] = {}, sum_w[3] = {};
+  // Corner k's sums: kC attribute sums, then dL/dw_k.
+  constexpr int kSums = 3 * (kC + 1);
+  double sums[kSums] = {};
   bool live = false;
   for (std::int64_t e0 = 0; e0 < count; e0 += kBatch) {
     const int n = static_cast<int>(std::min<std::int64_t>(kBatch, count - e0));
@@ -366,22 +368,25 @@ bool sum_front_items(const InterpolateParams<T>& prm, const TriangleTerms<T>& tt
       for (int c = 0; c < kC; ++c) g[c][i] = p >= 0 ? static_cast<double>(grad_out[p * kC + c]) : 0.0;
     }
     // pixel_weights and item_terms, lane by lane.
-    double w[3][kBatch], grad_w[3][kBatch], du[kBatch], dv[kBatch];
+    double terms[kSums][kBatch], du[kBatch], dv[kBatch];
     for (int i = 0; i < kBatch; ++i) {
       const double q[3] = {(1.0 - u[i] - v[i]) * inv_w[0], u[i] * inv_w[1], v[i] * inv_w[2]};
       double s = 0.0;
       for (int k = 0; k < 3; ++k) s += q[k];
       const double inv_s = detail::safe_inv(s);
-      for (int k = 0; k < 3; ++k) w[k][i] = q[k] * inv_s;
+      double w[3];
+      for (int k = 0; k < 3; ++k) w[k] = q[k] * inv_s;
       double value[kC];
-      for (int c = 0; c < kC; ++c) value[c] = w[0][i] * A[0][c] + w[1][i] * A[1][c] + w[2][i] * A[2][c];
+      for (int c = 0; c < kC; ++c) value[c] = w[0] * A[0][c] + w[1] * A[1][c] + w[2] * A[2][c];
       double g_lambda[3];
       for (int k = 0; k < 3; ++k) {
         double d = 0.0;
         for (int c = 0; c < kC; ++c) d += g[c][i] * (A[k][c] - value[c]);
         const double G = d * inv_s;
         g_lambda[k] = G * inv_w[k];
-        grad_w[k][i] = -G * q[k] * inv_w[k];
+        // dL/dA_k += weight_k g; dL/dw_k.
+        for (int c = 0; c < kC; ++c) terms[k * (kC + 1) + c][i] = w[k] * g[c][i];
+        terms[k * (kC + 1) + kC][i] = -G * q[k] * inv_w[k];
       }
       du[i] = g_lambda[1] - g_lambda[0];
       dv[i] = g_lambda[2] - g_lambda[0];
@@ -397,16 +402,13 @@ bool sum_front_items(const InterpolateParams<T>& prm, const TriangleTerms<T>& tt
         grad_uv[2 * p] += static_cast<T>(du[i]);
         grad_uv[2 * p + 1] += static_cast<T>(dv[i]);
       }
-      for (int k = 0; k < 3; ++k) {
-        for (int c = 0; c < kC; ++c) sum_attr[k][c] += w[k][i] * g[c][i];
-        sum_w[k] += grad_w[k][i];
-      }
+      for (int j = 0; j < kSums; ++j) sums[j] += terms[j][i];
     }
   }
   for (int k = 0; k < 3; ++k) {
     if (with_attr)
-      for (int c = 0; c < kC; ++c) acc[k * S + c] = sum_attr[k][c];
-    if (w_slot >= 0) acc[k * S + w_slot] = sum_w[k];
+      for (int c = 0; c < kC; ++c) acc[k * S + c] = sums[k * (kC + 1) + c];
+    if (w_slot >= 0) acc[k * S + w_slot] = sums[k * (kC + 1) + kC];
   }
   return live;
 }
