@@ -196,6 +196,63 @@ void clip_weights_backward(const TriangleWeights& tw, const detail::HVec& e, int
 // an image (tri_id 0 = background) or the covered pixels of a fragment list
 // (tri_id never 0); item p reads tri_id[p], uv[2p, 2p+1] and writes or reads
 // C values at p * C; `items` gives its pixel (for clipped triangles' weights).
+namespace {
+
+// Items the forward and the adjoint take at once in their vectorized loops.
+constexpr int kLanes = 8;
+
+// interpolate_forward over items [lo, hi) in the common case, vectorized across
+// items: perspective weights from 1 / w_k (no vertex behind the near plane)
+// and kC channels. Each batch's w_k, attribute rows and uv are gathered into
+// per-lane arrays, the weights and values computed lane by lane with
+// triangle_weights' and pixel_weights' arithmetic in the same order (so the
+// same bits), then written, background items as in the item loop.
+template <int kC, class T>
+void interpolate_front_items(const InterpolateParams<T>& prm, std::int64_t lo, std::int64_t hi, T* out) {
+  for (std::int64_t p0 = lo; p0 < hi; p0 += kLanes) {
+    const int n = static_cast<int>(std::min<std::int64_t>(kLanes, hi - p0));
+    bool any_covered = false;
+    for (int i = 0; i < n; ++i) any_covered |= prm.tri_id[p0 + i] != 0;
+    if (!any_covered) {  // all background (most of an image's corners)
+      for (int i = 0; i < n; ++i)
+        for (int c = 0; c < kC; ++c) out[(p0 + i) * kC + c] = prm.background ? prm.background[c] : T(0);
+      continue;
+    }
+    // Gather (background lanes and lanes past n get w = 1 and zeros, unused).
+    double u[kLanes], v[kLanes], w[3][kLanes], a[3][kC][kLanes];
+    for (int i = 0; i < kLanes; ++i) {
+      const std::int32_t id = i < n ? prm.tri_id[p0 + i] : 0;
+      const std::int32_t* tri = id ? prm.tris + 3 * static_cast<std::int64_t>(id - 1) : nullptr;
+      u[i] = tri ? static_cast<double>(prm.uv[2 * (p0 + i)]) : 0.0;
+      v[i] = tri ? static_cast<double>(prm.uv[2 * (p0 + i) + 1]) : 0.0;
+      for (int k = 0; k < 3; ++k) {
+        w[k][i] = tri ? static_cast<double>(prm.clip[4 * static_cast<std::int64_t>(tri[k]) + 3]) : 1.0;
+        for (int c = 0; c < kC; ++c) a[k][c][i] = tri ? static_cast<double>(prm.attr[tri[k] * kC + c]) : 0.0;
+      }
+    }
+    // q_k = lambda_k / w_k, weight_k = q_k / sum q, A = sum_k weight_k A_k.
+    double value[kC][kLanes];
+    for (int i = 0; i < kLanes; ++i) {
+      const double q[3] = {(1.0 - u[i] - v[i]) * detail::safe_inv(w[0][i]), u[i] * detail::safe_inv(w[1][i]),
+                           v[i] * detail::safe_inv(w[2][i])};
+      double s = 0.0;
+      for (int k = 0; k < 3; ++k) s += q[k];
+      const double inv_s = detail::safe_inv(s);
+      const double weight[3] = {q[0] * inv_s, q[1] * inv_s, q[2] * inv_s};
+      for (int c = 0; c < kC; ++c) value[c][i] = weight[0] * a[0][c][i] + weight[1] * a[1][c][i] + weight[2] * a[2][c][i];
+    }
+    for (int i = 0; i < n; ++i) {
+      T* o = out + (p0 + i) * kC;
+      if (prm.tri_id[p0 + i] == 0)
+        for (int c = 0; c < kC; ++c) o[c] = prm.background ? prm.background[c] : T(0);
+      else
+        for (int c = 0; c < kC; ++c) o[c] = static_cast<T>(value[c][i]);
+    }
+  }
+}
+
+}  // namespace
+
 template <class T>
 void interpolate_forward(const InterpolateParams<T>& prm, T* out) {
   assert(prm.width >= 1 && prm.height >= 1 && prm.channels >= 0 && prm.count >= 0);
@@ -204,7 +261,16 @@ void interpolate_forward(const InterpolateParams<T>& prm, T* out) {
   const std::int64_t C = prm.channels, P = prm.items();
   const bool perspective = prm.perspective;
   const Items items = make_items(prm);
+  const bool front = perspective && !items.any_behind;
   parallel_for(0, P, 4096, [&](std::int64_t lo, std::int64_t hi) {
+    if (front && C >= 1 && C <= 4) {  // the usual channel counts, vectorized
+      switch (C) {
+        case 1: interpolate_front_items<1>(prm, lo, hi, out); return;
+        case 2: interpolate_front_items<2>(prm, lo, hi, out); return;
+        case 3: interpolate_front_items<3>(prm, lo, hi, out); return;
+        default: interpolate_front_items<4>(prm, lo, hi, out); return;
+      }
+    }
     for (std::int64_t p = lo; p < hi; ++p) {
       T* o = out + p * C;
       // Background: the given colour, or zeros.
@@ -341,7 +407,7 @@ template <int kC, class T>
 bool sum_front_items(const InterpolateParams<T>& prm, const TriangleTerms<T>& tt, const std::int32_t* item,
                      std::int64_t count, const T* grad_out, T* grad_uv, bool with_attr, std::int64_t w_slot,
                      std::int64_t S, double* acc) {
-  constexpr int kBatch = 8;
+  constexpr int kBatch = kLanes;
   const double* inv_w = tt.weights.inv_w;
   double A[3][kC];
   for (int k = 0; k < 3; ++k)

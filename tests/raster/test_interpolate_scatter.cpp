@@ -3,7 +3,8 @@
 // ranges, vertices shared by many triangles, triangles with no pixels and
 // triangles clipped by the near plane. The sums must be bit-identical for 1,
 // 2 and 8 threads, equal in image and fragment form and for any triangle
-// order, and match finite differences in float64.
+// order, and match finite differences in float64. The forward's and the
+// adjoint's vectorized loops (rows of 3) must give their per-item loops' values.
 #include <catch2/catch.hpp>
 
 #include <cmath>
@@ -119,6 +120,77 @@ void check_thread_independence() {
   CHECK(same_bits(one, adjoint<T>(r, g, 2, false)));
 }
 
+// The scene with every vertex behind the camera mirrored through the eye
+// (clip -> -clip: same projection, now in front), so no triangle is clipped.
+ClipScene in_front(ClipScene s) {
+  for (std::size_t v = 0; v < s.clip.size(); v += 4)
+    if (s.clip[v + 3] <= 0)
+      for (int d = 0; d < 4; ++d) s.clip[v + d] = -s.clip[v + d];
+  s.rasterize();
+  return s;
+}
+
+// The same scene with two more attribute channels.
+ClipScene with_two_more_channels(const ClipScene& s) {
+  ClipScene wide = s;
+  wide.C = 5;
+  const std::vector<double> extra = random_vector(2 * static_cast<std::size_t>(s.N), -1, 1, 10);
+  wide.attr.clear();
+  for (int v = 0; v < s.N; ++v)
+    wide.attr.insert(wide.attr.end(), {s.attr[3 * v], s.attr[3 * v + 1], s.attr[3 * v + 2], extra[2 * v], extra[2 * v + 1]});
+  return wide;
+}
+
+// Image-form forward (fragment form when `fragments`, scattered back to the image).
+template <class T>
+std::vector<T> forward(const ClipScene& s, bool fragments, const T* background) {
+  const Typed<T> in(s);
+  InterpolateParams<T> p = in.params(s);
+  p.background = background;
+  std::vector<std::int32_t> pixel, frag_id;
+  std::vector<T> frag_uv;
+  if (fragments) {
+    for (std::int64_t q = 0; q < static_cast<std::int64_t>(s.id.size()); ++q) {
+      if (s.id[q] == 0) continue;
+      pixel.push_back(static_cast<std::int32_t>(q));
+      frag_id.push_back(s.id[q]);
+      frag_uv.insert(frag_uv.end(), {in.uv[2 * q], in.uv[2 * q + 1]});
+    }
+    p.pixel_index = pixel.data();
+    p.count = static_cast<std::int64_t>(pixel.size());
+    p.tri_id = frag_id.data();
+    p.uv = frag_uv.data();
+  }
+  std::vector<T> out(static_cast<std::size_t>(p.items() * s.C));
+  interpolate_forward(p, out.data());
+  if (!fragments) return out;
+  std::vector<T> image(s.id.size() * s.C, T(-7));
+  for (std::size_t f = 0; f < pixel.size(); ++f)
+    for (int c = 0; c < s.C; ++c) image[pixel[f] * s.C + c] = out[f * s.C + c];
+  return image;
+}
+
+// Attribute rows of 3 take the forward's vectorized loop (every vertex in
+// front), rows of 5 its per-item loop: the first three channels must be equal.
+template <class T>
+void check_vectorized_forward(bool fragments) {
+  const ClipScene s = in_front(grid_and_fan(97, 61, 5, 4, 24));
+  const ClipScene wide = with_two_more_channels(s);
+  const T background[5] = {T(0.25), T(-0.5), T(2), T(3), T(4)};
+  for (const T* bg : {static_cast<const T*>(nullptr), background}) {
+    const std::vector<T> narrow = forward<T>(s, fragments, bg), broad = forward<T>(wide, fragments, bg);
+    int unequal = 0, covered = 0, background_ok = 0;
+    for (std::size_t q = 0; q < s.id.size(); ++q) {
+      for (int c = 0; c < 3; ++c) unequal += narrow[3 * q + c] != broad[5 * q + c];
+      covered += s.id[q] != 0;
+      background_ok += s.id[q] == 0 && narrow[3 * q + 1] == (fragments ? T(-7) : bg ? bg[1] : T(0));
+    }
+    CHECK(unequal == 0);
+    CHECK(covered > 2000);
+    CHECK(background_ok == static_cast<int>(s.id.size()) - covered);
+  }
+}
+
 // Attribute rows of 3 take the adjoint's vectorized walk, rows of 5 its
 // per-item walk. Two extra channels with a zero incoming gradient add only
 // zeros to each item's terms, so the first three channels' gradients, and
@@ -131,12 +203,7 @@ void check_vectorized_walk(bool fragments) {
   // Every third pixel gets a zero gradient (the skip rule).
   for (std::size_t q = 0; q < s.id.size(); q += 3)
     for (int c = 0; c < s.C; ++c) g[q * s.C + c] = 0.0;
-  ClipScene wide = s;
-  wide.C = 5;
-  const std::vector<double> extra = random_vector(2 * static_cast<std::size_t>(s.N), -1, 1, 10);
-  wide.attr.clear();
-  for (int v = 0; v < s.N; ++v)
-    wide.attr.insert(wide.attr.end(), {s.attr[3 * v], s.attr[3 * v + 1], s.attr[3 * v + 2], extra[2 * v], extra[2 * v + 1]});
+  const ClipScene wide = with_two_more_channels(s);
   std::vector<double> g_wide;
   for (std::size_t q = 0; q < s.id.size(); ++q)
     g_wide.insert(g_wide.end(), {g[3 * q], g[3 * q + 1], g[3 * q + 2], 0.0, 0.0});
@@ -160,10 +227,12 @@ void check_vectorized_walk(bool fragments) {
 
 }  // namespace
 
-TEST_CASE("interpolate adjoint: the vectorized walk over rows of 3 gives the per-item walk's values",
+TEST_CASE("interpolate: the vectorized loops over rows of 3 give the per-item loops' values and gradients",
           "[raster][interpolate][determinism]") {
   for (bool fragments : {false, true}) {
     INFO((fragments ? "fragment form" : "image form"));
+    check_vectorized_forward<float>(fragments);
+    check_vectorized_forward<double>(fragments);
     check_vectorized_walk<float>(fragments);
     check_vectorized_walk<double>(fragments);
   }
