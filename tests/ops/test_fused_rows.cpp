@@ -235,6 +235,29 @@ TEST_CASE("map_rows_mean gradients pass a float64 gradcheck", "[ops][map_rows][f
   });
 }
 
+TEST_CASE("map_rows_mean in one pass (default blocks) gives shared inputs gradients that pass a float64 gradcheck",
+          "[ops][map_rows][fused][gradcheck]") {
+  // Blocks of 4096 rows start the loss's 4096-element sum runs (rows of 1 or
+  // 3 outputs), so the gradients come with the values, in one pass; two whole
+  // blocks and a partial one. A gradcheck perturbs every element, so only the
+  // shared inputs require gradients here; the rows are constants.
+  const std::int64_t n = 2 * 4096 + 100;
+  const Inputs rows{Tensor::from_values(values(3 * n, -1, 1, 21), {n, 3}, DType::Float64),
+                    Tensor::from_values(values(3 * n, -1, 1, 22), {n, 3}, DType::Float64),
+                    Tensor::from_values(values(n, 0.5, 1.5, 23), {n, 1}, DType::Float64),
+                    Tensor::from_values(values(n, -1, 1, 24), {n}, DType::Float64)};
+  const Inputs shared{leaf({0.3, -0.7, 2.0}, {3}, DType::Float64), leaf({1.5}, {}, DType::Float64)};
+  int checked = 0;
+  for (const Graph& g : replayable_graphs()) {
+    if (g.name.find("shared") == std::string::npos && g.name.find("rank 1") == std::string::npos) continue;
+    REQUIRE(map_rows_fuses(g.f, rows, shared));
+    require_gradcheck("map_rows_mean one pass " + g.name,
+                      [f = g.f, &rows](const Inputs& in) { return map_rows_mean(f, rows, in); }, shared);
+    ++checked;
+  }
+  CHECK(checked == 3);
+}
+
 TEST_CASE("fused map_rows on images: rows of pixels give the eager graph's bits, and gradients pass a gradcheck",
           "[ops][map_rows][fused][gradcheck]") {
   // An image's [H, W, C] rows: the interpreter's lanes are its pixels.
