@@ -428,8 +428,9 @@ ScreenTriangle screen_triangle(const detail::Vertices& v, const std::int32_t* tr
 }
 
 // Pixels the adjoint's walk over a triangle in front of the near plane takes at
-// once (lanes of its vector arithmetic).
-constexpr int kLanes = 8;
+// once (lanes of its vector arithmetic; 16 for the reason given in
+// interpolate.cpp).
+constexpr int kLanes = 16;
 
 // Gradient of the screen-space triangle functions at kLanes pixels: the adjoint of
 //   u = E_20/2A, v = E_01/2A, depth = (1-u-v) z0 + u z1 + v z2
@@ -541,16 +542,15 @@ void pixel_grad_homogeneous(const detail::Vertices& vx, const std::int32_t* tri,
 template <class T>
 bool sum_screen_pixels(const ScreenTriangle& st, const std::int32_t* pixel, std::int64_t count, int width,
                        const T* grad_uv, const T* grad_depth, std::int64_t S, double* acc) {
-  constexpr int kBatch = kLanes;
   double sums[9] = {};
   bool live = false;
-  for (std::int64_t e0 = 0; e0 < count; e0 += kBatch) {
-    const int n = static_cast<int>(std::min<std::int64_t>(kBatch, count - e0));
+  for (std::int64_t e0 = 0; e0 < count; e0 += kLanes) {
+    const int n = static_cast<int>(std::min<std::int64_t>(kLanes, count - e0));
     // Gather (lanes past n are zeros, computed and never used); fetch the
     // next batch's gradients early, as the walk jumps between pixel rows.
-    double px[kBatch], py[kBatch], gu[kBatch], gv[kBatch], gd[kBatch];
-    for (int i = 0; i < kBatch; ++i) {
-      if (e0 + kBatch + i < count) __builtin_prefetch(grad_uv + 2 * static_cast<std::int64_t>(pixel[e0 + kBatch + i]));
+    double px[kLanes], py[kLanes], gu[kLanes], gv[kLanes], gd[kLanes];
+    for (int i = 0; i < kLanes; ++i) {
+      if (e0 + kLanes + i < count) __builtin_prefetch(grad_uv + 2 * static_cast<std::int64_t>(pixel[e0 + kLanes + i]));
       const std::int64_t q = i < n ? pixel[e0 + i] : 0;
       px[i] = static_cast<double>(q % width) + 0.5;
       py[i] = static_cast<double>(q / width) + 0.5;
@@ -558,7 +558,7 @@ bool sum_screen_pixels(const ScreenTriangle& st, const std::int32_t* pixel, std:
       gv[i] = i < n ? static_cast<double>(grad_uv[2 * q + 1]) : 0.0;
       gd[i] = i < n && grad_depth ? static_cast<double>(grad_depth[q]) : 0.0;
     }
-    double grad[9][kBatch];
+    double grad[9][kLanes];
     pixel_grads_screen(st, px, py, gu, gv, gd, grad);
     for (int i = 0; i < n; ++i) {
       if (gu[i] == 0.0 && gv[i] == 0.0 && gd[i] == 0.0) continue;
