@@ -66,6 +66,10 @@ Fragments fragments(const GBuffer& gbuffer) {
   fr.uv = gather_fragments(gbuffer.uv, fr);
   fr.groups = std::make_shared<raster::TriangleGroups>(fr.tri_id.data<std::int32_t>(),
                                                        std::make_shared<Tensor>(fr.tri_id));
+  // rasterize's adjoint can then group the G-buffer's pixels from the fragments' grouping.
+  if (gbuffer.groups)
+    gbuffer.groups->set_fragments(id.data<std::int32_t>(), fr.groups, fr.pixel_index.data<std::int32_t>(),
+                                  std::make_shared<Tensor>(fr.pixel_index));
   return fr;
 }
 

@@ -6,6 +6,12 @@
 // them here, the others reuse the result. The grouping is the unique ordering
 // by (triangle, item), so reusing it changes no bit of any gradient.
 //
+// A G-buffer's pixels can also be grouped from its fragments' grouping: the
+// fragments are its covered pixels in ascending order, so mapping each
+// fragment to its pixel gives the same buckets in the same order, without a
+// pass over every pixel (fragment mode: rasterize's adjoint runs after the
+// interpolate adjoints have grouped the fragments).
+//
 // Each object belongs to one tri_id buffer, which it keeps alive: no other
 // buffer can take that address while the grouping exists, so a G-buffer whose
 // tri_id is replaced (and the old buffer freed, its memory reused) is never
@@ -26,30 +32,39 @@ class TriangleGroups {
   // The grouping of the buffer at `tri_id`, which `owner` keeps alive.
   TriangleGroups(const std::int32_t* tri_id, std::shared_ptr<const void> owner)
       : tri_id_(tri_id), owner_(std::move(owner)) {}
+  TriangleGroups(const TriangleGroups&) = delete;
+  TriangleGroups& operator=(const TriangleGroups&) = delete;
+  ~TriangleGroups();  // gives the grouping's buffers back for the next one
 
   // The items [0, n) grouped by tri_id[i] - 1 over num_tris triangles
   // (tri_id 0 left out), grouped on the first call. Null for any other buffer
   // or size (the caller groups its items itself): a G-buffer copied and given
   // another tri_id keeps its groups.
-  const detail::Buckets* by_triangle(const std::int32_t* tri_id, std::int64_t n, std::int64_t num_tris) {
-    if (tri_id != tri_id_) return nullptr;
-    std::lock_guard<std::mutex> lock(mutex_);
-    if (!grouped_) {
-      detail::bucket_items(n, num_tris, [&](std::int64_t i) -> std::int64_t { return tri_id[i] - 1; }, &buckets_);
-      grouped_ = true;
-      n_ = n;
-      num_tris_ = num_tris;
-    }
-    return n_ == n && num_tris_ == num_tris ? &buckets_ : nullptr;
-  }
+  const detail::Buckets* by_triangle(const std::int32_t* tri_id, std::int64_t n, std::int64_t num_tris);
+
+  // For a G-buffer's groups: `fragments` groups the fragments that list the
+  // covered pixels of the buffer at `tri_id` in ascending order, fragment f at
+  // pixel pixel_index[f] (kept alive by `owner`). If tri_id is this object's
+  // buffer and the fragments are grouped by the time it is, its grouping is
+  // derived from theirs (ignored for any other buffer).
+  void set_fragments(const std::int32_t* tri_id, std::shared_ptr<TriangleGroups> fragments,
+                     const std::int32_t* pixel_index, std::shared_ptr<const void> owner);
 
  private:
+  // The grouping, if made for num_tris triangles (null otherwise).
+  const detail::Buckets* grouped(std::int64_t num_tris);
+
   const std::int32_t* tri_id_;
   std::shared_ptr<const void> owner_;
   std::mutex mutex_;
-  bool grouped_ = false;
   std::int64_t n_ = 0, num_tris_ = 0;
-  detail::Buckets buckets_;
+  // The grouping once made; its buffers come from a free list (a new
+  // G-buffer every iteration must not page-fault new ones in).
+  std::unique_ptr<detail::Buckets> buckets_;
+  // set_fragments' arguments.
+  std::shared_ptr<TriangleGroups> fragments_;
+  const std::int32_t* pixel_index_ = nullptr;
+  std::shared_ptr<const void> pixel_index_owner_;
 };
 
 }  // namespace gr::raster

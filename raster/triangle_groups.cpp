@@ -1,0 +1,78 @@
+#include "raster/triangle_groups.h"
+
+#include <vector>
+
+#include "autodiff/parallel.h"
+
+namespace gr::raster {
+namespace {
+
+// Buckets of groupings that are gone, kept with their capacity.
+class FreeBuckets {
+ public:
+  std::unique_ptr<detail::Buckets> take() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (free_.empty()) return std::make_unique<detail::Buckets>();
+    std::unique_ptr<detail::Buckets> b = std::move(free_.back());
+    free_.pop_back();
+    return b;
+  }
+  void give(std::unique_ptr<detail::Buckets> b) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    free_.push_back(std::move(b));
+  }
+
+ private:
+  std::mutex mutex_;
+  std::vector<std::unique_ptr<detail::Buckets>> free_;
+};
+FreeBuckets g_free_buckets;
+
+}  // namespace
+
+TriangleGroups::~TriangleGroups() {
+  if (buckets_) g_free_buckets.give(std::move(buckets_));
+}
+
+const detail::Buckets* TriangleGroups::by_triangle(const std::int32_t* tri_id, std::int64_t n,
+                                                   std::int64_t num_tris) {
+  if (tri_id != tri_id_) return nullptr;
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!buckets_) {
+    std::unique_ptr<detail::Buckets> b = g_free_buckets.take();
+    const detail::Buckets* from = fragments_ ? fragments_->grouped(num_tris) : nullptr;
+    if (from) {
+      // Bucket by bucket the fragments' items in the same order, as pixels.
+      b->start = from->start;
+      b->nonempty = from->nonempty;
+      b->item.resize(from->item.size());
+      const std::int32_t* frag = from->item.data();
+      std::int32_t* pixel = b->item.data();
+      parallel_for(0, static_cast<std::int64_t>(from->item.size()), 16384, [&](std::int64_t lo, std::int64_t hi) {
+        for (std::int64_t e = lo; e < hi; ++e) pixel[e] = pixel_index_[frag[e]];
+      });
+    } else {
+      detail::bucket_items(n, num_tris, [&](std::int64_t i) -> std::int64_t { return tri_id[i] - 1; }, b.get());
+    }
+    buckets_ = std::move(b);
+    n_ = n;
+    num_tris_ = num_tris;
+  }
+  return n_ == n && num_tris_ == num_tris ? buckets_.get() : nullptr;
+}
+
+void TriangleGroups::set_fragments(const std::int32_t* tri_id, std::shared_ptr<TriangleGroups> fragments,
+                                   const std::int32_t* pixel_index, std::shared_ptr<const void> owner) {
+  if (tri_id != tri_id_) return;
+  std::lock_guard<std::mutex> lock(mutex_);
+  fragments_ = std::move(fragments);
+  pixel_index_ = pixel_index;
+  pixel_index_owner_ = std::move(owner);
+}
+
+const detail::Buckets* TriangleGroups::grouped(std::int64_t num_tris) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return buckets_ && num_tris_ == num_tris ? buckets_.get() : nullptr;
+}
+
+}  // namespace gr::raster
