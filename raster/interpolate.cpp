@@ -190,14 +190,6 @@ void clip_weights_backward(const TriangleWeights& tw, const detail::HVec& e, int
   }
 }
 
-}  // namespace
-
-// The image and fragment forms run the same loops: "items" are the pixels of
-// an image (tri_id 0 = background) or the covered pixels of a fragment list
-// (tri_id never 0); item p reads tri_id[p], uv[2p, 2p+1] and writes or reads
-// C values at p * C; `items` gives its pixel (for clipped triangles' weights).
-namespace {
-
 // Items the forward and the adjoint take at once in their vectorized loops.
 // Their lane arrays are written element by element and read a vector at a
 // time; with 8 lanes the reads came soon enough after the writes to stall on
@@ -257,6 +249,10 @@ void interpolate_front_items(const InterpolateParams<T>& prm, std::int64_t lo, s
 
 }  // namespace
 
+// The image and fragment forms run the same loops: "items" are the pixels of
+// an image (tri_id 0 = background) or the covered pixels of a fragment list
+// (tri_id never 0); item p reads tri_id[p], uv[2p, 2p+1] and writes or reads
+// C values at p * C; `items` gives its pixel (for clipped triangles' weights).
 template <class T>
 void interpolate_forward(const InterpolateParams<T>& prm, T* out) {
   assert(prm.width >= 1 && prm.height >= 1 && prm.channels >= 0 && prm.count >= 0);

@@ -190,7 +190,7 @@ bool tie_rule(double dx, double dy) { return dy > 0.0 || (dy == 0.0 && dx < 0.0)
 // Screen-space edge from pa to pb (screen x, y; already in canonical order)
 // times sign, written field by field into *e: an Edge built on the stack and
 // copied whole made the copy's wide loads wait on the narrow store of `tie`
-// (a store-forwarding stall, ~9% of the rasterizer's time on tiny triangles).
+// (a store-forwarding stall: the 1.1M-triangle bunny took 16% longer, 1 thread).
 void edge_between(const double* pa, const double* pb, double sign, Edge* e) {
   e->ax = pa[0];
   e->ay = pa[1];

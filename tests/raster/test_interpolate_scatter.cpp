@@ -48,36 +48,49 @@ struct Typed {
   }
 };
 
+// The scene's covered pixels as a fragment list (pixel, triangle id, uv).
+template <class T>
+struct FragmentList {
+  std::vector<std::int32_t> pixel, id;
+  std::vector<T> uv;
+  FragmentList(const ClipScene& s, const std::vector<T>& image_uv) {
+    for (std::int64_t q = 0; q < static_cast<std::int64_t>(s.id.size()); ++q) {
+      if (s.id[q] == 0) continue;
+      pixel.push_back(static_cast<std::int32_t>(q));
+      id.push_back(s.id[q]);
+      uv.insert(uv.end(), {image_uv[2 * q], image_uv[2 * q + 1]});
+    }
+  }
+  // p in fragment form over this list.
+  void use_in(InterpolateParams<T>* p) const {
+    p->pixel_index = pixel.data();
+    p->count = static_cast<std::int64_t>(pixel.size());
+    p->tri_id = id.data();
+    p->uv = uv.data();
+  }
+};
+
 // dL/dattr, dL/dclip and dL/duv (image order), concatenated; in fragment
 // form when `fragments`, with uv gradients scattered back to their pixels.
 template <class T>
 std::vector<T> adjoint(const ClipScene& s, const std::vector<T>& g, int threads, bool fragments) {
   const Typed<T> in(s);
   InterpolateParams<T> p = in.params(s);
-  std::vector<std::int32_t> pixel, frag_id;
-  std::vector<T> frag_uv, frag_g;
+  const FragmentList<T> list(s, in.uv);
+  std::vector<T> frag_g;
   if (fragments) {
-    for (std::int64_t q = 0; q < static_cast<std::int64_t>(s.id.size()); ++q) {
-      if (s.id[q] == 0) continue;
-      pixel.push_back(static_cast<std::int32_t>(q));
-      frag_id.push_back(s.id[q]);
-      frag_uv.insert(frag_uv.end(), {in.uv[2 * q], in.uv[2 * q + 1]});
-      frag_g.insert(frag_g.end(), g.begin() + q * s.C, g.begin() + (q + 1) * s.C);
-    }
-    p.pixel_index = pixel.data();
-    p.count = static_cast<std::int64_t>(pixel.size());
-    p.tri_id = frag_id.data();
-    p.uv = frag_uv.data();
+    list.use_in(&p);
+    for (std::int32_t q : list.pixel) frag_g.insert(frag_g.end(), g.begin() + q * s.C, g.begin() + (q + 1) * s.C);
   }
-  std::vector<T> ga(in.attr.size(), T(0)), gc(in.clip.size(), T(0)), gu(fragments ? frag_uv.size() : in.uv.size());
+  std::vector<T> ga(in.attr.size(), T(0)), gc(in.clip.size(), T(0)), gu(fragments ? list.uv.size() : in.uv.size());
   set_num_threads(threads);
   interpolate_backward(p, fragments ? frag_g.data() : g.data(), {ga.data(), gc.data(), gu.data()});
   set_num_threads(0);
   std::vector<T> uv_image(in.uv.size(), T(0));
   if (fragments)
-    for (std::size_t f = 0; f < pixel.size(); ++f) {
-      uv_image[2 * pixel[f]] = gu[2 * f];
-      uv_image[2 * pixel[f] + 1] = gu[2 * f + 1];
+    for (std::size_t f = 0; f < list.pixel.size(); ++f) {
+      uv_image[2 * list.pixel[f]] = gu[2 * f];
+      uv_image[2 * list.pixel[f] + 1] = gu[2 * f + 1];
     }
   else
     uv_image = gu;
@@ -147,26 +160,14 @@ std::vector<T> forward(const ClipScene& s, bool fragments, const T* background) 
   const Typed<T> in(s);
   InterpolateParams<T> p = in.params(s);
   p.background = background;
-  std::vector<std::int32_t> pixel, frag_id;
-  std::vector<T> frag_uv;
-  if (fragments) {
-    for (std::int64_t q = 0; q < static_cast<std::int64_t>(s.id.size()); ++q) {
-      if (s.id[q] == 0) continue;
-      pixel.push_back(static_cast<std::int32_t>(q));
-      frag_id.push_back(s.id[q]);
-      frag_uv.insert(frag_uv.end(), {in.uv[2 * q], in.uv[2 * q + 1]});
-    }
-    p.pixel_index = pixel.data();
-    p.count = static_cast<std::int64_t>(pixel.size());
-    p.tri_id = frag_id.data();
-    p.uv = frag_uv.data();
-  }
+  const FragmentList<T> list(s, in.uv);
+  if (fragments) list.use_in(&p);
   std::vector<T> out(static_cast<std::size_t>(p.items() * s.C));
   interpolate_forward(p, out.data());
   if (!fragments) return out;
   std::vector<T> image(s.id.size() * s.C, T(-7));
-  for (std::size_t f = 0; f < pixel.size(); ++f)
-    for (int c = 0; c < s.C; ++c) image[pixel[f] * s.C + c] = out[f * s.C + c];
+  for (std::size_t f = 0; f < list.pixel.size(); ++f)
+    for (int c = 0; c < s.C; ++c) image[list.pixel[f] * s.C + c] = out[f * s.C + c];
   return image;
 }
 
