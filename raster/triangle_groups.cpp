@@ -26,12 +26,17 @@ class FreeBuckets {
   std::mutex mutex_;
   std::vector<std::unique_ptr<detail::Buckets>> free_;
 };
-FreeBuckets g_free_buckets;
+// Never destroyed: a G-buffer with static storage may give its buckets back
+// after this translation unit's statics are gone.
+FreeBuckets& free_buckets() {
+  static FreeBuckets* list = new FreeBuckets;
+  return *list;
+}
 
 }  // namespace
 
 TriangleGroups::~TriangleGroups() {
-  if (buckets_) g_free_buckets.give(std::move(buckets_));
+  if (buckets_) free_buckets().give(std::move(buckets_));
 }
 
 const detail::Buckets* TriangleGroups::by_triangle(const std::int32_t* tri_id, std::int64_t n,
@@ -39,7 +44,7 @@ const detail::Buckets* TriangleGroups::by_triangle(const std::int32_t* tri_id, s
   if (tri_id != tri_id_) return nullptr;
   std::lock_guard<std::mutex> lock(mutex_);
   if (!buckets_) {
-    std::unique_ptr<detail::Buckets> b = g_free_buckets.take();
+    std::unique_ptr<detail::Buckets> b = free_buckets().take();
     const detail::Buckets* from = fragments_ ? fragments_->grouped(num_tris) : nullptr;
     if (from) {
       // Bucket by bucket the fragments' items in the same order, as pixels.
