@@ -68,7 +68,7 @@ Fragments fragments(const GBuffer& gbuffer) {
                                                        std::make_shared<Tensor>(fr.tri_id));
   // rasterize's adjoint can then group the G-buffer's pixels from the fragments' grouping.
   if (gbuffer.groups)
-    gbuffer.groups->set_fragments(id.data<std::int32_t>(), fr.groups, fr.pixel_index.data<std::int32_t>(),
+    gbuffer.groups->set_fragments(id.data<std::int32_t>(), fr.groups, fr.pixel_index.data<std::int32_t>(), fr.count(),
                                   std::make_shared<Tensor>(fr.pixel_index));
   return fr;
 }

@@ -235,7 +235,8 @@ void interpolate_front_items(const InterpolateParams<T>& prm, std::int64_t lo, s
       for (int k = 0; k < 3; ++k) s += q[k];
       const double inv_s = detail::safe_inv(s);
       const double weight[3] = {q[0] * inv_s, q[1] * inv_s, q[2] * inv_s};
-      for (int c = 0; c < kC; ++c) value[c][i] = weight[0] * a[0][c][i] + weight[1] * a[1][c][i] + weight[2] * a[2][c][i];
+      for (int c = 0; c < kC; ++c)
+        value[c][i] = weight[0] * a[0][c][i] + weight[1] * a[1][c][i] + weight[2] * a[2][c][i];
     }
     for (int i = 0; i < n; ++i) {
       T* o = out + (p0 + i) * kC;

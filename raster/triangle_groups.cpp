@@ -45,7 +45,7 @@ const detail::Buckets* TriangleGroups::by_triangle(const std::int32_t* tri_id, s
   std::lock_guard<std::mutex> lock(mutex_);
   if (!buckets_) {
     std::unique_ptr<detail::Buckets> b = free_buckets().take();
-    const detail::Buckets* from = fragments_ ? fragments_->grouped(num_tris) : nullptr;
+    const detail::Buckets* from = fragments_ ? fragments_->grouped(fragment_count_, num_tris) : nullptr;
     if (from) {
       // Bucket by bucket the fragments' items in the same order, as pixels.
       b->start = from->start;
@@ -67,17 +67,19 @@ const detail::Buckets* TriangleGroups::by_triangle(const std::int32_t* tri_id, s
 }
 
 void TriangleGroups::set_fragments(const std::int32_t* tri_id, std::shared_ptr<TriangleGroups> fragments,
-                                   const std::int32_t* pixel_index, std::shared_ptr<const void> owner) {
+                                   const std::int32_t* pixel_index, std::int64_t count,
+                                   std::shared_ptr<const void> owner) {
   if (tri_id != tri_id_) return;
   std::lock_guard<std::mutex> lock(mutex_);
   fragments_ = std::move(fragments);
   pixel_index_ = pixel_index;
+  fragment_count_ = count;
   pixel_index_owner_ = std::move(owner);
 }
 
-const detail::Buckets* TriangleGroups::grouped(std::int64_t num_tris) {
+const detail::Buckets* TriangleGroups::grouped(std::int64_t n, std::int64_t num_tris) {
   std::lock_guard<std::mutex> lock(mutex_);
-  return buckets_ && num_tris_ == num_tris ? buckets_.get() : nullptr;
+  return buckets_ && n_ == n && num_tris_ == num_tris ? buckets_.get() : nullptr;
 }
 
 }  // namespace gr::raster

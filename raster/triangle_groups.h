@@ -42,17 +42,17 @@ class TriangleGroups {
   // another tri_id keeps its groups.
   const detail::Buckets* by_triangle(const std::int32_t* tri_id, std::int64_t n, std::int64_t num_tris);
 
-  // For a G-buffer's groups: `fragments` groups the fragments that list the
-  // covered pixels of the buffer at `tri_id` in ascending order, fragment f at
-  // pixel pixel_index[f] (kept alive by `owner`). If tri_id is this object's
-  // buffer and the fragments are grouped by the time it is, its grouping is
-  // derived from theirs (ignored for any other buffer).
+  // For a G-buffer's groups: `fragments` groups the `count` fragments that
+  // list the covered pixels of the buffer at `tri_id` in ascending order,
+  // fragment f at pixel pixel_index[f] (kept alive by `owner`). If tri_id is
+  // this object's buffer and all those fragments are grouped by the time it
+  // is, its grouping is derived from theirs (ignored for any other buffer).
   void set_fragments(const std::int32_t* tri_id, std::shared_ptr<TriangleGroups> fragments,
-                     const std::int32_t* pixel_index, std::shared_ptr<const void> owner);
+                     const std::int32_t* pixel_index, std::int64_t count, std::shared_ptr<const void> owner);
 
  private:
-  // The grouping, if made for num_tris triangles (null otherwise).
-  const detail::Buckets* grouped(std::int64_t num_tris);
+  // The grouping, if made for items [0, n) and num_tris triangles (null otherwise).
+  const detail::Buckets* grouped(std::int64_t n, std::int64_t num_tris);
 
   const std::int32_t* tri_id_;
   std::shared_ptr<const void> owner_;
@@ -64,6 +64,7 @@ class TriangleGroups {
   // set_fragments' arguments.
   std::shared_ptr<TriangleGroups> fragments_;
   const std::int32_t* pixel_index_ = nullptr;
+  std::int64_t fragment_count_ = 0;
   std::shared_ptr<const void> pixel_index_owner_;
 };
 

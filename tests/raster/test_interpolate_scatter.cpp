@@ -150,7 +150,8 @@ ClipScene with_two_more_channels(const ClipScene& s) {
   const std::vector<double> extra = random_vector(2 * static_cast<std::size_t>(s.N), -1, 1, 10);
   wide.attr.clear();
   for (int v = 0; v < s.N; ++v)
-    wide.attr.insert(wide.attr.end(), {s.attr[3 * v], s.attr[3 * v + 1], s.attr[3 * v + 2], extra[2 * v], extra[2 * v + 1]});
+    wide.attr.insert(wide.attr.end(),
+                     {s.attr[3 * v], s.attr[3 * v + 1], s.attr[3 * v + 2], extra[2 * v], extra[2 * v + 1]});
   return wide;
 }
 

@@ -62,7 +62,7 @@ TEST_CASE("triangle groups: a G-buffer grouped from its fragments' grouping equa
     set_num_threads(threads);
     const Image im(100003, 1);
     TriangleGroups gbuffer(im.id.data(), nullptr);
-    gbuffer.set_fragments(im.id.data(), grouped_fragments(im), im.pixel_index.data(), nullptr);
+    gbuffer.set_fragments(im.id.data(), grouped_fragments(im), im.pixel_index.data(), im.fragments(), nullptr);
     const detail::Buckets* b = gbuffer.by_triangle(im.id.data(), im.pixels(), kTris);
     REQUIRE(b != nullptr);
     CHECK(same(*b, direct(im)));
@@ -72,23 +72,31 @@ TEST_CASE("triangle groups: a G-buffer grouped from its fragments' grouping equa
   set_num_threads(0);
 }
 
-TEST_CASE("triangle groups: fragments of another buffer, or not grouped yet, are not used",
+TEST_CASE("triangle groups: fragments of another buffer, grouped in part or not yet, are not used",
           "[raster][triangle_groups]") {
   const Image im(5000, 2), other(5000, 3);
   SECTION("fragments registered for another buffer are ignored") {
     TriangleGroups gbuffer(im.id.data(), nullptr);
-    gbuffer.set_fragments(other.id.data(), grouped_fragments(other), other.pixel_index.data(), nullptr);
+    gbuffer.set_fragments(other.id.data(), grouped_fragments(other), other.pixel_index.data(), other.fragments(),
+                          nullptr);
     CHECK(same(*gbuffer.by_triangle(im.id.data(), im.pixels(), kTris), direct(im)));
   }
   SECTION("fragments registered for this buffer are used (shown with another image's fragments)") {
     TriangleGroups gbuffer(im.id.data(), nullptr);
-    gbuffer.set_fragments(im.id.data(), grouped_fragments(other), other.pixel_index.data(), nullptr);
+    gbuffer.set_fragments(im.id.data(), grouped_fragments(other), other.pixel_index.data(), other.fragments(), nullptr);
     CHECK(same(*gbuffer.by_triangle(im.id.data(), im.pixels(), kTris), direct(other)));
+  }
+  SECTION("fragments grouped over fewer items than registered: the pixels are grouped") {
+    auto fragments = std::make_shared<TriangleGroups>(other.frag_id.data(), nullptr);
+    REQUIRE(fragments->by_triangle(other.frag_id.data(), other.fragments() / 2, kTris) != nullptr);
+    TriangleGroups gbuffer(im.id.data(), nullptr);
+    gbuffer.set_fragments(im.id.data(), fragments, other.pixel_index.data(), other.fragments(), nullptr);
+    CHECK(same(*gbuffer.by_triangle(im.id.data(), im.pixels(), kTris), direct(im)));
   }
   SECTION("fragments not yet grouped: the pixels are grouped") {
     auto fragments = std::make_shared<TriangleGroups>(other.frag_id.data(), nullptr);
     TriangleGroups gbuffer(im.id.data(), nullptr);
-    gbuffer.set_fragments(im.id.data(), fragments, other.pixel_index.data(), nullptr);
+    gbuffer.set_fragments(im.id.data(), fragments, other.pixel_index.data(), other.fragments(), nullptr);
     CHECK(same(*gbuffer.by_triangle(im.id.data(), im.pixels(), kTris), direct(im)));
   }
 }
@@ -103,7 +111,7 @@ TEST_CASE("triangle groups: recycled buffers give the same groupings, smaller af
   }
   {
     TriangleGroups g(small.id.data(), nullptr);
-    g.set_fragments(small.id.data(), grouped_fragments(small), small.pixel_index.data(), nullptr);
+    g.set_fragments(small.id.data(), grouped_fragments(small), small.pixel_index.data(), small.fragments(), nullptr);
     CHECK(same(*g.by_triangle(small.id.data(), small.pixels(), kTris), direct(small)));
   }
 }
