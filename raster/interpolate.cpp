@@ -194,7 +194,8 @@ void clip_weights_backward(const TriangleWeights& tw, const detail::HVec& e, int
 // Their lane arrays are written element by element and read a vector at a
 // time; with 8 lanes the reads came soon enough after the writes to stall on
 // store forwarding (perf: 17% of the forward loop on one load), with 16 they
-// do not (bench_ops interpolate, 1 thread: forward 5.8 -> 4.6 ms).
+// do not (bench_ops interpolate, 1 thread: forward 5.8 ms with 8 lanes, 4.6 to
+// 5.0 ms with 16 or 32).
 constexpr int kLanes = 16;
 
 // interpolate_forward over items [lo, hi) in the common case, vectorized across
