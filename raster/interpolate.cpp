@@ -119,6 +119,18 @@ TriangleWeights triangle_weights(const T* clip, const std::int32_t* tri, bool pe
   return tw;
 }
 
+// weight_k = q_k / s, s = q_0 + q_1 + q_2 summed from 0 in that order (one
+// formula for the per-item and the vectorized loops, so they agree bit for
+// bit); returns 1 / s (guarded). Always inlined: otherwise GCC 12 no longer
+// vectorizes the adjoint's lane loop.
+[[gnu::always_inline]] inline double weights_from(const double* q, double* weight) {
+  double s = 0.0;
+  for (int k = 0; k < 3; ++k) s += q[k];
+  const double inv_s = safe_inv(s);
+  for (int k = 0; k < 3; ++k) weight[k] = q[k] * inv_s;
+  return inv_s;
+}
+
 struct PixelWeights {
   double lambda[3], weight[3], q[3], inv_s;
   detail::HVec e;  // from_clip: the pixel centre
@@ -135,23 +147,15 @@ inline PixelWeights pixel_weights(const TriangleWeights& tw, const T* uv, const 
     for (int k = 0; k < 3; ++k) pw.weight[k] = pw.lambda[k];
     return pw;
   }
-  double s = 0.0;
   if (tw.from_clip) {
     // q_k = F_k / D.
     pw.e = items.centre(p);
-    for (int k = 0; k < 3; ++k) {
-      pw.q[k] = detail::dot(pw.e, tw.cr[k]) * tw.inv_d;
-      s += pw.q[k];
-    }
+    for (int k = 0; k < 3; ++k) pw.q[k] = detail::dot(pw.e, tw.cr[k]) * tw.inv_d;
   } else {
     // q_k = lambda_k / w_k.
-    for (int k = 0; k < 3; ++k) {
-      pw.q[k] = pw.lambda[k] * tw.inv_w[k];
-      s += pw.q[k];
-    }
+    for (int k = 0; k < 3; ++k) pw.q[k] = pw.lambda[k] * tw.inv_w[k];
   }
-  pw.inv_s = safe_inv(s);
-  for (int k = 0; k < 3; ++k) pw.weight[k] = pw.q[k] * pw.inv_s;
+  pw.inv_s = weights_from(pw.q, pw.weight);
   return pw;
 }
 
@@ -232,10 +236,8 @@ void interpolate_front_items(const InterpolateParams<T>& prm, std::int64_t lo, s
     for (int i = 0; i < kLanes; ++i) {
       const double q[3] = {(1.0 - u[i] - v[i]) * detail::safe_inv(w[0][i]), u[i] * detail::safe_inv(w[1][i]),
                            v[i] * detail::safe_inv(w[2][i])};
-      double s = 0.0;
-      for (int k = 0; k < 3; ++k) s += q[k];
-      const double inv_s = detail::safe_inv(s);
-      const double weight[3] = {q[0] * inv_s, q[1] * inv_s, q[2] * inv_s};
+      double weight[3];
+      weights_from(q, weight);
       for (int c = 0; c < kC; ++c)
         value[c][i] = weight[0] * a[0][c][i] + weight[1] * a[1][c][i] + weight[2] * a[2][c][i];
     }
@@ -438,11 +440,8 @@ bool sum_front_items(const InterpolateParams<T>& prm, const TriangleTerms<T>& tt
     double terms[kSums][kLanes], du[kLanes], dv[kLanes];
     for (int i = 0; i < kLanes; ++i) {
       const double q[3] = {(1.0 - u[i] - v[i]) * inv_w[0], u[i] * inv_w[1], v[i] * inv_w[2]};
-      double s = 0.0;
-      for (int k = 0; k < 3; ++k) s += q[k];
-      const double inv_s = detail::safe_inv(s);
       double w[3];
-      for (int k = 0; k < 3; ++k) w[k] = q[k] * inv_s;
+      const double inv_s = weights_from(q, w);
       double value[kC];
       for (int c = 0; c < kC; ++c) value[c] = w[0] * A[0][c] + w[1] * A[1][c] + w[2] * A[2][c];
       double g_lambda[3];
