@@ -54,9 +54,12 @@ class ScratchPool {
   class Lease {
    public:
     Lease(ScratchPool* pool, std::unique_ptr<S> s) : pool_(pool), s_(std::move(s)) {}
+    Lease(Lease&& other) noexcept : pool_(other.pool_), s_(std::move(other.s_)) {}
     Lease(const Lease&) = delete;
     Lease& operator=(const Lease&) = delete;
-    ~Lease() { pool_->give(std::move(s_)); }
+    ~Lease() {
+      if (s_) pool_->give(std::move(s_));
+    }
     S& operator*() { return *s_; }
     S* operator->() { return s_.get(); }
 

@@ -1,50 +1,25 @@
 #include "raster/triangle_groups.h"
 
-#include <vector>
-
 #include "autodiff/parallel.h"
 
 namespace gr::raster {
 namespace {
 
-// Buckets of groupings that are gone, kept with their capacity.
-class FreeBuckets {
- public:
-  std::unique_ptr<detail::Buckets> take() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    if (free_.empty()) return std::make_unique<detail::Buckets>();
-    std::unique_ptr<detail::Buckets> b = std::move(free_.back());
-    free_.pop_back();
-    return b;
-  }
-  void give(std::unique_ptr<detail::Buckets> b) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    free_.push_back(std::move(b));
-  }
-
- private:
-  std::mutex mutex_;
-  std::vector<std::unique_ptr<detail::Buckets>> free_;
-};
 // Never destroyed: a G-buffer with static storage may give its buckets back
 // after this translation unit's statics are gone.
-FreeBuckets& free_buckets() {
-  static FreeBuckets* list = new FreeBuckets;
-  return *list;
+detail::ScratchPool<detail::Buckets>& bucket_pool() {
+  static auto* pool = new detail::ScratchPool<detail::Buckets>;
+  return *pool;
 }
 
 }  // namespace
-
-TriangleGroups::~TriangleGroups() {
-  if (buckets_) free_buckets().give(std::move(buckets_));
-}
 
 const detail::Buckets* TriangleGroups::by_triangle(const std::int32_t* tri_id, std::int64_t n,
                                                    std::int64_t num_tris) {
   if (tri_id != tri_id_) return nullptr;
   std::lock_guard<std::mutex> lock(mutex_);
   if (!buckets_) {
-    std::unique_ptr<detail::Buckets> b = free_buckets().take();
+    detail::ScratchPool<detail::Buckets>::Lease b = bucket_pool().take();
     const detail::Buckets* from = fragments_ ? fragments_->grouped(fragment_count_, num_tris) : nullptr;
     if (from) {
       // Bucket by bucket the fragments' items in the same order, as pixels.
@@ -57,13 +32,13 @@ const detail::Buckets* TriangleGroups::by_triangle(const std::int32_t* tri_id, s
         for (std::int64_t e = lo; e < hi; ++e) pixel[e] = pixel_index_[frag[e]];
       });
     } else {
-      detail::bucket_items(n, num_tris, [&](std::int64_t i) -> std::int64_t { return tri_id[i] - 1; }, b.get());
+      detail::bucket_items(n, num_tris, [&](std::int64_t i) -> std::int64_t { return tri_id[i] - 1; }, &*b);
     }
-    buckets_ = std::move(b);
+    buckets_.emplace(std::move(b));
     n_ = n;
     num_tris_ = num_tris;
   }
-  return n_ == n && num_tris_ == num_tris ? buckets_.get() : nullptr;
+  return n_ == n && num_tris_ == num_tris ? &**buckets_ : nullptr;
 }
 
 void TriangleGroups::set_fragments(const std::int32_t* tri_id, std::shared_ptr<TriangleGroups> fragments,
@@ -79,7 +54,7 @@ void TriangleGroups::set_fragments(const std::int32_t* tri_id, std::shared_ptr<T
 
 const detail::Buckets* TriangleGroups::grouped(std::int64_t n, std::int64_t num_tris) {
   std::lock_guard<std::mutex> lock(mutex_);
-  return buckets_ && n_ == n && num_tris_ == num_tris ? buckets_.get() : nullptr;
+  return buckets_ && n_ == n && num_tris_ == num_tris ? &**buckets_ : nullptr;
 }
 
 }  // namespace gr::raster

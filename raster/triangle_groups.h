@@ -21,9 +21,11 @@
 #include <cstdint>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <utility>
 
 #include "raster/buckets.h"
+#include "raster/rasterize_setup.h"
 
 namespace gr::raster {
 
@@ -34,7 +36,6 @@ class TriangleGroups {
       : tri_id_(tri_id), owner_(std::move(owner)) {}
   TriangleGroups(const TriangleGroups&) = delete;
   TriangleGroups& operator=(const TriangleGroups&) = delete;
-  ~TriangleGroups();  // gives the grouping's buffers back for the next one
 
   // The items [0, n) grouped by tri_id[i] - 1 over num_tris triangles
   // (tri_id 0 left out), grouped on the first call. Null for any other buffer
@@ -58,9 +59,9 @@ class TriangleGroups {
   std::shared_ptr<const void> owner_;
   std::mutex mutex_;
   std::int64_t n_ = 0, num_tris_ = 0;
-  // The grouping once made; its buffers come from a free list (a new
-  // G-buffer every iteration must not page-fault new ones in).
-  std::unique_ptr<detail::Buckets> buckets_;
+  // The grouping once made, in buffers leased from a pool and given back with
+  // this object (a new G-buffer every iteration must not page-fault new ones in).
+  std::optional<detail::ScratchPool<detail::Buckets>::Lease> buckets_;
   // set_fragments' arguments.
   std::shared_ptr<TriangleGroups> fragments_;
   const std::int32_t* pixel_index_ = nullptr;
