@@ -25,6 +25,7 @@
 #include "autodiff/error.h"
 #include "autodiff/parallel.h"
 #include "raster/buckets.h"
+#include "raster/classify_lanes.h"
 #include "raster/corner_gather.h"
 #include "raster/guarded_math.h"
 #include "raster/project.h"
@@ -118,6 +119,7 @@ inline void prefetch_vertices(const detail::Vertices& v, const std::int32_t* tri
   for (int k = 0; k < 3; ++k) {
     __builtin_prefetch(&v.screen[3 * static_cast<std::size_t>(tri[k])]);
     __builtin_prefetch(&v.outcode[tri[k]]);
+    __builtin_prefetch(&v.front[tri[k]]);
   }
 }
 
@@ -225,12 +227,19 @@ RasterStats classify_and_count(const RasterParams<T>& p, const Grid& g, ForwardS
       std::vector<detail::Fragment>& frag = sc.chunk_frag[c];
       frag.clear();
       RasterStats& st = sc.chunk_stats[c];
-      const std::int64_t t1 = std::min(p.num_tris, (c + 1) * g.chunk);
-      for (std::int64_t t = c * g.chunk; t < t1; ++t) {
+      const std::int64_t t0 = c * g.chunk, t1 = std::min(p.num_tris, (c + 1) * g.chunk);
+      detail::TriClass lane_class[detail::kClassifyLanes];
+      for (std::int64_t t = t0; t < t1; ++t) {
         const std::int32_t* tri = p.tris + 3 * t;
-        if (t + kPrefetchAhead < t1) prefetch_vertices(v, tri + 3 * kPrefetchAhead);
+        // The next batch's vertices, asked for while this one is finished.
+        if (t + detail::kClassifyLanes < t1) prefetch_vertices(v, tri + 3 * detail::kClassifyLanes);
+        const int lane = static_cast<int>((t - t0) % detail::kClassifyLanes);
+        if (lane == 0)
+          detail::classify_lanes(v, p.tris, t, static_cast<int>(std::min<std::int64_t>(detail::kClassifyLanes, t1 - t)),
+                                 g.width, g.height, cull, lane_class, &sc.box[t]);
         detail::PixelBox& b = sc.box[t];
-        detail::TriClass k = detail::classify_triangle(v, tri, g.width, g.height, cull, &b);
+        detail::TriClass k = lane_class[lane];
+        if (k == detail::TriClass::Clipped) k = detail::classify_triangle(v, tri, g.width, g.height, cull, &b);
         // Triangles of a finely tessellated mesh mostly have boxes of a few
         // pixel centres: evaluate those now, while their vertices are in
         // cache, instead of binning them and setting them up again per tile.

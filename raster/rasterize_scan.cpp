@@ -116,7 +116,7 @@ void scan_small(const TriSetup& s, std::int32_t t, int x0, int x1, int y0, int y
     for (int x = x0; x <= x1; ++x) {
       const double px = x + 0.5;
       const double v0 = e0.eval(px, r0), v1 = e1.eval(px, r1), v2 = e2.eval(px, r2);
-      if (!(e0.inside(v0) && e1.inside(v1) && e2.inside(v2))) continue;
+      if (!(e0.inside(v0) & e1.inside(v1) & e2.inside(v2))) continue;
       resolve_pixel(s, t, row + x, v0 * e0.mz + v1 * e1.mz + v2 * e2.mz, v1 * e1.mu, v2 * e2.mu, tb);
     }
   }
@@ -138,7 +138,7 @@ int box_fragments(const Vertices& v, const std::int32_t* tris, std::int32_t t, c
     for (int x = b.x0; x <= b.x1; ++x) {
       const double px = x + 0.5;
       const double v0 = e0.eval(px, r0), v1 = e1.eval(px, r1), v2 = e2.eval(px, r2);
-      if (!(e0.inside(v0) && e1.inside(v1) && e2.inside(v2))) continue;
+      if (!(e0.inside(v0) & e1.inside(v1) & e2.inside(v2))) continue;
       if (covered++ == 0) setup_screen_weights(v, tri, a2, &s);
       const double z = v0 * e0.mz + v1 * e1.mz + v2 * e2.mz;
       if (s.z_test && !(z >= -1.0 && z <= 1.0)) continue;

@@ -185,7 +185,8 @@ bool clip_less(const Vertices& v, std::int32_t a, std::int32_t b) {
 
 // Top-left rule: on e == 0 the pixel is inside if the inside lies towards +x,
 // or (horizontal edge) towards +y, i.e. the gradient (dy, -dx) points there.
-bool tie_rule(double dx, double dy) { return dy > 0.0 || (dy == 0.0 && dx < 0.0); }
+// (Bitwise on the comparisons: no branch to mispredict on random edge directions.)
+bool tie_rule(double dx, double dy) { return (dy > 0.0) | ((dy == 0.0) & (dx < 0.0)); }
 
 // Screen-space edge from pa to pb (screen x, y; already in canonical order)
 // times sign, written field by field into *e: an Edge built on the stack and
@@ -321,14 +322,10 @@ double setup_screen_edges(const Vertices& v, const std::int32_t* tri, TriSetup* 
   for (int k = 0; k < 3; ++k) {
     const int ia = k == 2 ? 0 : k + 1, ib = k == 0 ? 2 : k - 1;
     const double *pa = p[ia], *pb = p[ib];
-    double sg = sign;
-    // Canonical order (screen_less): by x, then y, then vertex index.
-    const bool swap = pb[0] != pa[0] ? pb[0] < pa[0] : pb[1] != pa[1] ? pb[1] < pa[1] : tri[ib] < tri[ia];
-    if (swap) {
-      std::swap(pa, pb);
-      sg = -sg;
-    }
-    edge_between(pa, pb, sg, &out->e[k]);
+    // Canonical order (screen_less): by x, then y, then vertex index, as
+    // selections rather than branches (the order is random per edge).
+    const bool swap = (pb[0] < pa[0]) | ((pb[0] == pa[0]) & ((pb[1] < pa[1]) | ((pb[1] == pa[1]) & (tri[ib] < tri[ia]))));
+    edge_between(swap ? pb : pa, swap ? pa : pb, swap ? -sign : sign, &out->e[k]);
   }
   return a2;
 }

@@ -98,7 +98,7 @@ struct Edge {
   bool tie;
   double row(double py) const { return (py - ay) * dx; }
   double eval(double px, double rowterm) const { return ((px - ax) * dy - rowterm) + c; }
-  bool inside(double e) const { return e > 0.0 || (e == 0.0 && tie); }
+  bool inside(double e) const { return (e > 0.0) | ((e == 0.0) & tie); }
 };
 
 struct TriSetup {

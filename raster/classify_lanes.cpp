@@ -1,0 +1,145 @@
+#include "raster/classify_lanes.h"
+
+#include <cstddef>
+#include <cstring>
+
+#include "raster/rasterize_scan.h"
+
+namespace gr::raster::detail {
+namespace {
+
+// Four doubles in one AVX register, with GCC / Clang vector extensions: the
+// operators act lane by lane with scalar IEEE semantics, comparisons give
+// masks (all bits set for true), and `mask ? a : b` selects per lane.
+typedef double Vd __attribute__((vector_size(32)));
+typedef std::int64_t Vm __attribute__((vector_size(32)));
+typedef std::int32_t Vi __attribute__((vector_size(16)));
+constexpr int kWidth = 4;
+static_assert(kClassifyLanes % kWidth == 0, "whole vectors of lanes");
+
+Vd splat(double x) { return Vd{} + x; }
+Vd load(const double* p) {
+  Vd v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+// As std::min / std::max pick them.
+Vd vmin(Vd a, Vd b) { return b < a ? b : a; }
+Vd vmax(Vd a, Vd b) { return a < b ? b : a; }
+Vd as_flag(Vm m) { return m ? splat(1.0) : splat(0.0); }
+
+// classify_triangle's pixel_range: the index range [lo, hi] of the pixel
+// centres in [a, b] (clamped to [-2, n + 2]: exact floor / ceil by truncation
+// and one compare), clamped to [0, n - 1].
+void centre_range(Vd a, Vd b, double n, Vd& lo, Vd& hi) {
+  a = vmin(vmax(a, splat(-2.0)), splat(n + 2.0)) - 0.5;
+  b = vmin(vmax(b, splat(-2.0)), splat(n + 2.0)) - 0.5;
+  const Vd a_t = __builtin_convertvector(__builtin_convertvector(a, Vi), Vd);
+  const Vd b_t = __builtin_convertvector(__builtin_convertvector(b, Vi), Vd);
+  lo = vmax(splat(0.0), a_t + as_flag(a_t < a));
+  hi = vmin(splat(n - 1.0), b_t - as_flag(b_t > b));
+}
+
+// One screen edge from corner a to corner b of triangles of orientation
+// `sign`, as setup_screen_edges builds it: the two vertices in canonical order
+// (by x, then y, then vertex index), the difference times the sign, and the
+// top-left rule's tie.
+struct LaneEdge {
+  Vd ax, ay, dx, dy;
+  Vm tie;
+};
+LaneEdge lane_edge(Vd xa, Vd ya, Vd ia, Vd xb, Vd yb, Vd ib, Vd sign) {
+  const Vm swap = (xb < xa) | ((xb == xa) & ((yb < ya) | ((yb == ya) & (ib < ia))));
+  LaneEdge e;
+  e.ax = swap ? xb : xa;
+  e.ay = swap ? yb : ya;
+  const Vd s = swap ? -sign : sign;
+  e.dx = s * ((swap ? xa : xb) - e.ax);
+  e.dy = s * ((swap ? ya : yb) - e.ay);
+  e.tie = (e.dy > 0.0) | ((e.dy == 0.0) & (e.dx < 0.0));
+  return e;
+}
+
+// Edge::eval and Edge::inside at (px, py). Screen edges have c = 0, which
+// would only turn a -0 into +0: the same side either way.
+Vm inside(const LaneEdge& e, Vd px, Vd py) {
+  const Vd v = (px - e.ax) * e.dy - (py - e.ay) * e.dx;
+  return (v > 0.0) | ((v == 0.0) & e.tie);
+}
+
+}  // namespace
+
+void classify_lanes(const Vertices& v, const std::int32_t* tris, std::int64_t t0, int n, int width, int height,
+                    int cull, TriClass* k, PixelBox* box) {
+  // Gather: each corner's screen position and vertex index, one array per
+  // corner and coordinate (lanes past n hold a harmless zero triangle).
+  double x[3][kClassifyLanes] = {}, y[3][kClassifyLanes] = {}, id[3][kClassifyLanes] = {};
+  for (int i = 0; i < n; ++i) {
+    const std::int32_t* tri = tris + 3 * (t0 + i);
+    for (int c = 0; c < 3; ++c) {
+      const double* s = &v.screen[3 * static_cast<std::size_t>(tri[c])];
+      x[c][i] = s[0];
+      y[c][i] = s[1];
+      id[c][i] = tri[c];
+    }
+  }
+
+  // The arithmetic of classify_triangle and of box_fragments' coverage test,
+  // four triangles at a time.
+  double area2[kClassifyLanes], x0s[kClassifyLanes], x1s[kClassifyLanes], y0s[kClassifyLanes], y1s[kClassifyLanes];
+  std::int64_t covers[kClassifyLanes];
+  for (int i = 0; i < kClassifyLanes; i += kWidth) {
+    const Vd x0 = load(&x[0][i]), x1 = load(&x[1][i]), x2 = load(&x[2][i]);
+    const Vd y0 = load(&y[0][i]), y1 = load(&y[1][i]), y2 = load(&y[2][i]);
+    const Vd i0 = load(&id[0][i]), i1 = load(&id[1][i]), i2 = load(&id[2][i]);
+    const Vd a2 = (x0 - x1) * (y2 - y1) - (y0 - y1) * (x2 - x1);
+    Vd bx0, bx1, by0, by1;
+    centre_range(vmin(vmin(x0, x1), x2), vmax(vmax(x0, x1), x2), width, bx0, bx1);
+    centre_range(vmin(vmin(y0, y1), y2), vmax(vmax(y0, y1), y2), height, by0, by1);
+    // The centres of a box of at most kMaxFragmentBox (slot s: column s mod w,
+    // row s / w) against the three edges.
+    const Vd w = bx1 - bx0 + 1.0, area = w * (by1 - by0 + 1.0);
+    const Vd sign = a2 > 0.0 ? splat(1.0) : splat(-1.0);
+    const LaneEdge e0 = lane_edge(x1, y1, i1, x2, y2, i2, sign);
+    const LaneEdge e1 = lane_edge(x2, y2, i2, x0, y0, i0, sign);
+    const LaneEdge e2 = lane_edge(x0, y0, i0, x1, y1, i1, sign);
+    Vm any = Vm{};
+    for (int s = 0; s < kMaxFragmentBox; ++s) {
+      const Vd slot = splat(s);
+      const Vd row = as_flag(slot >= w) + as_flag(slot >= 2.0 * w) + as_flag(slot >= 3.0 * w);
+      const Vd px = (bx0 + (slot - row * w)) + 0.5, py = (by0 + row) + 0.5;
+      any |= (slot < area) & inside(e0, px, py) & inside(e1, px, py) & inside(e2, px, py);
+    }
+    std::memcpy(&area2[i], &a2, sizeof a2);
+    std::memcpy(&x0s[i], &bx0, sizeof bx0);
+    std::memcpy(&x1s[i], &bx1, sizeof bx1);
+    std::memcpy(&y0s[i], &by0, sizeof by0);
+    std::memcpy(&y1s[i], &by1, sizeof by1);
+    const Vm big = area > kMaxFragmentBox;  // not tested here: box_fragments or the tiles decide
+    const Vm result = any | big;
+    std::memcpy(&covers[i], &result, sizeof result);
+  }
+
+  // classify_triangle's outcome, in its order: frustum, clipping, area, facing, box.
+  for (int i = 0; i < n; ++i) {
+    const std::int32_t* tri = tris + 3 * (t0 + i);
+    const bool front = area2[i] > 0.0;
+    PixelBox& b = box[i];
+    b = {static_cast<std::int32_t>(x0s[i]), static_cast<std::int32_t>(y0s[i]), static_cast<std::int32_t>(x1s[i]),
+         static_cast<std::int32_t>(y1s[i])};
+    if (v.outcode[tri[0]] & v.outcode[tri[1]] & v.outcode[tri[2]])
+      k[i] = TriClass::Outside;
+    else if (!(v.front[tri[0]] & v.front[tri[1]] & v.front[tri[2]]))
+      k[i] = TriClass::Clipped;
+    else if (area2[i] == 0.0)
+      k[i] = TriClass::ZeroArea;
+    else if ((cull > 0 && !front) || (cull < 0 && front))
+      k[i] = TriClass::Face;
+    else if (b.x0 > b.x1 || b.y0 > b.y1 || covers[i] == 0)
+      k[i] = TriClass::NoPixel;
+    else
+      k[i] = TriClass::Raster;
+  }
+}
+
+}  // namespace gr::raster::detail
