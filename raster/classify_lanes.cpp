@@ -60,20 +60,17 @@ LaneEdge lane_edge(Vd xa, Vd ya, Vd ia, Vd xb, Vd yb, Vd ib, Vd sign) {
   return e;
 }
 
-// Edge::eval and Edge::inside at (px, py). Screen edges have c = 0, which
-// would only turn a -0 into +0: the same side either way.
-Vm inside(const LaneEdge& e, Vd px, Vd py) {
-  const Vd v = (px - e.ax) * e.dy - (py - e.ay) * e.dx;
-  return (v > 0.0) | ((v == 0.0) & e.tie);
-}
+// Edge::eval at (px, py) (a screen edge's c is 0) and Edge::inside.
+Vd eval(const LaneEdge& e, Vd px, Vd py) { return ((px - e.ax) * e.dy - (py - e.ay) * e.dx) + 0.0; }
+Vm inside(const LaneEdge& e, Vd value) { return (value > 0.0) | ((value == 0.0) & e.tie); }
 
 }  // namespace
 
 void classify_lanes(const Vertices& v, const std::int32_t* tris, std::int64_t t0, int n, int width, int height,
-                    int cull, TriClass* k, PixelBox* box) {
+                    int cull, TriClass* k, PixelBox* box, LaneCoverage* cover) {
   // Gather: each corner's screen position and vertex index, one array per
   // corner and coordinate (lanes past n hold a harmless zero triangle).
-  double x[3][kClassifyLanes] = {}, y[3][kClassifyLanes] = {}, id[3][kClassifyLanes] = {};
+  double x[3][kClassifyLanes], y[3][kClassifyLanes], id[3][kClassifyLanes];
   for (int i = 0; i < n; ++i) {
     const std::int32_t* tri = tris + 3 * (t0 + i);
     for (int c = 0; c < 3; ++c) {
@@ -83,10 +80,13 @@ void classify_lanes(const Vertices& v, const std::int32_t* tris, std::int64_t t0
       id[c][i] = tri[c];
     }
   }
+  for (int i = n; i < kClassifyLanes; ++i)
+    for (int c = 0; c < 3; ++c) x[c][i] = y[c][i] = id[c][i] = 0.0;
 
-  // The arithmetic of classify_triangle and of box_fragments' coverage test,
-  // four triangles at a time.
-  double area2[kClassifyLanes], x0s[kClassifyLanes], x1s[kClassifyLanes], y0s[kClassifyLanes], y1s[kClassifyLanes];
+  // The arithmetic of classify_triangle and of the scan's coverage test at
+  // the centres of small boxes, four triangles at a time.
+  double* const area2 = cover->area2;
+  double x0s[kClassifyLanes], x1s[kClassifyLanes], y0s[kClassifyLanes], y1s[kClassifyLanes];
   std::int64_t covers[kClassifyLanes];
   for (int i = 0; i < kClassifyLanes; i += kWidth) {
     const Vd x0 = load(&x[0][i]), x1 = load(&x[1][i]), x2 = load(&x[2][i]);
@@ -104,18 +104,26 @@ void classify_lanes(const Vertices& v, const std::int32_t* tris, std::int64_t t0
     const LaneEdge e1 = lane_edge(x2, y2, i2, x0, y0, i0, sign);
     const LaneEdge e2 = lane_edge(x0, y0, i0, x1, y1, i1, sign);
     Vm any = Vm{};
+    Vm slots = Vm{};
     for (int s = 0; s < kMaxFragmentBox; ++s) {
       const Vd slot = splat(s);
       const Vd row = as_flag(slot >= w) + as_flag(slot >= 2.0 * w) + as_flag(slot >= 3.0 * w);
       const Vd px = (bx0 + (slot - row * w)) + 0.5, py = (by0 + row) + 0.5;
-      any |= (slot < area) & inside(e0, px, py) & inside(e1, px, py) & inside(e2, px, py);
+      const Vd v0 = eval(e0, px, py), v1 = eval(e1, px, py), v2 = eval(e2, px, py);
+      const Vm covered = (slot < area) & inside(e0, v0) & inside(e1, v1) & inside(e2, v2);
+      any |= covered;
+      slots |= covered & (std::int64_t(1) << s);
+      std::memcpy(&cover->e[s][0][i], &v0, sizeof v0);
+      std::memcpy(&cover->e[s][1][i], &v1, sizeof v1);
+      std::memcpy(&cover->e[s][2][i], &v2, sizeof v2);
     }
+    for (int j = 0; j < kWidth; ++j) cover->slots[i + j] = static_cast<std::uint8_t>(slots[j]);
     std::memcpy(&area2[i], &a2, sizeof a2);
     std::memcpy(&x0s[i], &bx0, sizeof bx0);
     std::memcpy(&x1s[i], &bx1, sizeof bx1);
     std::memcpy(&y0s[i], &by0, sizeof by0);
     std::memcpy(&y1s[i], &by1, sizeof by1);
-    const Vm big = area > kMaxFragmentBox;  // not tested here: box_fragments or the tiles decide
+    const Vm big = area > kMaxFragmentBox;  // not tested here: the tiles' scan decides
     const Vm result = any | big;
     std::memcpy(&covers[i], &result, sizeof result);
   }
@@ -140,6 +148,25 @@ void classify_lanes(const Vertices& v, const std::int32_t* tris, std::int64_t t0
     else
       k[i] = TriClass::Raster;
   }
+}
+
+int lane_fragments(const Vertices& v, const std::int32_t* tris, std::int32_t t, const PixelBox& b,
+                   const LaneCoverage& cover, int lane, int tiles_x, Fragment* out) {
+  // The weights (a division) of setup_edges; the edge values come from the lanes.
+  TriSetup s;
+  setup_screen_weights(v, tris + 3 * static_cast<std::int64_t>(t), cover.area2[lane], &s);
+  const int w = b.x1 - b.x0 + 1;
+  int n = 0;
+  for (int slot = 0; slot < kMaxFragmentBox; ++slot) {
+    if (!(cover.slots[lane] >> slot & 1)) continue;
+    const double v0 = cover.e[slot][0][lane], v1 = cover.e[slot][1][lane], v2 = cover.e[slot][2][lane];
+    const double z = v0 * s.e[0].mz + v1 * s.e[1].mz + v2 * s.e[2].mz;
+    if (s.z_test && !(z >= -1.0 && z <= 1.0)) continue;
+    const int x = b.x0 + slot % w, y = b.y0 + slot / w;
+    const int tile = (y / kTile) * tiles_x + x / kTile, in_tile = (y % kTile) * kTile + x % kTile;
+    out[n++] = {z, v1 * s.e[1].mu, v2 * s.e[2].mu, t, tile * kTilePixels + in_tile};
+  }
+  return n;
 }
 
 }  // namespace gr::raster::detail

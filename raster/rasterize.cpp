@@ -6,7 +6,7 @@
 // triangle chunks (frustum reject, area, culling, pixel bounding box) while
 // counting each chunk's triangles per kTile x kTile screen tile (triangles
 // with boxes of a few pixel centres are evaluated right there and binned as
-// fragments, detail::box_fragments); offsets chunk
+// fragments, detail::classify_lanes); offsets chunk
 // by chunk within each tile, then a fill per chunk, so every tile lists its triangles
 // in ascending order for any thread count; then parallel_for over the
 // non-empty tiles, each owning its pixels (empty tiles are never visited), so the
@@ -62,7 +62,7 @@ struct ForwardScratch {
   std::vector<std::int64_t> offset;   // tiles + 1
   std::vector<BinEntry> bin;          // triangles, tile by tile
   std::vector<RasterStats> chunk_stats;
-  // Fragments of small triangles (detail::box_fragments), binned like the
+  // Fragments of small triangles (detail::lane_fragments), binned like the
   // triangles: per chunk in triangle order, then tile by tile.
   std::vector<std::vector<detail::Fragment>> chunk_frag;
   std::vector<std::int32_t> fcount;  // chunks x tiles: counts, then fill cursors
@@ -229,6 +229,7 @@ RasterStats classify_and_count(const RasterParams<T>& p, const Grid& g, ForwardS
       RasterStats& st = sc.chunk_stats[c];
       const std::int64_t t0 = c * g.chunk, t1 = std::min(p.num_tris, (c + 1) * g.chunk);
       detail::TriClass lane_class[detail::kClassifyLanes];
+      detail::LaneCoverage lane_cover;
       for (std::int64_t t = t0; t < t1; ++t) {
         const std::int32_t* tri = p.tris + 3 * t;
         // The next batch's vertices, asked for while this one is finished.
@@ -236,22 +237,20 @@ RasterStats classify_and_count(const RasterParams<T>& p, const Grid& g, ForwardS
         const int lane = static_cast<int>((t - t0) % detail::kClassifyLanes);
         if (lane == 0)
           detail::classify_lanes(v, p.tris, t, static_cast<int>(std::min<std::int64_t>(detail::kClassifyLanes, t1 - t)),
-                                 g.width, g.height, cull, lane_class, &sc.box[t]);
+                                 g.width, g.height, cull, lane_class, &sc.box[t], &lane_cover);
         detail::PixelBox& b = sc.box[t];
         detail::TriClass k = lane_class[lane];
         if (k == detail::TriClass::Clipped) k = detail::classify_triangle(v, tri, g.width, g.height, cull, &b);
         // Triangles of a finely tessellated mesh mostly have boxes of a few
-        // pixel centres: evaluate those now, while their vertices are in
-        // cache, instead of binning them and setting them up again per tile.
-        // Covering no centre, they are rejected; else their fragments are binned.
+        // pixel centres: the lanes evaluated those (and rejected the ones
+        // covering no centre); their fragments are binned instead of the
+        // triangle, which would be set up again per tile.
         bool small = false;
         if (k == detail::TriClass::Raster &&
             (b.x1 - b.x0 + 1) * (b.y1 - b.y0 + 1) <= detail::kMaxFragmentBox) {
           detail::Fragment f[detail::kMaxFragmentBox];
-          int emitted = 0;
-          if (detail::box_fragments(v, p.tris, static_cast<std::int32_t>(t), b, g.width, g.height, g.tiles_x, f,
-                                    &emitted) == 0)
-            k = detail::TriClass::NoPixel;
+          const int emitted =
+              detail::lane_fragments(v, p.tris, static_cast<std::int32_t>(t), b, lane_cover, lane, g.tiles_x, f);
           for (int i = 0; i < emitted; ++i) {
             ++fcnt[f[i].where / kTilePixels];
             frag.push_back(f[i]);

@@ -124,32 +124,6 @@ void scan_small(const TriSetup& s, std::int32_t t, int x0, int x1, int y0, int y
 
 }  // namespace
 
-int box_fragments(const Vertices& v, const std::int32_t* tris, std::int32_t t, const PixelBox& b, int /*width*/,
-                  int /*height*/, int tiles_x, Fragment* out, int* emitted) {
-  // The edges first; the weights (a division) only once a centre is covered.
-  TriSetup s;
-  const std::int32_t* tri = tris + 3 * static_cast<std::int64_t>(t);
-  const double a2 = setup_screen_edges(v, tri, &s);
-  const Edge &e0 = s.e[0], &e1 = s.e[1], &e2 = s.e[2];
-  int covered = 0, n = 0;
-  for (int y = b.y0; y <= b.y1; ++y) {
-    const double py = y + 0.5;
-    const double r0 = e0.row(py), r1 = e1.row(py), r2 = e2.row(py);
-    for (int x = b.x0; x <= b.x1; ++x) {
-      const double px = x + 0.5;
-      const double v0 = e0.eval(px, r0), v1 = e1.eval(px, r1), v2 = e2.eval(px, r2);
-      if (!(e0.inside(v0) & e1.inside(v1) & e2.inside(v2))) continue;
-      if (covered++ == 0) setup_screen_weights(v, tri, a2, &s);
-      const double z = v0 * e0.mz + v1 * e1.mz + v2 * e2.mz;
-      if (s.z_test && !(z >= -1.0 && z <= 1.0)) continue;
-      const int tile = (y / kTile) * tiles_x + x / kTile, slot = (y % kTile) * kTile + x % kTile;
-      out[n++] = {z, v1 * e1.mu, v2 * e2.mu, t, tile * kTilePixels + slot};
-    }
-  }
-  *emitted = n;
-  return covered;
-}
-
 void resolve_fragments(const Fragment* f, std::int64_t n, TileBuffer& tb) {
   for (std::int64_t i = 0; i < n; ++i) {
     const int p = f[i].where % kTilePixels;

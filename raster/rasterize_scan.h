@@ -32,22 +32,15 @@ struct TileBuffer {
   std::int32_t fid[kTilePixels];
 };
 
-// A covered pixel centre of a small triangle, computed before binning:
-// where = tile * kTilePixels + slot; z, u, v as the scan computes them, after
-// the triangle's depth range test.
+// A covered pixel centre of a small triangle, computed before binning
+// (classify_lanes.h, lane_fragments): where = tile * kTilePixels + slot; z, u, v
+// as the scan computes them, after the triangle's depth range test.
 struct Fragment {
   double z, u, v;
   std::int32_t id, where;
 };
-
-// Small-box path, run in classification while the triangle's vertices are in
-// cache: evaluates triangle t (unclipped) at the pixel centres of its whole
-// box b (at most kMaxFragmentBox of them) with the scan's expressions, writes
-// the covered ones that pass the depth range test to out, and returns the
-// number of covered centres (0: the triangle writes no pixel).
+// Triangles whose box holds at most this many pixel centres leave fragments.
 constexpr int kMaxFragmentBox = 4;
-int box_fragments(const Vertices& v, const std::int32_t* tris, std::int32_t t, const PixelBox& b, int width,
-                  int height, int tiles_x, Fragment* out, int* emitted);
 
 // Resolves fragments of one tile into tb (the peeling floor and the
 // (depth, id) test, as for a scanned triangle; the order does not matter).

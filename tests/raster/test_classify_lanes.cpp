@@ -1,64 +1,101 @@
-// classify_lanes (raster/classify_lanes.h) against the scalar classification
-// it batches: classify_triangle's class and box for every triangle, and
-// NoPixel exactly where box_fragments would find no covered centre; on
-// random triangles of every size, on vertices and edges through pixel
-// centres (the top-left rule's ties), degenerate, culled, off-screen and
-// near-plane triangles, and batches shorter than the lanes.
+// classify_lanes and lane_fragments (raster/classify_lanes.h) against the
+// scalar rules they batch: classify_triangle's class and box for every
+// triangle, NoPixel exactly where no centre of a small box is covered, and,
+// for the others, the fragments the per-pixel rule gives (setup_edges, the
+// edge values and the depth range test of the tile scan), bit for bit; on
+// random triangles of every size, on vertices and edges through pixel centres
+// (the top-left rule's ties), degenerate, culled, off-screen and near-plane
+// triangles, and batches shorter than the lanes.
 #include <catch2/catch.hpp>
 
+#include <cstring>
 #include <random>
 #include <vector>
 
 #include "raster/classify_lanes.h"
-#include "raster/rasterize_scan.h"
 
 using namespace gr::raster::detail;
 
 namespace {
 
-constexpr int W = 37, H = 29;
+constexpr int W = 37, H = 29, kTilesX = (W + kTile - 1) / kTile;
 
-// What classify_lanes documents, triangle by triangle.
-TriClass expected_class(const Vertices& v, const std::int32_t* tris, std::int64_t t, int cull, PixelBox* box) {
-  const std::int32_t* tri = tris + 3 * t;
-  // Left to classify_triangle: crossing the near plane, not outside a frustum plane.
-  if (!(v.outcode[tri[0]] & v.outcode[tri[1]] & v.outcode[tri[2]]) && needs_clipping(v, tri)) return TriClass::Clipped;
-  TriClass k = classify_triangle(v, tri, W, H, cull, box);
-  if (k == TriClass::Raster && (box->x1 - box->x0 + 1) * (box->y1 - box->y0 + 1) <= kMaxFragmentBox) {
-    Fragment f[kMaxFragmentBox];
-    int emitted = 0;
-    if (box_fragments(v, tris, static_cast<std::int32_t>(t), *box, W, H, 1, f, &emitted) == 0) k = TriClass::NoPixel;
-  }
-  return k;
+// The per-pixel rule over a small box, row by row: the fragments of the
+// covered centres that pass the depth range test; `covered` counts the
+// covered centres before that test.
+std::vector<Fragment> reference_fragments(const Vertices& v, const std::int32_t* tris, std::int32_t t,
+                                          const PixelBox& b, int* covered) {
+  TriSetup s;
+  setup_edges(v, tris + 3 * t, W, H, &s);
+  std::vector<Fragment> out;
+  *covered = 0;
+  for (int y = b.y0; y <= b.y1; ++y)
+    for (int x = b.x0; x <= b.x1; ++x) {
+      double e[3];
+      bool in = true;
+      for (int k = 0; k < 3; ++k) {
+        e[k] = s.e[k].eval(x + 0.5, s.e[k].row(y + 0.5));
+        in = in && s.e[k].inside(e[k]);
+      }
+      if (!in) continue;
+      ++*covered;
+      const double z = e[0] * s.e[0].mz + e[1] * s.e[1].mz + e[2] * s.e[2].mz;
+      if (s.z_test && !(z >= -1.0 && z <= 1.0)) continue;
+      const int where = ((y / kTile) * kTilesX + x / kTile) * kTilePixels + (y % kTile) * kTile + x % kTile;
+      out.push_back({z, e[1] * s.e[1].mu, e[2] * s.e[2].mu, t, where});
+    }
+  return out;
+}
+
+bool same_bits(const Fragment& a, const Fragment& b) {
+  return std::memcmp(&a.z, &b.z, sizeof a.z) == 0 && std::memcmp(&a.u, &b.u, sizeof a.u) == 0 &&
+         std::memcmp(&a.v, &b.v, sizeof a.v) == 0 && a.id == b.id && a.where == b.where;
 }
 
 // Compares every triangle, in batches of `batch` (the last one shorter).
 void check_all(const std::vector<float>& clip, const std::vector<std::int32_t>& tris, int batch) {
   const Vertices v = project_vertices(clip.data(), static_cast<std::int64_t>(clip.size() / 4), W, H);
   const std::int64_t n = static_cast<std::int64_t>(tris.size() / 3);
-  int counts[6] = {};
+  int counts[6] = {}, fragments = 0;
   for (int cull : {0, 1, -1})
     for (std::int64_t t0 = 0; t0 < n; t0 += batch) {
       const int m = static_cast<int>(std::min<std::int64_t>(batch, n - t0));
       TriClass k[kClassifyLanes];
       PixelBox box[kClassifyLanes];
-      classify_lanes(v, tris.data(), t0, m, W, H, cull, k, box);
+      LaneCoverage cover;
+      classify_lanes(v, tris.data(), t0, m, W, H, cull, k, box, &cover);
       for (int i = 0; i < m; ++i) {
+        const std::int64_t t = t0 + i;
+        const std::int32_t* tri = tris.data() + 3 * t;
+        INFO("triangle " << t << ", cull " << cull);
+        // Left to classify_triangle: crossing the near plane, not outside a frustum plane.
+        if (!(v.outcode[tri[0]] & v.outcode[tri[1]] & v.outcode[tri[2]]) && needs_clipping(v, tri)) {
+          REQUIRE(k[i] == TriClass::Clipped);
+          ++counts[static_cast<int>(TriClass::Clipped)];
+          continue;
+        }
         PixelBox b{};
-        const TriClass want = expected_class(v, tris.data(), t0 + i, cull, &b);
-        INFO("triangle " << t0 + i << ", cull " << cull);
+        TriClass want = classify_triangle(v, tri, W, H, cull, &b);
+        const bool small = want == TriClass::Raster && (b.x1 - b.x0 + 1) * (b.y1 - b.y0 + 1) <= kMaxFragmentBox;
+        int covered = 0;
+        const std::vector<Fragment> ref =
+            small ? reference_fragments(v, tris.data(), static_cast<std::int32_t>(t), b, &covered) : std::vector<Fragment>();
+        if (small && covered == 0) want = TriClass::NoPixel;
         REQUIRE(static_cast<int>(k[i]) == static_cast<int>(want));
         ++counts[static_cast<int>(want)];
-        if (want == TriClass::Raster) {
-          CHECK(box[i].x0 == b.x0);
-          CHECK(box[i].x1 == b.x1);
-          CHECK(box[i].y0 == b.y0);
-          CHECK(box[i].y1 == b.y1);
-        }
+        if (want != TriClass::Raster) continue;
+        CHECK((box[i].x0 == b.x0 && box[i].x1 == b.x1 && box[i].y0 == b.y0 && box[i].y1 == b.y1));
+        if (!small) continue;
+        Fragment f[kMaxFragmentBox];
+        const int emitted = lane_fragments(v, tris.data(), static_cast<std::int32_t>(t), box[i], cover, i, kTilesX, f);
+        REQUIRE(emitted == static_cast<int>(ref.size()));
+        for (int j = 0; j < emitted; ++j) CHECK(same_bits(f[j], ref[j]));
+        fragments += emitted;
       }
     }
-  // Every class occurs, so each branch of the comparison ran.
+  // Every class occurs, so each branch of the comparison ran, and fragments were compared.
   for (int c = 0; c < 6; ++c) CHECK(counts[c] > 0);
+  CHECK(fragments > 100);
 }
 
 // Clip coordinates of a screen point (sx, sy) at depth z_ndc and w.
@@ -73,7 +110,7 @@ void add_vertex(std::vector<float>& clip, double sx, double sy, double z, double
 
 TEST_CASE("classify_lanes gives the scalar class and box of random triangles of every size") {
   std::mt19937 rng(7);
-  std::uniform_real_distribution<double> pos(-6.0, W + 6.0), size(0.0, 1.0), z(-0.9, 0.9), w(0.5, 3.0);
+  std::uniform_real_distribution<double> pos(-6.0, W + 6.0), size(0.0, 1.0), z(-0.9, 1.2), w(0.5, 3.0);
   std::vector<float> clip;
   std::vector<std::int32_t> tris;
   for (int t = 0; t < 3000; ++t) {
