@@ -8,13 +8,17 @@
 namespace gr::raster::detail {
 namespace {
 
-// Four doubles in one AVX register, with GCC / Clang vector extensions: the
-// operators act lane by lane with scalar IEEE semantics, comparisons give
-// masks (all bits set for true), and `mask ? a : b` selects per lane.
-typedef double Vd __attribute__((vector_size(32)));
-typedef std::int64_t Vm __attribute__((vector_size(32)));
-typedef std::int32_t Vi __attribute__((vector_size(16)));
+// A register of doubles (four with AVX, else two), with GCC / Clang vector
+// extensions: the operators act lane by lane with scalar IEEE semantics,
+// comparisons give masks (all bits set for true), `mask ? a : b` selects.
+#ifdef __AVX__
 constexpr int kWidth = 4;
+#else
+constexpr int kWidth = 2;
+#endif
+typedef double Vd __attribute__((vector_size(8 * kWidth)));
+typedef std::int64_t Vm __attribute__((vector_size(8 * kWidth)));
+typedef std::int32_t Vi __attribute__((vector_size(4 * kWidth)));
 static_assert(kClassifyLanes % kWidth == 0, "whole vectors of lanes");
 
 Vd splat(double x) { return Vd{} + x; }
