@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "raster/classify_lanes.h"
+#include "raster/pixel_rule.h"
 
 using namespace gr::raster::detail;
 
@@ -32,15 +33,10 @@ std::vector<Fragment> reference_fragments(const Vertices& v, const std::int32_t*
   for (int y = b.y0; y <= b.y1; ++y)
     for (int x = b.x0; x <= b.x1; ++x) {
       double e[3];
-      bool in = true;
-      for (int k = 0; k < 3; ++k) {
-        e[k] = s.e[k].eval(x + 0.5, s.e[k].row(y + 0.5));
-        in = in && s.e[k].inside(e[k]);
-      }
-      if (!in) continue;
+      if (!gr::testing::covers_centre(s, x, y, e)) continue;
       ++*covered;
-      const double z = e[0] * s.e[0].mz + e[1] * s.e[1].mz + e[2] * s.e[2].mz;
-      if (s.z_test && !(z >= -1.0 && z <= 1.0)) continue;
+      const double z = gr::testing::centre_depth(s, e);
+      if (!gr::testing::in_depth_range(s, z)) continue;
       const int where = ((y / kTile) * kTilesX + x / kTile) * kTilePixels + (y % kTile) * kTile + x % kTile;
       out.push_back({z, e[1] * s.e[1].mu, e[2] * s.e[2].mu, t, where});
     }

@@ -9,6 +9,7 @@
 #include <random>
 #include <vector>
 
+#include "raster/pixel_rule.h"
 #include "raster/rasterize_scan.h"
 
 using namespace gr::raster::detail;
@@ -33,14 +34,9 @@ void reference_scan(const Vertices& v, const std::int32_t* tris, std::int32_t t,
   for (int y = std::max(b.y0, ty0); y <= std::min(b.y1, ty1); ++y)
     for (int x = std::max(b.x0, tx0); x <= std::min(b.x1, tx1); ++x) {
       double e[3];
-      bool in = true;
-      for (int k = 0; k < 3; ++k) {
-        e[k] = s.e[k].eval(x + 0.5, s.e[k].row(y + 0.5));
-        in = in && s.e[k].inside(e[k]);
-      }
-      if (!in) continue;
-      const double z = e[0] * s.e[0].mz + e[1] * s.e[1].mz + e[2] * s.e[2].mz;
-      if (s.z_test && !(z >= -1.0 && z <= 1.0)) continue;
+      if (!gr::testing::covers_centre(s, x, y, e)) continue;
+      const double z = gr::testing::centre_depth(s, e);
+      if (!gr::testing::in_depth_range(s, z)) continue;
       const int p = (y - ty0) * kTile + (x - tx0);
       if (z < tb.z[p] || (z == tb.z[p] && t < tb.id[p])) {
         tb.covered += tb.id[p] < 0;
