@@ -45,7 +45,7 @@ void centre_range(Vd a, Vd b, double n, Vd& lo, Vd& hi) {
 }
 
 // One screen edge from corner a to corner b of triangles of orientation
-// `sign`, as setup_screen_edges builds it: the two vertices in canonical order
+// `sign`, as setup_screen_edges (rasterize_setup.cpp) builds it: the two vertices in canonical order
 // (by x, then y, then vertex index), the difference times the sign, and the
 // top-left rule's tie.
 struct LaneEdge {
@@ -91,7 +91,6 @@ void classify_lanes(const Vertices& v, const std::int32_t* tris, std::int64_t t0
   // the centres of small boxes, four triangles at a time.
   double* const area2 = cover->area2;
   double x0s[kClassifyLanes], x1s[kClassifyLanes], y0s[kClassifyLanes], y1s[kClassifyLanes];
-  std::int64_t covers[kClassifyLanes];
   for (int i = 0; i < kClassifyLanes; i += kWidth) {
     const Vd x0 = load(&x[0][i]), x1 = load(&x[1][i]), x2 = load(&x[2][i]);
     const Vd y0 = load(&y[0][i]), y1 = load(&y[1][i]), y2 = load(&y[2][i]);
@@ -107,7 +106,6 @@ void classify_lanes(const Vertices& v, const std::int32_t* tris, std::int64_t t0
     const LaneEdge e0 = lane_edge(x1, y1, i1, x2, y2, i2, sign);
     const LaneEdge e1 = lane_edge(x2, y2, i2, x0, y0, i0, sign);
     const LaneEdge e2 = lane_edge(x0, y0, i0, x1, y1, i1, sign);
-    Vm any = Vm{};
     Vm slots = Vm{};
     for (int s = 0; s < kMaxFragmentBox; ++s) {
       const Vd slot = splat(s);
@@ -115,7 +113,6 @@ void classify_lanes(const Vertices& v, const std::int32_t* tris, std::int64_t t0
       const Vd px = (bx0 + (slot - row * w)) + 0.5, py = (by0 + row) + 0.5;
       const Vd v0 = eval(e0, px, py), v1 = eval(e1, px, py), v2 = eval(e2, px, py);
       const Vm covered = (slot < area) & inside(e0, v0) & inside(e1, v1) & inside(e2, v2);
-      any |= covered;
       slots |= covered & (std::int64_t(1) << s);
       std::memcpy(&cover->e[s][0][i], &v0, sizeof v0);
       std::memcpy(&cover->e[s][1][i], &v1, sizeof v1);
@@ -127,9 +124,6 @@ void classify_lanes(const Vertices& v, const std::int32_t* tris, std::int64_t t0
     std::memcpy(&x1s[i], &bx1, sizeof bx1);
     std::memcpy(&y0s[i], &by0, sizeof by0);
     std::memcpy(&y1s[i], &by1, sizeof by1);
-    const Vm big = area > kMaxFragmentBox;  // not tested here: the tiles' scan decides
-    const Vm result = any | big;
-    std::memcpy(&covers[i], &result, sizeof result);
   }
 
   // classify_triangle's outcome, in its order: frustum, clipping, area, facing, box.
@@ -147,8 +141,10 @@ void classify_lanes(const Vertices& v, const std::int32_t* tris, std::int64_t t0
       k[i] = TriClass::ZeroArea;
     else if ((cull > 0 && !front) || (cull < 0 && front))
       k[i] = TriClass::Face;
-    else if (b.x0 > b.x1 || b.y0 > b.y1 || covers[i] == 0)
+    else if (b.x0 > b.x1 || b.y0 > b.y1)
       k[i] = TriClass::NoPixel;
+    else if ((b.x1 - b.x0 + 1) * (b.y1 - b.y0 + 1) <= kMaxFragmentBox && cover->slots[i] == 0)
+      k[i] = TriClass::NoPixel;  // a small box whose centres it does not cover (larger: the tiles' scan decides)
     else
       k[i] = TriClass::Raster;
   }

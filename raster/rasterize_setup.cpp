@@ -311,6 +311,9 @@ TriClass classify_triangle(const Vertices& v, const std::int32_t* tri, int width
   return clipped ? TriClass::Clipped : TriClass::Raster;
 }
 
+namespace {
+
+// The edges half of setup_edges for a triangle with every vertex in front; returns 2A.
 double setup_screen_edges(const Vertices& v, const std::int32_t* tri, TriSetup* out) {
   // Screen form: e_k = sign(2A) E_ab; screen_edge per edge, written in place
   // (this runs per triangle and tile).
@@ -329,6 +332,8 @@ double setup_screen_edges(const Vertices& v, const std::int32_t* tri, TriSetup* 
   }
   return a2;
 }
+
+}  // namespace
 
 void setup_screen_weights(const Vertices& v, const std::int32_t* tri, double a2, TriSetup* out) {
   // lambda_k = e_k / |2A|, depth = sum lambda_k z_k.

@@ -119,9 +119,9 @@ struct PixelBox {
 TriClass classify_triangle(const Vertices& v, const std::int32_t* tri, int width, int height,
                            int cull, PixelBox* box);
 
-// The two halves of setup_edges for a triangle with every vertex in front:
-// the edges (returns 2A), then the weights mu, mz and z_test.
-double setup_screen_edges(const Vertices& v, const std::int32_t* tri, TriSetup* out);
+// The weights half of setup_edges for a triangle with every vertex in front,
+// of twice signed screen area a2: mu, mz and z_test (classify_lanes gives the
+// edge values of small triangles itself).
 void setup_screen_weights(const Vertices& v, const std::int32_t* tri, double a2, TriSetup* out);
 
 // Edge functions of a triangle that classify_triangle accepted.
