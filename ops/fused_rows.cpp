@@ -1,6 +1,7 @@
 #include "ops/fused_rows.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <type_traits>
 #include <unordered_map>
@@ -457,6 +458,7 @@ class FusedEvaluator {
         for (int j = 0; j < in.components; ++j) power_range(read(in.a, j).p, lanes(o.array + j), 0, n, in.param);
         break;
       case FusedOp::Dot: {  // sum_j a_j b_j in double from 0, rounded once
+        if (unrolled(in.components, [&](auto c) { dot_lanes<c()>(in, lanes(o.array)); })) break;
         double s[kLanes];
         std::fill(s, s + n, 0.0);
         for (int j = 0; j < in.components; ++j)
@@ -468,6 +470,7 @@ class FusedEvaluator {
         break;
       }
       case FusedOp::Normalize: {  // v / d, d = max(|v|, eps) in double (detail::normalized)
+        if (unrolled(in.components, [&](auto c) { normalize_lanes<c()>(in, o); })) break;
         double d[kLanes], inv[kLanes];
         std::fill(d, d + n, 0.0);
         for (int j = 0; j < in.components; ++j) {
@@ -500,60 +503,165 @@ class FusedEvaluator {
   class Sink {
    public:
     Sink(FusedEvaluator& e, const Operand& o, bool first, bool negate)
-        : e_(e), o_(o), first_(first), negate_(negate),
-          on_(o.value >= 0 && e.p_.values_[o.value].grad >= 0) {
-      if (on_ && column()) std::fill(sum_, sum_ + e.n_, 0.0);
-    }
+        : e_(e), o_(o), first_(first), negate_(negate), on_(o.value >= 0 && e.p_.values_[o.value].grad >= 0) {}
     bool on() const { return on_; }
-    // Where to compute component j's terms: straight into the gradient's lanes
-    // when they are its first contribution as they are, else `scratch` (then put()).
+    // Component j's terms, term(l) for each lane l (in T), go in as they are
+    // computed: one loop per component, no pass over a scratch array.
+    template <class F>
+    void apply(int j, F term) {
+      if (!on_) return;
+      const Value& v = e_.p_.values_[o_.value];
+      const std::int64_t n = e_.n_;
+      if (!v.varying) {
+        double* s = e_.scratch_.partial.data() + (v.grad + (o_.spread ? 0 : j)) * kLanes;
+        if (negate_) {
+#pragma GCC ivdep
+          for (std::int64_t l = 0; l < n; ++l) s[l] -= double(term(l));
+        } else {
+#pragma GCC ivdep
+          for (std::int64_t l = 0; l < n; ++l) s[l] += double(term(l));
+        }
+      } else if (column()) {  // summed from 0 in double, as sum_into_operand does
+        if (started_) {
+#pragma GCC ivdep
+          for (std::int64_t l = 0; l < n; ++l) sum_[l] += double(term(l));
+        } else {
+#pragma GCC ivdep
+          for (std::int64_t l = 0; l < n; ++l) sum_[l] = 0.0 + double(term(l));
+        }
+        started_ = true;
+      } else {
+        into_lanes(e_.lanes(v.grad + j), term);
+      }
+    }
+    // Where to compute component j's terms for put(): straight into the
+    // gradient's lanes when they are its first contribution as they are, else `scratch`.
     T* target(int j, T* scratch) {
       if (on_ && first_ && !negate_ && e_.p_.values_[o_.value].varying && !column())
         return e_.lanes(e_.p_.values_[o_.value].grad + j);
       return scratch;
     }
     void put(int j, const T* t) {
-      if (!on_) return;
-      const Value& v = e_.p_.values_[o_.value];
-      const std::int64_t n = e_.n_;
-      if (!v.varying) {
-        double* s = e_.scratch_.partial.data() + (v.grad + (o_.spread ? 0 : j)) * kLanes;
-        if (negate_)
-          for (std::int64_t l = 0; l < n; ++l) s[l] -= double(t[l]);
-        else
-          for (std::int64_t l = 0; l < n; ++l) s[l] += double(t[l]);
-      } else if (column()) {
-        for (std::int64_t l = 0; l < n; ++l) sum_[l] += double(t[l]);
-      } else {
-        deposit(e_.lanes(v.grad + j), t, negate_);
-      }
+      if (t != target(j, nullptr)) apply(j, ArrayRead<T>{t});
     }
     void finish() {
       if (!on_ || !column()) return;
-      T t[kLanes];
-      for (std::int64_t l = 0; l < e_.n_; ++l) t[l] = T(sum_[l]);
-      deposit(e_.lanes(e_.p_.values_[o_.value].grad), t, negate_);
+      if (!started_) std::fill(sum_, sum_ + e_.n_, 0.0);
+      into_lanes(e_.lanes(e_.p_.values_[o_.value].grad), [&](std::int64_t l) { return T(sum_[l]); });
     }
 
    private:
     bool column() const { return o_.spread && e_.p_.values_[o_.value].varying; }
-    void deposit(T* dst, const T* t, bool negate) {
+    // The terms into a row value's gradient lanes: assigned by the first
+    // contribution, else added; negated (after rounding) for sub's b.
+    template <class F>
+    void into_lanes(T* dst, F term) {
       const std::int64_t n = e_.n_;
-      if (t == dst) return;  // computed in place (target())
-      if (first_ && negate)
-        for (std::int64_t l = 0; l < n; ++l) dst[l] = -t[l];
-      else if (first_)
-        std::copy(t, t + n, dst);
-      else if (negate)
-        for (std::int64_t l = 0; l < n; ++l) dst[l] = dst[l] + -t[l];
-      else
-        for (std::int64_t l = 0; l < n; ++l) dst[l] = dst[l] + t[l];
+      if (first_ && negate_) {
+#pragma GCC ivdep
+        for (std::int64_t l = 0; l < n; ++l) dst[l] = -term(l);
+      } else if (first_) {
+#pragma GCC ivdep
+        for (std::int64_t l = 0; l < n; ++l) dst[l] = term(l);
+      } else if (negate_) {
+#pragma GCC ivdep
+        for (std::int64_t l = 0; l < n; ++l) dst[l] = dst[l] + -term(l);
+      } else {
+#pragma GCC ivdep
+        for (std::int64_t l = 0; l < n; ++l) dst[l] = dst[l] + term(l);
+      }
     }
     FusedEvaluator& e_;
     Operand o_;
-    bool first_, negate_, on_;
+    bool first_, negate_, on_, started_ = false;
     double sum_[kLanes];
   };
+
+  // The unrolled kernels below run one loop over the lanes with every
+  // component in registers, for the component counts of 3-vectors and
+  // 4-vectors; other counts take a loop per component. Same operations in the
+  // same order either way, so the same bits. Their lane arrays never overlap
+  // (the arena gives each value its own), which the loops tell the vectorizer.
+  template <class F>
+  static bool unrolled(int components, F f) {
+    switch (components) {
+      case 3: f(std::integral_constant<int, 3>()); return true;
+      case 4: f(std::integral_constant<int, 4>()); return true;
+      default: return false;
+    }
+  }
+
+  // f(x, z): the two operands' C components as arrays of readers of their kind.
+  template <int C, class F>
+  void with_component_reads(const Operand& a, const Operand& b, F f) {
+    auto readers = [&](const Operand& op, auto g) {
+      const Value& v = p_.values_[op.value];
+      if (v.varying) {
+        std::array<ArrayRead<T>, C> r;
+        for (int j = 0; j < C; ++j) r[j] = {lanes(v.array + j)};
+        g(r);
+      } else {
+        std::array<ConstRead<T>, C> r;
+        for (int j = 0; j < C; ++j) r[j] = {T(p_.uniforms_[std::size_t(v.array + j)])};
+        g(r);
+      }
+    };
+    readers(a, [&](const auto& x) { readers(b, [&](const auto& z) { f(x, z); }); });
+  }
+
+  template <int C>
+  void dot_lanes(const Instr& in, T* out) {
+    with_component_reads<C>(in.a, in.b, [&](const auto& x, const auto& z) {
+#pragma GCC ivdep
+      for (std::int64_t l = 0; l < n_; ++l) {
+        double s = 0;
+        for (int j = 0; j < C; ++j) s += double(x[j](l)) * double(z[j](l));
+        out[l] = T(s);
+      }
+    });
+  }
+
+  template <int C>
+  void normalize_lanes(const Instr& in, const Value& o) {
+    const T* x[C];
+    T* out[C];
+    for (int j = 0; j < C; ++j) x[j] = read(in.a, j).p, out[j] = lanes(o.array + j);
+    T* len = lanes(o.aux);
+    const double eps = in.param;
+#pragma GCC ivdep
+    for (std::int64_t l = 0; l < n_; ++l) {
+      double d = 0;
+      for (int j = 0; j < C; ++j) d += double(x[j][l]) * double(x[j][l]);
+      d = std::max<double>(std::sqrt(d), eps);
+      len[l] = T(d);
+      const double inv = std::is_same_v<T, float> ? 1 / d : 0.0;
+      for (int j = 0; j < C; ++j) out[j][l] = normalized<T>(double(x[j][l]), d, inv);
+    }
+  }
+
+  template <int C>
+  void normalize_adjoint_lanes(const Instr& in, const Value& o, Sink& sa) {
+    const T *nj[C], *gj[C];
+    T t[C][kLanes], *ta[C];
+    for (int j = 0; j < C; ++j) nj[j] = lanes(o.array + j), gj[j] = lanes(o.grad + j), ta[j] = sa.target(j, t[j]);
+    const T* len = lanes(o.aux);
+    const T eps = T(in.param);
+    int below = 0;  // any lane at or below eps (rare)
+#pragma GCC ivdep
+    for (std::int64_t l = 0; l < n_; ++l) {
+      double ng = 0;
+      for (int j = 0; j < C; ++j) ng += double(nj[j][l]) * double(gj[j][l]);
+      const double inv = 1 / double(len[l]);
+      for (int j = 0; j < C; ++j) ta[j][l] = T((double(gj[j][l]) - double(nj[j][l]) * ng) * inv);
+      below |= !(len[l] > eps);
+    }
+    for (int j = 0; j < C; ++j) {
+      if (below)
+        for (std::int64_t l = 0; l < n_; ++l)
+          if (!(len[l] > eps)) ta[j][l] = gj[j][l] == T(0) ? gj[j][l] : T(double(gj[j][l]) / in.param);
+      sa.put(j, ta[j]);
+    }
+  }
 
   void run_backward(const Instr& in) {
     const Value& o = p_.values_[in.out];
@@ -566,16 +674,8 @@ class FusedEvaluator {
         const T* g = lanes(o.grad + j);
         const T* y = lanes(o.array + j);
         with_reads(read(in.a, j), read(in.b, j), [&](auto x, auto z) {
-          if (sa.on()) {
-            T* ta = sa.target(j, t);
-            for (std::int64_t l = 0; l < n; ++l) ta[l] = T(da(g[l], x(l), z(l), y[l]));
-            sa.put(j, ta);
-          }
-          if (sb.on()) {
-            T* tb = sb.target(j, t);
-            for (std::int64_t l = 0; l < n; ++l) tb[l] = T(db(g[l], x(l), z(l), y[l]));
-            sb.put(j, tb);
-          }
+          sa.apply(j, [&](std::int64_t l) { return T(da(g[l], x(l), z(l), y[l])); });
+          sb.apply(j, [&](std::int64_t l) { return T(db(g[l], x(l), z(l), y[l])); });
         });
       }
     };
@@ -597,9 +697,7 @@ class FusedEvaluator {
       case FusedOp::Neg:
         for (int j = 0; j < in.components; ++j) {
           const T* g = lanes(o.grad + j);
-          T* ta = sa.target(j, t);
-          for (std::int64_t l = 0; l < n; ++l) ta[l] = -g[l];
-          sa.put(j, ta);
+          sa.apply(j, [&](std::int64_t l) { return -g[l]; });
         }
         break;
       case FusedOp::Pow:
@@ -613,20 +711,13 @@ class FusedEvaluator {
         const T* g = lanes(o.grad);
         for (int j = 0; j < in.components; ++j)
           with_reads(read(in.a, j), read(in.b, j), [&](auto x, auto z) {
-            if (sa.on()) {
-              T* ta = sa.target(j, t);
-              for (std::int64_t l = 0; l < n; ++l) ta[l] = g[l] * z(l);
-              sa.put(j, ta);
-            }
-            if (sb.on()) {
-              T* tb = sb.target(j, t);
-              for (std::int64_t l = 0; l < n; ++l) tb[l] = g[l] * x(l);
-              sb.put(j, tb);
-            }
+            sa.apply(j, [&](std::int64_t l) { return g[l] * z(l); });
+            sb.apply(j, [&](std::int64_t l) { return g[l] * x(l); });
           });
         break;
       }
       case FusedOp::Normalize: {  // (g - n (n.g)) / d; below eps g / eps (g itself for g = +-0)
+        if (unrolled(in.components, [&](auto c) { normalize_adjoint_lanes<c()>(in, o, sa); })) break;
         const T* len = lanes(o.aux);
         double ng[kLanes], inv[kLanes];
         std::fill(ng, ng + n, 0.0);

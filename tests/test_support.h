@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <string>
 #include <vector>
@@ -42,6 +43,13 @@ inline bool all_finite(const Tensor& t) {
   for (double x : t.to_vector())
     if (!(x - x == 0)) return false;
   return true;
+}
+
+// Same shape, dtype and bits: +0 and -0 differ, a NaN equals a NaN of the same payload.
+inline bool same_bits(const Tensor& a, const Tensor& b) {
+  if (a.shape() != b.shape() || a.dtype() != b.dtype()) return false;
+  const std::vector<double> x = a.to_vector(), y = b.to_vector();  // exact for float32 and float64
+  return std::memcmp(x.data(), y.data(), x.size() * sizeof(double)) == 0;
 }
 
 // max_i |a_i - b_i| / max_i |b_i|: how far a is from b, relative to b's size.

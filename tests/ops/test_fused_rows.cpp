@@ -13,6 +13,7 @@
 
 using namespace gr;
 using gr::testing::require_gradcheck;
+using gr::testing::same_bits;
 using Inputs = std::vector<Tensor>;
 
 namespace {
@@ -37,7 +38,8 @@ Tensor leaf(std::vector<double> v, const Shape& shape, DType dtype) {
 }
 
 // rows: a [N, 3] with zero rows and zeros, b [N, 3] with ties against a and
-// 0.25, c [N, 1] in [0.5, 1.5], d [N]; shared: s [3], k [] (all need gradients).
+// 0.25, c [N, 1] in [0.5, 1.5], d [N], e [N, 4] and f [N, 2] with zero rows;
+// shared: s [3], k [] (all need gradients).
 struct Case {
   Inputs rows, shared;
 };
@@ -47,8 +49,11 @@ Case make_case(std::int64_t n, DType dtype) {
   for (std::int64_t e = 0; e < 30 && e < 3 * n; ++e) a[std::size_t(e)] = 0;         // zero-length rows
   for (std::int64_t e = 30; e < 90 && e < 3 * n; ++e) b[std::size_t(e)] = a[std::size_t(e)];  // ties
   for (std::int64_t e = 90; e < 120 && e < 3 * n; ++e) b[std::size_t(e)] = 0.25;
+  std::vector<double> e = values(4 * n, -1, 1, 5), f = values(2 * n, -1, 1, 6);
+  for (std::int64_t k = 0; k < 8 && k < 4 * n; ++k) e[std::size_t(k)] = 0;
+  for (std::int64_t k = 0; k < 4 && k < 2 * n; ++k) f[std::size_t(k)] = 0;
   return {{leaf(a, {n, 3}, dtype), leaf(b, {n, 3}, dtype), leaf(values(n, 0.5, 1.5, 3), {n, 1}, dtype),
-           leaf(values(n, -1, 1, 4), {n}, dtype)},
+           leaf(values(n, -1, 1, 4), {n}, dtype), leaf(e, {n, 4}, dtype), leaf(f, {n, 2}, dtype)},
           {leaf({0.3, -0.7, 2.0}, {3}, dtype), leaf({1.5}, {}, dtype)}};
 }
 
@@ -72,6 +77,10 @@ std::vector<Graph> replayable_graphs() {
        [](const Inputs& r, const Inputs& s) {
          return normalize(r[0]) * dot(r[1], s[0]) + normalize(r[1] - s[0]) * dot(s[0], r[0]) + dot(r[0], r[1]);
        }},
+      {"dot and normalize on 4-vectors and 2-vectors, at zero length",
+       [](const Inputs& r, const Inputs&) {
+         return normalize(r[4]) * dot(r[5], normalize(r[5] * r[2])) + dot(r[4], r[4] * r[2]) + normalize(r[4] - r[2]);
+       }},
       {"rows of rank 1", [](const Inputs& r, const Inputs& s) { return r[3] * 2.0 - r[3] * s[1] + r[3] / (r[3] * r[3] + 1.0); }},
       {"a constant vector f creates",
        [](const Inputs& r, const Inputs&) {
@@ -80,10 +89,11 @@ std::vector<Graph> replayable_graphs() {
        }},
       {"a value used twice and a column subtracted",
        [](const Inputs& r, const Inputs&) { return r[2] - r[0] + r[0] * r[0] - (r[2] - r[1]); }},
+      {"a column times rows with zero rows (its gradient a sum of zeros of one sign)",
+       [](const Inputs& r, const Inputs&) { return r[0] * r[2]; }},
   };
 }
 
-bool same_bits(const Tensor& a, const Tensor& b) { return a.shape() == b.shape() && a.to_vector() == b.to_vector(); }
 
 struct Run {
   Tensor out;
@@ -140,14 +150,19 @@ using RowsOp = std::function<Tensor(const RowFunction&, const Inputs& rows, cons
 void gradcheck_graphs(const std::string& prefix, std::uint64_t seed, bool require_fused, const RowsOp& op) {
   const Case c = make_case(150, DType::Float64);
   const Inputs random{leaf(values(450, -1, 1, seed), {150, 3}, DType::Float64),
-                      leaf(values(450, -1, 1, seed + 1), {150, 3}, DType::Float64), c.rows[2], c.rows[3], c.shared[0],
+                      leaf(values(450, -1, 1, seed + 1), {150, 3}, DType::Float64),
+                      c.rows[2],
+                      c.rows[3],
+                      leaf(values(600, -1, 1, seed + 2), {150, 4}, DType::Float64),
+                      leaf(values(300, -1, 1, seed + 3), {150, 2}, DType::Float64),
+                      c.shared[0],
                       c.shared[1]};
+  auto rows_of = [](const Inputs& in) { return Inputs(in.begin(), in.begin() + 6); };
+  auto shared_of = [](const Inputs& in) { return Inputs(in.begin() + 6, in.end()); };
   for (const Graph& g : replayable_graphs()) {
     if (g.name.find("ties") != std::string::npos) continue;
-    if (require_fused)
-      REQUIRE(map_rows_fuses(g.f, {random[0], random[1], random[2], random[3]}, {random[4], random[5]}, MapRowsOptions{100}));
-    require_gradcheck(prefix + g.name,
-                      [f = g.f, &op](const Inputs& in) { return op(f, {in[0], in[1], in[2], in[3]}, {in[4], in[5]}); },
+    if (require_fused) REQUIRE(map_rows_fuses(g.f, rows_of(random), shared_of(random), MapRowsOptions{100}));
+    require_gradcheck(prefix + g.name, [&, f = g.f](const Inputs& in) { return op(f, rows_of(in), shared_of(in)); },
                       random);
   }
 }

@@ -11,6 +11,7 @@
 using namespace gr;
 using gr::testing::random_input;
 using gr::testing::require_gradcheck;
+using gr::testing::same_bits;
 using Inputs = std::vector<Tensor>;
 
 namespace {
@@ -23,7 +24,6 @@ Tensor blinn_phong_rows(const Inputs& r, const Inputs& s) {
   return r[2] * maximum(dot(r[1], l), 0.0) + 0.5 * pow(maximum(dot(r[1], h), 0.0), 32.0);
 }
 
-bool same_bits(const Tensor& a, const Tensor& b) { return a.shape() == b.shape() && a.to_vector() == b.to_vector(); }
 
 }  // namespace
 
