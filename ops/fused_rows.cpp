@@ -10,6 +10,17 @@
 #include "ops/broadcast.h"
 #include "ops/elementwise_formulas.h"
 
+// Before a loop over lanes whose arrays never overlap (the arena gives each
+// value its own): tells the vectorizer so, instead of leaving it to compare
+// addresses at run time, which it gives up on for more than a few arrays.
+#if defined(__clang__)
+#define GR_INDEPENDENT_LANES _Pragma("clang loop vectorize(assume_safety)")
+#elif defined(__GNUC__)
+#define GR_INDEPENDENT_LANES _Pragma("GCC ivdep")
+#else
+#define GR_INDEPENDENT_LANES
+#endif
+
 namespace gr::detail {
 namespace {
 
@@ -515,18 +526,18 @@ class FusedEvaluator {
       if (!v.varying) {
         double* s = e_.scratch_.partial.data() + (v.grad + (o_.spread ? 0 : j)) * kLanes;
         if (negate_) {
-#pragma GCC ivdep
+GR_INDEPENDENT_LANES
           for (std::int64_t l = 0; l < n; ++l) s[l] -= double(term(l));
         } else {
-#pragma GCC ivdep
+GR_INDEPENDENT_LANES
           for (std::int64_t l = 0; l < n; ++l) s[l] += double(term(l));
         }
       } else if (column()) {  // summed from 0 in double, as sum_into_operand does
         if (started_) {
-#pragma GCC ivdep
+GR_INDEPENDENT_LANES
           for (std::int64_t l = 0; l < n; ++l) sum_[l] += double(term(l));
         } else {
-#pragma GCC ivdep
+GR_INDEPENDENT_LANES
           for (std::int64_t l = 0; l < n; ++l) sum_[l] = 0.0 + double(term(l));
         }
         started_ = true;
@@ -558,16 +569,16 @@ class FusedEvaluator {
     void into_lanes(T* dst, F term) {
       const std::int64_t n = e_.n_;
       if (first_ && negate_) {
-#pragma GCC ivdep
+GR_INDEPENDENT_LANES
         for (std::int64_t l = 0; l < n; ++l) dst[l] = -term(l);
       } else if (first_) {
-#pragma GCC ivdep
+GR_INDEPENDENT_LANES
         for (std::int64_t l = 0; l < n; ++l) dst[l] = term(l);
       } else if (negate_) {
-#pragma GCC ivdep
+GR_INDEPENDENT_LANES
         for (std::int64_t l = 0; l < n; ++l) dst[l] = dst[l] + -term(l);
       } else {
-#pragma GCC ivdep
+GR_INDEPENDENT_LANES
         for (std::int64_t l = 0; l < n; ++l) dst[l] = dst[l] + term(l);
       }
     }
@@ -580,8 +591,7 @@ class FusedEvaluator {
   // The unrolled kernels below run one loop over the lanes with every
   // component in registers, for the component counts of 3-vectors and
   // 4-vectors; other counts take a loop per component. Same operations in the
-  // same order either way, so the same bits. Their lane arrays never overlap
-  // (the arena gives each value its own), which the loops tell the vectorizer.
+  // same order either way, so the same bits.
   template <class F>
   static bool unrolled(int components, F f) {
     switch (components) {
@@ -612,7 +622,7 @@ class FusedEvaluator {
   template <int C>
   void dot_lanes(const Instr& in, T* out) {
     with_component_reads<C>(in.a, in.b, [&](const auto& x, const auto& z) {
-#pragma GCC ivdep
+GR_INDEPENDENT_LANES
       for (std::int64_t l = 0; l < n_; ++l) {
         double s = 0;
         for (int j = 0; j < C; ++j) s += double(x[j](l)) * double(z[j](l));
@@ -628,7 +638,7 @@ class FusedEvaluator {
     for (int j = 0; j < C; ++j) x[j] = read(in.a, j).p, out[j] = lanes(o.array + j);
     T* len = lanes(o.aux);
     const double eps = in.param;
-#pragma GCC ivdep
+GR_INDEPENDENT_LANES
     for (std::int64_t l = 0; l < n_; ++l) {
       double d = 0;
       for (int j = 0; j < C; ++j) d += double(x[j][l]) * double(x[j][l]);
@@ -647,7 +657,7 @@ class FusedEvaluator {
     const T* len = lanes(o.aux);
     const T eps = T(in.param);
     int below = 0;  // any lane at or below eps (rare)
-#pragma GCC ivdep
+GR_INDEPENDENT_LANES
     for (std::int64_t l = 0; l < n_; ++l) {
       double ng = 0;
       for (int j = 0; j < C; ++j) ng += double(nj[j][l]) * double(gj[j][l]);
