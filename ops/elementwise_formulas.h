@@ -27,21 +27,42 @@ T selected_gradient(T g, bool selected, bool tie) {
   return out;
 }
 
-// x^n for an integer n >= 0 by repeated squaring, one bit of n at a time over a
-// block of elements so that each step is a plain vectorizable loop.
+// x^n for an integer n >= 0 by repeated squaring: per element r = 1, b = x,
+// then for each bit of n from the lowest, r *= b if it is set and b *= b if a
+// higher bit follows. Elements go kRegisters vectors at a time, r and b held
+// in registers through all the bits (independent chains, so the multiplier's
+// latency overlaps), with the same products in the same order as one element
+// at a time; n = 2 is x * x (r = 1 * x^2).
 template <class T>
 void integer_power(const T* x, T* out, std::int64_t count, long long n) {
-  constexpr std::int64_t kBlock = 256;
-  T base[kBlock];
-  for (std::int64_t i0 = 0; i0 < count; i0 += kBlock) {
-    const std::int64_t m = count - i0 < kBlock ? count - i0 : kBlock;
-    for (std::int64_t i = 0; i < m; ++i) { out[i0 + i] = T(1); base[i] = x[i0 + i]; }
+  if (n == 2) {
+    for (std::int64_t i = 0; i < count; ++i) out[i] = x[i] * x[i];
+    return;
+  }
+  typedef T V __attribute__((vector_size(32)));
+  constexpr int kWidth = int(sizeof(V) / sizeof(T)), kRegisters = 8, kBlock = kWidth * kRegisters;
+  std::int64_t i0 = 0;
+  for (; i0 + kBlock <= count; i0 += kBlock) {
+    V b[kRegisters], r[kRegisters];
+    for (int k = 0; k < kRegisters; ++k) {
+      std::memcpy(&b[k], x + i0 + k * kWidth, sizeof(V));
+      r[k] = V{} + T(1);
+    }
     for (long long e = n; e > 0; e >>= 1) {
       if (e & 1)
-        for (std::int64_t i = 0; i < m; ++i) out[i0 + i] *= base[i];
+        for (int k = 0; k < kRegisters; ++k) r[k] *= b[k];
       if (e > 1)
-        for (std::int64_t i = 0; i < m; ++i) base[i] *= base[i];
+        for (int k = 0; k < kRegisters; ++k) b[k] *= b[k];
     }
+    for (int k = 0; k < kRegisters; ++k) std::memcpy(out + i0 + k * kWidth, &r[k], sizeof(V));
+  }
+  for (; i0 < count; ++i0) {
+    T r = T(1), b = x[i0];
+    for (long long e = n; e > 0; e >>= 1) {
+      if (e & 1) r *= b;
+      if (e > 1) b *= b;
+    }
+    out[i0] = r;
   }
 }
 

@@ -1,6 +1,7 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <cstring>
 
 #include "ops/ops.h"
 #include "test_support.h"
@@ -150,6 +151,41 @@ TEST_CASE("pow: gradient matches finite differences for scalar and tensor expone
   require_gradcheck("pow tensor", [](const Inputs& in) { return pow(in[0], in[1]); }, {x, p});
   Tensor neg_base = random_input({4}, -2, -0.5, 9);
   require_gradcheck("pow integer on negative base", [](const Inputs& in) { return pow(in[0], 3.0); }, {neg_base});
+}
+
+// x^n as repeated squaring does it one element at a time, in T: r = 1, b = x;
+// per bit of n from the lowest, r *= b if set, b *= b if a higher bit follows.
+template <class T>
+T squaring_power(T x, long long n) {
+  T r = T(1), b = x;
+  for (long long e = n; e > 0; e >>= 1) {
+    if (e & 1) r *= b;
+    if (e > 1) b *= b;
+  }
+  return r;
+}
+
+TEST_CASE("pow: integer exponents give repeated squaring's products bit for bit, at lengths across vector blocks",
+          "[ops][elementwise]") {
+  for (DType dtype : {DType::Float32, DType::Float64})
+    for (std::int64_t n : {0, 1, 7, 31, 32, 33, 64, 100, 1000})
+      for (double p : {0.0, 1.0, 2.0, 3.0, 5.0, 31.0, 32.0, 64.0, -3.0}) {
+        INFO(dtype_name(dtype) << ", " << n << " elements, p = " << p);
+        const Tensor x = Tensor::uniform({n}, -1.5, 1.5, 20 + std::uint64_t(n), dtype);
+        const std::vector<double> got = pow(x, p).to_vector(), in = x.to_vector();
+        std::vector<double> want(in.size());
+        for (std::size_t i = 0; i < in.size(); ++i) {
+          const long long e = static_cast<long long>(std::fabs(p));
+          if (dtype == DType::Float32) {
+            const float r = squaring_power(float(in[i]), e);
+            want[i] = p < 0 ? double(1.0f / r) : double(r);
+          } else {
+            const double r = squaring_power(in[i], e);
+            want[i] = p < 0 ? 1.0 / r : r;
+          }
+        }
+        CHECK(std::memcmp(got.data(), want.data(), got.size() * sizeof(double)) == 0);
+      }
 }
 
 TEST_CASE("pow: integer exponents agree with std::pow", "[ops][elementwise]") {
