@@ -526,18 +526,18 @@ class FusedEvaluator {
       if (!v.varying) {
         double* s = e_.scratch_.partial.data() + (v.grad + (o_.spread ? 0 : j)) * kLanes;
         if (negate_) {
-GR_INDEPENDENT_LANES
+          GR_INDEPENDENT_LANES
           for (std::int64_t l = 0; l < n; ++l) s[l] -= double(term(l));
         } else {
-GR_INDEPENDENT_LANES
+          GR_INDEPENDENT_LANES
           for (std::int64_t l = 0; l < n; ++l) s[l] += double(term(l));
         }
       } else if (column()) {  // summed from 0 in double, as sum_into_operand does
         if (started_) {
-GR_INDEPENDENT_LANES
+          GR_INDEPENDENT_LANES
           for (std::int64_t l = 0; l < n; ++l) sum_[l] += double(term(l));
         } else {
-GR_INDEPENDENT_LANES
+          GR_INDEPENDENT_LANES
           for (std::int64_t l = 0; l < n; ++l) sum_[l] = 0.0 + double(term(l));
         }
         started_ = true;
@@ -569,16 +569,16 @@ GR_INDEPENDENT_LANES
     void into_lanes(T* dst, F term) {
       const std::int64_t n = e_.n_;
       if (first_ && negate_) {
-GR_INDEPENDENT_LANES
+        GR_INDEPENDENT_LANES
         for (std::int64_t l = 0; l < n; ++l) dst[l] = -term(l);
       } else if (first_) {
-GR_INDEPENDENT_LANES
+        GR_INDEPENDENT_LANES
         for (std::int64_t l = 0; l < n; ++l) dst[l] = term(l);
       } else if (negate_) {
-GR_INDEPENDENT_LANES
+        GR_INDEPENDENT_LANES
         for (std::int64_t l = 0; l < n; ++l) dst[l] = dst[l] + -term(l);
       } else {
-GR_INDEPENDENT_LANES
+        GR_INDEPENDENT_LANES
         for (std::int64_t l = 0; l < n; ++l) dst[l] = dst[l] + term(l);
       }
     }
@@ -622,7 +622,7 @@ GR_INDEPENDENT_LANES
   template <int C>
   void dot_lanes(const Instr& in, T* out) {
     with_component_reads<C>(in.a, in.b, [&](const auto& x, const auto& z) {
-GR_INDEPENDENT_LANES
+      GR_INDEPENDENT_LANES
       for (std::int64_t l = 0; l < n_; ++l) {
         double s = 0;
         for (int j = 0; j < C; ++j) s += double(x[j](l)) * double(z[j](l));
@@ -638,7 +638,7 @@ GR_INDEPENDENT_LANES
     for (int j = 0; j < C; ++j) x[j] = read(in.a, j).p, out[j] = lanes(o.array + j);
     T* len = lanes(o.aux);
     const double eps = in.param;
-GR_INDEPENDENT_LANES
+    GR_INDEPENDENT_LANES
     for (std::int64_t l = 0; l < n_; ++l) {
       double d = 0;
       for (int j = 0; j < C; ++j) d += double(x[j][l]) * double(x[j][l]);
@@ -657,7 +657,7 @@ GR_INDEPENDENT_LANES
     const T* len = lanes(o.aux);
     const T eps = T(in.param);
     int below = 0;  // any lane at or below eps (rare)
-GR_INDEPENDENT_LANES
+    GR_INDEPENDENT_LANES
     for (std::int64_t l = 0; l < n_; ++l) {
       double ng = 0;
       for (int j = 0; j < C; ++j) ng += double(nj[j][l]) * double(gj[j][l]);
