@@ -45,11 +45,14 @@ inline bool all_finite(const Tensor& t) {
   return true;
 }
 
-// Same shape, dtype and bits: +0 and -0 differ, a NaN equals a NaN of the same payload.
+// The same doubles bit for bit: +0 and -0 differ, a NaN equals a NaN of the same payload.
+inline bool same_bits(const std::vector<double>& x, const std::vector<double>& y) {
+  return x.size() == y.size() && (x.empty() || std::memcmp(x.data(), y.data(), x.size() * sizeof(double)) == 0);
+}
+
+// Same shape, dtype and bits (to_vector is exact for float32 and float64).
 inline bool same_bits(const Tensor& a, const Tensor& b) {
-  if (a.shape() != b.shape() || a.dtype() != b.dtype()) return false;
-  const std::vector<double> x = a.to_vector(), y = b.to_vector();  // exact for float32 and float64
-  return std::memcmp(x.data(), y.data(), x.size() * sizeof(double)) == 0;
+  return a.shape() == b.shape() && a.dtype() == b.dtype() && same_bits(a.to_vector(), b.to_vector());
 }
 
 // max_i |a_i - b_i| / max_i |b_i|: how far a is from b, relative to b's size.

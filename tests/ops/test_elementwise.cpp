@@ -1,7 +1,6 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
-#include <cstring>
 
 #include "ops/ops.h"
 #include "test_support.h"
@@ -184,7 +183,7 @@ TEST_CASE("pow: integer exponents give repeated squaring's products bit for bit,
             want[i] = p < 0 ? 1.0 / r : r;
           }
         }
-        CHECK(std::memcmp(got.data(), want.data(), got.size() * sizeof(double)) == 0);
+        CHECK(gr::testing::same_bits(got, want));
       }
 }
 
