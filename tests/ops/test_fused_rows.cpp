@@ -94,7 +94,6 @@ std::vector<Graph> replayable_graphs() {
   };
 }
 
-
 struct Run {
   Tensor out;
   std::vector<Tensor> grads;  // rows' then shared inputs' gradients

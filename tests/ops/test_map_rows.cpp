@@ -24,7 +24,6 @@ Tensor blinn_phong_rows(const Inputs& r, const Inputs& s) {
   return r[2] * maximum(dot(r[1], l), 0.0) + 0.5 * pow(maximum(dot(r[1], h), 0.0), 32.0);
 }
 
-
 }  // namespace
 
 TEST_CASE("map_rows: blocked Blinn-Phong equals the whole graph bit for bit in values and row gradients",
