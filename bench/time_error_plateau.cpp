@@ -61,7 +61,8 @@ Tensor flat_colours(const TimeErrorScene& scene) {
 
 // Pixel regions from an 8x G-buffer: 0 interior, 1 holds a background
 // boundary, 2 holds a depth jump (view distance changes by > 0.1 units
-// between neighbouring subsamples) but no background.
+// between neighbouring subsamples) but no background, 3 holds a change of
+// object without a depth jump (an intersection curve) but neither of those.
 std::vector<int> pixel_regions(const TimeErrorScene& scene, const Tensor& points) {
   const int s = 8, W = scene.width() * s, H = scene.height() * s;
   RasterizeOptions ro;
@@ -70,6 +71,15 @@ std::vector<int> pixel_regions(const TimeErrorScene& scene, const Tensor& points
   const GBuffer gb = rasterize(scene.clip_positions(points), scene.triangles(), ro);
   const std::int32_t* id = gb.tri_id.data<std::int32_t>();
   const std::vector<double> z = gb.depth.to_vector();
+  // The object of each render vertex: the points' objects gathered as the colours are.
+  const std::int32_t* point_part = scene.point_part().data<std::int32_t>();
+  std::vector<double> part_of_point(static_cast<std::size_t>(3 * scene.num_points()));
+  for (std::int64_t i = 0; i < scene.num_points(); ++i) part_of_point[3 * i] = point_part[i];
+  const std::vector<double> vertex_part =
+      scene.vertex_colours(Tensor::from_values(part_of_point, {scene.num_points(), 3}, DType::Float64)).to_vector();
+  const std::int32_t* tri = scene.triangles().data<std::int32_t>();
+  auto part = [&](std::int64_t p) { return vertex_part[3 * std::int64_t(tri[3 * (id[p] - 1)])]; };
+  auto rank = [](int kind) { return kind == 1 ? 3 : kind == 2 ? 2 : kind == 3 ? 1 : 0; };
   auto dist = [&](std::int64_t p) {  // OpenGL perspective, near 0.1, far 10
     const double n = 0.1, f = 10;
     return 2 * n * f / ((f + n) - z[p] * (f - n));
@@ -83,10 +93,11 @@ std::vector<int> pixel_regions(const TimeErrorScene& scene, const Tensor& points
         int kind = 0;
         if ((id[p] == 0) != (id[q] == 0)) kind = 1;
         else if (id[p] != 0 && std::abs(dist(p) - dist(q)) > 0.1) kind = 2;
+        else if (id[p] != 0 && part(p) != part(q)) kind = 3;
         if (!kind) continue;
         for (const std::int64_t r : {p, q}) {
           int& g = region[(r / W / s) * scene.width() + (r % W) / s];
-          if (kind == 1 || g == 0) g = kind;
+          if (rank(kind) > rank(g)) g = kind;
         }
       }
     }
@@ -218,15 +229,16 @@ int main(int argc, char** argv) {
     }
   }
   const std::vector<int> region = pixel_regions(scene, scene.points());
-  int counts[3] = {0, 0, 0};
+  int counts[4] = {0, 0, 0, 0};
   for (int r : region) ++counts[r];
   std::printf("scene %s, %s, colours %s, step %.3g px, quadrature %d; h vs 2h spread %.2g\n", o.scene.c_str(),
               o.vis ? "visibility_antialias" : "antialias", o.flat ? "flat" : !o.colours.empty() ? o.colours.c_str() : "as time_error", o.step_px, o.order,
               relative_l2(ref_h, ref_2h));
-  std::printf("pixels: %d interior, %d background boundary, %d depth jump\n\n", counts[0], counts[1], counts[2]);
+  std::printf("pixels: %d interior, %d background boundary, %d depth jump, %d object change\n\n", counts[0], counts[1],
+              counts[2], counts[3]);
   // Each region's share of the reference: |r_region| / |r|.
   std::printf("reference share by region:");
-  for (int g = 0; g < 3; ++g) {
+  for (int g = 0; g < 4; ++g) {
     std::vector<double> rg;
     for (const auto& d : dB) {
       double s = 0;
@@ -237,8 +249,8 @@ int main(int argc, char** argv) {
     for (std::size_t k = 0; k < rg.size(); ++k) a += rg[k] * rg[k], b += ref[k] * ref[k];
     std::printf(" %.3g", std::sqrt(a / b));
   }
-  std::printf("\n\n| s | mse error | linear error | linear: interior | background boundary | depth jump |\n");
-  std::printf("|---:|---:|---:|---:|---:|---:|\n");
+  std::printf("\n\n| s | mse error | linear error | linear: interior | background boundary | depth jump | object change |\n");
+  std::printf("|---:|---:|---:|---:|---:|---:|---:|\n");
   const Tensor target = Tensor::from_values(T, {scene.height(), scene.width(), 3}, DType::Float64);
   std::vector<std::vector<std::vector<double>>> proj;  // [s][region + 1][direction]
   for (int s : o.s_list) {
@@ -249,7 +261,7 @@ int main(int argc, char** argv) {
     const double mse_err = relative_l2(project(p.grad(), dirs.position), ref);
     std::printf("| %d | %.3g | ", s, mse_err);
     // Linear loss, all pixels, then each region alone.
-    for (int g = -1; g < 3; ++g) {
+    for (int g = -1; g < 4; ++g) {
       std::vector<double> wg(w);
       for (std::size_t i = 0; i < N; ++i)
         if (g >= 0 && region[i / 3] != g) wg[i] = 0;
@@ -263,7 +275,7 @@ int main(int argc, char** argv) {
       proj.back().push_back(pg);
       double num = 0, den = 0;  // region error relative to the whole reference
       for (std::size_t k = 0; k < pg.size(); ++k) num += (pg[k] - rg[k]) * (pg[k] - rg[k]), den += ref[k] * ref[k];
-      std::printf("%.3g |%s", std::sqrt(num / den), g == 2 ? "\n" : " ");
+      std::printf("%.3g |%s", std::sqrt(num / den), g == 3 ? "\n" : " ");
     }
     std::fflush(stdout);
   }
@@ -273,7 +285,7 @@ int main(int argc, char** argv) {
   for (double r : ref) den += r * r;
   for (std::size_t i = 0; i + 1 < proj.size(); ++i) {
     std::printf("| %d |", o.s_list[i]);
-    for (int g = 0; g < 4; ++g) {
+    for (int g = 0; g < 5; ++g) {
       double num = 0;
       for (std::size_t k = 0; k < ref.size(); ++k) {
         const double d = proj[i][g][k] - proj.back()[g][k];

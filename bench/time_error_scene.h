@@ -71,6 +71,8 @@ class TimeErrorScene {
   Tensor vertex_colours(const Tensor& colours) const;
   const Tensor& triangles() const { return triangles_; }
   Tensor background() const;
+  // The antialias topology of the render, welded by point.
+  const AntialiasTopology& topology() const { return topology_; }
   // The objects of the scene (1 or 2) and the object of each point, [P] int32.
   int num_parts() const { return num_parts_; }
   const Tensor& point_part() const { return point_part_; }
