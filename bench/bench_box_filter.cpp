@@ -7,14 +7,18 @@
 //   BM_AntialiasOp/scene            antialias, forward + backward (a fixed random upstream gradient)
 //   BM_VisibilityAntialiasOp/scene  visibility_antialias, the same
 //   BM_PointSampled/scene           rasterize + interpolate, forward + backward (the image both ops blend)
-//   BM_ExactImage/scene/order       the exact reference (bench/exact_reference), forward only, at
-//                                   quadrature order 1 (areas and centroid values only) and 8 (time_error's)
+//   BM_ExactImage/scene/order/boundary
+//                                   the exact reference (bench/exact_reference), forward only, at
+//                                   quadrature order 1 (areas and centroid values only) and 8
+//                                   (time_error's), on every pixel (boundary 0) or only on those
+//                                   holding a visibility boundary (1; bench/time_error_regions.h)
 #include <benchmark/benchmark.h>
 
 #include <functional>
 
 #include "autodiff/tape.h"
 #include "bench/time_error_exact.h"
+#include "bench/time_error_regions.h"
 #include "bench/time_error_scene.h"
 #include "ops/ops.h"
 
@@ -101,6 +105,7 @@ void BM_ExactImage(benchmark::State& state) {
   state.SetLabel(scene.name());
   bench::ExactReferenceOptions options;
   options.quadrature_order = static_cast<int>(state.range(1));
+  if (state.range(2)) options.only_pixels = bench::boundary_pixels(bench::pixel_regions(scene, scene.points()));
   NoGradGuard no_grad;
   for (auto _ : state)
     benchmark::DoNotOptimize(bench::exact_scene_image(scene, scene.points(), scene.colours(), options).image);
@@ -113,7 +118,7 @@ void Scenes(benchmark::internal::Benchmark* b) {
 BENCHMARK(BM_AntialiasOp)->Apply(Scenes);
 BENCHMARK(BM_VisibilityAntialiasOp)->Apply(Scenes);
 BENCHMARK(BM_PointSampled)->Apply(Scenes);
-BENCHMARK(BM_ExactImage)->ArgNames({"scene", "order"})->ArgsProduct({{0, 1, 2, 3}, {1, 8}})
+BENCHMARK(BM_ExactImage)->ArgNames({"scene", "order", "boundary"})->ArgsProduct({{0, 1, 2, 3}, {1, 8}, {0, 1}})
     ->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace

@@ -6,6 +6,7 @@ if(NOT TARGET gradraster_time_error_reference)
   add_library(gradraster_time_error_reference STATIC
     ${CMAKE_CURRENT_LIST_DIR}/time_error_scene.cpp
     ${CMAKE_CURRENT_LIST_DIR}/time_error_reference.cpp
-    ${CMAKE_CURRENT_LIST_DIR}/time_error_exact.cpp)
+    ${CMAKE_CURRENT_LIST_DIR}/time_error_exact.cpp
+    ${CMAKE_CURRENT_LIST_DIR}/time_error_regions.cpp)
   target_link_libraries(gradraster_time_error_reference PUBLIC gradraster_exact_reference)
 endif()

@@ -7,8 +7,9 @@
 //   mse      mean((R_s - T)^2), time_error's loss,
 //   linear   sum(w R_s) with w = 2 (B - T) / N fixed: the same reference
 //            derivative (dL/dv = sum w dB/dv), but no residual R_s - B,
-// and splits the linear error by pixel region (pixels holding a background
-// boundary, a depth jump, neither).
+// and splits the linear error by pixel region (bench/time_error_regions.h:
+// pixels holding a background boundary, a depth jump, a change of object
+// without one, none of these).
 //   time_error_plateau [--scene NAME] [--vis] [--plain] [--flat] [--colours ring|tube] [--sum] [--step PX] [--order Q] [--s 1,2,4,...]
 //   --flat: one colour per object (the interior colour term vanishes);
 //   --colours ring|tube: torus colours varying only around the ring / the tube;
@@ -27,6 +28,7 @@
 #include "autodiff/tape.h"
 #include "bench/time_error_exact.h"
 #include "bench/time_error_reference.h"
+#include "bench/time_error_regions.h"
 #include "bench/time_error_scene.h"
 #include "ops/ops.h"
 
@@ -57,51 +59,6 @@ Tensor flat_colours(const TimeErrorScene& scene) {
   for (std::int64_t i = 0; i < n; ++i)
     for (int k = 0; k < 3; ++k) out[3 * i + k] = sum[3 * part[i] + k] / count[part[i]];
   return Tensor::from_values(out, {n, 3}, DType::Float64);
-}
-
-// Pixel regions from an 8x G-buffer: 0 interior, 1 holds a background
-// boundary, 2 holds a depth jump (view distance changes by > 0.1 units
-// between neighbouring subsamples) but no background, 3 holds a change of
-// object without a depth jump (an intersection curve) but neither of those.
-std::vector<int> pixel_regions(const TimeErrorScene& scene, const Tensor& points) {
-  const int s = 8, W = scene.width() * s, H = scene.height() * s;
-  RasterizeOptions ro;
-  ro.width = W, ro.height = H, ro.cull = scene.cull();
-  NoGradGuard no_grad;
-  const GBuffer gb = rasterize(scene.clip_positions(points), scene.triangles(), ro);
-  const std::int32_t* id = gb.tri_id.data<std::int32_t>();
-  const std::vector<double> z = gb.depth.to_vector();
-  // The object of each render vertex: the points' objects gathered as the colours are.
-  const std::int32_t* point_part = scene.point_part().data<std::int32_t>();
-  std::vector<double> part_of_point(static_cast<std::size_t>(3 * scene.num_points()));
-  for (std::int64_t i = 0; i < scene.num_points(); ++i) part_of_point[3 * i] = point_part[i];
-  const std::vector<double> vertex_part =
-      scene.vertex_colours(Tensor::from_values(part_of_point, {scene.num_points(), 3}, DType::Float64)).to_vector();
-  const std::int32_t* tri = scene.triangles().data<std::int32_t>();
-  auto part = [&](std::int64_t p) { return vertex_part[3 * std::int64_t(tri[3 * (id[p] - 1)])]; };
-  auto rank = [](int kind) { return kind == 1 ? 3 : kind == 2 ? 2 : kind == 3 ? 1 : 0; };
-  auto dist = [&](std::int64_t p) {  // OpenGL perspective, near 0.1, far 10
-    const double n = 0.1, f = 10;
-    return 2 * n * f / ((f + n) - z[p] * (f - n));
-  };
-  std::vector<int> region(static_cast<std::size_t>(scene.width() * scene.height()), 0);
-  for (int y = 0; y < H; ++y)
-    for (int x = 0; x < W; ++x) {
-      const std::int64_t p = std::int64_t(y) * W + x;
-      for (const std::int64_t q : {x + 1 < W ? p + 1 : -1, y + 1 < H ? p + W : -1}) {
-        if (q < 0) continue;
-        int kind = 0;
-        if ((id[p] == 0) != (id[q] == 0)) kind = 1;
-        else if (id[p] != 0 && std::abs(dist(p) - dist(q)) > 0.1) kind = 2;
-        else if (id[p] != 0 && part(p) != part(q)) kind = 3;
-        if (!kind) continue;
-        for (const std::int64_t r : {p, q}) {
-          int& g = region[(r / W / s) * scene.width() + (r % W) / s];
-          if (rank(kind) > rank(g)) g = kind;
-        }
-      }
-    }
-  return region;
 }
 
 // Screen widths (px, at 1x) of the front-facing triangles at fold edges
@@ -229,7 +186,7 @@ int main(int argc, char** argv) {
     }
   }
   const std::vector<int> region = pixel_regions(scene, scene.points());
-  int counts[4] = {0, 0, 0, 0};
+  int counts[kNumPixelRegions] = {};
   for (int r : region) ++counts[r];
   std::printf("scene %s, %s, colours %s, step %.3g px, quadrature %d; h vs 2h spread %.2g\n", o.scene.c_str(),
               o.vis ? "visibility_antialias" : "antialias", o.flat ? "flat" : !o.colours.empty() ? o.colours.c_str() : "as time_error", o.step_px, o.order,
@@ -238,7 +195,7 @@ int main(int argc, char** argv) {
               counts[2], counts[3]);
   // Each region's share of the reference: |r_region| / |r|.
   std::printf("reference share by region:");
-  for (int g = 0; g < 4; ++g) {
+  for (int g = 0; g < kNumPixelRegions; ++g) {
     std::vector<double> rg;
     for (const auto& d : dB) {
       double s = 0;
@@ -261,7 +218,7 @@ int main(int argc, char** argv) {
     const double mse_err = relative_l2(project(p.grad(), dirs.position), ref);
     std::printf("| %d | %.3g | ", s, mse_err);
     // Linear loss, all pixels, then each region alone.
-    for (int g = -1; g < 4; ++g) {
+    for (int g = -1; g < kNumPixelRegions; ++g) {
       std::vector<double> wg(w);
       for (std::size_t i = 0; i < N; ++i)
         if (g >= 0 && region[i / 3] != g) wg[i] = 0;
@@ -275,9 +232,31 @@ int main(int argc, char** argv) {
       proj.back().push_back(pg);
       double num = 0, den = 0;  // region error relative to the whole reference
       for (std::size_t k = 0; k < pg.size(); ++k) num += (pg[k] - rg[k]) * (pg[k] - rg[k]), den += ref[k] * ref[k];
-      std::printf("%.3g |%s", std::sqrt(num / den), g == 3 ? "\n" : " ");
+      std::printf("%.3g |%s", std::sqrt(num / den), g == kNumPixelRegions - 1 ? "\n" : " ");
     }
     std::fflush(stdout);
+  }
+  // The hybrid oracle (docs/time_error.md, "What 1% at 1x would cost"): an
+  // image exact on the pixels holding a boundary and point-sampled at 1x
+  // (no antialias) on the others, graded on time_error's loss; its gradient
+  // takes the exact per-pixel derivatives dB on the boundary pixels.
+  if (!o.sum_weights) {
+    Tensor q = scene.points().detach().set_requires_grad();
+    const Tensor R = scene.render(q, colours, RenderSettings{DType::Float64, false, 1});
+    const std::vector<double> r = R.to_vector();
+    std::vector<double> wh(N), w_interior(N, 0.0);
+    for (std::size_t i = 0; i < N; ++i) {
+      const bool interior = region[i / 3] == kInterior;
+      wh[i] = 2 * ((interior ? r[i] : B[i]) - T[i]) / double(N);
+      if (interior) w_interior[i] = wh[i];
+    }
+    backward(sum(R * Tensor::from_values(w_interior, R.shape(), DType::Float64)));
+    std::vector<double> hybrid = project(q.grad(), dirs.position);
+    for (std::size_t k = 0; k < hybrid.size(); ++k)
+      for (std::size_t i = 0; i < N; ++i)
+        if (region[i / 3] != kInterior) hybrid[k] += wh[i] * dB[k][i];
+    std::printf("\nhybrid oracle (exact on the %d boundary pixels, point-sampled 1x elsewhere): mse error %.3g\n",
+                counts[1] + counts[2] + counts[3], relative_l2(hybrid, ref));
   }
   // Self-convergence: each s against the last one, per region, relative to |reference|.
   std::printf("\nagainst s = %d (same regions, relative to the whole reference):\n", o.s_list.back());
@@ -285,7 +264,7 @@ int main(int argc, char** argv) {
   for (double r : ref) den += r * r;
   for (std::size_t i = 0; i + 1 < proj.size(); ++i) {
     std::printf("| %d |", o.s_list[i]);
-    for (int g = 0; g < 5; ++g) {
+    for (int g = 0; g <= kNumPixelRegions; ++g) {  // all pixels, then each region
       double num = 0;
       for (std::size_t k = 0; k < ref.size(); ++k) {
         const double d = proj[i][g][k] - proj.back()[g][k];

@@ -140,6 +140,9 @@ void validate(const Tensor& clip, const Tensor& triangles, const Tensor& attribu
     throw ValueError(op + "image size " + std::to_string(width) + "x" + std::to_string(height) + " must be at least 1x1");
   if (options.quadrature_order < 1 || options.quadrature_order > 32)
     throw ValueError(op + "quadrature_order " + std::to_string(options.quadrature_order) + " must be in 1..32");
+  if (!options.only_pixels.empty() && options.only_pixels.size() != std::size_t(width) * std::size_t(height))
+    throw ShapeError(op + "only_pixels has " + std::to_string(options.only_pixels.size()) + " flags, the image " +
+                     std::to_string(width) + "x" + std::to_string(height) + " pixels");
   const std::int64_t n = clip.size(0);
   const std::int32_t* tri = triangles.data<std::int32_t>();
   for (std::int64_t i = 0; i < triangles.numel(); ++i)
@@ -262,11 +265,15 @@ ExactImage exact_box_filtered(const Tensor& clip, const Tensor& triangles, const
       const int tx = static_cast<int>(b % tiles_x), ty = static_cast<int>(b / tiles_x);
       for (int py = ty * kTile; py < std::min(height, ty * kTile + kTile); ++py)
         for (int px = tx * kTile; px < std::min(width, tx * kTile + kTile); ++px) {
+          double* sum = image + (static_cast<std::int64_t>(py) * width + px) * channels;
+          if (!options.only_pixels.empty() && !options.only_pixels[static_cast<std::size_t>(py) * width + px]) {
+            std::copy(bg, bg + channels, sum);
+            continue;
+          }
           s.square = {{double(px), double(py)}, {px + 1.0, double(py)}, {px + 1.0, py + 1.0}, {double(px), py + 1.0}};
           s.candidates.clear();
           for (const Prepared* p : bins[b])
             if (p->x1 > px && p->x0 < px + 1 && p->y1 > py && p->y0 < py + 1) s.candidates.push_back(p);
-          double* sum = image + (static_cast<std::int64_t>(py) * width + px) * channels;
           double& cov = coverage[static_cast<std::int64_t>(py) * width + px];
           for (const Prepared* p : s.candidates) integrate_visible(*p, attr, channels, rule, s, cov, sum);
           for (std::int64_t ch = 0; ch < channels; ++ch) sum[ch] += (1 - cov) * bg[ch];

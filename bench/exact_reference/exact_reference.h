@@ -8,6 +8,9 @@
 // depth z/w with ties to the smaller triangle index, near and far clipping.
 #pragma once
 
+#include <cstdint>
+#include <vector>
+
 #include "autodiff/tensor.h"
 #include "raster/rasterize.h"  // raster::Cull only
 
@@ -19,6 +22,11 @@ struct ExactReferenceOptions {
   // triangle of a visible piece (1..32); 8 agrees with 16 to ~1e-15 on
   // pixel-sized pieces (tests/bench/test_exact_reference.cpp).
   int quadrature_order = 8;
+  // Empty: every pixel. Otherwise one flag per pixel (row-major, width x
+  // height): only the flagged (non-zero) pixels are computed; the others hold
+  // the background with zero coverage (to time the exact image on chosen
+  // pixels, e.g. those holding a visibility boundary).
+  std::vector<std::uint8_t> only_pixels;
 };
 
 struct ExactImage {

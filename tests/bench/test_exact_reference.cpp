@@ -251,6 +251,38 @@ TEST_CASE("exact reference: a jittered mesh covers exactly its area, also over a
   CHECK(one.coverage.to_vector() == three.coverage.to_vector());
 }
 
+TEST_CASE("exact reference: with only_pixels it computes the flagged pixels alone, the others hold the background",
+          "[exact_reference]") {
+  const int size = 8;
+  std::vector<ScreenVertex> v;
+  std::vector<std::int32_t> t;
+  add_jittered_grid(v, t, 1.3, 0.6, 6.7, 7.2, 0.0, 5, 11);
+  std::vector<double> colour;
+  for (std::size_t i = 0; i < v.size(); ++i) colour.push_back(0.1 + 0.02 * double(i % 7));
+  const Tensor clip = clip_of(v, size, size), triangles = tris(t), attributes = column(colour);
+  const ExactImage all = exact_box_filtered(clip, triangles, attributes, size, size, scalar_background(0.25));
+  bench::ExactReferenceOptions options;
+  options.only_pixels.assign(size * size, 0);
+  for (int i = 0; i < size * size; i += 3) options.only_pixels[i] = 1;
+  const ExactImage some = exact_box_filtered(clip, triangles, attributes, size, size, scalar_background(0.25), options);
+  int flagged_covered = 0;
+  for (int y = 0; y < size; ++y)
+    for (int x = 0; x < size; ++x) {
+      if (options.only_pixels[y * size + x]) {
+        CHECK(at(some.image, y, x) == at(all.image, y, x));
+        CHECK(at(some.coverage, y, x) == at(all.coverage, y, x));
+        flagged_covered += at(all.coverage, y, x) > 0;
+      } else {
+        CHECK(at(some.image, y, x) == 0.25);
+        CHECK(at(some.coverage, y, x) == 0);
+      }
+    }
+  CHECK(flagged_covered > 10);  // the flags do pick covered pixels
+  options.only_pixels.pop_back();
+  CHECK_THROWS_WITH(exact_box_filtered(clip, triangles, attributes, size, size, scalar_background(0.25), options),
+                    Catch::Contains("only_pixels has 63 flags, the image 8x8"));
+}
+
 // sum (image - 0.3)^2 over a triangle whose vertex 0 moves by t along x.
 template <class Render>
 double moved_loss(double t, const Render& render) {

@@ -13,6 +13,7 @@
 #include "autodiff/tape.h"
 #include "autodiff/error.h"
 #include "bench/time_error_exact.h"
+#include "bench/time_error_regions.h"
 #include "ops/ops.h"
 
 namespace gr {
@@ -143,6 +144,33 @@ TEST_CASE("time_error scenes: the exact loss is smooth at the chosen step on eve
     CHECK(image.size(0) == 128);
   }
   CHECK_THROWS_AS(TimeErrorScene("no_such_scene"), ValueError);
+}
+
+TEST_CASE("time_error regions: each scene's boundary pixels are of the kinds it is built to show", "[time_error]") {
+  const auto count = [](const std::vector<int>& regions) {
+    std::vector<int> n(kNumPixelRegions, 0);
+    for (int r : regions) ++n.at(static_cast<std::size_t>(r));
+    return n;
+  };
+  const TimeErrorScene torus("torus"), intersection("intersection"), occlusion("occlusion");
+  const std::vector<int> t = count(pixel_regions(torus, torus.points()));
+  const std::vector<int> i = count(pixel_regions(intersection, intersection.points()));
+  const std::vector<int> o = count(pixel_regions(occlusion, occlusion.points()));
+  // One object: its silhouette against the background, no other object.
+  CHECK(t[kBackgroundBoundary] > 300);
+  CHECK(t[kObjectChange] == 0);
+  // The sphere sunk into the square: the visible half of the curve, > 50 px long.
+  CHECK(i[kObjectChange] > 50);
+  // The small sphere before the big one: a depth jump along its silhouette.
+  CHECK(o[kDepthJump] > 50);
+  CHECK(o[kObjectChange] == 0);
+  const std::vector<int> regions = pixel_regions(occlusion, occlusion.points());
+  const std::vector<std::uint8_t> flags = boundary_pixels(regions);
+  REQUIRE(flags.size() == regions.size());
+  std::size_t mismatches = 0;
+  for (std::size_t k = 0; k < flags.size(); ++k) mismatches += flags[k] != (regions[k] != kInterior);
+  CHECK(mismatches == 0);
+  CHECK(std::count(flags.begin(), flags.end(), 1) == o[kBackgroundBoundary] + o[kDepthJump]);
 }
 
 }  // namespace
