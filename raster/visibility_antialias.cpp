@@ -25,6 +25,11 @@ using detail::WalkEnd;
 // Depth steps smaller than this (z_ndc over one pixel pair) count as parallel
 // planes: coplanar or nearly so, no crossing (its position would be noise).
 constexpr double kMinDepthStep = 1e-12;
+// The G-buffer decides which surface is in front at each centre; the planes
+// here can round the other way by a few ulps where the crossing passes
+// through a centre. Differences within this of zero count as that tie, so the
+// crossing is still found (at t = 0 or 1) and the image stays continuous.
+constexpr double kDepthTie = 1e-12;
 
 // The plane of a triangle's z_ndc over the screen: z(c) = z0 + a (cx - x0) +
 // b (cy - y0), and the screen barycentrics lambda_k(c).
@@ -87,8 +92,8 @@ Crossing first_crossing(const Vertices& v, const std::int32_t* tris, const detai
       // d is affine along the whole segment for this pair: its values at the centres.
       const double d0 = a.at(fx, fy) - b.at(fx, fy), d1 = a.at(bx, by) - b.at(bx, by);
       const double dlo = d0 + lo * (d1 - d0), dhi = d0 + hi * (d1 - d0);
-      // Equality at a centre (d0 = 0 or d1 = 0) is a crossing at t = 0 or 1.
-      if (dlo <= 0.0 && dhi >= 0.0 && d1 - d0 > kMinDepthStep) {
+      // Equality at a centre (d0 = 0 or d1 = 0, to kDepthTie) is a crossing at t = 0 or 1.
+      if (dlo <= kDepthTie && dhi >= -kDepthTie && d1 - d0 > kMinDepthStep) {
         Crossing x;
         x.t = std::clamp(d0 / (d0 - d1), lo, hi);
         x.tri_f = pf.tri[i], x.tri_b = pb.tri[j];

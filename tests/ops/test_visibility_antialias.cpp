@@ -340,31 +340,34 @@ TEST_CASE("visibility_antialias: an intersection gets depth gradients where anti
   CHECK(gv < 0.0);
 }
 
+// Two triangles covering the whole image: A at z = 0, B's depth
+// z = s (y_ndc - y0) crossing zero on the row of pixel centres at screen
+// y 5.5 (row 5), shifted by `shift` px; the line is the only boundary.
+Tensor centre_row_clip(double shift, int H) {
+  const double y = 1.0 - 2.0 * 5.5 / H + 2.0 * shift / H, s = 0.2;  // |z| < 1 at every vertex
+  return Tensor::from_values({-4, -3, 0, 1, 4, -3, 0, 1, 0.0, 4, 0, 1,  //
+                              -4, 3.2, s * (3.2 - y), 1, 4, 3, s * (3 - y), 1, 0.1, -4, s * (-4 - y), 1},
+                             {6, 4}, DType::Float64);
+}
+
+// Flat colours (one per triangle): the one-sided blend takes each neighbour's
+// colour at its own centre, so with varying colours the image jumps by part of
+// a pixel's colour change when a boundary crosses a centre (as antialias's does).
+Tensor flat_pair_colours() {
+  return Tensor::from_values({0.9, 0.2, 0.1, 0.9, 0.2, 0.1, 0.9, 0.2, 0.1,  //
+                              0.1, 0.3, 0.9, 0.1, 0.3, 0.9, 0.1, 0.3, 0.9},
+                             {6, 3}, DType::Float64);
+}
+
 TEST_CASE("visibility_antialias: an intersection line through pixel centres keeps a flat-coloured image continuous "
           "and finite",
           "[ops][visibility_antialias]") {
   const int W = 16, H = 16;
   Tensor tris = pair_triangles();
-  // A at z = 0; B's depth z = s (y_ndc - y0) crosses zero on the row of centres
-  // at y_ndc = y0 (row 5: screen y 5.5), then shifted by +-1e-9 px.
-  const double y0 = 1.0 - 2.0 * 5.5 / H;
-  auto clip_at = [&](double shift) {
-    const double y = y0 + 2.0 * shift / H, s = 0.2;  // |z| < 1 at every vertex
-    // Both triangles cover the whole image: the line is the only boundary.
-    return Tensor::from_values({-4, -3, 0, 1, 4, -3, 0, 1, 0.0, 4, 0, 1,  //
-                                -4, 3.2, s * (3.2 - y), 1, 4, 3, s * (3 - y), 1, 0.1, -4, s * (-4 - y), 1},
-                               {6, 4}, DType::Float64);
-  };
-  // Flat colours: the one-sided blend takes each neighbour's colour at its own
-  // centre, so with varying colours the image jumps by part of a pixel's colour
-  // change when a boundary crosses a centre (as antialias's does).
-  Tensor colours = Tensor::from_values({0.9, 0.2, 0.1, 0.9, 0.2, 0.1, 0.9, 0.2, 0.1,  //
-                                        0.1, 0.3, 0.9, 0.1, 0.3, 0.9, 0.1, 0.3, 0.9},
-                                       {6, 3}, DType::Float64);
   std::vector<std::vector<double>> images;
   for (double shift : {-1e-9, 0.0, 1e-9}) {
-    Tensor clip = clip_at(shift).set_requires_grad();
-    Tensor out = render(clip, colours, tris, W, H);
+    Tensor clip = centre_row_clip(shift, H).set_requires_grad();
+    Tensor out = render(clip, flat_pair_colours(), tris, W, H);
     backward(sum(out * out));
     CHECK(all_finite(out));
     CHECK(all_finite(clip.grad()));
@@ -374,6 +377,19 @@ TEST_CASE("visibility_antialias: an intersection line through pixel centres keep
   for (std::size_t i = 0; i < images[0].size(); ++i)
     jump = std::max({jump, std::abs(images[0][i] - images[1][i]), std::abs(images[2][i] - images[1][i])});
   CHECK(jump < 1e-6);
+}
+
+TEST_CASE("visibility_antialias: gradients at an intersection line through a row of pixel centres match finite "
+          "differences",
+          "[ops][visibility_antialias][gradcheck]") {
+  const int W = 16, H = 16;
+  Tensor tris = pair_triangles();
+  Tensor clip = centre_row_clip(0.0, H).set_requires_grad();
+  Tensor colours = flat_pair_colours().set_requires_grad();
+  CHECK(stats_of(Tensor::zeros({H, W, 3}, DType::Float64), clip, tris, W, H).intersection_pairs >= 10);
+  require_gradcheck("visibility_antialias through pixel centres (clip, colours)",
+                    [&](const Inputs& in) { return render(in[0], in[1], tris, W, H); }, {clip, colours},
+                    GradcheckOptions{1e-6});
 }
 
 TEST_CASE("visibility_antialias: coplanar overlapping faces blend no crossing and give finite gradients",
@@ -392,6 +408,38 @@ TEST_CASE("visibility_antialias: coplanar overlapping faces blend no crossing an
   backward(sum(out * out));
   CHECK(all_finite(out));
   CHECK(all_finite(clip.grad()));
+}
+
+TEST_CASE("visibility_antialias: gradients on coplanar overlapping faces, moved within their plane, match finite "
+          "differences",
+          "[ops][visibility_antialias][gradcheck]") {
+  const int W = 24, H = 20;
+  // The faces of the test above in the plane z = 0 (w = 1), as a function of
+  // the screen positions (x, y) of the six vertices, so every perturbation
+  // keeps them coplanar and every depth is exactly 0: the index decides, and
+  // the smaller index's edges over the other face are blended as occlusions.
+  // (In a tilted common plane the rasterizer's depths differ by rounding, so
+  // which face shows at a centre flips between perturbations, as z-fighting
+  // does in any depth buffer; a perturbation that tilts one face makes the
+  // other show through on a whole side of a line. No derivative exists there.)
+  Tensor xy = Tensor::from_values({-0.9, -0.8, 0.85, -0.7, 0.1, 0.9, -0.6, 0.7, 0.8, 0.5, -0.2, -0.85}, {6, 2},
+                                  DType::Float64)
+                  .set_requires_grad();
+  const Tensor to_clip = Tensor::from_values({1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 0, 1}, {3, 4}, DType::Float64);
+  const auto clip_of = [&](const Tensor& p) {
+    return matmul(concat({p, Tensor::ones({6, 1}, DType::Float64)}, 1), to_clip);
+  };
+  Tensor tris = pair_triangles();
+  Tensor colours = gr::testing::random_input({6, 3}, 0.1, 0.9, 43);
+  {
+    NoGradGuard ng;
+    const auto stats = stats_of(Tensor::zeros({H, W, 3}, DType::Float64), clip_of(xy), tris, W, H);
+    CHECK(stats.intersection_pairs == 0);
+    CHECK(stats.edge_pairs >= 20);
+  }
+  require_gradcheck("visibility_antialias coplanar (xy, colours)",
+                    [&](const Inputs& in) { return render(clip_of(in[0]), in[1], tris, W, H); }, {xy, colours},
+                    GradcheckOptions{1e-6});
 }
 
 TEST_CASE("visibility_antialias: image and gradients are bit-identical for 1, 2 and 8 threads",
