@@ -387,3 +387,29 @@ TEST_CASE("antialias: pos_gradient_boost scales the clip gradient exactly and le
   CHECK_THROWS_WITH(antialias(image, rasterize(clip, tris, {W, H}), clip, tris, bad),
                     Catch::Contains("pos_gradient_boost"));
 }
+
+TEST_CASE("antialias: gradients at a silhouette through a row of pixel centres match finite differences",
+          "[ops][antialias][gradcheck]") {
+  // A flat-coloured triangle over the background whose top edge runs exactly
+  // along the centres of row 5 (screen y 5.5); its vertices lie outside the
+  // image, so the edge is the only boundary and no corner is near a centre
+  // (at a corner, a centre changing sides is a jump of the first-order blend).
+  const int W = 16, H = 16;
+  const double y = 1.0 - 2.0 * 5.5 / H;
+  Tensor clip = Tensor::from_values({-4, y, 0.1, 1.0, 4, y, 0.1, 1.0, 0.05, -9, 0.1, 1.0}, {3, 4}, DType::Float64)
+                    .set_requires_grad();
+  Tensor tris = Tensor::from_vector<std::int32_t>({0, 1, 2}, {1, 3});
+  Tensor colours = Tensor::from_values({0.8, 0.3, 0.2, 0.8, 0.3, 0.2, 0.8, 0.3, 0.2}, {3, 3}, DType::Float64)
+                       .set_requires_grad();
+  raster::AntialiasStats stats;
+  AntialiasOptions opt;
+  opt.stats = &stats;
+  {
+    NoGradGuard ng;
+    render_aa(clip, colours, tris, W, H, opt);
+  }
+  CHECK(stats.blended_pairs == W);  // one vertical pair per column
+  require_gradcheck("antialias silhouette through pixel centres (clip, colours)",
+                    [&](const Inputs& in) { return render_aa(in[0], in[1], tris, W, H); }, {clip, colours},
+                    GradcheckOptions{1e-6});
+}
