@@ -16,14 +16,12 @@ std::vector<int> pixel_regions(const TimeErrorScene& scene, const Tensor& points
   const std::int32_t* id = gb.tri_id.data<std::int32_t>();
   const std::vector<double> z = gb.depth.to_vector();
   // The object of each render vertex: the points' objects gathered as the colours are.
-  const std::int32_t* point_part = scene.point_part().data<std::int32_t>();
-  std::vector<double> part_of_point(static_cast<std::size_t>(3 * scene.num_points()));
-  for (std::int64_t i = 0; i < scene.num_points(); ++i) part_of_point[3 * i] = point_part[i];
-  const std::vector<double> vertex_part =
-      scene.vertex_colours(Tensor::from_values(part_of_point, {scene.num_points(), 3}, DType::Float64)).to_vector();
+  const Tensor point_part = cast(scene.point_part(), DType::Float64);
+  const std::vector<double> vertex_part = scene.vertex_colours(reshape(point_part, {scene.num_points(), 1})).to_vector();
   const std::int32_t* tri = scene.triangles().data<std::int32_t>();
-  auto part = [&](std::int64_t p) { return vertex_part[3 * std::int64_t(tri[3 * (id[p] - 1)])]; };
-  auto rank = [](int kind) { return kind == kBackgroundBoundary ? 3 : kind == kDepthJump ? 2 : kind == kObjectChange ? 1 : 0; };
+  auto part = [&](std::int64_t p) { return vertex_part[static_cast<std::size_t>(tri[3 * (id[p] - 1)])]; };
+  // Precedence: background boundary, then depth jump, then object change.
+  auto rank = [](int kind) { return kind == kInterior ? 0 : kNumPixelRegions - kind; };
   auto dist = [&](std::int64_t p) {  // OpenGL perspective, near 0.1, far 10
     const double n = 0.1, f = 10;
     return 2 * n * f / ((f + n) - z[p] * (f - n));
