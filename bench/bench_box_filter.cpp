@@ -4,9 +4,10 @@
 // docs/time_error.md, "What 1% at 1x would cost"). On each time_error scene
 // at 1x (128 x 128, float64), by scene index (time_error's order: torus,
 // intersection, occlusion, open_culled):
-//   BM_AntialiasOp/scene            antialias, forward + backward (a fixed random upstream gradient)
-//   BM_VisibilityAntialiasOp/scene  visibility_antialias, the same
-//   BM_PointSampled/scene           rasterize + interpolate, forward + backward (the image both ops blend)
+//   BM_AntialiasOp/scene/visibility antialias (visibility 0) or visibility_antialias (1, the same op
+//                                   with options.visibility), forward + backward (a fixed random
+//                                   upstream gradient)
+//   BM_PointSampled/scene           rasterize + interpolate, forward + backward (the image both blend)
 //   BM_ExactImage/scene/order/boundary
 //                                   the exact reference (bench/exact_reference), forward only, at
 //                                   quadrature order 1 (areas and centroid values only) and 8
@@ -43,17 +44,25 @@ struct Inputs {
   GBuffer gbuffer;
 };
 
+// The scene's 1x rasterization and interpolation, as its render does them.
+RasterizeOptions raster_options(const TimeErrorScene& scene) {
+  RasterizeOptions options;
+  options.width = scene.width(), options.height = scene.height(), options.cull = scene.cull();
+  return options;
+}
+InterpolateOptions interpolation(const TimeErrorScene& scene) {
+  InterpolateOptions options;
+  options.background = scene.background();
+  return options;
+}
+
 Inputs inputs_of(const TimeErrorScene& scene) {
   Inputs in;
   NoGradGuard no_grad;
   in.clip = scene.clip_positions(scene.points()).set_requires_grad();
   in.colours = scene.vertex_colours(scene.colours()).set_requires_grad();
-  RasterizeOptions options;
-  options.width = scene.width(), options.height = scene.height(), options.cull = scene.cull();
-  in.gbuffer = rasterize(in.clip, scene.triangles(), options);
-  InterpolateOptions interpolation;
-  interpolation.background = scene.background();
-  in.image = interpolate(in.colours, in.clip, in.gbuffer, scene.triangles(), interpolation).set_requires_grad();
+  in.gbuffer = rasterize(in.clip, scene.triangles(), raster_options(scene));
+  in.image = interpolate(in.colours, in.clip, in.gbuffer, scene.triangles(), interpolation(scene)).set_requires_grad();
   return in;
 }
 
@@ -73,30 +82,19 @@ void BM_AntialiasOp(benchmark::State& state) {
   const Inputs in = inputs_of(scene);
   AntialiasOptions options;
   options.topology = scene.topology();
+  options.visibility = state.range(1) != 0;
   time_forward_backward(state, [&] { return antialias(in.image, in.gbuffer, in.clip, scene.triangles(), options); });
-}
-
-void BM_VisibilityAntialiasOp(benchmark::State& state) {
-  const TimeErrorScene& scene = scene_at(state.range(0));
-  state.SetLabel(scene.name());
-  const Inputs in = inputs_of(scene);
-  VisibilityAntialiasOptions options;
-  options.topology = scene.topology();
-  time_forward_backward(state,
-                        [&] { return visibility_antialias(in.image, in.gbuffer, in.clip, scene.triangles(), options); });
 }
 
 void BM_PointSampled(benchmark::State& state) {
   const TimeErrorScene& scene = scene_at(state.range(0));
   state.SetLabel(scene.name());
   const Inputs in = inputs_of(scene);
-  RasterizeOptions options;
-  options.width = scene.width(), options.height = scene.height(), options.cull = scene.cull();
-  InterpolateOptions interpolation;
-  interpolation.background = scene.background();
+  const RasterizeOptions options = raster_options(scene);
+  const InterpolateOptions interpolate_options = interpolation(scene);
   time_forward_backward(state, [&] {
     const GBuffer gb = rasterize(in.clip, scene.triangles(), options);
-    return interpolate(in.colours, in.clip, gb, scene.triangles(), interpolation);
+    return interpolate(in.colours, in.clip, gb, scene.triangles(), interpolate_options);
   });
 }
 
@@ -111,13 +109,9 @@ void BM_ExactImage(benchmark::State& state) {
     benchmark::DoNotOptimize(bench::exact_scene_image(scene, scene.points(), scene.colours(), options).image);
 }
 
-void Scenes(benchmark::internal::Benchmark* b) {
-  b->ArgName("scene")->DenseRange(0, 3)->Unit(benchmark::kMillisecond)->UseRealTime();
-}
-
-BENCHMARK(BM_AntialiasOp)->Apply(Scenes);
-BENCHMARK(BM_VisibilityAntialiasOp)->Apply(Scenes);
-BENCHMARK(BM_PointSampled)->Apply(Scenes);
+BENCHMARK(BM_AntialiasOp)->ArgNames({"scene", "visibility"})->ArgsProduct({{0, 1, 2, 3}, {0, 1}})
+    ->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_PointSampled)->ArgName("scene")->DenseRange(0, 3)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_ExactImage)->ArgNames({"scene", "order", "boundary"})->ArgsProduct({{0, 1, 2, 3}, {1, 8}, {0, 1}})
     ->Unit(benchmark::kMillisecond)->UseRealTime();
 
