@@ -1,7 +1,5 @@
 #include "examples/fit/fit_outputs.h"
 
-#include <unistd.h>
-
 #include <filesystem>
 #include <new>
 
@@ -10,6 +8,7 @@
 #include "examples/common/cli_args.h"
 #include "examples/common/output_folder.h"
 #include "raster/files.h"
+#include "raster/temporaries.h"
 
 namespace fit {
 namespace fs = std::filesystem;
@@ -29,11 +28,14 @@ FitResult run_fit_with_outputs(const FitOptions& options, std::ostream& log) {
 
   gr::cli::OutputFolder folder(options.out_dir);
   folder.create();
+  gr::raster::remove_stale_temporaries(options.out_dir);  // staging folders of killed runs
   FitOptions staged = options;
-  staged.out_dir = (fs::path(options.out_dir) / (".gr" + std::to_string(::getpid()) + ".staging")).string();
-  // Removes the staging folder whatever happens.
+  staged.out_dir = (fs::path(options.out_dir) / gr::raster::staging_folder_name()).string();
+  // Removes the staging folder whatever happens: on return, on an exception
+  // and on a signal (the registration).
   struct Cleanup {
     std::string path;
+    gr::raster::TemporaryRegistration registration{path, gr::raster::TemporaryKind::Folder};
     ~Cleanup() {
       std::error_code ec;
       fs::remove_all(path, ec);

@@ -10,6 +10,7 @@
 #include "examples/fit/job.h"
 #include "examples/fit/progress.h"
 #include "examples/fit/snapshot.h"
+#include "raster/temporaries.h"
 #ifdef GRADRASTER_FIT_MPI
 #include "examples/fit/mpi_main.h"
 #endif
@@ -91,6 +92,7 @@ int run(int argc, char** argv, const fit::Job& job) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  gr::raster::remove_temporaries_on_signals();  // Ctrl-C leaves no staging folder behind
 #ifdef GRADRASTER_FIT_MPI
   if (fit::launched_by_mpirun()) return fit::run_mpi_job(argc, argv, run);
 #endif
