@@ -4,6 +4,7 @@
 #include <iomanip>
 #include <iostream>
 
+#include "examples/common/cli_args.h"
 #include "examples/fit/cli.h"
 #include "examples/fit/fit.h"
 #include "examples/fit/fit_outputs.h"
@@ -34,6 +35,7 @@ int run(int argc, char** argv, const fit::Job& job) {
   fit::FitOptions& o = cl.options;
   o.interactive = job.root && fit::stdout_is_terminal();
   o.communicator = job.comm;
+  if (job.root) o.warnings = &std::cerr;
   if (job.comm && job.comm->size() > 1 && o.mode == fit::Mode::Pose) {
     if (job.root) std::cerr << program << ": --mode pose fits one view; run it without mpirun\n";
     return 2;
@@ -81,6 +83,10 @@ int run(int argc, char** argv, const fit::Job& job) {
   } catch (const gr::ProcessFailed& e) {  // every process of the job knows: each ends cleanly
     if (job.root || (job.comm && e.failed_rank == job.comm->rank())) std::cerr << program << ": " << e.what() << "\n";
     return 1;
+  } catch (const gr::cli::UsageError& e) {  // an output that is an input or another output
+    if (job.fail) job.fail(e.what());
+    std::cerr << program << ": " << e.what() << "\n";
+    return 2;
   } catch (const std::exception& e) {  // gr::Error (bad mesh, memory, unwritable file) or std::filesystem_error
     if (job.fail) job.fail(e.what());  // an MPI job: end every process, none is left waiting
     std::cerr << program << ": " << e.what() << "\n";

@@ -358,3 +358,38 @@ TEST_CASE("render tool: a request over the memory budget is refused before rende
   CHECK(r.out.empty());
   CHECK(dir.count() == 0);
 }
+
+TEST_CASE("render tool: an output that is the input mesh or another output is refused, touching nothing",
+          "[examples][render][distinct_files]") {
+  TempDir dir;
+  raster::save_obj(dir.file("v.obj"), raster::make_cube());
+  const std::string mesh = slurp(dir.file("v.obj"));
+  for (const std::string& spelling : {dir.file("v.obj"), dir.file("./v.obj"), dir.file("sub/../v.obj")}) {
+    INFO(spelling);
+    std::filesystem::create_directories(dir.file("sub"));
+    const Run r = render({"--mesh", dir.file("v.obj"), "--width", "8", "--height", "8", "--out-depth", spelling});
+    CHECK(r.code == 2);
+    CHECK_THAT(r.err, Catch::Contains("--out-depth") && Catch::Contains("is the same file as --mesh"));
+    CHECK(slurp(dir.file("v.obj")) == mesh);
+  }
+  // The same file given to every output: refused, nothing written.
+  const Run r = render({"--builtin", "cube", "--width", "8", "--height", "8", "--out", dir.file("x"), "--out-triid",
+                        dir.file("x"), "--out-depth", dir.file("./x")});
+  CHECK(r.code == 2);
+  CHECK_THAT(r.err, Catch::Contains("--out-triid") && Catch::Contains("two outputs cannot share a file"));
+  CHECK(!std::filesystem::exists(dir.file("x")));
+}
+
+TEST_CASE("render tool: an output that is the texture the mesh's MTL names is refused", "[examples][render][distinct_files]") {
+  TempDir dir;
+  raster::Mesh cube = raster::make_cube();
+  raster::write_png(dir.file("tex.png"), Tensor::full({2, 2, 3}, 0.5));
+  cube.texture_path = dir.file("tex.png");
+  cube.uvs = Tensor::zeros({cube.num_vertices(), 2});
+  raster::save_obj(dir.file("v.obj"), cube);  // writes v.mtl naming tex.png
+  const std::string texture = slurp(dir.file("tex.png"));
+  const Run r = render({"--mesh", dir.file("v.obj"), "--width", "8", "--height", "8", "--out", dir.file("tex.png")});
+  CHECK(r.code == 2);
+  CHECK_THAT(r.err, Catch::Contains("the texture named by --mesh"));
+  CHECK(slurp(dir.file("tex.png")) == texture);
+}
