@@ -9,6 +9,7 @@
 #include "examples/fit/fit.h"
 #include "examples/fit/fit_outputs.h"
 #include "examples/fit/job.h"
+#include "examples/fit/option_agreement.h"
 #include "examples/fit/progress.h"
 #include "examples/fit/snapshot.h"
 #include "raster/temporaries.h"
@@ -24,6 +25,13 @@ int run(int argc, char** argv, const fit::Job& job) {
   const std::string program = argc > 0 ? argv[0] : "gradraster-fit";
   std::ostream& out = job.out;
   fit::CommandLine cl = fit::parse_command_line(std::vector<std::string>(argv + 1, argv + argc));
+  if (job.comm) {  // an MPI job: every process must run the same fit, or none starts
+    const std::string disagreement = fit::option_disagreement(*job.comm, fit::run_shaping_options(cl));
+    if (!disagreement.empty()) {
+      if (job.root) std::cerr << program << ": " << disagreement << "\n";
+      return 2;
+    }
+  }
   if (cl.action == fit::CommandLine::Action::Help) {
     out << fit::usage(program);
     return 0;
