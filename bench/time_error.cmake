@@ -10,4 +10,4 @@ target_link_libraries(time_error PRIVATE gradraster_time_error_reference gradras
 # time_error_plateau: why the antialiased gradient error stalls with
 # supersampling (docs/time_error.md); an experiment, prints only.
 add_executable(time_error_plateau ${CMAKE_CURRENT_SOURCE_DIR}/time_error_plateau.cpp)
-target_link_libraries(time_error_plateau PRIVATE gradraster_time_error_reference)
+target_link_libraries(time_error_plateau PRIVATE gradraster_time_error_reference gradraster_example_common)
