@@ -117,7 +117,12 @@ std::array<double, 16> camera_matrix(const RenderArgs& a, const raster::Mesh& me
   if (a.has_eye) {
     s << "camera=look_at";
   } else {
-    const raster::MeshFraming f = raster::frame_mesh(mesh);
+    raster::MeshFraming f;
+    try {
+      f = raster::frame_mesh(mesh);
+    } catch (const Error& e) {
+      throw RuntimeError(camera_source(a) + ": " + e.what());
+    }
     eye = f.eye, target = f.centre, up = f.up, fov_deg = f.fov_y * 180.0 / M_PI;
     s << "camera=framed eye=" << eye[0] << "," << eye[1] << "," << eye[2] << " target=" << target[0] << ","
       << target[1] << "," << target[2];

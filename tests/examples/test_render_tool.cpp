@@ -393,3 +393,26 @@ TEST_CASE("render tool: an output that is the texture the mesh's MTL names is re
   CHECK_THAT(r.err, Catch::Contains("the texture named by --mesh"));
   CHECK(slurp(dir.file("tex.png")) == texture);
 }
+
+TEST_CASE("render tool: a mesh 1e-14 units across is framed like a unit one; a mesh of one point is refused",
+          "[examples][render][mesh_framing]") {
+  TempDir dir;
+  std::string covered;
+  for (double s : {1.0, 1e-14}) {
+    CAPTURE(s);
+    gr::raster::Mesh mesh = gr::raster::make_icosphere(2);
+    float* p = mesh.positions.data<float>();
+    for (std::int64_t i = 0; i < mesh.positions.numel(); ++i) p[i] = static_cast<float>(p[i] * s);
+    gr::raster::save_obj(dir.file("sphere.obj"), mesh);
+    const Run r = render({"--mesh", dir.file("sphere.obj"), "--width", "64", "--height", "64"});
+    INFO(r.err);
+    REQUIRE(r.code == 0);
+    if (s == 1.0) covered = value_of(r.out, "covered_pixels");
+    CHECK(value_of(r.out, "covered_pixels") == covered);  // the same picture at any scale
+  }
+  CHECK(std::stoi(covered) > 500);
+  std::ofstream(dir.file("point.obj")) << "v 1 2 3\nv 1 2 3\nv 1 2 3\nf 1 2 3\n";
+  const Run point = render({"--mesh", dir.file("point.obj"), "--width", "64", "--height", "64"});
+  CHECK(point.code == 1);
+  CHECK_THAT(point.err, Catch::Contains("--mesh") && Catch::Contains("lie at one point (1, 2, 3)"));
+}
