@@ -15,6 +15,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <set>
 #include <sstream>
 #include <string>
 #include <unistd.h>
@@ -22,6 +23,7 @@
 
 #include "autodiff/parallel.h"
 #include "autodiff/storage.h"
+#include "examples/common/cli_args.h"
 #include "examples/fit/fit.h"
 
 namespace {
@@ -67,28 +69,34 @@ int main(int argc, char** argv) {
   options.start_subdivisions = 3;
   options.reference_subdivisions = 3;
   options.progress_bar = false;
-  for (int i = 1; i < argc; ++i) {
-    auto next = [&](int& value) {
-      if (i + 1 >= argc) return false;
-      value = std::atoi(argv[++i]);
-      return true;
-    };
-    bool ok = true;
-    if (!std::strcmp(argv[i], "--texture")) options.appearance = fit::Appearance::Texture;
-    else if (!std::strcmp(argv[i], "--fit-camera")) options.fit_camera = true;
-    else if (!std::strcmp(argv[i], "--iterations")) ok = next(options.iterations);
-    else if (!std::strcmp(argv[i], "--size")) ok = next(options.size);
-    else if (!std::strcmp(argv[i], "--views")) ok = next(options.views);
-    else if (!std::strcmp(argv[i], "--subdivisions")) ok = next(options.start_subdivisions);
-    else if (!std::strcmp(argv[i], "--threads")) ok = next(options.threads);
-    else ok = false;
-    if (!ok || options.iterations < 1) {
-      std::fprintf(stderr,
-                   "usage: %s [--iterations N] [--size S] [--views V] [--subdivisions K] [--threads T] [--texture] "
-                   "[--fit-camera]\n",
-                   argv[0]);
-      return 2;
+  const char* usage =
+      "Usage: long_run [--iterations N] [--size S] [--views V] [--subdivisions K] [--threads T] [--texture]\n"
+      "                [--fit-camera]\n"
+      "Runs the fit example for N steps (default 1000) and checks losses, parameters and memory\n"
+      "(docs/robustness.md, \"Long run\"). Exit codes: 0 pass, 1 fail, 2 usage error.\n";
+  try {
+    std::set<std::string> seen;
+    const bool run = gr::cli::for_each_flag(
+        std::vector<std::string>(argv + 1, argv + argc),
+        {{"--iterations", "--size", "--views", "--subdivisions", "--threads"}, {"--texture", "--fit-camera"}},
+        [&](const std::string& flag, const std::string& v) {
+          using gr::cli::parse_int;
+          if (flag == "--texture") options.appearance = fit::Appearance::Texture;
+          else if (flag == "--fit-camera") options.fit_camera = true;
+          else if (flag == "--iterations") options.iterations = parse_int(flag, v, 1, 1000000);
+          else if (flag == "--size") options.size = parse_int(flag, v, 16, 4096);
+          else if (flag == "--views") options.views = parse_int(flag, v, 1, 64);
+          else if (flag == "--subdivisions") options.start_subdivisions = parse_int(flag, v, 0, 6);
+          else options.threads = parse_int(flag, v, 0, 1024);
+        },
+        seen);
+    if (!run) {
+      std::fputs(usage, stdout);
+      return 0;
     }
+  } catch (const gr::cli::UsageError& e) {
+    std::fprintf(stderr, "long_run: %s\n\n%s", e.what(), usage);
+    return 2;
   }
   const std::filesystem::path out =
       std::filesystem::temp_directory_path() / ("gradraster_long_run_" + std::to_string(::getpid()));

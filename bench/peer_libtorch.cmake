@@ -4,7 +4,7 @@
 find_package(Torch QUIET)
 if(Torch_FOUND)
   add_executable(peer_libtorch ${CMAKE_CURRENT_SOURCE_DIR}/peer_libtorch.cpp)
-  target_link_libraries(peer_libtorch PRIVATE gradraster::gradraster ${TORCH_LIBRARIES})
+  target_link_libraries(peer_libtorch PRIVATE gradraster::gradraster gradraster_example_common ${TORCH_LIBRARIES})
   message(STATUS "gradraster: libtorch found (${Torch_DIR}); building bench/peer_libtorch")
 else()
   message(STATUS "gradraster: libtorch not found; bench/peer_libtorch is skipped (install libtorch-dev to build it)")

@@ -20,9 +20,11 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <set>
 #include <string>
 #include <vector>
 
+#include "examples/common/cli_args.h"
 #include "peer_libtorch_graph.h"
 #include "peer_libtorch_rss.h"
 
@@ -40,26 +42,26 @@ struct Options {
 
 Options parse(int argc, char** argv) {
   Options o;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto next = [&]() -> long long {
-      if (i + 1 >= argc) {
-        std::fprintf(stderr, "%s needs a value\n", a.c_str());
-        std::exit(2);
-      }
-      return std::atoll(argv[++i]);
-    };
-    if (a == "--pixels") o.pixels = next();
-    else if (a == "--reps") o.reps = static_cast<int>(next());
-    else if (a == "--rss-iterations") o.rss_iterations = static_cast<int>(next());
-    else if (a == "--profile-ours") o.profile_ours = static_cast<int>(next());
-    else {
-      std::fprintf(stderr, "usage: peer_libtorch [--pixels N] [--reps R] [--rss-iterations K] [--profile-ours K]\n");
-      std::exit(2);
+  const char* usage =
+      "usage: peer_libtorch [--pixels N] [--reps R] [--rss-iterations K]\n"
+      "       peer_libtorch --profile-ours K [--pixels N]   (ours only, for perf/callgrind)\n";
+  try {
+    std::set<std::string> seen;
+    const bool run = gr::cli::for_each_flag(
+        std::vector<std::string>(argv + 1, argv + argc), {{"--pixels", "--reps", "--rss-iterations", "--profile-ours"}, {}},
+        [&](const std::string& flag, const std::string& v) {
+          if (flag == "--pixels") o.pixels = gr::cli::parse_integer(flag, v, 1, std::int64_t(1) << 30);
+          else if (flag == "--reps") o.reps = gr::cli::parse_int(flag, v, 1, 1000000);
+          else if (flag == "--rss-iterations") o.rss_iterations = gr::cli::parse_int(flag, v, 1, 1000000);
+          else o.profile_ours = gr::cli::parse_int(flag, v, 1, 1000000);
+        },
+        seen);
+    if (!run) {
+      std::fputs(usage, stdout);
+      std::exit(0);
     }
-  }
-  if (o.pixels < 1 || o.reps < 1 || o.rss_iterations < 1) {
-    std::fprintf(stderr, "peer_libtorch: --pixels, --reps and --rss-iterations must be positive\n");
+  } catch (const gr::cli::UsageError& e) {
+    std::fprintf(stderr, "peer_libtorch: %s\n%s", e.what(), usage);
     std::exit(2);
   }
   return o;

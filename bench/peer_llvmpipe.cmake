@@ -13,7 +13,7 @@ if(OSMESA_FOUND)
     ${CMAKE_CURRENT_SOURCE_DIR}/mesh_framing.cpp
     ${CMAKE_CURRENT_SOURCE_DIR}/peer_llvmpipe_compare.cpp)
   target_compile_definitions(peer_llvmpipe PRIVATE GL_GLEXT_PROTOTYPES)
-  target_link_libraries(peer_llvmpipe PRIVATE gradraster::gradraster PkgConfig::OSMESA)
+  target_link_libraries(peer_llvmpipe PRIVATE gradraster::gradraster gradraster_example_common PkgConfig::OSMESA)
   message(STATUS "peer_llvmpipe: OSMesa ${OSMESA_VERSION} found, building the llvmpipe comparison")
 else()
   message(STATUS "peer_llvmpipe: OSMesa not found (install libosmesa6-dev), skipping the llvmpipe comparison")

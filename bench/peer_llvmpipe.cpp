@@ -18,12 +18,14 @@
 #include <cstdlib>
 #include <fstream>
 #include <memory>
+#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include "autodiff/parallel.h"
 #include "autodiff/tape.h"
+#include "examples/common/cli_args.h"
 #include "ops/rasterize.h"
 #include "peer_llvmpipe_compare.h"
 #include "peer_llvmpipe_gl.h"
@@ -55,28 +57,32 @@ struct Options {
 
 Options parse(int argc, char** argv) {
   Options o;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc) {
-        std::fprintf(stderr, "%s needs a value\n", a.c_str());
-        std::exit(2);
-      }
-      return argv[++i];
-    };
-    if (a == "--mesh") o.mesh_path = value();
-    else if (a == "--size") o.size = std::atoi(value().c_str());
-    else if (a == "--reps") o.reps = std::max(1, std::atoi(value().c_str()));
-    else if (a == "--lp-threads") o.lp_threads = std::max(1, std::atoi(value().c_str()));
-    else if (a == "--meshes") o.only = value();
-    else if (a == "--ours-only") o.ours_only = true;
-    else if (a == "--profile") o.profile = std::max(1, std::atoi(value().c_str()));
-    else {
-      std::fprintf(stderr,
-                   "usage: peer_llvmpipe [--mesh FILE.obj] [--size N] [--reps N] [--lp-threads N]\n"
-                   "                     [--meshes name,name] [--ours-only] [--profile N]\n");
-      std::exit(a == "--help" ? 0 : 2);
+  const char* usage =
+      "usage: peer_llvmpipe [--mesh FILE.obj] [--size N] [--reps N] [--lp-threads N]\n"
+      "                     [--meshes name,name] [--ours-only] [--profile N]\n";
+  try {
+    std::set<std::string> seen;
+    const bool run = gr::cli::for_each_flag(
+        std::vector<std::string>(argv + 1, argv + argc),
+        {{"--mesh", "--size", "--reps", "--lp-threads", "--meshes", "--profile"}, {"--ours-only"}},
+        [&](const std::string& flag, const std::string& v) {
+          using gr::cli::parse_int;
+          if (flag == "--mesh") o.mesh_path = v;
+          else if (flag == "--size") o.size = parse_int(flag, v, 1, 16384);
+          else if (flag == "--reps") o.reps = parse_int(flag, v, 1, 1000000);
+          else if (flag == "--lp-threads") o.lp_threads = parse_int(flag, v, 1, 1024);
+          else if (flag == "--meshes") o.only = v;
+          else if (flag == "--ours-only") o.ours_only = true;
+          else o.profile = parse_int(flag, v, 1, 1000000);
+        },
+        seen);
+    if (!run) {
+      std::fputs(usage, stdout);
+      std::exit(0);
     }
+  } catch (const gr::cli::UsageError& e) {
+    std::fprintf(stderr, "peer_llvmpipe: %s\n%s", e.what(), usage);
+    std::exit(2);
   }
   return o;
 }

@@ -4,7 +4,7 @@
 // examples/common/plot_canvas.h, no plotting library): x = trace time (ms), y = mean hit error (px);
 // view-space march in orange, DDA in blue, the reference as a black square at
 // its time on the bottom axis.
-//   ssr_tradeoff [plot.png] [repeats]
+//   ssr_tradeoff [plot.png] [repeats]   (--help for usage)
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -15,11 +15,13 @@
 #include <vector>
 
 #include "autodiff/tape.h"
+#include "examples/common/cli_args.h"
 #include "examples/common/plot_canvas.h"
 #include "ops/ssr.h"
 #include "ops/transforms.h"
 #include "raster/image_io.h"
 #include "raster/ssr_scene.h"
+#include "raster/temporaries.h"
 
 using namespace gr;
 
@@ -58,11 +60,52 @@ plot::LogLogPlot make_plot(const std::vector<Row>& rows, double ref_ms) {
   return p;
 }
 
+// [PLOT.png] [REPEATS] as given, or a usage error (exit 2).
+struct Arguments {
+  std::string out = "ssr_tradeoff.png";
+  int repeats = 5;
+  bool help = false;
+};
+
+Arguments parse_arguments(const std::vector<std::string>& args) {
+  Arguments a;
+  std::vector<std::string> positional;
+  for (const std::string& arg : args) {
+    if (arg == "--help" || arg == "-h") {
+      a.help = true;
+      return a;
+    }
+    if (arg.rfind("-", 0) == 0) throw cli::UsageError("unknown option " + cli::quoted(arg));
+    positional.push_back(arg);
+  }
+  if (positional.size() > 2) throw cli::UsageError("unexpected argument " + cli::quoted(positional[2]));
+  if (!positional.empty()) a.out = positional[0];
+  if (positional.size() > 1) a.repeats = cli::parse_int("REPEATS", positional[1], 1, 1000);
+  return a;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
-  const std::string out = argc > 1 ? argv[1] : "ssr_tradeoff.png";
-  const int repeats = argc > 2 ? std::max(1, std::atoi(argv[2])) : 5;
+  raster::remove_temporaries_on_signals();
+  const char* usage =
+      "Usage: ssr_tradeoff [PLOT.png [REPEATS]]\n"
+      "Times both SSR tracers against the dense reference, prints a table and writes a log-log plot\n"
+      "(default ssr_tradeoff.png); REPEATS: best-of-N timing, 1..1000 (default 5).\n"
+      "Exit codes: 0 success, 1 runtime error, 2 usage error.\n";
+  Arguments arguments;
+  try {
+    arguments = parse_arguments(std::vector<std::string>(argv + 1, argv + argc));
+  } catch (const cli::UsageError& e) {
+    std::fprintf(stderr, "ssr_tradeoff: %s\n\n%s", e.what(), usage);
+    return 2;
+  }
+  if (arguments.help) {
+    std::fputs(usage, stdout);
+    return 0;
+  }
+  const std::string out = arguments.out;
+  const int repeats = arguments.repeats;
   NoGradGuard no_grad;
   const raster::SsrScene s = raster::make_ssr_scene(8, 4);
   auto v3 = [](const std::array<double, 3>& v) { return Tensor::from_values({v[0], v[1], v[2]}, {3}); };

@@ -11,21 +11,33 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
-#include <cstdlib>
-#include <cstring>
+#include <set>
 #include <string>
+#include <vector>
 
+#include "examples/common/cli_args.h"
 #include "stress/stress_scenes.h"
 
 int main(int argc, char** argv) {
   using namespace gr;
-  for (int i = 1; i < argc; ++i) {
-    if (!std::strcmp(argv[i], "--threads") && i + 1 < argc) {
-      set_num_threads(std::atoi(argv[++i]));
-    } else {
-      std::fprintf(stderr, "usage: %s [--threads N]\n", argv[0]);
-      return 2;
+  const char* usage =
+      "Usage: stress_report [--threads N]\n"
+      "Runs every numerical stress scene (tests/stress) and prints a table (docs/robustness.md).\n"
+      "  --threads N   worker threads, 0 = all (default 0)\n"
+      "Exit codes: 0 all finite and every gradcheck passed, 1 otherwise, 2 usage error.\n";
+  try {
+    std::set<std::string> seen;
+    const bool run = cli::for_each_flag(
+        std::vector<std::string>(argv + 1, argv + argc), {{"--threads"}, {}},
+        [](const std::string& flag, const std::string& value) { set_num_threads(cli::parse_int(flag, value, 0, 1024)); },
+        seen);
+    if (!run) {
+      std::fputs(usage, stdout);
+      return 0;
     }
+  } catch (const cli::UsageError& e) {
+    std::fprintf(stderr, "stress_report: %s\n\n%s", e.what(), usage);
+    return 2;
   }
   const auto t0 = std::chrono::steady_clock::now();
   bool ok = true;

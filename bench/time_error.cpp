@@ -15,7 +15,7 @@
 // position-gradient error with the Pareto frontier. docs/time_error.md
 // explains the scenes, the reference and the results.
 //
-//   time_error [--scene NAME] [--supersampled-reference] [out.csv] [out.png]
+//   time_error [--scene NAME] [--supersampled-reference] [out.csv] [out.png]   (--help: bench/time_error_args.h)
 //        defaults: all four scenes in sequence, out/time_error.csv, out/time_error.png;
 //        the torus' plot goes to out.png, another scene's to <out>_<scene>.png
 //   time_error [--scene NAME] --convergence       the supersampled reference's convergence study (slow; prints only)
@@ -28,19 +28,23 @@
 #include <cstdio>
 #include <ctime>
 #include <filesystem>
-#include <fstream>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "autodiff/parallel.h"
 #include "autodiff/tape.h"
+#include "bench/time_error_args.h"
 #include "bench/time_error_exact.h"
 #include "bench/time_error_plot.h"
 #include "bench/time_error_reference.h"
 #include "bench/time_error_scene.h"
 #include "ops/ops.h"
+#include "examples/common/cli_args.h"
+#include "raster/files.h"
 #include "raster/image_io.h"
+#include "raster/temporaries.h"
 
 using namespace gr;
 using namespace gr::bench;
@@ -153,8 +157,9 @@ void measure_times(const TimeErrorScene& scene, const Tensor& target, std::vecto
   for (std::size_t i = 0; i < rows.size(); ++i) rows[i].ms = median(wall[i]), rows[i].cpu_ms = median(cpu[i]);
 }
 
+// Written as one raster::OutputSet: all or nothing, never into a FIFO or through a symlink.
 void write_csv(const std::string& path, const std::vector<Row>& rows) {
-  std::ofstream out(path);
+  std::ostringstream out;
   out << "scene,config,dtype,antialias,visibility,supersample,soft_sigma,ms,cpu_ms,grad_rel_error,colour_grad_rel_error,image_rmse,loss,pareto\n";
   char line[512];
   for (const Row& r : rows) {
@@ -166,7 +171,10 @@ void write_csv(const std::string& path, const std::vector<Row>& rows) {
                   r.position_error, r.colour_error, r.image_error, r.loss, int(r.pareto));
     out << line;
   }
-  if (!out) throw std::runtime_error("time_error: cannot write " + path);
+  const std::string text = out.str();
+  raster::OutputSet csv;
+  csv.stage(path, text.data(), text.size());
+  csv.commit();
 }
 
 void ensure_parent(const std::string& path) {
@@ -221,13 +229,6 @@ Tensor side_by_side(const Tensor& a, const Tensor& b) {
         out[(i * out_w + w + 4 + j) * 3 + c] = float(y[(i * w + j) * 3 + c]);
       }
   return Tensor::from_vector(out, {h, out_w, 3});
-}
-
-// The plot of one scene: png_path for the torus, <stem>_<scene>.png beside it for the others.
-std::string plot_path(const std::string& png_path, const std::string& scene) {
-  if (scene == "torus") return png_path;
-  const std::filesystem::path p(png_path);
-  return (p.parent_path() / (p.stem().string() + "_" + scene + p.extension().string())).string();
 }
 
 // One scene's sweep: prints its table, writes its plot, appends its rows.
@@ -295,14 +296,12 @@ void sweep_scene(const std::string& name, bool supersampled, const std::string& 
         std::printf(" %s %.2g;", config_name(a.settings).substr(4).c_str(),
                     relative_l2(a.position_projections, b.position_projections));
   std::printf("\n");
-  const std::string png = plot_path(png_path, scene.name());
+  const std::string png = time_error_plot_path(png_path, scene.name());
   ensure_parent(png);
   raster::write_png(png, plot_frontier(points, "grad err (" + scene.name() + ")"));
-  const std::filesystem::path pictures = std::filesystem::path(png).parent_path() /
-                                         ("time_error_scene_" + scene.name() + ".png");
-  raster::write_png(pictures.string(), side_by_side(ref.image, ref.target));
-  std::printf("\nwrote %s and %s; scene total %.1f s\n\n", png.c_str(), pictures.string().c_str(),
-              seconds_since(start));
+  const std::string pictures = time_error_picture_path(png_path, scene.name());
+  raster::write_png(pictures, side_by_side(ref.image, ref.target));
+  std::printf("\nwrote %s and %s; scene total %.1f s\n\n", png.c_str(), pictures.c_str(), seconds_since(start));
   std::fflush(stdout);
   all_rows.insert(all_rows.end(), rows.begin(), rows.end());
 }
@@ -394,25 +393,24 @@ int run_soft_consistency(const std::string& name) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  raster::remove_temporaries_on_signals();  // Ctrl-C leaves no partial output behind
+  TimeErrorArgs args;
+  try {
+    args = parse_time_error_args(std::vector<std::string>(argv + 1, argv + argc));
+    if (args.action == TimeErrorArgs::Action::Sweep) check_time_error_outputs(args);
+  } catch (const cli::UsageError& e) {
+    std::fprintf(stderr, "time_error: %s\n(run time_error --help for usage)\n", e.what());
+    return 2;
+  }
   set_num_threads(kThreads);
   try {
-    std::vector<std::string> args(argv + 1, argv + argc);
-    std::vector<std::string> scenes = time_error_scene_names();
-    for (std::size_t i = 0; i < args.size(); ++i)
-      if (args[i] == "--scene") {
-        if (i + 1 == args.size()) throw std::runtime_error("--scene needs a name");
-        scenes = {args[i + 1]};
-        TimeErrorScene check(scenes[0]);  // an unknown name fails here, before any work
-        args.erase(args.begin() + i, args.begin() + i + 2);
-        break;
-      }
-    const std::string single = scenes.size() == 1 ? scenes[0] : "torus";
-    if (!args.empty() && args[0] == "--convergence") return run_convergence(single);
-    if (!args.empty() && args[0] == "--soft-consistency") return run_soft_consistency(single);
-    const bool supersampled = !args.empty() && args[0] == "--supersampled-reference";
-    if (supersampled) args.erase(args.begin());
-    return run_sweep(scenes, supersampled, args.size() > 0 ? args[0] : "out/time_error.csv",
-                     args.size() > 1 ? args[1] : "out/time_error.png");
+    switch (args.action) {
+      case TimeErrorArgs::Action::Help: std::fputs(time_error_usage().c_str(), stdout); return 0;
+      case TimeErrorArgs::Action::Convergence: return run_convergence(args.scenes[0]);
+      case TimeErrorArgs::Action::SoftConsistency: return run_soft_consistency(args.scenes[0]);
+      case TimeErrorArgs::Action::Sweep: break;
+    }
+    return run_sweep(args.scenes, args.supersampled_reference, args.csv_path, args.png_path);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "time_error: %s\n", e.what());
     return 1;

@@ -19,6 +19,7 @@
 #include <array>
 #include <cmath>
 #include <map>
+#include <set>
 #include <cstdio>
 #include <cstdlib>
 #include <string>
@@ -30,6 +31,7 @@
 #include "bench/time_error_reference.h"
 #include "bench/time_error_regions.h"
 #include "bench/time_error_scene.h"
+#include "examples/common/cli_args.h"
 #include "ops/ops.h"
 
 using namespace gr;
@@ -126,30 +128,58 @@ Tensor torus_colours(const TimeErrorScene& scene, const std::string& kind) {
   return Tensor::from_values(out, {scene.num_points(), 3}, DType::Float64);
 }
 
+// The command line (see the top of this file); throws cli::UsageError. False at --help.
+bool parse_options(const std::vector<std::string>& args, Options& o) {
+  using cli::fail;
+  std::set<std::string> seen;
+  return cli::for_each_flag(
+      args, {{"--scene", "--step", "--order", "--colours", "--s"}, {"--vis", "--flat", "--plain", "--sum"}},
+      [&](const std::string& flag, const std::string& v) {
+        if (flag == "--vis") o.vis = true;
+        else if (flag == "--flat") o.flat = true;
+        else if (flag == "--plain") o.plain = true;
+        else if (flag == "--sum") o.sum_weights = true;
+        else if (flag == "--scene") {
+          const std::vector<std::string>& names = time_error_scene_names();
+          if (std::find(names.begin(), names.end(), v) == names.end())
+            fail(flag, "expected torus, intersection, occlusion or open_culled, got " + cli::quoted(v));
+          o.scene = v;
+        } else if (flag == "--step") {
+          o.step_px = cli::parse_number(flag, v);
+          if (!(o.step_px > 0)) fail(flag, "must be positive, got " + v);
+        } else if (flag == "--order") {
+          o.order = cli::parse_int(flag, v, 1, 32);
+        } else if (flag == "--colours") {
+          if (v != "ring" && v != "tube") fail(flag, "expected ring or tube, got " + cli::quoted(v));
+          o.colours = v;
+        } else {  // --s: a comma-separated list of supersampling factors
+          o.s_list.clear();
+          std::size_t at = 0;
+          for (;;) {
+            const std::size_t comma = v.find(',', at);
+            o.s_list.push_back(cli::parse_int(flag, v.substr(at, comma - at), 1, 64));
+            if (comma == std::string::npos) break;
+            at = comma + 1;
+          }
+        }
+      },
+      seen);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   set_num_threads(2);
   Options o;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--scene" && i + 1 < argc) o.scene = argv[++i];
-    else if (a == "--vis") o.vis = true;
-    else if (a == "--flat") o.flat = true;
-    else if (a == "--step" && i + 1 < argc) o.step_px = std::atof(argv[++i]);
-    else if (a == "--order" && i + 1 < argc) o.order = std::atoi(argv[++i]);
-    else if (a == "--plain") o.plain = true;
-    else if (a == "--sum") o.sum_weights = true;
-    else if (a == "--colours" && i + 1 < argc) o.colours = argv[++i];
-    else if (a == "--s" && i + 1 < argc) {  // comma-separated list
-      o.s_list.clear();
-      for (const char* c = argv[++i]; *c;) {
-        char* end;
-        o.s_list.push_back(int(std::strtol(c, &end, 10)));
-        c = *end ? end + 1 : end;
-      }
+  try {
+    if (!parse_options(std::vector<std::string>(argv + 1, argv + argc), o)) {
+      std::printf("usage: time_error_plateau [--scene NAME] [--vis] [--plain] [--flat] [--colours ring|tube] [--sum]\n"
+                  "                          [--step PX] [--order Q] [--s 1,2,4,...]   (see docs/time_error.md)\n");
+      return 0;
     }
-    else { std::fprintf(stderr, "unknown argument %s\n", a.c_str()); return 1; }
+  } catch (const cli::UsageError& e) {
+    std::fprintf(stderr, "time_error_plateau: %s\n(run time_error_plateau --help for usage)\n", e.what());
+    return 2;
   }
   const TimeErrorScene scene(o.scene);
   print_fold_widths(scene);

@@ -3,7 +3,9 @@
 // is needed here.
 #include "ops/transforms.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <string>
 #include <vector>
 
@@ -42,6 +44,77 @@ Tensor affine(const Tensor& r, const Tensor& t) {
   const DType dt = r.dtype();
   Tensor bottom = Tensor::from_values({0, 0, 0, 1}, {1, 4}, dt);
   return concat({concat({r, t}, 1), bottom}, 0);
+}
+
+// ---- look_at's camera frame, free of absolute thresholds ----
+// Every direction is divided by its largest |component| (a constant read from
+// the values) before normalize: |v|^2 can then neither underflow (a camera
+// 1e-13 from its target) nor overflow, and normalize's eps never applies.
+// Since normalize(v) = normalize(v / c) for any c > 0, the gradient is that of
+// normalize(v) itself. What has no direction is refused, relative to the
+// scale of the inputs and to the dtype's resolution.
+
+double max_abs(const std::vector<double>& v) {
+  double m = 0;
+  for (double x : v) m = std::max(m, std::abs(x));
+  return m;
+}
+
+std::string vector_text(const std::vector<double>& v) {
+  char text[96];
+  std::snprintf(text, sizeof text, "(%.17g, %.17g, %.17g)", v[0], v[1], v[2]);
+  return text;
+}
+
+// v / max|v_i|, normalized; v must have a non-zero finite component.
+Tensor unit(const Tensor& v, const char* op) {
+  const double m = max_abs(v.to_vector());
+  if (!(m > 0) || !std::isfinite(m)) throw ValueError(std::string(op) + ": internal error: no direction to normalize");
+  return normalize(v / m);
+}
+
+struct CameraAxes {
+  Tensor forward;  // unit (target - eye)
+  Tensor up;       // up / max|up_i|
+};
+
+CameraAxes camera_axes(const Tensor& eye, const Tensor& target, const Tensor& up, const char* op) {
+  check_vector(eye, 3, op, "eye");
+  check_vector(target, 3, op, "target");
+  check_vector(up, 3, op, "up");
+  const std::string name = op;
+  const std::vector<double> e = eye.to_vector(), t = target.to_vector(), u = up.to_vector();
+  for (const auto& [v, arg] : {std::pair{&e, "eye"}, std::pair{&t, "target"}, std::pair{&u, "up"}})
+    for (double x : *v)
+      if (!std::isfinite(x)) throw ValueError(name + ": " + arg + " " + vector_text(*v) + " is not finite");
+  const Tensor d = target - eye;  // in the inputs' dtype, as the matrix uses it
+  const std::vector<double> dv = d.to_vector();
+  const double md = max_abs(dv), scale = std::max(max_abs(e), max_abs(t));
+  const double eps = d.dtype() == DType::Float32 ? 1.1920928955078125e-7 : 2.220446049250313e-16;
+  if (!std::isfinite(md))
+    throw ValueError(name + ": eye " + vector_text(e) + " and target " + vector_text(t) +
+                     " are too far apart: target - eye overflows");
+  if (md == 0)
+    throw ValueError(name + ": eye and target coincide at " + vector_text(e) + ": the view direction is undefined");
+  if (md <= 8 * eps * scale)
+    throw ValueError(name + ": eye " + vector_text(e) + " and target " + vector_text(t) +
+                     " differ only by the rounding of their coordinates: the view direction is lost");
+  const double mu = max_abs(u);
+  if (mu == 0) throw ValueError(name + ": up is the zero vector");
+  // sin(angle between up and the view direction), on unit vectors in double.
+  auto normalized = [](std::vector<double> v) {
+    const double m = max_abs(v);
+    for (double& x : v) x /= m;
+    const double n = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    for (double& x : v) x /= n;
+    return v;
+  };
+  const std::vector<double> f = normalized(dv), w = normalized(u);
+  const double c[3] = {f[1] * w[2] - f[2] * w[1], f[2] * w[0] - f[0] * w[2], f[0] * w[1] - f[1] * w[0]};
+  if (std::sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]) <= 1000 * eps)
+    throw ValueError(name + ": up " + vector_text(u) + " is parallel to the view direction target - eye " +
+                     vector_text(dv) + ": the camera's roll is undefined");
+  return {normalize(d / md), up / mu};
 }
 
 }  // namespace
@@ -114,25 +187,19 @@ Tensor rotation_quaternion(const Tensor& q) {
 }
 
 Tensor look_at(const Tensor& eye, const Tensor& target, const Tensor& up) {
-  check_vector(eye, 3, "look_at", "eye");
-  check_vector(target, 3, "look_at", "target");
-  check_vector(up, 3, "look_at", "up");
-  Tensor f = normalize(target - eye);
-  Tensor s = normalize(cross(f, up));
-  Tensor u = cross(s, f);
-  Tensor r = stack({s, u, -f}, 0);                    // rows: camera axes in world space
+  const CameraAxes a = camera_axes(eye, target, up, "look_at");
+  Tensor s = unit(cross(a.forward, a.up), "look_at");
+  Tensor u = cross(s, a.forward);
+  Tensor r = stack({s, u, -a.forward}, 0);             // rows: camera axes in world space
   Tensor t = -matmul(r, reshape(eye, {3, 1}));        // -R eye
   return affine(r, t);
 }
 
 Tensor look_at_lh(const Tensor& eye, const Tensor& target, const Tensor& up) {
-  check_vector(eye, 3, "look_at_lh", "eye");
-  check_vector(target, 3, "look_at_lh", "target");
-  check_vector(up, 3, "look_at_lh", "up");
-  Tensor z = normalize(target - eye);
-  Tensor x = normalize(cross(up, z));
-  Tensor y = cross(z, x);
-  Tensor r = stack({x, y, z}, 0);
+  const CameraAxes a = camera_axes(eye, target, up, "look_at_lh");
+  Tensor x = unit(cross(a.up, a.forward), "look_at_lh");
+  Tensor y = cross(a.forward, x);
+  Tensor r = stack({x, y, a.forward}, 0);
   Tensor t = -matmul(r, reshape(eye, {3, 1}));
   return affine(r, t);
 }

@@ -36,9 +36,14 @@ Tensor rotation_axis_angle(const Tensor& axis, const Tensor& angle);
 Tensor rotation_quaternion(const Tensor& q);
 
 // Right-handed view matrix (gluLookAt): the camera at `eye` looks at `target`
-// down its -z axis with `up` roughly up. eye, target, up: [3].
+// down its -z axis with `up` roughly up. eye, target, up: [3]. Works at any
+// representable scale (no absolute threshold: a camera 1e-13 from its target
+// gets an orthonormal rotation). Throws ValueError, naming the problem, for a
+// non-finite input, eye == target (or apart by less than a few roundings of
+// their coordinates), up == 0, and up parallel to target - eye.
 Tensor look_at(const Tensor& eye, const Tensor& target, const Tensor& up);
 // Left-handed view matrix: looks down +z, x = normalize(up x z), y = z x x.
+// Same scale handling and refusals as look_at.
 Tensor look_at_lh(const Tensor& eye, const Tensor& target, const Tensor& up);
 
 // Perspective projection with vertical field of view fov_y (one-element

@@ -8,13 +8,13 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <atomic>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
 
 #include "autodiff/error.h"
 #include "autodiff/memory.h"
+#include "raster/temporaries.h"
 
 namespace gr::raster {
 namespace {
@@ -48,11 +48,7 @@ std::string folder_of(const std::string& path) {
 // A short name in `folder` no other writer (thread or process) uses; short so
 // that a target whose own name is at the 255-byte limit still works.
 std::string temporary_in(const std::string& folder) {
-  static std::atomic<unsigned> counter{0};
-  char name[48];
-  std::snprintf(name, sizeof name, ".gr%lx.%x.tmp", static_cast<unsigned long>(::getpid()),
-                counter++);
-  return (folder == "/" ? "" : folder) + "/" + name;
+  return (folder == "/" ? "" : folder) + "/" + temporary_file_name();
 }
 
 // Writes all bytes to fd and flushes them to disk; returns 0 or an errno.
@@ -129,10 +125,14 @@ OutputSet::~OutputSet() {
 
 void OutputSet::stage(const std::string& path, const void* data, std::size_t bytes) {
   check_output_target(path);
-  const std::string tmp = temporary_in(folder_of(path));
+  const std::string folder = folder_of(path);
+  remove_stale_temporaries_once(folder);  // what interrupted runs left here
+  const std::string tmp = temporary_in(folder);
+  // Registered before it exists: a signal from here on removes it.
+  TemporaryRegistration registration(tmp, TemporaryKind::File);
   Fd file{::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0666)};
   if (file.fd < 0) throw IOError("cannot write '" + path + "': " + errno_text(errno));
-  staged_.push_back({path, tmp});  // from here on the destructor removes it
+  staged_.push_back({path, tmp, std::move(registration)});  // from here on the destructor removes it
   int e = write_all(file.fd, static_cast<const char*>(data), bytes);
   const int closed = ::close(file.fd);
   file.fd = -1;

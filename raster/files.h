@@ -10,6 +10,7 @@
 // target's folder and renames them all into place only in commit(), so a run's
 // outputs appear together or not at all. A target that exists and is not a
 // regular file (symlink, FIFO, device, folder) is refused and left untouched.
+// An interrupted run leaves no temporary behind (raster/temporaries.h).
 //
 //   raster::OutputSet outputs;
 //   outputs.stage("a.png", png.data(), png.size());    // IOError: nothing renamed
@@ -20,6 +21,8 @@
 #include <cstddef>
 #include <string>
 #include <vector>
+
+#include "raster/temporaries.h"
 
 namespace gr::raster {
 
@@ -58,6 +61,7 @@ class OutputSet {
  private:
   struct Staged {
     std::string target, temporary;
+    TemporaryRegistration registration;  // removed by a signal (raster/temporaries.h)
   };
   std::vector<Staged> staged_;
 };

@@ -18,9 +18,10 @@ struct MeshFraming {
   double near = 0, far = 0;        // 0.5 (distance - radius), 2 (distance + radius)
 };
 
-// The framing of `mesh` (positions must be finite; a mesh whose extent is 0
-// is framed as a sphere of radius 1). Values may be non-finite if the
-// coordinates are near the float range: callers check.
+// The framing of `mesh` (positions must be finite). Throws ValueError for what
+// has nothing to frame: no vertices, or every vertex at one point (any extent
+// above 0 is framed, however small: the framing scales with it). Values may be
+// non-finite if the coordinates are near the float range: callers check.
 MeshFraming frame_mesh(const Mesh& mesh);
 
 }  // namespace gr::raster

@@ -9,7 +9,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
+#include <string>
 #include <vector>
 
 #include "autodiff/parallel.h"
@@ -18,10 +18,22 @@
 #include "ops/ops.h"
 #include "bench/time_error_reference.h"
 #include "bench/time_error_scene.h"
+#include "examples/common/cli_args.h"
 
 int main(int argc, char** argv) {
   using namespace gr;
-  if (argc > 1) set_num_threads(std::atoi(argv[1]));
+  const std::vector<std::string> args(argv + 1, argv + argc);
+  if (!args.empty() && (args[0] == "--help" || args[0] == "-h")) {
+    std::printf("usage: exact_reference_torus [THREADS]   (worker threads, 0 = all; docs/exact_reference.md)\n");
+    return 0;
+  }
+  try {
+    if (args.size() > 1) throw cli::UsageError("unexpected argument " + cli::quoted(args[1]));
+    if (!args.empty()) set_num_threads(cli::parse_int("THREADS", args[0], 0, 1024));
+  } catch (const cli::UsageError& e) {
+    std::fprintf(stderr, "exact_reference_torus: %s\n(run exact_reference_torus --help for usage)\n", e.what());
+    return 2;
+  }
   const bench::TimeErrorScene scene;
   NoGradGuard no_grad;
   const auto exact_image = [&](const Tensor& points, int order) {

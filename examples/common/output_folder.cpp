@@ -19,10 +19,17 @@ void OutputFolder::create() {
     missing.insert(missing.begin(), p);
     if (p == p.parent_path()) break;
   }
+  // Registered before they exist: a signal from here on removes them (if empty).
+  for (const fs::path& p : missing) registrations_.emplace_back(p.string(), raster::TemporaryKind::EmptyFolder);
   fs::create_directories(path_, ec);
   if (ec) throw IOError("cannot create output folder '" + path_ + "': " + ec.message());
   if (!fs::is_directory(path_, ec)) throw IOError("output folder '" + path_ + "' exists and is not a folder");
   created_ = missing;
+}
+
+void OutputFolder::keep() {
+  keep_ = true;
+  registrations_.clear();
 }
 
 }  // namespace gr::cli

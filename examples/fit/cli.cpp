@@ -20,8 +20,12 @@ std::string usage(const std::string& program) {
     << "  --mode shape|pose    what to fit (default shape)\n"
     << "  --mesh FILE.obj      reference object (default: a built-in lobed blob), scaled into the\n"
     << "                       unit sphere; textured if it has uvs and a texture (its MTL's map_Kd or\n"
-    << "                       --texture), else painted with a procedural stripe pattern\n"
-    << "  --texture FILE.png   the reference's texture (overrides the OBJ's map_Kd)\n"
+    << "                       --texture), else painted with a procedural stripe pattern. A missing\n"
+    << "                       MTL or texture is a warning on stderr naming the file (the run goes on\n"
+    << "                       with the pattern: OBJ files often name materials they do not ship)\n"
+    << "  --texture FILE.png   the reference's texture (overrides the OBJ's map_Kd); needs --mesh\n"
+    << "                       with uvs (vt): given otherwise it is an error, not ignored, since you\n"
+    << "                       asked for it\n"
     << "  --fit colours|texture  shape mode: fit vertex colours (default) or a 128x256 texture\n"
     << "  --fit-camera         shape mode: start every camera ~2 deg / 0.03 off and fit a correction\n"
     << "  --iterations N       optimization steps (default " << kDefaultShapeIterations << " shape, "
@@ -30,7 +34,8 @@ std::string usage(const std::string& program) {
     << "  --views N            shape mode: cameras around the object (default 6)\n"
     << "  --subdivisions N     shape mode: start icosphere subdivisions, 20*4^N triangles (default 4)\n"
     << "  --out DIR            output folder (default out); the files appear there only when the\n"
-    << "                       run succeeds\n"
+    << "                       run succeeds; none may be an input (--mesh, --texture, the MTL's\n"
+    << "                       texture); an interrupted run (Ctrl-C, SIGTERM) leaves nothing behind\n"
     << "  --threads N          worker threads, 0 = all (default 0)\n"
     << "  --seed N             pose mode: the pose and its start error; --fit-camera: the camera errors\n"
     << "                       (default 1)\n"
@@ -72,6 +77,8 @@ CommandLine parse_command_line(const std::vector<std::string>& args) {
   try {
     std::set<std::string> seen;
     if (!gr::cli::for_each_flag(args, flags, set, seen)) cl.action = CommandLine::Action::Help;
+    else if (!o.texture_path.empty() && o.mesh_path.empty())
+      fail("--texture", "applies only with --mesh (the built-in object wears its own pattern)");
   } catch (const gr::cli::UsageError& e) {
     cl.action = CommandLine::Action::Error;
     cl.error = e.what();

@@ -41,10 +41,10 @@ std::string in_dir(const std::string& dir, const std::string& name) {
   return (std::filesystem::path(dir) / name).string();
 }
 
-std::string numbered(const std::string& dir, const char* stem, int iteration) {
+std::string snapshot_name(int iteration) {
   char name[64];
-  std::snprintf(name, sizeof name, "%s_%04d.png", stem, iteration);
-  return in_dir(dir, name);
+  std::snprintf(name, sizeof name, "snapshot_%04d.png", iteration);
+  return name;
 }
 
 // Unit quaternions (w, x, y, z) in plain doubles, for setting up poses.
@@ -102,7 +102,7 @@ class Run {
   }
   void snapshot(int iteration, const std::vector<Tensor>& targets, const std::vector<Tensor>& current) {
     if (!wants_snapshot(iteration)) return;
-    result_.files.push_back(numbered(options_.out_dir, "snapshot", iteration));
+    result_.files.push_back(in_dir(options_.out_dir, snapshot_name(iteration)));
     write_snapshot(result_.files.back(), targets, current);
   }
   void step_done(int done, double loss) {
@@ -349,13 +349,21 @@ FitResult describe_run(Mode mode, const Scene& scene, const SurfaceMesh& mesh, i
   result.points = mesh.num_points();
   result.triangles = mesh.num_triangles();
   result.iterations = iterations;
+  result.inputs = scene.files_read;
   return result;
+}
+
+void report_warnings(const FitOptions& options, const Scene& scene) {
+  if (!options.warnings) return;
+  for (const std::string& w : scene.warnings) *options.warnings << "gradraster-fit: warning: " << w << "\n";
+  options.warnings->flush();
 }
 
 FitResult run_shape(const FitOptions& options, std::ostream& log) {
   const auto start = Clock::now();
   const int iterations = options.iterations > 0 ? options.iterations : kDefaultShapeIterations;
   const Scene scene = shape_scene(options);
+  report_warnings(options, scene);
   const SurfaceMesh& mesh = scene.start;
 
   FitResult result = describe_run(Mode::Shape, scene, mesh, iterations);
@@ -470,6 +478,7 @@ FitResult run_pose(const FitOptions& options, std::ostream& log) {
   scene_options.reference_subdivisions = options.reference_subdivisions > 0 ? options.reference_subdivisions : 4;
   scene_options.start_subdivisions = 0;  // unused
   const Scene scene = make_scene(scene_options);
+  report_warnings(options, scene);
   const SurfaceMesh& mesh = scene.reference;
   const Camera& camera = scene.cameras[0];
   const Tensor vp = matmul(camera.projection, camera.view);
@@ -552,6 +561,21 @@ std::vector<int> snapshot_iterations(int iterations) {
   std::sort(at.begin(), at.end());
   at.erase(std::unique(at.begin(), at.end()), at.end());
   return at;
+}
+
+std::vector<std::string> output_file_names(const FitOptions& options) {
+  const bool pose = options.mode == Mode::Pose;
+  const int iterations =
+      options.iterations > 0 ? options.iterations : pose ? kDefaultPoseIterations : kDefaultShapeIterations;
+  std::vector<std::string> names;
+  for (int it : snapshot_iterations(iterations)) names.push_back(snapshot_name(it));
+  names.push_back("loss.png");
+  names.push_back(pose ? "posed.obj" : "fitted.obj");
+  if (!pose && options.appearance == Appearance::Texture) {
+    names.push_back("fitted.mtl");
+    names.push_back("fitted_texture.png");
+  }
+  return names;
 }
 
 double coverage_iou(const Tensor& a, const Tensor& b) {

@@ -64,6 +64,9 @@ struct FitOptions {
   // for any group size. Only one process should write outputs and print.
   gr::Communicator* communicator = nullptr;
   bool write_outputs = true;  // snapshots, loss plot, fitted mesh
+  // Where warnings go, one line each (a missing MTL or texture: the reference
+  // then wears the procedural pattern); nullptr: nowhere.
+  std::ostream* warnings = nullptr;
 };
 
 constexpr int kDefaultShapeIterations = 300;
@@ -86,6 +89,7 @@ struct FitResult {
   gr::Tensor positions;            // shape: fitted points [P, 3]; pose: the posed reference points
   gr::Tensor colours, texture;     // the fitted appearance (one of them)
   std::vector<std::string> files;  // everything written, in order
+  std::vector<std::string> inputs;  // the files read: the mesh and its texture, when given
 };
 
 // Runs the optimization, writing PNG strips, a loss plot and the fitted OBJ to
@@ -94,6 +98,11 @@ FitResult run_fit(const FitOptions& options, std::ostream& log);
 
 // Iterations at which run_fit writes a snapshot strip (0 and `iterations` included).
 std::vector<int> snapshot_iterations(int iterations);
+
+// The names (no folder) of every file run_fit can write with these options:
+// snapshot_NNNN.png, loss.png, fitted.obj or posed.obj, fitted.mtl and
+// fitted_texture.png.
+std::vector<std::string> output_file_names(const FitOptions& options);
 
 // Silhouette IoU of two coverage masks (any shape, 1 = covered): |a and b| / |a or b|.
 double coverage_iou(const gr::Tensor& a, const gr::Tensor& b);

@@ -10,6 +10,7 @@ if(NOT TARGET gradraster_fit)
     ${CMAKE_CURRENT_LIST_DIR}/fit.cpp
     ${CMAKE_CURRENT_LIST_DIR}/fit_outputs.cpp
     ${CMAKE_CURRENT_LIST_DIR}/geometry.cpp
+    ${CMAKE_CURRENT_LIST_DIR}/option_agreement.cpp
     ${CMAKE_CURRENT_LIST_DIR}/plot.cpp
     ${CMAKE_CURRENT_LIST_DIR}/progress.cpp
     ${CMAKE_CURRENT_LIST_DIR}/scene.cpp

@@ -4,12 +4,15 @@
 #include <iomanip>
 #include <iostream>
 
+#include "examples/common/cli_args.h"
 #include "examples/fit/cli.h"
 #include "examples/fit/fit.h"
 #include "examples/fit/fit_outputs.h"
 #include "examples/fit/job.h"
+#include "examples/fit/option_agreement.h"
 #include "examples/fit/progress.h"
 #include "examples/fit/snapshot.h"
+#include "raster/temporaries.h"
 #ifdef GRADRASTER_FIT_MPI
 #include "examples/fit/mpi_main.h"
 #endif
@@ -22,6 +25,13 @@ int run(int argc, char** argv, const fit::Job& job) {
   const std::string program = argc > 0 ? argv[0] : "gradraster-fit";
   std::ostream& out = job.out;
   fit::CommandLine cl = fit::parse_command_line(std::vector<std::string>(argv + 1, argv + argc));
+  if (job.comm) {  // an MPI job: every process must run the same fit, or none starts
+    const std::string disagreement = fit::option_disagreement(*job.comm, fit::run_shaping_options(cl));
+    if (!disagreement.empty()) {
+      if (job.root) std::cerr << program << ": " << disagreement << "\n";
+      return 2;
+    }
+  }
   if (cl.action == fit::CommandLine::Action::Help) {
     out << fit::usage(program);
     return 0;
@@ -33,6 +43,7 @@ int run(int argc, char** argv, const fit::Job& job) {
   fit::FitOptions& o = cl.options;
   o.interactive = job.root && fit::stdout_is_terminal();
   o.communicator = job.comm;
+  if (job.root) o.warnings = &std::cerr;
   if (job.comm && job.comm->size() > 1 && o.mode == fit::Mode::Pose) {
     if (job.root) std::cerr << program << ": --mode pose fits one view; run it without mpirun\n";
     return 2;
@@ -80,6 +91,10 @@ int run(int argc, char** argv, const fit::Job& job) {
   } catch (const gr::ProcessFailed& e) {  // every process of the job knows: each ends cleanly
     if (job.root || (job.comm && e.failed_rank == job.comm->rank())) std::cerr << program << ": " << e.what() << "\n";
     return 1;
+  } catch (const gr::cli::UsageError& e) {  // an output that is an input or another output
+    if (job.fail) job.fail(e.what());
+    std::cerr << program << ": " << e.what() << "\n";
+    return 2;
   } catch (const std::exception& e) {  // gr::Error (bad mesh, memory, unwritable file) or std::filesystem_error
     if (job.fail) job.fail(e.what());  // an MPI job: end every process, none is left waiting
     std::cerr << program << ": " << e.what() << "\n";
@@ -91,6 +106,7 @@ int run(int argc, char** argv, const fit::Job& job) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  gr::raster::remove_temporaries_on_signals();  // Ctrl-C leaves no staging folder behind
 #ifdef GRADRASTER_FIT_MPI
   if (fit::launched_by_mpirun()) return fit::run_mpi_job(argc, argv, run);
 #endif

@@ -71,11 +71,13 @@ SurfaceMesh make_builtin_object(int subdivisions) {
   return s;
 }
 
-SurfaceMesh load_reference_object(const std::string& path, std::string* texture_path) {
+SurfaceMesh load_reference_object(const std::string& path, std::string* texture_path,
+                                  std::vector<std::string>* warnings) {
   const raster::Mesh loaded = raster::load_obj(path);
   SurfaceMesh s = make_surface(loaded);
   fit_in_unit_sphere(s.positions);
   if (texture_path) *texture_path = loaded.texture_path;
+  if (warnings) warnings->insert(warnings->end(), loaded.warnings.begin(), loaded.warnings.end());
   return s;
 }
 
@@ -128,19 +130,39 @@ Scene make_scene(const SceneOptions& options) {
   if (options.views < 1) throw ValueError("fit: need at least one view");
   Scene scene;
   if (options.mesh_path.empty()) {
+    if (!options.texture_path.empty())
+      throw ValueError("--texture: applies only with --mesh (the built-in object wears its own pattern)");
     scene.name = "built-in lobed blob";
     scene.reference = make_builtin_object(options.reference_subdivisions);
     scene.reference_material.texture = striped_texture(256);
   } else {
     scene.name = options.mesh_path;
+    scene.files_read.push_back(options.mesh_path);
     std::string texture_path;
-    scene.reference = load_reference_object(options.mesh_path, &texture_path);
-    if (!options.texture_path.empty()) texture_path = options.texture_path;
-    if (scene.reference.uvs.defined() && !texture_path.empty()) {
+    scene.reference = load_reference_object(options.mesh_path, &texture_path, &scene.warnings);
+    const bool named_by_mtl = options.texture_path.empty();
+    if (!named_by_mtl) texture_path = options.texture_path;
+    const bool has_uvs = scene.reference.uvs.defined();
+    // An explicit --texture that cannot be applied is refused; a texture the
+    // OBJ's MTL names (or fails to name) falls back to the pattern, with a warning.
+    if (!named_by_mtl && !has_uvs)
+      throw ValueError("--texture '" + options.texture_path + "': the mesh '" + options.mesh_path +
+                       "' has no texture coordinates (vt), so a texture cannot be applied to it");
+    if (has_uvs && !texture_path.empty()) {
       scene.reference_material.texture = raster::read_image(texture_path, 3);
+      scene.files_read.push_back(texture_path);
       scene.name += " with " + texture_path;
     } else {
       scene.reference_material.point_colours = striped_colours(scene.reference.positions);
+      const std::string mesh = "'" + options.mesh_path + "'";
+      if (!texture_path.empty())
+        scene.warnings.push_back("the texture '" + texture_path + "' named by " + mesh +
+                                 "'s MTL is not used: the mesh has no texture coordinates (vt); it wears the "
+                                 "procedural stripe pattern");
+      else if (has_uvs)
+        scene.warnings.push_back("the mesh " + mesh +
+                                 " has texture coordinates but no texture was found (no MTL map_Kd that exists, "
+                                 "no --texture); it wears the procedural stripe pattern");
     }
   }
   scene.start = sphere_surface(options.start_subdivisions, options.start_radius);

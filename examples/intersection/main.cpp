@@ -5,30 +5,29 @@
 //   gradraster-intersection [--iterations N] [--size PX]
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
+#include <exception>
 #include <string>
+#include <vector>
 
-#include "autodiff/error.h"
+#include "examples/common/cli_args.h"
+#include "examples/intersection/intersection_args.h"
 #include "examples/intersection/sunk_sphere.h"
 
 using namespace gr::intersection_example;
 
 int main(int argc, char** argv) {
-  SunkSphereOptions options;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if ((a == "--iterations" || a == "--size") && i + 1 < argc) {
-      const int v = std::atoi(argv[++i]);
-      if (v < 1 || v > 4096) {
-        std::fprintf(stderr, "gradraster-intersection: %s must be in [1, 4096]\n", a.c_str());
-        return 2;
-      }
-      (a == "--iterations" ? options.iterations : options.size) = v;
-    } else {
-      std::fprintf(stderr, "usage: gradraster-intersection [--iterations N] [--size PX]\n");
-      return a == "--help" ? 0 : 2;
-    }
+  IntersectionArgs args;
+  try {
+    args = parse_intersection_args(std::vector<std::string>(argv + 1, argv + argc));
+  } catch (const gr::cli::UsageError& e) {
+    std::fprintf(stderr, "gradraster-intersection: %s\n(run gradraster-intersection --help for usage)\n", e.what());
+    return 2;
   }
+  if (args.help) {
+    std::fputs(intersection_usage().c_str(), stdout);
+    return 0;
+  }
+  const SunkSphereOptions& options = args.options;
   std::printf("sphere of radius 0.5 sunk into a floor, seen from above (%d x %d); true height %.3f, start %.3f\n",
               options.size, options.size, options.true_height, options.start_height);
   try {
@@ -40,7 +39,7 @@ int main(int argc, char** argv) {
                   std::abs(run.final_height() - options.true_height), options.iterations, run.loss.front(),
                   run.loss.back());
     }
-  } catch (const gr::Error& e) {
+  } catch (const std::exception& e) {
     std::fprintf(stderr, "gradraster-intersection: %s\n", e.what());
     return 1;
   }

@@ -93,7 +93,9 @@ seen from (0.35, 0.25, 1) with a 40.1 degree vertical field of view)
                       degrees, 0 < fov < 180) to 45. near/far enclose the mesh's
                       bounding sphere: far = 1.01 (d + r), near = max(0.99 (d - r),
                       0.001 far) with d = |eye - centre|, r = radius.
-Outputs (written atomically; none is required, e.g. for timing with --repeat)
+Outputs (written atomically; none is required, e.g. for timing with --repeat; none
+may be the mesh, the texture its MTL names, or another output; Ctrl-C leaves no
+partial file)
   --out FILE.png      Lambert shading (headlight, two-sided), dark grey background
   --out-triid FILE    W*H little-endian uint32, row 0 = top: 0 = background,
                       k+1 = the k-th triangle (file order after triangulation)

@@ -18,6 +18,7 @@
 #include "autodiff/memory.h"
 #include "autodiff/parallel.h"
 #include "autodiff/tape.h"
+#include "examples/common/distinct_files.h"
 #include "examples/render/render_args.h"
 #include "ops/interpolate.h"
 #include "ops/linalg.h"
@@ -116,7 +117,12 @@ std::array<double, 16> camera_matrix(const RenderArgs& a, const raster::Mesh& me
   if (a.has_eye) {
     s << "camera=look_at";
   } else {
-    const raster::MeshFraming f = raster::frame_mesh(mesh);
+    raster::MeshFraming f;
+    try {
+      f = raster::frame_mesh(mesh);
+    } catch (const Error& e) {
+      throw RuntimeError(camera_source(a) + ": " + e.what());
+    }
     eye = f.eye, target = f.centre, up = f.up, fov_deg = f.fov_y * 180.0 / M_PI;
     s << "camera=framed eye=" << eye[0] << "," << eye[1] << "," << eye[2] << " target=" << target[0] << ","
       << target[1] << "," << target[2];
@@ -276,7 +282,13 @@ double median(std::vector<double> v) {
   return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
+// The outputs as named files, for cli::check_distinct_files.
+std::vector<cli::NamedFile> outputs_of(const RenderArgs& a) {
+  return {{"--out", a.out_png}, {"--out-triid", a.out_triid}, {"--out-depth", a.out_depth}};
+}
+
 int render(const RenderArgs& a, std::ostream& out, std::ostream& err) {
+  cli::check_distinct_files({{"--mesh", a.mesh_path}}, outputs_of(a));
   check_output("--out", a.out_png);
   check_output("--out-triid", a.out_triid);
   check_output("--out-depth", a.out_depth);
@@ -286,6 +298,9 @@ int render(const RenderArgs& a, std::ostream& out, std::ostream& err) {
   raster::Mesh mesh = load_mesh(a);
   mesh.validate("gradraster-render: mesh");
   for (const std::string& w : mesh.warnings) err << "gradraster-render: warning: " << w << "\n";
+  // The texture its MTL names is the mesh's too.
+  cli::check_distinct_files({{"the texture named by --mesh '" + a.mesh_path + "',", mesh.texture_path}},
+                            outputs_of(a));
 
   const std::size_t estimate = request_bytes(a, mesh);
   const std::string request = "gradraster-render " + std::to_string(a.width) + "x" + std::to_string(a.height);

@@ -12,10 +12,12 @@
 #include <string>
 #include <vector>
 
+#include "examples/common/output_folder.h"
 #include "examples/shading/shading.h"
 #include "ops/ops.h"
 #include "raster/image_io.h"
 #include "raster/procedural.h"
+#include "raster/temporaries.h"
 
 using namespace gr;
 
@@ -107,9 +109,11 @@ int run(const std::string& out_dir) {
     if (!row.empty()) row.push_back(gutter);
     row.push_back(pow(clamp(where(covered, colour, bg), 0.0, 1.0), 1 / 2.2));
   }
-  std::filesystem::create_directories(out_dir);
+  cli::OutputFolder folder(out_dir);  // a failed or interrupted run leaves no new empty folder
+  folder.create();
   const std::string path = (std::filesystem::path(out_dir) / "shading_gallery.png").string();
   raster::write_png(path, concat(row, 1));
+  folder.keep();
   std::cout << "wrote " << path << " (" << 4 * kSize + 12 << "x" << kSize
             << "): Lambert | Blinn-Phong | normal-mapped Blinn-Phong | SH sky/ground\n";
   return 0;
@@ -118,6 +122,7 @@ int run(const std::string& out_dir) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  raster::remove_temporaries_on_signals();  // Ctrl-C leaves no partial file behind
   const std::string program = argc > 0 ? argv[0] : "gradraster-shading-gallery";
   const std::vector<std::string> args(argv + 1, argv + argc);
   const std::string usage = "usage: " + program + " [OUT_DIR]\n" +

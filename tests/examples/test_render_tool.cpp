@@ -358,3 +358,61 @@ TEST_CASE("render tool: a request over the memory budget is refused before rende
   CHECK(r.out.empty());
   CHECK(dir.count() == 0);
 }
+
+TEST_CASE("render tool: an output that is the input mesh or another output is refused, touching nothing",
+          "[examples][render][distinct_files]") {
+  TempDir dir;
+  raster::save_obj(dir.file("v.obj"), raster::make_cube());
+  const std::string mesh = slurp(dir.file("v.obj"));
+  for (const std::string& spelling : {dir.file("v.obj"), dir.file("./v.obj"), dir.file("sub/../v.obj")}) {
+    INFO(spelling);
+    std::filesystem::create_directories(dir.file("sub"));
+    const Run r = render({"--mesh", dir.file("v.obj"), "--width", "8", "--height", "8", "--out-depth", spelling});
+    CHECK(r.code == 2);
+    CHECK_THAT(r.err, Catch::Contains("--out-depth") && Catch::Contains("is the same file as --mesh"));
+    CHECK(slurp(dir.file("v.obj")) == mesh);
+  }
+  // The same file given to every output: refused, nothing written.
+  const Run r = render({"--builtin", "cube", "--width", "8", "--height", "8", "--out", dir.file("x"), "--out-triid",
+                        dir.file("x"), "--out-depth", dir.file("./x")});
+  CHECK(r.code == 2);
+  CHECK_THAT(r.err, Catch::Contains("--out-triid") && Catch::Contains("two outputs cannot share a file"));
+  CHECK(!std::filesystem::exists(dir.file("x")));
+}
+
+TEST_CASE("render tool: an output that is the texture the mesh's MTL names is refused", "[examples][render][distinct_files]") {
+  TempDir dir;
+  raster::Mesh cube = raster::make_cube();
+  raster::write_png(dir.file("tex.png"), Tensor::full({2, 2, 3}, 0.5));
+  cube.texture_path = dir.file("tex.png");
+  cube.uvs = Tensor::zeros({cube.num_vertices(), 2});
+  raster::save_obj(dir.file("v.obj"), cube);  // writes v.mtl naming tex.png
+  const std::string texture = slurp(dir.file("tex.png"));
+  const Run r = render({"--mesh", dir.file("v.obj"), "--width", "8", "--height", "8", "--out", dir.file("tex.png")});
+  CHECK(r.code == 2);
+  CHECK_THAT(r.err, Catch::Contains("the texture named by --mesh"));
+  CHECK(slurp(dir.file("tex.png")) == texture);
+}
+
+TEST_CASE("render tool: a mesh 1e-14 units across is framed like a unit one; a mesh of one point is refused",
+          "[examples][render][mesh_framing]") {
+  TempDir dir;
+  std::string covered;
+  for (double s : {1.0, 1e-14}) {
+    CAPTURE(s);
+    gr::raster::Mesh mesh = gr::raster::make_icosphere(2);
+    float* p = mesh.positions.data<float>();
+    for (std::int64_t i = 0; i < mesh.positions.numel(); ++i) p[i] = static_cast<float>(p[i] * s);
+    gr::raster::save_obj(dir.file("sphere.obj"), mesh);
+    const Run r = render({"--mesh", dir.file("sphere.obj"), "--width", "64", "--height", "64"});
+    INFO(r.err);
+    REQUIRE(r.code == 0);
+    if (s == 1.0) covered = value_of(r.out, "covered_pixels");
+    CHECK(value_of(r.out, "covered_pixels") == covered);  // the same picture at any scale
+  }
+  CHECK(std::stoi(covered) > 500);
+  std::ofstream(dir.file("point.obj")) << "v 1 2 3\nv 1 2 3\nv 1 2 3\nf 1 2 3\n";
+  const Run point = render({"--mesh", dir.file("point.obj"), "--width", "64", "--height", "64"});
+  CHECK(point.code == 1);
+  CHECK_THAT(point.err, Catch::Contains("--mesh") && Catch::Contains("lie at one point (1, 2, 3)"));
+}

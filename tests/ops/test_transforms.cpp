@@ -432,3 +432,91 @@ TEST_CASE("OpenGL matrix conversion rejects null pointers, NaN elements and non-
   CHECK_THROWS_AS(mat4_to_column_major(Tensor::ones({3, 3})), ShapeError);
   CHECK_THROWS_AS(mat4_to_column_major(Tensor::ones({4, 4}, DType::Int32)), DTypeError);
 }
+
+// ---------------------------------------------------------------------------
+// look_at at any representable scale (issue 30 item 10)
+
+namespace {
+
+// Rows of the rotation block: each of length 1 and orthogonal to the others to `tol`.
+void check_orthonormal_rows(const Tensor& m, double tol) {
+  const std::vector<double> v = m.to_vector();
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) {
+      double d = 0;
+      for (int k = 0; k < 3; ++k) d += v[4 * i + k] * v[4 * j + k];
+      INFO("row dot " << i << ", " << j);
+      CHECK(std::abs(d - (i == j ? 1.0 : 0.0)) <= tol);
+    }
+}
+
+}  // namespace
+
+TEST_CASE("look_at and look_at_lh give the same orthonormal rotation at tiny and huge scales", "[ops][transforms]") {
+  const std::vector<double> eye = {2, 1.5, 3}, target = {-0.5, 0.2, 0.4}, up = {0.2, 1, -0.1};
+  auto scaled = [](const std::vector<double>& v, double s, DType dt) {
+    return Tensor::from_values({v[0] * s, v[1] * s, v[2] * s}, {3}, dt);
+  };
+  for (auto camera : {look_at, look_at_lh}) {
+    const std::vector<double> unit_scale =
+        camera(scaled(eye, 1, DType::Float64), scaled(target, 1, DType::Float64), scaled(up, 1, DType::Float64))
+            .to_vector();
+    for (double s : {1e-13, 1e-30, 1e-150, 1e-300, 1e150, 1e300}) {
+      CAPTURE(s);
+      const Tensor m = camera(scaled(eye, s, DType::Float64), scaled(target, s, DType::Float64),
+                              scaled(up, s < 1 ? s : 1, DType::Float64));
+      check_orthonormal_rows(m, 1e-12);
+      const std::vector<double> v = m.to_vector();
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) CHECK(v[4 * i + j] == Approx(unit_scale[4 * i + j]).margin(1e-12));
+      for (int i = 0; i < 3; ++i) CHECK(v[4 * i + 3] == Approx(unit_scale[4 * i + 3] * s).epsilon(1e-12));  // -R eye
+    }
+    for (double s : {1e-13, 1e-30}) {  // float32: normal numbers down to 1e-38
+      CAPTURE(s);
+      check_orthonormal_rows(camera(scaled(eye, s, DType::Float32), scaled(target, s, DType::Float32),
+                                    scaled(up, s, DType::Float32)),
+                             1e-6);
+    }
+  }
+  // A camera 1e-13 from its target, far from the origin: the target lands on -z at that distance.
+  const Tensor v = look_at(vec({1, 1, 1 + 1e-13}), vec({1, 1, 1}), vec({0, 1, 0}));
+  check_orthonormal_rows(v, 1e-12);
+  const std::vector<double> p = apply_to(v, {1, 1, 1});
+  CHECK(std::abs(p[0]) < 1e-25);
+  CHECK(p[2] == Approx(-((1 + 1e-13) - 1)).epsilon(1e-12));
+}
+
+TEST_CASE("look_at refuses what has no camera frame, naming the problem", "[ops][transforms][bad_input]") {
+  const double inf = std::numeric_limits<double>::infinity();
+  for (auto camera : {look_at, look_at_lh}) {
+    CHECK_THROWS_WITH(camera(vec({1e-20, 2e-20, 3e-20}), vec({1e-20, 2e-20, 3e-20}), vec({0, 1, 0})),
+                      Catch::Contains("eye and target coincide"));
+    CHECK_THROWS_WITH(camera(vec({0, 0, 5}), vec({0, 0, 0}), vec({0, 0, 1e-9})),
+                      Catch::Contains("parallel to the view direction"));
+    CHECK_THROWS_WITH(camera(vec({0, 0, 5}), vec({0, 0, 0}), vec({0, 0, 0})), Catch::Contains("up is the zero vector"));
+    CHECK_THROWS_WITH(camera(vec({1, 0, 0}), vec({1 + 2.220446049250313e-16, 0, 0}), vec({0, 1, 0})),
+                      Catch::Contains("rounding of their coordinates"));
+    CHECK_THROWS_WITH(camera(vec({inf, 0, 0}), vec({0, 0, 0}), vec({0, 1, 0})), Catch::Contains("eye (inf"));
+    CHECK_THROWS_WITH(camera(vec({1e308, 0, 0}), vec({-1e308, 0, 0}), vec({0, 1, 0})), Catch::Contains("overflows"));
+    CHECK_THROWS_AS(camera(vec({0, 0, 0}), vec({0, 0, 0}), vec({0, 1, 0})), ValueError);
+  }
+}
+
+TEST_CASE("look_at and look_at_lh: gradients match finite differences at scales 1e-6 and 1e-13",
+          "[ops][transforms][gradcheck]") {
+  for (double s : {1e-6, 1e-13}) {
+    CAPTURE(s);
+    Tensor eye = ((vec({2.0, 1.5, 3.0}) + random_input({3}, -0.3, 0.3, 120).detach()) * s).detach();
+    Tensor target = (random_input({3}, -0.5, 0.5, 121).detach() * s).detach();
+    Tensor up = (vec({0.1, 1.0, -0.2}) * s).detach();
+    eye.set_requires_grad();
+    target.set_requires_grad();
+    up.set_requires_grad();
+    GradcheckOptions o;
+    o.eps = 1e-4 * s;   // steps relative to the inputs
+    o.atol = 1e-7 / s;  // the rotation's derivatives scale as 1 / s
+    require_gradcheck("look_at", [](const Inputs& in) { return look_at(in[0], in[1], in[2]); }, {eye, target, up}, o);
+    require_gradcheck("look_at_lh", [](const Inputs& in) { return look_at_lh(in[0], in[1], in[2]); },
+                      {eye, target, up}, o);
+  }
+}

@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "autodiff/error.h"
 #include "raster/mesh_framing.h"
 #include "raster/procedural.h"
 
@@ -41,14 +42,29 @@ TEST_CASE("mesh framing: every vertex of an off-centre mesh lies inside the view
   }
 }
 
-TEST_CASE("mesh framing: a mesh of zero extent is framed as a unit sphere, finite", "[raster][mesh_framing]") {
+TEST_CASE("mesh framing: a mesh without vertices or with every vertex at one point is refused, naming the point",
+          "[raster][mesh_framing]") {
   Mesh mesh = make_cube();
   float* p = mesh.positions.data<float>();
   for (std::int64_t i = 0; i < 3 * mesh.num_vertices(); ++i) p[i] = 5.0f;
-  const MeshFraming f = frame_mesh(mesh);
-  CHECK(f.radius == 1.0);
-  CHECK(f.centre[0] == 5.0);
-  for (double e : f.eye) CHECK(std::isfinite(e));
-  CHECK(f.near > 0);
-  CHECK(f.far > f.near);
+  CHECK_THROWS_WITH(frame_mesh(mesh), Catch::Contains("vertices lie at one point (5, 5, 5)"));
+  Mesh empty;
+  empty.positions = Tensor::zeros({0, 3});
+  empty.triangles = Tensor::zeros({0, 3}, DType::Int32);
+  CHECK_THROWS_AS(frame_mesh(empty), ValueError);
+}
+
+TEST_CASE("mesh framing: a mesh of any representable size is framed at its own scale", "[raster][mesh_framing]") {
+  const MeshFraming unit = frame_mesh(make_cube());
+  for (float s : {1e-14f, 1e-30f, 1e30f}) {
+    CAPTURE(s);
+    Mesh mesh = make_cube();
+    float* p = mesh.positions.data<float>();
+    for (std::int64_t i = 0; i < 3 * mesh.num_vertices(); ++i) p[i] *= s;
+    const MeshFraming f = frame_mesh(mesh);
+    CHECK(f.radius == Approx(unit.radius * s).epsilon(1e-6));
+    for (int a = 0; a < 3; ++a) CHECK(f.eye[a] == Approx(unit.eye[a] * s).epsilon(1e-6));
+    CHECK(f.near == Approx(unit.near * s).epsilon(1e-6));
+    CHECK(f.far == Approx(unit.far * s).epsilon(1e-6));
+  }
 }
