@@ -7,6 +7,9 @@
 // left behind.
 #include <catch2/catch.hpp>
 
+// The tools are built only with GRADRASTER_BUILD_EXAMPLES (not in the sanitizer job).
+#if defined(GRADRASTER_RENDER_PROGRAM) && defined(GRADRASTER_FIT_PROGRAM)
+
 #include <signal.h>
 
 #include <filesystem>
@@ -44,8 +47,6 @@ std::vector<std::string> endless_fit(const fs::path& out) {
 }
 
 }  // namespace
-
-#if defined(GRADRASTER_RENDER_PROGRAM) && defined(GRADRASTER_FIT_PROGRAM)
 
 TEST_CASE("gradraster-render stopped by a signal in the middle of writing leaves no temporary",
           "[examples][render][temporaries]") {
