@@ -420,6 +420,7 @@ _FILTERS = {'nearest': 0, 'linear': 1, 'linear-mipmap-linear': 2, 'linear-mipmap
 _CUBE = -1  # boundary_mode 'cube': a cube map
 _BOUNDARIES = {'wrap': 0, 'clamp': 1, 'zero': 3, 'cube': _CUBE}
 _MAX_TEXTURE_SIDE = 32768
+_MAX_MIP_LEVEL = 64  # more than any chain has
 
 
 class TextureMip:
@@ -451,8 +452,34 @@ def _texture_args(pins, tex, uv, uv_dx, uv_dy, bias, pyramid, levels, user, filt
     return a
 
 
+def _pyramid_texels(sizes, cube):
+    return sum(h * w for h, w in sizes[1:]) * (6 if cube else 1)
+
+
+def _check_prebuilt_mip(mip, tex):
+    """The kernels read mip's stack as tex's levels 1..: same dtype, device, texture shape and level shapes."""
+    if mip.tex_shape != tuple(tex.shape):
+        raise ValueError(f"'mip' was built for a texture of shape {list(mip.tex_shape)}, 'tex' is {list(tex.shape)}")
+    pyramid = mip.pyramid
+    if not isinstance(pyramid, torch.Tensor):
+        raise TypeError("'mip' holds no mip stack tensor; build it with texture_construct_mip(tex)")
+    if pyramid.dtype != tex.dtype:
+        raise TypeError(f"'mip' was built from a {pyramid.dtype} texture but 'tex' is {tex.dtype}; build it from "
+                        f"this texture: texture_construct_mip(tex)")
+    if pyramid.device != tex.device:
+        raise ValueError(f"'mip' is on {pyramid.device} but 'tex' is on {tex.device}")
+    levels = len(mip.sizes) - 1
+    if levels < 1 or list(mip.sizes) != _core.mip_sizes(tex.shape[-3], tex.shape[-2], levels):
+        raise ValueError(f"'mip' levels {list(mip.sizes)} are not the mip chain of a {tex.shape[-3]} x {tex.shape[-2]} "
+                         f"texture")
+    want = (tex.shape[0], _pyramid_texels(mip.sizes, mip.cube), tex.shape[-1])
+    if tuple(pyramid.shape) != want or not pyramid.is_contiguous():
+        raise ValueError(f"'mip' holds a stack of shape {list(pyramid.shape)}, not the contiguous {list(want)} of "
+                         f"levels {list(mip.sizes[1:])} of 'tex'")
+
+
 def _build_pyramid(tex, sizes, cube=False):
-    texels = sum(h * w for h, w in sizes[1:]) * (6 if cube else 1)
+    texels = _pyramid_texels(sizes, cube)
     pyramid = tex.new_empty((tex.shape[0], texels, tex.shape[-1]))
     pins = _Pins()
     a = _texture_args(pins, tex, None, None, None, None, pyramid, len(sizes), False, 1, _CUBE if cube else 0)
@@ -528,7 +555,8 @@ def _max_mip_level(max_mip_level):
         return -1
     if isinstance(max_mip_level, bool) or not isinstance(max_mip_level, numbers.Integral) or max_mip_level < 0:
         raise ValueError(f"'max_mip_level' must be None or an integer >= 0, got {max_mip_level!r}")
-    return int(max_mip_level)
+    # A limit past the chain's last level (at most 15 for 32768 texels) is the whole chain, however large.
+    return min(int(max_mip_level), _MAX_MIP_LEVEL)
 
 
 def texture_construct_mip(tex, max_mip_level=None, cube_mode=False):
@@ -607,9 +635,7 @@ def texture(tex, uv, uv_da=None, mip_level_bias=None, mip=None, filter_mode='aut
         if isinstance(mip, TextureMip):
             if mip.cube != cube:
                 raise ValueError(f"'mip' was built with cube_mode={mip.cube} but boundary_mode is {boundary_mode!r}")
-            if mip.tex_shape != tuple(tex.shape):
-                raise ValueError(f"'mip' was built for a texture of shape {list(mip.tex_shape)}, 'tex' is "
-                                 f"{list(tex.shape)}")
+            _check_prebuilt_mip(mip, tex)
             prebuilt, sizes = mip.pyramid, mip.sizes
         elif isinstance(mip, (list, tuple)) and cube:
             raise NotImplementedError("texture: a custom mip stack (a list) for a cube map is not implemented yet in "
