@@ -320,9 +320,14 @@ def interpolate(attr, rast, tri, rast_db=None, diff_attrs=None):
 def antialias_construct_topology_hash(tri):
     """Edge adjacency of `tri` for antialias (nvdiffrast's topology hash):
     build it once when the triangles stay the same."""
+    return _topology(tri, -1, 'antialias_construct_topology_hash')
+
+
+def _topology(tri, vertices, op):
+    """The adjacency of tri, its indices checked first (against `vertices`; -1: unknown, negatives only)."""
     _tri(tri)
     pins = _Pins()
-    return _core.build_topology(pins(tri), tri.shape[0])
+    return _core.build_topology(pins(tri), tri.shape[0], vertices, op)
 
 
 def _check_antialias(color, rast, pos, tri):
@@ -382,8 +387,9 @@ def _apply_antialias(color, rast, pos, tri, topology_hash, pos_gradient_boost, v
     if isinstance(pos_gradient_boost, bool) or not isinstance(pos_gradient_boost, numbers.Real) \
             or not (abs(float(pos_gradient_boost)) < float('inf')):
         raise ValueError(f"'pos_gradient_boost' must be a finite number, got {pos_gradient_boost!r}")
-    if topology_hash is None:
-        topology_hash = antialias_construct_topology_hash(tri)
+    _check_antialias(color, rast, pos, tri)
+    if topology_hash is None:  # indices checked against pos first: never a table sized by a bad index
+        topology_hash = _topology(tri, pos.shape[-2], 'visibility_antialias' if visibility else 'antialias')
     elif not isinstance(topology_hash, _core.Topology):
         raise TypeError("'topology_hash' must come from antialias_construct_topology_hash(tri)")
     return _AntialiasFunc.apply(color, rast, pos, tri, topology_hash, float(pos_gradient_boost), visibility)
