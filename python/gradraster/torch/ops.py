@@ -195,6 +195,13 @@ def rasterize(glctx, pos, tri, resolution, ranges=None, grad_db=True):
     return _RasterizeFunc.apply(glctx, pos, tri, resolution, ranges, grad_db, None)
 
 
+def _identity(t):
+    """What an in-place change of t alters: its memory, shape, layout or contents (torch's version counter)."""
+    if t is None:
+        return None
+    return t.data_ptr(), tuple(t.shape), t.stride(), t.dtype, t.device, t._version
+
+
 class DepthPeeler:
     """Successive depth layers (nvdiffrast.torch.DepthPeeler), as a context
     manager: `with DepthPeeler(glctx, pos, tri, resolution) as peeler:` then
@@ -211,6 +218,9 @@ class DepthPeeler:
         self.raster_ctx, self.pos, self.tri = glctx, pos, tri
         self.resolution, self.ranges, self.grad_db = _resolution(resolution), ranges, grad_db
         self.state = None
+        # Each layer lies behind the one before it, per pixel: the layers are
+        # of one scene only if pos, tri and ranges stay what they were.
+        self.inputs = {'pos': _identity(pos), 'tri': _identity(tri), 'ranges': _identity(ranges)}
 
     def __enter__(self):
         if self.raster_ctx is None:
@@ -230,6 +240,10 @@ class DepthPeeler:
         """The next layer, as rasterize() returns it."""
         if self.raster_ctx is None or self.raster_ctx.active_depth_peeler is not self:
             raise RuntimeError("rasterize_next_layer() must be called inside 'with DepthPeeler(...) as peeler:'")
+        for name, t in (('pos', self.pos), ('tri', self.tri), ('ranges', self.ranges)):
+            if _identity(t) != self.inputs[name]:
+                raise RuntimeError(f"DepthPeeler: '{name}' was changed in place (resized, moved or written) after the "
+                                   f"peeler was created; give the changed tensors to a new DepthPeeler")
         return _RasterizeFunc.apply(self.raster_ctx, self.pos, self.tri, self.resolution, self.ranges, self.grad_db,
                                     self.state)
 
