@@ -13,6 +13,7 @@ gradients are bit-identical for any thread count.
 import numbers
 
 import torch
+from torch.autograd.function import once_differentiable
 
 from .. import _core
 
@@ -159,6 +160,7 @@ class _RasterizeFunc(torch.autograd.Function):
         return rast, db
 
     @staticmethod
+    @once_differentiable
     def backward(ctx, drast, ddb):
         pos, tri, rast = ctx.saved_tensors
         pins = _Pins()
@@ -299,6 +301,7 @@ class _InterpolateFunc(torch.autograd.Function):
         return out, out_da
 
     @staticmethod
+    @once_differentiable
     def backward(ctx, dy, dda):
         attr, rast, tri, rast_db = ctx.saved_tensors
         pins = _Pins()
@@ -384,6 +387,7 @@ class _AntialiasFunc(torch.autograd.Function):
         return out
 
     @staticmethod
+    @once_differentiable
     def backward(ctx, dy):
         color, rast, pos, tri = ctx.saved_tensors
         pins = _Pins()
@@ -533,6 +537,7 @@ class _TextureFunc(torch.autograd.Function):
         return out
 
     @staticmethod
+    @once_differentiable
     def backward(ctx, dy):
         tex, uv, uv_dx, uv_dy, bias, pyramid, jacobian = ctx.saved_tensors
         needs = ctx.needs_input_grad
