@@ -22,7 +22,10 @@ _MAX_FLOAT32_IDS = 1 << 24  # float32 holds every triangle id + 1 exactly up to 
 
 
 def _threads():
-    return torch.get_num_threads()
+    """torch's thread count. torch.set_num_threads takes any count, the kernels
+    at most _core.MAX_THREADS (1024): a larger count means all hardware threads (0)."""
+    n = torch.get_num_threads()
+    return n if n <= _core.MAX_THREADS else 0
 
 
 # ----------------------------------------------------------------------------
