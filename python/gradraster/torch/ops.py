@@ -142,10 +142,55 @@ class RasterizeCpuContext:
     for compatibility and must be None or a CPU device."""
 
     def __init__(self, device=None):
-        if device is not None and torch.device(device).type != 'cpu':
-            raise ValueError(f"RasterizeCpuContext: device must be the CPU, got {device}")
+        _check_cpu_device(type(self).__name__, device)
         self.cpp_wrapper = _core.Context()
         self.active_depth_peeler = None
+        self.output_db = True
+        self.device = torch.device('cpu')
+
+
+def _check_cpu_device(context, device):
+    try:
+        cpu = device is None or torch.device(device).type == 'cpu'
+    except (TypeError, RuntimeError):
+        raise ValueError(f"{context}: 'device' must be None or a torch device, got {device!r}") from None
+    if not cpu:
+        raise ValueError(f"{context}: 'device' is {device}, but gradraster runs on the CPU: pass device=None or "
+                         f"'cpu' (and CPU tensors)")
+
+
+# nvdiffrast's two context classes, by name, so that programs that name them
+# (in type annotations, isinstance checks or construction) run unchanged:
+# constructing either gives a CPU context (docs/python.md).
+
+class RasterizeCudaContext(RasterizeCpuContext):
+    """nvdiffrast's RasterizeCudaContext(device=None), here a CPU context."""
+
+
+class RasterizeGLContext(RasterizeCpuContext):
+    """nvdiffrast's RasterizeGLContext(output_db=True, mode='automatic',
+    device=None), here a CPU context. output_db=False: rasterize returns an
+    empty rast_db ([minibatch, height, width, 0]), as nvdiffrast's does.
+    mode='manual' takes set_context() / release_context() calls, which do
+    nothing on the CPU."""
+
+    def __init__(self, output_db=True, mode='automatic', device=None):
+        super().__init__(device)
+        if output_db is not True and output_db is not False:
+            raise TypeError(f"RasterizeGLContext: 'output_db' must be True or False, got {output_db!r}")
+        if mode not in ('automatic', 'manual'):
+            raise ValueError(f"RasterizeGLContext: 'mode' must be 'automatic' or 'manual', got {mode!r}")
+        self.output_db, self.mode = output_db, mode
+
+    def set_context(self):
+        self._check_manual('set_context')
+
+    def release_context(self):
+        self._check_manual('release_context')
+
+    def _check_manual(self, method):
+        if self.mode != 'manual':
+            raise RuntimeError(f"RasterizeGLContext.{method}() is for mode='manual' (this context is {self.mode!r})")
 
 
 class _RasterizeFunc(torch.autograd.Function):
@@ -197,7 +242,14 @@ def rasterize(glctx, pos, tri, resolution, ranges=None, grad_db=True):
     if glctx.active_depth_peeler is not None:
         raise RuntimeError("Cannot call rasterize() during depth peeling operation, use rasterize_next_layer() instead")
     resolution = _resolution(resolution)
-    return _RasterizeFunc.apply(glctx, pos, tri, resolution, ranges, grad_db, None)
+    return _rasterize(glctx, pos, tri, resolution, ranges, grad_db, None)
+
+
+def _rasterize(glctx, pos, tri, resolution, ranges, grad_db, peel):
+    rast, db = _RasterizeFunc.apply(glctx, pos, tri, resolution, ranges, grad_db and glctx.output_db, peel)
+    if not glctx.output_db:  # RasterizeGLContext(output_db=False), as nvdiffrast's
+        db = db.new_zeros(db.shape[:3] + (0,))
+    return rast, db
 
 
 def _identity(t):
@@ -249,8 +301,7 @@ class DepthPeeler:
             if _identity(t) != self.inputs[name]:
                 raise RuntimeError(f"DepthPeeler: '{name}' was changed in place (resized, moved or written) after the "
                                    f"peeler was created; give the changed tensors to a new DepthPeeler")
-        return _RasterizeFunc.apply(self.raster_ctx, self.pos, self.tri, self.resolution, self.ranges, self.grad_db,
-                                    self.state)
+        return _rasterize(self.raster_ctx, self.pos, self.tri, self.resolution, self.ranges, self.grad_db, self.state)
 
 
 # ----------------------------------------------------------------------------
