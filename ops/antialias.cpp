@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "autodiff/memory.h"
 #include "autodiff/tape.h"
 #include "ops/check.h"
 #include "raster/blended_pairs.h"
@@ -42,12 +43,13 @@ AntialiasTopology antialias_topology(const Tensor& triangles, const Tensor& posi
   if (!positions.defined()) {
     detail::check_dtype(triangles, DType::Int32, op, "triangles");
     detail::check_columns(triangles, 3, op, "triangles", "M");
-    // Vertex count implied by the indices; a negative index fails the range check.
-    const std::int32_t* tris = triangles.data<std::int32_t>();
-    std::int64_t n = 0;
-    for (std::int64_t i = 0; i < triangles.numel(); ++i) n = std::max<std::int64_t>(n, std::int64_t(tris[i]) + 1);
-    detail::check_triangles(triangles, n, op);
-    return make_topology<double>(triangles, n, nullptr, 0);
+    // No vertex count: only negative indices are errors, and the tables are
+    // sized by the vertices used (never by the largest index).
+    detail::check_triangles(triangles, std::int64_t(INT32_MAX) + 1, op);
+    check_memory_request(raster::edge_topology_bytes(triangles.size(0)),
+                         op + ": the edge adjacency of " + std::to_string(triangles.size(0)) + " triangles");
+    return std::make_shared<const raster::EdgeTopology>(
+        raster::build_edge_topology(triangles.data<std::int32_t>(), triangles.size(0)));
   }
   detail::check_float(positions, op, "positions");
   if (positions.rank() != 2 || positions.size(1) < 1)

@@ -22,7 +22,9 @@ using AntialiasTopology = std::shared_ptr<const raster::EdgeTopology>;
 
 // triangles [M, 3] int32. positions: optional [N, D] float tensor (e.g. the
 // model-space positions); vertices with equal rows are welded, so duplicated
-// seam vertices do not make their edges look like silhouettes.
+// seam vertices do not make their edges look like silhouettes. Without
+// positions any index >= 0 is accepted, and the memory taken grows with M,
+// never with the largest index (checked against the memory budget).
 AntialiasTopology antialias_topology(const Tensor& triangles, const Tensor& positions = Tensor());
 
 struct AntialiasOptions {

@@ -119,6 +119,30 @@ EdgeTopology build_edge_topology(const std::int32_t* tris, std::int64_t num_tris
   return build_edge_topology<double>(tris, num_tris, num_vertices, nullptr, 0);
 }
 
+EdgeTopology build_edge_topology(const std::int32_t* tris, std::int64_t num_tris) {
+  const std::int64_t n = 3 * num_tris;
+  std::int32_t largest = -1;
+  for (std::int64_t i = 0; i < n; ++i) largest = std::max(largest, tris[i]);
+  if (largest < n) return build_edge_topology(tris, num_tris, std::int64_t(largest) + 1);  // dense enough
+  // Renumber the used vertices 0, 1, ... in index order: edges pair up by
+  // their ends' order alone, so the neighbours are the same.
+  std::vector<std::int32_t> used(tris, tris + n);
+  std::sort(used.begin(), used.end());
+  used.erase(std::unique(used.begin(), used.end()), used.end());
+  std::vector<std::int32_t> dense(static_cast<std::size_t>(n));
+  parallel_for(0, n, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
+    for (std::int64_t i = lo; i < hi; ++i)
+      dense[i] = static_cast<std::int32_t>(std::lower_bound(used.begin(), used.end(), tris[i]) - used.begin());
+  });
+  return build_edge_topology(dense.data(), num_tris, static_cast<std::int64_t>(used.size()));
+}
+
+std::size_t edge_topology_bytes(std::int64_t num_tris) {
+  // Per edge: the neighbour (8), a bucket entry (16), at most one vertex's
+  // bucket start (8) and canonical id (4), the renumbering's two copies (8).
+  return static_cast<std::size_t>(3 * std::max<std::int64_t>(num_tris, 0)) * 44 + 64;
+}
+
 // ---------------------------------------------------------------------------
 // Forward
 

@@ -17,6 +17,7 @@
 // criterion and the determinism scheme: docs/rasterizer.md, "Antialiasing".
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
@@ -44,6 +45,12 @@ template <class T>
 EdgeTopology build_edge_topology(const std::int32_t* tris, std::int64_t num_tris, std::int64_t num_vertices,
                                  const T* weld_positions, int dims);
 EdgeTopology build_edge_topology(const std::int32_t* tris, std::int64_t num_tris, std::int64_t num_vertices);
+// The vertex count implied by the indices (each >= 0, not checked here). The
+// tables are sized by the vertices the triangles use, never by the largest
+// index: sparse indices are renumbered densely, in order, first (which changes
+// nothing in the result). edge_topology_bytes(num_tris) bounds what it takes.
+EdgeTopology build_edge_topology(const std::int32_t* tris, std::int64_t num_tris);
+std::size_t edge_topology_bytes(std::int64_t num_tris);
 
 // One blended pixel pair, in the order the forward applied them (row-major by
 // the pair's top/left pixel, then horizontal before vertical).

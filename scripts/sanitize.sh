@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Sanitizer CI job: builds gradraster with clang, AddressSanitizer and
 # UndefinedBehaviorSanitizer in ./build-san (GRADRASTER_SANITIZE=ON,
-# GRADRASTER_FUZZ=ON), runs the whole ctest suite under the sanitizers, then
+# GRADRASTER_FUZZ=ON), runs the whole ctest suite under the sanitizers (the
+# Python tests too: the gradraster._core module is built with the sanitizers and
+# the interpreter preloads the shared ASan runtime, tests/CMakeLists.txt), then
 # smoke-runs each libFuzzer target (tests/fuzz) for FUZZ_SECONDS seconds from a
 # temporary copy of its seed corpus (the repository's corpus is not modified).
 # Installs clang and its runtime libraries if missing. Safe to run repeatedly.
@@ -18,8 +20,10 @@ source scripts/install_missing.sh
 # The library's dependencies (as scripts/setup.sh) plus clang. The sanitizer and
 # libFuzzer runtimes (libclang_rt.{asan,ubsan,fuzzer}-x86_64.a) are in
 # libclang-rt-N-dev, which clang only recommends: install it explicitly for the
-# installed clang's major version (14 on Debian 12).
-install_missing cmake make pkg-config libeigen3-dev libtbb-dev libtinyobjloader-dev libstb-dev catch2 clang
+# installed clang's major version (14 on Debian 12). It also holds the shared
+# runtime (libclang_rt.asan-x86_64.so) that the Python tests preload.
+install_missing cmake make pkg-config libeigen3-dev libtbb-dev libtinyobjloader-dev libstb-dev catch2 clang \
+  python3-dev pybind11-dev python3-torch python3-numpy python3-pytest
 clang_major=$(clang --version | sed -n 's/.*clang version \([0-9][0-9]*\).*/\1/p' | head -n 1)
 install_missing "libclang-rt-${clang_major}-dev"
 
@@ -30,13 +34,14 @@ start=$(date +%s)
 # example programs and the benchmarks are not needed here.
 cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DCMAKE_CXX_COMPILER=clang++ \
-  -DGRADRASTER_SANITIZE=ON -DGRADRASTER_FUZZ=ON -DGRADRASTER_WITH_PYTHON=OFF \
+  -DGRADRASTER_SANITIZE=ON -DGRADRASTER_FUZZ=ON -DGRADRASTER_WITH_PYTHON=ON -DPython3_EXECUTABLE=/usr/bin/python3 \
   -DGRADRASTER_BUILD_BENCH=OFF -DGRADRASTER_BUILD_EXAMPLES=OFF > /dev/null
 cmake --build "$build_dir" -j "$(nproc)"
 echo "sanitize: build took $(( $(date +%s) - start )) s"
 
 # Any report fails the run: UBSan is built with -fno-sanitize-recover, ASan
-# aborts on its first error, LeakSanitizer reports at exit.
+# aborts on its first error, LeakSanitizer reports at exit (not in the Python
+# tests: the interpreter's own allocations at exit are not ours).
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=0:strict_string_checks=1}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
 start=$(date +%s)

@@ -4,6 +4,7 @@
 #include <string>
 
 #include "autodiff/error.h"
+#include "autodiff/memory.h"
 #include "raster/rasterize_setup.h"
 
 namespace gr::python {
@@ -45,17 +46,20 @@ raster::AntialiasParams<T> image_params(ImageScratch& s, const Mesh& mesh, const
 
 }  // namespace
 
-std::shared_ptr<Topology> build_topology(Address tri, std::int64_t triangles) {
+std::shared_ptr<Topology> build_topology(Address tri, std::int64_t triangles, std::int64_t vertices,
+                                         const std::string& op) {
   const auto* t = at<const std::int32_t>(tri);
-  std::int64_t vertices = 0;
-  for (std::int64_t i = 0; i < 3 * triangles; ++i) {
-    if (t[i] < 0)
-      throw IndexError("antialias_construct_topology_hash: tri[" + std::to_string(i / 3) + "] has the negative index " +
-                       std::to_string(t[i]));
-    vertices = std::max<std::int64_t>(vertices, std::int64_t(t[i]) + 1);
+  if (vertices >= 0) {
+    raster::detail::check_triangles(t, triangles, vertices, op.c_str());
+  } else {
+    for (std::int64_t i = 0; i < 3 * triangles; ++i)
+      if (t[i] < 0)
+        throw IndexError(op + ": tri[" + std::to_string(i / 3) + "] has the negative index " + std::to_string(t[i]));
   }
+  check_memory_request(raster::edge_topology_bytes(triangles),
+                       op + ": the edge adjacency of " + std::to_string(triangles) + " triangles");
   auto topology = std::make_shared<Topology>();
-  topology->edges = raster::build_edge_topology(t, triangles, vertices);
+  topology->edges = raster::build_edge_topology(t, triangles);
   topology->triangles = triangles;
   return topology;
 }

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "python/src/common.h"
@@ -13,12 +14,17 @@
 
 namespace gr::python {
 
-// antialias_construct_topology_hash(tri): adjacency by vertex index.
+// antialias_construct_topology_hash(tri): adjacency by vertex index. The
+// indices are checked first: against `vertices` when known (antialias), else
+// for negatives only; the memory it takes grows with the triangles, never
+// with an index (raster::build_edge_topology), and is checked against the
+// memory budget. `op` names the caller in errors.
 struct Topology {
   raster::EdgeTopology edges;
   std::int64_t triangles = 0;
 };
-std::shared_ptr<Topology> build_topology(Address tri, std::int64_t triangles);
+std::shared_ptr<Topology> build_topology(Address tri, std::int64_t triangles, std::int64_t vertices,
+                                         const std::string& op);
 
 // What the backward needs: per image, the blended pixel pairs (of
 // visibility_antialias when `visibility`).

@@ -6,6 +6,7 @@
 #include <pybind11/stl.h>
 
 #include "autodiff/error.h"
+#include "autodiff/parallel.h"
 #include "python/src/antialias.h"
 #include "python/src/image.h"
 #include "python/src/interpolate.h"
@@ -59,6 +60,7 @@ PYBIND11_MODULE(_core, m) {
   });
 
   m.def("keep_freed_memory", &keep_freed_memory);
+  m.attr("MAX_THREADS") = gr::kMaxThreads;
 
   py::class_<Mesh>(m, "Mesh")
       .def(py::init([](bool f64, Address pos, std::int64_t images, std::int64_t vertices, bool instanced, Address tri,

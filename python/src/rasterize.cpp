@@ -1,7 +1,9 @@
 #include "python/src/rasterize.h"
 
 #include <algorithm>
+#include <string>
 
+#include "autodiff/error.h"
 #include "raster/barycentric_gbuffer.h"
 #include "raster/rasterize.h"
 
@@ -25,6 +27,13 @@ void rasterize_forward(Context& ctx, const Mesh& mesh, int height, int width, Ad
     peel->floor_id.assign(static_cast<std::size_t>(mesh.images * pixels), 0);
     peel->floor_z.assign(static_cast<std::size_t>(mesh.images * pixels), 0.0);
   }
+  // The layers of one peeler share its images and resolution (the Python
+  // layer also refuses changed inputs; this guards the state's memory).
+  if (peel && peel->floor_id.size() != static_cast<std::size_t>(mesh.images * pixels))
+    throw ValueError("DepthPeeler: layer " + std::to_string(peel->layers + 1) + " has " +
+                     std::to_string(mesh.images) + " images of " + std::to_string(width) + " x " +
+                     std::to_string(height) + " pixels, but the layers before it had " +
+                     std::to_string(peel->floor_id.size()) + " pixels in all");
   ctx.reserve(mesh.images);
   dispatch(mesh.f64, [&](auto tag) {
     using T = decltype(tag);

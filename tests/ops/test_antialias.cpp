@@ -4,9 +4,13 @@
 // argument checks.
 #include <catch2/catch.hpp>
 
+#include <sys/resource.h>
+
 #include <algorithm>
+#include <climits>
 #include <cmath>
 
+#include "autodiff/memory.h"
 #include "ops/antialias.h"
 #include "ops/ops.h"
 #include "ops/clip_scenes.h"
@@ -352,6 +356,39 @@ TEST_CASE("antialias: bad arguments throw with messages naming the argument", "[
   nan_positions.data<double>()[4] = std::nan("");
   throws([&] { antialias_topology(Tensor::from_vector<std::int32_t>({0, 1, 2}, {1, 3}), nan_positions); },
          "positions[4]");
+}
+
+// The process's peak resident memory so far, in KiB.
+long peak_rss_kib() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return usage.ru_maxrss;
+}
+
+TEST_CASE("antialias_topology without positions: huge indices cost memory by triangles and pair the same edges",
+          "[ops][antialias]") {
+  // A closed tetrahedron with vertices 0..3, and the same with its vertices
+  // numbered far apart (in the same order), up to 2^31 - 1.
+  const std::vector<std::int32_t> dense = {0, 1, 2, 0, 3, 1, 1, 3, 2, 2, 3, 0};
+  const std::int32_t far[4] = {5, 1000003, 100000000, INT32_MAX};
+  std::vector<std::int32_t> sparse;
+  for (std::int32_t i : dense) sparse.push_back(far[i]);
+  const long before = peak_rss_kib();
+  AntialiasTopology a = antialias_topology(Tensor::from_vector<std::int32_t>(dense, {4, 3}));
+  AntialiasTopology b = antialias_topology(Tensor::from_vector<std::int32_t>(sparse, {4, 3}));
+  CHECK(peak_rss_kib() - before < 16 * 1024);
+  CHECK(a->neighbour == b->neighbour);
+  CHECK(std::count(a->neighbour.begin(), a->neighbour.end(), raster::kBoundaryEdge) == 0);  // closed
+  // And what they take is checked against the memory budget first.
+  const Tensor many = Tensor::zeros({20000, 3}, DType::Int32);
+  {
+    struct TightLimit {  // 1 MiB to spare; the default again on leaving
+      TightLimit() { set_memory_limit(memory_in_use() + (1 << 20)); }
+      ~TightLimit() { set_memory_limit(0); }
+    } limit;
+    CHECK_THROWS_AS(antialias_topology(many), MemoryError);
+  }
+  CHECK(antialias_topology(many)->num_tris == 20000);
 }
 
 TEST_CASE("antialias: pos_gradient_boost scales the clip gradient exactly and leaves the image gradient and output alone",

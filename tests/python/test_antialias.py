@@ -1,4 +1,8 @@
 """antialias: silhouette blending and its gradients to colour and positions."""
+import subprocess
+import sys
+import textwrap
+
 import pytest
 import torch
 from torch.autograd import gradcheck
@@ -55,3 +59,80 @@ def test_a_prebuilt_topology_hash_gives_the_same_result(glctx):
     topology = dr.antialias_construct_topology_hash(tri)
     assert torch.equal(dr.antialias(color, rast, pos, tri, topology_hash=topology),
                        dr.antialias(color, rast, pos, tri))
+
+
+# A child process makes every huge-index call and measures how much its peak
+# resident memory grew over each. Its address space is capped 1 GiB above what
+# it holds (except under ASan, whose shadow memory needs a large address
+# space), so a table sized by the index fails there with MemoryError instead of
+# exhausting the machine.
+HUGE_INDEX_CALLS = [(call, index) for call in ('antialias', 'visibility_antialias', 'hash')
+                    for index in (10 ** 8, 2 ** 31 - 1)]
+HUGE_INDEX = textwrap.dedent("""
+    import os, resource, sys, torch
+    import gradraster.torch as dr
+    pos = torch.tensor([[[-0.5, -0.5, 0, 1], [0.5, -0.5, 0, 1], [0, 0.5, 0, 1], [0.5, 0.5, 0, 1]]], dtype=torch.float64)
+    rast, _ = dr.rasterize(dr.RasterizeCpuContext(), pos, torch.tensor([[0, 1, 2]], dtype=torch.int32), (16, 16))
+    color = torch.rand(1, 16, 16, 3, dtype=torch.float64)
+    if 'asan' not in os.environ.get('LD_PRELOAD', ''):
+        vm = int([l for l in open('/proc/self/status') if l.startswith('VmSize')][0].split()[1]) * 1024
+        resource.setrlimit(resource.RLIMIT_AS, (vm + (1 << 30), resource.RLIM_INFINITY))
+    for case in sys.argv[1:]:
+        call, index = case.split(':')
+        tri = torch.tensor([[0, 1, 2], [1, 3, int(index)]], dtype=torch.int32)
+        before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+        try:
+            if call == 'hash':
+                dr.antialias_construct_topology_hash(tri)
+                outcome = 'built'
+            else:
+                getattr(dr, call)(color, rast, pos, tri)
+                outcome = 'no error'
+        except Exception as e:
+            outcome = f'{type(e).__name__}: {e}'
+        grown = (resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before) // 1024
+        print(f'{case}|{grown}|{outcome}')
+""")
+
+
+@pytest.fixture(scope='module')
+def huge_index_outcomes():
+    """(call, index) -> (MiB the peak resident memory grew by, outcome)."""
+    run = subprocess.run([sys.executable, '-c', HUGE_INDEX] + [f'{c}:{i}' for c, i in HUGE_INDEX_CALLS],
+                         capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr[-2000:]
+    outcomes = {}
+    for line in run.stdout.splitlines():
+        case, grown, outcome = line.split('|')
+        call, index = case.split(':')
+        outcomes[call, int(index)] = int(grown), outcome
+    return outcomes
+
+
+@pytest.mark.parametrize('index', [10 ** 8, 2 ** 31 - 1])
+@pytest.mark.parametrize('call', ['antialias', 'visibility_antialias'])
+def test_one_huge_triangle_index_is_an_index_error_before_any_table_is_sized_by_it(huge_index_outcomes, call, index):
+    grown, outcome = huge_index_outcomes[call, index]
+    assert outcome == f"IndexError: {call}: tris[1][2] = {index} is outside [0, 4)"
+    assert grown < 32
+
+
+@pytest.mark.parametrize('index', [10 ** 8, 2 ** 31 - 1])
+def test_a_topology_hash_with_a_huge_index_takes_memory_by_triangles_not_by_the_index(huge_index_outcomes, index):
+    grown, outcome = huge_index_outcomes['hash', index]
+    assert outcome == 'built' and grown < 32
+
+
+def test_a_topology_hash_with_sparse_indices_pairs_the_same_edges():
+    # The same mesh with its vertices renumbered far apart (in the same order)
+    # gives the same antialiased image through a prebuilt hash.
+    glctx = dr.RasterizeCpuContext()
+    pos, tri = two_triangles()
+    rast, _ = dr.rasterize(glctx, pos, tri, (16, 16))
+    color = torch.rand(1, 16, 16, 3, dtype=torch.float64)
+    sparse = tri.long() * 10_000_000 + 7
+    assert sparse.max() < 2 ** 31
+    dense_hash = dr.antialias_construct_topology_hash(tri)
+    sparse_hash = dr.antialias_construct_topology_hash(sparse.int())
+    assert torch.equal(dr.antialias(color, rast, pos, tri, topology_hash=dense_hash),
+                       dr.antialias(color, rast, pos, tri, topology_hash=sparse_hash))

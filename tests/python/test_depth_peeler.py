@@ -75,3 +75,43 @@ def test_rasterize_next_layer_outside_a_with_block_and_rasterize_inside_one_are_
     with pytest.raises(RuntimeError, match='re-enter'):
         with peeler:
             pass
+
+
+def test_resizing_pos_between_layers_is_refused_not_a_heap_corruption(glctx):
+    pos, tri = random_mesh(3, images=1, triangles=20)
+    with dr.DepthPeeler(glctx, pos, tri, (16, 16)) as peeler:
+        peeler.rasterize_next_layer()
+        pos.resize_(4, 60, 4)  # a bigger minibatch: the peeler's per-pixel state is for one image
+        with pytest.raises(RuntimeError, match="DepthPeeler: 'pos' was changed in place"):
+            peeler.rasterize_next_layer()
+
+
+@pytest.mark.parametrize('change', ['write pos', 'resize tri', 'write ranges'])
+def test_inputs_changed_in_place_between_layers_are_refused_naming_them(glctx, change):
+    pos, tri = random_mesh(4, images=1, triangles=8)
+    pos, ranges = pos[0].clone(), torch.tensor([[0, 8], [2, 4]], dtype=torch.int32)
+    name = change.split()[1]
+    with dr.DepthPeeler(glctx, pos, tri, (8, 8), ranges=ranges) as peeler:
+        peeler.rasterize_next_layer()
+        if change == 'write pos':
+            pos[0, 0] += 0.1
+        elif change == 'resize tri':
+            tri.resize_(4, 3)
+        else:
+            ranges[1, 1] = 6
+        with pytest.raises(RuntimeError, match=f"DepthPeeler: '{name}' was changed in place"):
+            peeler.rasterize_next_layer()
+
+
+def test_the_peel_state_refuses_a_layer_of_another_size_even_past_the_python_check(glctx):
+    # The C++ state is sized by the first layer; a later one of another size is
+    # refused there too (here the Python check is told the resize is fine).
+    pos, tri = random_mesh(3, images=1, triangles=20)
+    with dr.DepthPeeler(glctx, pos, tri, (16, 16)) as peeler:
+        peeler.rasterize_next_layer()
+        pos.resize_(4, 60, 4)
+        pos.copy_(random_mesh(3, images=4, triangles=20)[0])
+        peeler.inputs['pos'] = dr.ops._identity(pos)
+        with pytest.raises(ValueError, match="DepthPeeler: layer 2 has 4 images of 16 x 16 pixels, but the layers "
+                                             "before it had 256 pixels in all"):
+            peeler.rasterize_next_layer()

@@ -30,3 +30,23 @@ def test_outputs_and_gradients_are_bit_identical_for_1_2_and_8_threads(glctx, dt
     for run in runs[1:]:
         for a, b in zip(runs[0], run):
             assert torch.equal(a, b)
+
+
+def test_a_torch_thread_count_above_the_kernels_limit_runs_on_all_hardware_threads_with_the_same_bits(
+        glctx, monkeypatch):
+    # torch.set_num_threads takes any count (2000 here), the kernels at most
+    # 1024: a larger count means all hardware threads. torch's count is
+    # patched, not set: torch.set_num_threads(2000) alone takes torch about a
+    # minute on a two-core machine.
+    pos, tri = random_mesh(21, images=2, triangles=200, requires_grad=True)
+    upstream = torch.rand(2, 32, 32, 4, dtype=pos.dtype)
+
+    def run():
+        rast, db = dr.rasterize(glctx, pos, tri, (32, 32))
+        return [rast, db] + list(torch.autograd.grad(rast, pos, upstream))
+
+    want = run()
+    monkeypatch.setattr(torch, 'get_num_threads', lambda: 2000)
+    got = run()
+    for a, b in zip(want, got):
+        assert torch.equal(a, b)

@@ -192,3 +192,47 @@ def test_bad_texture_arguments_are_named():
     bad[0, 1, 1, 0] = float('nan')
     with pytest.raises(ValueError, match='NaN'):
         dr.texture(tex, bad)
+
+
+@pytest.mark.parametrize('built, used', [(torch.float32, torch.float64), (torch.float64, torch.float32)])
+@pytest.mark.parametrize('cube', [False, True])
+def test_a_mip_stack_built_in_another_dtype_is_refused_naming_mip(built, used, cube):
+    shape = (1, 6, 16, 16, 3) if cube else (1, 16, 16, 3)
+    tex = torch.rand(shape, dtype=used)
+    uv = torch.rand(1, 4, 4, 3 if cube else 2, dtype=used)
+    uv_da = torch.rand(1, 4, 4, 6 if cube else 4, dtype=used) * 0.3
+    mip = dr.texture_construct_mip(tex.to(built), cube_mode=cube)
+    with pytest.raises(TypeError, match=f"'mip' was built from a {built} texture but 'tex' is {used}"):
+        dr.texture(tex, uv, uv_da, mip=mip, boundary_mode='cube' if cube else 'wrap')
+
+
+def test_a_mip_stack_of_the_wrong_device_or_level_shapes_is_refused_naming_mip():
+    tex = torch.rand(2, 16, 8, 3, dtype=torch.float64)
+    uv = torch.rand(2, 4, 4, 2, dtype=torch.float64)
+    uv_da = torch.rand(2, 4, 4, 4, dtype=torch.float64) * 0.3
+    mip = dr.texture_construct_mip(tex)
+    mip.pyramid = mip.pyramid.to('meta')
+    with pytest.raises(ValueError, match="'mip' is on meta but 'tex' is on cpu"):
+        dr.texture(tex, uv, uv_da, mip=mip)
+    mip = dr.texture_construct_mip(tex)
+    mip.pyramid = mip.pyramid[:, :-1]  # one texel short
+    with pytest.raises(ValueError, match="'mip' holds a stack of shape"):
+        dr.texture(tex, uv, uv_da, mip=mip)
+    mip = dr.texture_construct_mip(tex)
+    mip.sizes = mip.sizes[:1] + [(9, 4)] + mip.sizes[2:]
+    with pytest.raises(ValueError, match="'mip' levels .* are not the mip chain of a 16 x 8 texture"):
+        dr.texture(tex, uv, uv_da, mip=mip)
+
+
+def test_a_huge_max_mip_level_means_the_whole_chain_not_a_type_error():
+    tex = torch.rand(1, 16, 8, 3, dtype=torch.float64)
+    uv = torch.rand(1, 4, 4, 2, dtype=torch.float64)
+    uv_da = torch.rand(1, 4, 4, 4, dtype=torch.float64) * 2
+    whole = dr.texture(tex, uv, uv_da)
+    for level in (2 ** 40, 2 ** 31, 10 ** 100):
+        assert torch.equal(dr.texture(tex, uv, uv_da, max_mip_level=level), whole)
+        mip = dr.texture_construct_mip(tex, max_mip_level=level)
+        assert torch.equal(dr.texture(tex, uv, uv_da, mip=mip), whole)
+    for bad in (-1, 2.5, True, '3'):
+        with pytest.raises(ValueError, match="'max_mip_level' must be None or an integer >= 0"):
+            dr.texture(tex, uv, uv_da, max_mip_level=bad)

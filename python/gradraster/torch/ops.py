@@ -13,6 +13,7 @@ gradients are bit-identical for any thread count.
 import numbers
 
 import torch
+from torch.autograd.function import once_differentiable
 
 from .. import _core
 
@@ -21,7 +22,35 @@ _MAX_FLOAT32_IDS = 1 << 24  # float32 holds every triangle id + 1 exactly up to 
 
 
 def _threads():
-    return torch.get_num_threads()
+    """torch's thread count. torch.set_num_threads takes any count, the kernels
+    at most _core.MAX_THREADS (1024): a larger count means all hardware threads (0)."""
+    n = torch.get_num_threads()
+    return n if n <= _core.MAX_THREADS else 0
+
+
+# ----------------------------------------------------------------------------
+# Tensor addresses. _core reads tensors through raw addresses (data_ptr()),
+# and an address does not keep its tensor alive: in
+# `kernel(dy.contiguous().data_ptr())` the copy that contiguous() made is freed
+# before the kernel runs, which then reads freed memory (issue 30). So no
+# address for _core is taken anywhere but here: every function that calls
+# _core makes one `pins = _Pins()` local, and `pins(t)` returns t's address
+# and holds t until that function returns. Whatever a kernel reads therefore
+# outlives the call, temporaries written inline (`pins(dy.contiguous())`)
+# included.
+
+class _Pins:
+    def __init__(self):
+        self._held = []
+
+    def __call__(self, t):
+        """t's address (0 for None); t stays alive as long as this object."""
+        if t is None:
+            return 0
+        if not t.is_contiguous():  # the kernels read dense row-major memory
+            raise RuntimeError("gradraster internal error: a non-contiguous tensor reached a kernel")
+        self._held.append(t)
+        return t.data_ptr()
 
 
 # ----------------------------------------------------------------------------
@@ -80,7 +109,7 @@ def _resolution(resolution):
     return int(h), int(w)
 
 
-def _mesh(pos, tri, ranges, op):
+def _mesh(pins, pos, tri, ranges, op):
     """A _core.Mesh for nvdiffrast's instanced ([B, N, 4] pos) or range ([N, 4] pos + ranges) mode."""
     _float('pos', pos, (2, 3))
     _tri(tri)
@@ -93,7 +122,7 @@ def _mesh(pos, tri, ranges, op):
     if pos.dim() == 3:
         if pos.shape[0] < 1:
             raise ValueError(f"instanced mode - 'pos' must have shape [>0, num_vertices, 4], got {list(pos.shape)}")
-        return _core.Mesh(f64, pos.data_ptr(), pos.shape[0], pos.shape[1], True, tri.data_ptr(), tri.shape[0], [])
+        return _core.Mesh(f64, pins(pos), pos.shape[0], pos.shape[1], True, pins(tri), tri.shape[0], [])
     if ranges is None:
         raise ValueError("range mode - 'pos' is [num_vertices, 4], so 'ranges' [minibatch_size, 2] is required "
                          "(or give pos a minibatch axis: [1, num_vertices, 4])")
@@ -101,7 +130,7 @@ def _mesh(pos, tri, ranges, op):
     if ranges.shape[0] < 1 or ranges.shape[1] != 2:
         raise ValueError(f"range mode - 'ranges' must have shape [>0, 2], got {list(ranges.shape)}")
     pairs = [tuple(r) for r in ranges.tolist()]
-    return _core.Mesh(f64, pos.data_ptr(), len(pairs), pos.shape[0], False, tri.data_ptr(), tri.shape[0], pairs)
+    return _core.Mesh(f64, pins(pos), len(pairs), pos.shape[0], False, pins(tri), tri.shape[0], pairs)
 
 
 # ----------------------------------------------------------------------------
@@ -113,35 +142,81 @@ class RasterizeCpuContext:
     for compatibility and must be None or a CPU device."""
 
     def __init__(self, device=None):
-        if device is not None and torch.device(device).type != 'cpu':
-            raise ValueError(f"RasterizeCpuContext: device must be the CPU, got {device}")
+        _check_cpu_device(type(self).__name__, device)
         self.cpp_wrapper = _core.Context()
         self.active_depth_peeler = None
+        self.output_db = True
+        self.device = torch.device('cpu')
+
+
+def _check_cpu_device(context, device):
+    try:
+        cpu = device is None or torch.device(device).type == 'cpu'
+    except (TypeError, RuntimeError):
+        raise ValueError(f"{context}: 'device' must be None or a torch device, got {device!r}") from None
+    if not cpu:
+        raise ValueError(f"{context}: 'device' is {device}, but gradraster runs on the CPU: pass device=None or "
+                         f"'cpu' (and CPU tensors)")
+
+
+# nvdiffrast's two context classes, by name, so that programs that name them
+# (in type annotations, isinstance checks or construction) run unchanged:
+# constructing either gives a CPU context (docs/python.md).
+
+class RasterizeCudaContext(RasterizeCpuContext):
+    """nvdiffrast's RasterizeCudaContext(device=None), here a CPU context."""
+
+
+class RasterizeGLContext(RasterizeCpuContext):
+    """nvdiffrast's RasterizeGLContext(output_db=True, mode='automatic',
+    device=None), here a CPU context. output_db=False: rasterize returns an
+    empty rast_db ([minibatch, height, width, 0]), as nvdiffrast's does.
+    mode='manual' takes set_context() / release_context() calls, which do
+    nothing on the CPU."""
+
+    def __init__(self, output_db=True, mode='automatic', device=None):
+        super().__init__(device)
+        if output_db is not True and output_db is not False:
+            raise TypeError(f"RasterizeGLContext: 'output_db' must be True or False, got {output_db!r}")
+        if mode not in ('automatic', 'manual'):
+            raise ValueError(f"RasterizeGLContext: 'mode' must be 'automatic' or 'manual', got {mode!r}")
+        self.output_db, self.mode = output_db, mode
+
+    def set_context(self):
+        self._check_manual('set_context')
+
+    def release_context(self):
+        self._check_manual('release_context')
+
+    def _check_manual(self, method):
+        if self.mode != 'manual':
+            raise RuntimeError(f"RasterizeGLContext.{method}() is for mode='manual' (this context is {self.mode!r})")
 
 
 class _RasterizeFunc(torch.autograd.Function):
     @staticmethod
     def forward(ctx, raster_ctx, pos, tri, resolution, ranges, grad_db, peel):
-        mesh = _mesh(pos, tri, ranges, 'rasterize')
+        pins = _Pins()
+        mesh = _mesh(pins, pos, tri, ranges, 'rasterize')
         h, w = resolution
         images = pos.shape[0] if pos.dim() == 3 else ranges.shape[0]
         rast = pos.new_empty((images, h, w, 4))
         db = torch.empty_like(rast)
-        _core.rasterize_forward(raster_ctx.cpp_wrapper, mesh, h, w, rast.data_ptr(), db.data_ptr(), peel, _threads())
+        _core.rasterize_forward(raster_ctx.cpp_wrapper, mesh, h, w, pins(rast), pins(db), peel, _threads())
         ctx.save_for_backward(pos, tri, rast)
         ctx.raster_ctx, ctx.ranges, ctx.grad_db = raster_ctx, ranges, grad_db
         return rast, db
 
     @staticmethod
+    @once_differentiable
     def backward(ctx, drast, ddb):
         pos, tri, rast = ctx.saved_tensors
-        mesh = _mesh(pos, tri, ctx.ranges, 'rasterize')
-        drast = drast.contiguous()
-        ddb = ddb.contiguous() if ctx.grad_db else None
+        pins = _Pins()
+        mesh = _mesh(pins, pos, tri, ctx.ranges, 'rasterize')
         grad_pos = torch.zeros_like(pos)
-        _core.rasterize_backward(ctx.raster_ctx.cpp_wrapper, mesh, rast.shape[1], rast.shape[2], rast.data_ptr(),
-                                 drast.data_ptr(), ddb.data_ptr() if ddb is not None else 0, grad_pos.data_ptr(),
-                                 _threads())
+        _core.rasterize_backward(ctx.raster_ctx.cpp_wrapper, mesh, rast.shape[1], rast.shape[2], pins(rast),
+                                 pins(drast.contiguous()), pins(ddb.contiguous() if ctx.grad_db else None),
+                                 pins(grad_pos), _threads())
         return None, grad_pos, None, None, None, None, None
 
 
@@ -167,7 +242,21 @@ def rasterize(glctx, pos, tri, resolution, ranges=None, grad_db=True):
     if glctx.active_depth_peeler is not None:
         raise RuntimeError("Cannot call rasterize() during depth peeling operation, use rasterize_next_layer() instead")
     resolution = _resolution(resolution)
-    return _RasterizeFunc.apply(glctx, pos, tri, resolution, ranges, grad_db, None)
+    return _rasterize(glctx, pos, tri, resolution, ranges, grad_db, None)
+
+
+def _rasterize(glctx, pos, tri, resolution, ranges, grad_db, peel):
+    rast, db = _RasterizeFunc.apply(glctx, pos, tri, resolution, ranges, grad_db and glctx.output_db, peel)
+    if not glctx.output_db:  # RasterizeGLContext(output_db=False), as nvdiffrast's
+        db = db.new_zeros(db.shape[:3] + (0,))
+    return rast, db
+
+
+def _identity(t):
+    """What an in-place change of t alters: its memory, shape, layout or contents (torch's version counter)."""
+    if t is None:
+        return None
+    return t.data_ptr(), tuple(t.shape), t.stride(), t.dtype, t.device, t._version
 
 
 class DepthPeeler:
@@ -182,10 +271,13 @@ class DepthPeeler:
         _check_context(glctx)
         if grad_db is not True and grad_db is not False:
             raise TypeError(f"'grad_db' must be True or False, got {grad_db!r}")
-        _mesh(pos, tri, ranges, 'DepthPeeler')
+        _mesh(_Pins(), pos, tri, ranges, 'DepthPeeler')
         self.raster_ctx, self.pos, self.tri = glctx, pos, tri
         self.resolution, self.ranges, self.grad_db = _resolution(resolution), ranges, grad_db
         self.state = None
+        # Each layer lies behind the one before it, per pixel: the layers are
+        # of one scene only if pos, tri and ranges stay what they were.
+        self.inputs = {'pos': _identity(pos), 'tri': _identity(tri), 'ranges': _identity(ranges)}
 
     def __enter__(self):
         if self.raster_ctx is None:
@@ -205,8 +297,11 @@ class DepthPeeler:
         """The next layer, as rasterize() returns it."""
         if self.raster_ctx is None or self.raster_ctx.active_depth_peeler is not self:
             raise RuntimeError("rasterize_next_layer() must be called inside 'with DepthPeeler(...) as peeler:'")
-        return _RasterizeFunc.apply(self.raster_ctx, self.pos, self.tri, self.resolution, self.ranges, self.grad_db,
-                                    self.state)
+        for name, t in (('pos', self.pos), ('tri', self.tri), ('ranges', self.ranges)):
+            if _identity(t) != self.inputs[name]:
+                raise RuntimeError(f"DepthPeeler: '{name}' was changed in place (resized, moved or written) after the "
+                                   f"peeler was created; give the changed tensors to a new DepthPeeler")
+        return _rasterize(self.raster_ctx, self.pos, self.tri, self.resolution, self.ranges, self.grad_db, self.state)
 
 
 # ----------------------------------------------------------------------------
@@ -229,7 +324,7 @@ def _diff_list(diff_attrs, channels):
     return out
 
 
-def _interpolate_args(attr, rast, tri, rast_db, diff):
+def _interpolate_args(pins, attr, rast, tri, rast_db, diff):
     _rast('rast', rast)
     _float('attr', attr, (2, 3), like=('rast', rast))
     _tri(tri)
@@ -242,35 +337,35 @@ def _interpolate_args(attr, rast, tri, rast_db, diff):
             raise ValueError(f"'rast_db' must have rast's shape {list(rast.shape)}, got {list(rast_db.shape)}")
     attr_images = attr.shape[0] if attr.dim() == 3 else 1
     n, c = attr.shape[-2:]
-    return _core.InterpolateArgs(attr.dtype == torch.float64, attr.data_ptr(), attr_images, n, c, tri.data_ptr(),
-                                 tri.shape[0], rast.data_ptr(), rast_db.data_ptr() if rast_db is not None else 0,
-                                 images, h, w, diff)
+    return _core.InterpolateArgs(attr.dtype == torch.float64, pins(attr), attr_images, n, c, pins(tri), tri.shape[0],
+                                 pins(rast), pins(rast_db), images, h, w, diff)
 
 
 class _InterpolateFunc(torch.autograd.Function):
     @staticmethod
     def forward(ctx, attr, rast, tri, rast_db, diff):
-        args = _interpolate_args(attr, rast, tri, rast_db, diff)
+        pins = _Pins()
+        args = _interpolate_args(pins, attr, rast, tri, rast_db, diff)
         images, h, w = rast.shape[:3]
         out = attr.new_empty((images, h, w, attr.shape[-1]))
         out_da = attr.new_empty((images, h, w, 2 * len(diff)))
-        _core.interpolate_forward(args, out.data_ptr(), out_da.data_ptr() if diff else 0, _threads())
+        _core.interpolate_forward(args, pins(out), pins(out_da) if diff else 0, _threads())
         ctx.save_for_backward(attr, rast, tri, rast_db)
         ctx.diff = diff
         return out, out_da
 
     @staticmethod
+    @once_differentiable
     def backward(ctx, dy, dda):
         attr, rast, tri, rast_db = ctx.saved_tensors
-        args = _interpolate_args(attr, rast, tri, rast_db, ctx.diff)
-        dy = dy.contiguous()
-        dda = dda.contiguous() if ctx.diff else None
+        pins = _Pins()
+        args = _interpolate_args(pins, attr, rast, tri, rast_db, ctx.diff)
         need_attr, need_rast, _, need_db, _ = ctx.needs_input_grad
         g_attr = torch.zeros_like(attr) if need_attr else None
         g_rast = torch.zeros_like(rast) if need_rast else None
         g_db = torch.zeros_like(rast_db) if need_db and rast_db is not None else None
-        addr = lambda t: t.data_ptr() if t is not None else 0
-        _core.interpolate_backward(args, dy.data_ptr(), addr(dda), addr(g_attr), addr(g_rast), addr(g_db), _threads())
+        _core.interpolate_backward(args, pins(dy.contiguous()), pins(dda.contiguous() if ctx.diff else None),
+                                   pins(g_attr), pins(g_rast), pins(g_db), _threads())
         return g_attr, g_rast, None, g_db, None
 
 
@@ -296,11 +391,17 @@ def interpolate(attr, rast, tri, rast_db=None, diff_attrs=None):
 def antialias_construct_topology_hash(tri):
     """Edge adjacency of `tri` for antialias (nvdiffrast's topology hash):
     build it once when the triangles stay the same."""
+    return _topology(tri, -1, 'antialias_construct_topology_hash')
+
+
+def _topology(tri, vertices, op):
+    """The adjacency of tri, its indices checked first (against `vertices`; -1: unknown, negatives only)."""
     _tri(tri)
-    return _core.build_topology(tri.data_ptr(), tri.shape[0])
+    pins = _Pins()
+    return _core.build_topology(pins(tri), tri.shape[0], vertices, op)
 
 
-def _antialias_mesh(color, rast, pos, tri):
+def _check_antialias(color, rast, pos, tri):
     _float('color', color, (4,))
     _rast('rast', rast, ('color', color))
     _float('pos', pos, (2, 3), like=('color', color))
@@ -314,8 +415,12 @@ def _antialias_mesh(color, rast, pos, tri):
         raise ValueError(f"'pos' has minibatch size {pos.shape[0]} but 'rast' has {images}")
     if pos.shape[-1] != 4:
         raise ValueError(f"'pos' must have shape [..., num_vertices, 4], got {list(pos.shape)}")
-    instanced = pos.dim() == 3
-    return _core.Mesh(pos.dtype == torch.float64, pos.data_ptr(), images, pos.shape[-2], instanced, tri.data_ptr(),
+
+
+def _antialias_mesh(pins, color, rast, pos, tri):
+    _check_antialias(color, rast, pos, tri)
+    images, instanced = rast.shape[0], pos.dim() == 3
+    return _core.Mesh(pos.dtype == torch.float64, pins(pos), images, pos.shape[-2], instanced, pins(tri),
                       tri.shape[0], [] if instanced else [(0, tri.shape[0])] * images)
 
 
@@ -326,26 +431,27 @@ _ANTIALIAS_SCRATCH = _core.Context()
 class _AntialiasFunc(torch.autograd.Function):
     @staticmethod
     def forward(ctx, color, rast, pos, tri, topology, boost, visibility):
-        mesh = _antialias_mesh(color, rast, pos, tri)
+        pins = _Pins()
+        mesh = _antialias_mesh(pins, color, rast, pos, tri)
         out = torch.empty_like(color)
-        state = _core.antialias_forward(_ANTIALIAS_SCRATCH, mesh, topology, color.data_ptr(), color.shape[3], rast.shape[1],
-                                        rast.shape[2], rast.data_ptr(), out.data_ptr(), visibility, _threads())
+        state = _core.antialias_forward(_ANTIALIAS_SCRATCH, mesh, topology, pins(color), color.shape[3], rast.shape[1],
+                                        rast.shape[2], pins(rast), pins(out), visibility, _threads())
         ctx.save_for_backward(color, rast, pos, tri)
         ctx.topology, ctx.state, ctx.boost = topology, state, boost
         return out
 
     @staticmethod
+    @once_differentiable
     def backward(ctx, dy):
         color, rast, pos, tri = ctx.saved_tensors
-        mesh = _antialias_mesh(color, rast, pos, tri)
-        dy = dy.contiguous()
+        pins = _Pins()
+        mesh = _antialias_mesh(pins, color, rast, pos, tri)
         need_color, _, need_pos = ctx.needs_input_grad[:3]
         g_color = torch.zeros_like(color) if need_color else None
         g_pos = torch.zeros_like(pos) if need_pos else None
-        _core.antialias_backward(_ANTIALIAS_SCRATCH, mesh, ctx.topology, ctx.state, color.data_ptr(), color.shape[3],
-                                 rast.shape[1], rast.shape[2], rast.data_ptr(), dy.data_ptr(),
-                                 g_color.data_ptr() if g_color is not None else 0,
-                                 g_pos.data_ptr() if g_pos is not None else 0, ctx.boost, _threads())
+        _core.antialias_backward(_ANTIALIAS_SCRATCH, mesh, ctx.topology, ctx.state, pins(color), color.shape[3],
+                                 rast.shape[1], rast.shape[2], pins(rast), pins(dy.contiguous()), pins(g_color),
+                                 pins(g_pos), ctx.boost, _threads())
         return g_color, None, g_pos, None, None, None, None
 
 
@@ -353,8 +459,9 @@ def _apply_antialias(color, rast, pos, tri, topology_hash, pos_gradient_boost, v
     if isinstance(pos_gradient_boost, bool) or not isinstance(pos_gradient_boost, numbers.Real) \
             or not (abs(float(pos_gradient_boost)) < float('inf')):
         raise ValueError(f"'pos_gradient_boost' must be a finite number, got {pos_gradient_boost!r}")
-    if topology_hash is None:
-        topology_hash = antialias_construct_topology_hash(tri)
+    _check_antialias(color, rast, pos, tri)
+    if topology_hash is None:  # indices checked against pos first: never a table sized by a bad index
+        topology_hash = _topology(tri, pos.shape[-2], 'visibility_antialias' if visibility else 'antialias')
     elif not isinstance(topology_hash, _core.Topology):
         raise TypeError("'topology_hash' must come from antialias_construct_topology_hash(tri)")
     return _AntialiasFunc.apply(color, rast, pos, tri, topology_hash, float(pos_gradient_boost), visibility)
@@ -391,6 +498,7 @@ _FILTERS = {'nearest': 0, 'linear': 1, 'linear-mipmap-linear': 2, 'linear-mipmap
 _CUBE = -1  # boundary_mode 'cube': a cube map
 _BOUNDARIES = {'wrap': 0, 'clamp': 1, 'zero': 3, 'cube': _CUBE}
 _MAX_TEXTURE_SIDE = 32768
+_MAX_MIP_LEVEL = 64  # more than any chain has
 
 
 class TextureMip:
@@ -402,31 +510,57 @@ class TextureMip:
         self.tex_shape, self.pyramid, self.sizes, self.cube = tuple(tex.shape), pyramid, sizes, cube
 
 
-def _texture_args(tex, uv, uv_dx, uv_dy, bias, pyramid, levels, user, filter_mode, boundary):
-    """boundary _CUBE: tex [B, 6, S, S, C], uv directions, uv_dx = uv_da ([..., 6]), uv_dy unused."""
+def _texture_args(pins, tex, uv, uv_dx, uv_dy, bias, pyramid, levels, user, filter_mode, boundary):
+    """boundary _CUBE: tex [B, 6, S, S, C], uv directions, uv_dx = uv_da ([..., 6]), uv_dy unused.
+    uv None: no lookups (building the mip stack)."""
     a = _core.TextureArgs()
     a.f64 = tex.dtype == torch.float64
     a.cube = boundary == _CUBE
-    a.tex, a.tex_images, a.height, a.width, a.channels = tex.data_ptr(), tex.shape[0], tex.shape[-3], tex.shape[-2], \
+    a.tex, a.tex_images, a.height, a.width, a.channels = pins(tex), tex.shape[0], tex.shape[-3], tex.shape[-2], \
         tex.shape[-1]
-    a.pyramid = pyramid.data_ptr() if pyramid is not None else 0
+    a.pyramid = pins(pyramid)
     a.levels, a.user = levels, user
-    addr = lambda t: t.data_ptr() if t is not None else 0
-    a.uv, a.bias = uv.data_ptr(), addr(bias)
+    a.uv, a.bias = pins(uv), pins(bias)
     if a.cube:
-        a.uv_da = addr(uv_dx)
+        a.uv_da = pins(uv_dx)
     else:
-        a.uv_dx, a.uv_dy = addr(uv_dx), addr(uv_dy)
-    a.images, a.samples = uv.shape[0], uv.shape[1] * uv.shape[2]
+        a.uv_dx, a.uv_dy = pins(uv_dx), pins(uv_dy)
+    a.images, a.samples = (uv.shape[0], uv.shape[1] * uv.shape[2]) if uv is not None else (0, 0)
     a.filter, a.wrap = filter_mode, boundary if not a.cube else 0
     return a
 
 
+def _pyramid_texels(sizes, cube):
+    return sum(h * w for h, w in sizes[1:]) * (6 if cube else 1)
+
+
+def _check_prebuilt_mip(mip, tex):
+    """The kernels read mip's stack as tex's levels 1..: same dtype, device, texture shape and level shapes."""
+    if mip.tex_shape != tuple(tex.shape):
+        raise ValueError(f"'mip' was built for a texture of shape {list(mip.tex_shape)}, 'tex' is {list(tex.shape)}")
+    pyramid = mip.pyramid
+    if not isinstance(pyramid, torch.Tensor):
+        raise TypeError("'mip' holds no mip stack tensor; build it with texture_construct_mip(tex)")
+    if pyramid.dtype != tex.dtype:
+        raise TypeError(f"'mip' was built from a {pyramid.dtype} texture but 'tex' is {tex.dtype}; build it from "
+                        f"this texture: texture_construct_mip(tex)")
+    if pyramid.device != tex.device:
+        raise ValueError(f"'mip' is on {pyramid.device} but 'tex' is on {tex.device}")
+    levels = len(mip.sizes) - 1
+    if levels < 1 or list(mip.sizes) != _core.mip_sizes(tex.shape[-3], tex.shape[-2], levels):
+        raise ValueError(f"'mip' levels {list(mip.sizes)} are not the mip chain of a {tex.shape[-3]} x {tex.shape[-2]} "
+                         f"texture")
+    want = (tex.shape[0], _pyramid_texels(mip.sizes, mip.cube), tex.shape[-1])
+    if tuple(pyramid.shape) != want or not pyramid.is_contiguous():
+        raise ValueError(f"'mip' holds a stack of shape {list(pyramid.shape)}, not the contiguous {list(want)} of "
+                         f"levels {list(mip.sizes[1:])} of 'tex'")
+
+
 def _build_pyramid(tex, sizes, cube=False):
-    texels = sum(h * w for h, w in sizes[1:]) * (6 if cube else 1)
+    texels = _pyramid_texels(sizes, cube)
     pyramid = tex.new_empty((tex.shape[0], texels, tex.shape[-1]))
-    a = _texture_args(tex, tex.new_zeros((0, 1, 1, 2)), None, None, None, pyramid, len(sizes), False, 1,
-                      _CUBE if cube else 0)
+    pins = _Pins()
+    a = _texture_args(pins, tex, None, None, None, None, pyramid, len(sizes), False, 1, _CUBE if cube else 0)
     _core.mip_build(a, _threads())
     return pyramid
 
@@ -442,20 +576,22 @@ class _TextureFunc(torch.autograd.Function):
                 tex.shape[-3], tex.shape[-2], levels - 1), boundary == _CUBE)
         else:
             pyramid = None
-        a = _texture_args(tex, uv, uv_dx, uv_dy, bias, pyramid, levels, user, filter_mode, boundary)
+        pins = _Pins()
+        a = _texture_args(pins, tex, uv, uv_dx, uv_dy, bias, pyramid, levels, user, filter_mode, boundary)
         out = tex.new_empty(uv.shape[:3] + (tex.shape[-1],))
         # Bilinear with a uv gradient: keep d out/d(u, v), so the backward reads no texel for it.
         jacobian = None
         if filter_mode == _FILTERS['linear'] and boundary != _CUBE and ctx.needs_input_grad[5]:
             jacobian = tex.new_empty(uv.shape[:3] + (2, tex.shape[-1]))
-            a.uv_jacobian = jacobian.data_ptr()
-        _core.texture_forward(a, out.data_ptr(), _threads())
+            a.uv_jacobian = pins(jacobian)
+        _core.texture_forward(a, pins(out), _threads())
         ctx.save_for_backward(tex, uv, uv_dx, uv_dy, bias, pyramid, jacobian)
         ctx.filter_mode, ctx.boundary, ctx.levels, ctx.user = filter_mode, boundary, levels, user
         ctx.mip_shapes = [m.shape for m in mip_levels]
         return out
 
     @staticmethod
+    @once_differentiable
     def backward(ctx, dy):
         tex, uv, uv_dx, uv_dy, bias, pyramid, jacobian = ctx.saved_tensors
         needs = ctx.needs_input_grad
@@ -463,11 +599,12 @@ class _TextureFunc(torch.autograd.Function):
         g_tex, g_uv = zeros(tex, needs[4]), zeros(uv, needs[5] and ctx.filter_mode != 0)
         g_dx, g_dy, g_bias = zeros(uv_dx, needs[6]), zeros(uv_dy, needs[7]), zeros(bias, needs[8])
         g_pyr = zeros(pyramid, ctx.user and any(needs[9:]))
-        a = _texture_args(tex, uv, uv_dx, uv_dy, bias, pyramid, ctx.levels, ctx.user, ctx.filter_mode, ctx.boundary)
-        addr = lambda t: t.data_ptr() if t is not None else 0
-        a.uv_jacobian = addr(jacobian)
-        _core.texture_backward(a, dy.contiguous().data_ptr(), addr(g_tex), addr(g_uv), addr(g_dx), addr(g_dy),
-                               addr(g_bias), addr(g_pyr), _threads())
+        pins = _Pins()
+        a = _texture_args(pins, tex, uv, uv_dx, uv_dy, bias, pyramid, ctx.levels, ctx.user, ctx.filter_mode,
+                          ctx.boundary)
+        a.uv_jacobian = pins(jacobian)
+        _core.texture_backward(a, pins(dy.contiguous()), pins(g_tex), pins(g_uv), pins(g_dx), pins(g_dy),
+                               pins(g_bias), pins(g_pyr), _threads())
         g_levels, start = [], 0
         for shape in ctx.mip_shapes:
             n = shape[1] * shape[2]
@@ -497,7 +634,8 @@ def _max_mip_level(max_mip_level):
         return -1
     if isinstance(max_mip_level, bool) or not isinstance(max_mip_level, numbers.Integral) or max_mip_level < 0:
         raise ValueError(f"'max_mip_level' must be None or an integer >= 0, got {max_mip_level!r}")
-    return int(max_mip_level)
+    # A limit past the chain's last level (at most 15 for 32768 texels) is the whole chain, however large.
+    return min(int(max_mip_level), _MAX_MIP_LEVEL)
 
 
 def texture_construct_mip(tex, max_mip_level=None, cube_mode=False):
@@ -576,9 +714,7 @@ def texture(tex, uv, uv_da=None, mip_level_bias=None, mip=None, filter_mode='aut
         if isinstance(mip, TextureMip):
             if mip.cube != cube:
                 raise ValueError(f"'mip' was built with cube_mode={mip.cube} but boundary_mode is {boundary_mode!r}")
-            if mip.tex_shape != tuple(tex.shape):
-                raise ValueError(f"'mip' was built for a texture of shape {list(mip.tex_shape)}, 'tex' is "
-                                 f"{list(tex.shape)}")
+            _check_prebuilt_mip(mip, tex)
             prebuilt, sizes = mip.pyramid, mip.sizes
         elif isinstance(mip, (list, tuple)) and cube:
             raise NotImplementedError("texture: a custom mip stack (a list) for a cube map is not implemented yet in "
