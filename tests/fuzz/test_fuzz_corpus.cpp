@@ -55,6 +55,10 @@ TEST_CASE("fuzz corpus: every OBJ seed loads or fails with a gr error", "[fuzz][
   replay("obj", fuzz_obj_loader, 12);
 }
 
+TEST_CASE("fuzz corpus: every image seed loads in [0, 1] or fails with a gr error, quickly", "[fuzz][image]") {
+  replay("image", gr::fuzz::fuzz_image_reader, 12);
+}
+
 TEST_CASE("fuzz corpus: every raster seed gives finite outputs and gradients or a gr error", "[fuzz][rasterize][interpolate]") {
   replay("raster", [](const std::uint8_t* data, std::size_t size) { fuzz_rasterize_interpolate(data, size); }, 10);
 }
