@@ -17,6 +17,7 @@
 #include "raster/files.h"
 #include "raster/image_decoder.h"
 #include "raster/image_format.h"
+#include "raster/jpeg_check.h"
 
 namespace gr::raster {
 namespace {
@@ -51,7 +52,7 @@ Tensor read_image_from_memory(const std::string& file, const std::string& path, 
 
   // The format from the first bytes, then the size from the header, both
   // checked before anything is decoded.
-  identify_image_format(file, what);
+  if (identify_image_format(file, what) == ImageFormat::Jpeg) check_jpeg_huffman_tables(file, what);
   const ImageHeader header = decode_image_header(file, what);
   check_decodable_size(header, channels, what);
   const int c = channels ? channels : header.channels;
