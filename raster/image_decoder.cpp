@@ -14,6 +14,7 @@
 #include <cstring>
 
 #include "autodiff/error.h"
+#include "autodiff/memory.h"
 #include "raster/image_io.h"
 
 namespace gr::raster {
@@ -211,11 +212,11 @@ DecodedPixels decode_image(std::string_view bytes, const ImageHeader& header, in
   }
   // The pixels outlive the allowance: freeing them must not count against it.
   if (!out.samples && allowance.refused)
-    throw MemoryError(what + ": decoding needed more than the " + mib(allocation_limit) +
-                      " the memory budget leaves it, although the header says " + std::to_string(header.width) +
-                      " x " + std::to_string(header.height) +
-                      " pixels: the file is corrupt (compressed data that expands far beyond its size), or raise "
-                      "the limit with GRADRASTER_MEMORY_LIMIT or gr::set_memory_limit()");
+    throw MemoryError(what + ": decoding its " + std::to_string(header.width) + " x " + std::to_string(header.height) +
+                      " pixels needed more than the " + mib(allocation_limit) +
+                      " the memory budget leaves (memory limit " + mib(memory_limit()) +
+                      "); compressed data that expands far beyond the size in the header means a corrupt file, "
+                      "otherwise raise the limit with GRADRASTER_MEMORY_LIMIT or gr::set_memory_limit()");
   if (!out.samples)
     throw IOError(what + ": truncated or corrupt image data (decoder: " + decoder_reason() + ")");
   if (out.width != header.width || out.height != header.height)

@@ -143,21 +143,27 @@ struct ParsedObj {
   std::vector<tinyobj::material_t> materials;
 };
 
-// tinyobjloader's warnings, one per line, each cut to a readable length (they
-// can quote whole lines of the file); at most kMaxParserWarnings of them (a
-// file can make one per line), then a count of the others.
-void add_warnings(const std::string& path, std::string_view text, std::vector<std::string>& out) {
+// A line of tinyobjloader's (it can quote a whole line of the file) cut to a
+// readable length, control bytes shown as '?'.
+std::string readable(std::string_view line) {
   constexpr std::size_t kMaxWarning = 200;
+  std::string cut(line.substr(0, kMaxWarning));
+  if (line.size() > kMaxWarning) cut += "...";
+  for (char& c : cut)
+    if (static_cast<unsigned char>(c) < 0x20) c = '?';
+  return cut;
+}
+
+// tinyobjloader's warnings, one per line, made readable; at most
+// kMaxParserWarnings of them (a file can make one per line), then a count of
+// the others.
+void add_warnings(const std::string& path, std::string_view text, std::vector<std::string>& out) {
   constexpr std::size_t kMaxParserWarnings = 20;
   std::size_t shown = 0, more = 0;
   for_each_line(text, [&](std::size_t, std::string_view line) {
     if (line.empty() || line == ".") return;
     if (shown == kMaxParserWarnings) return ++more, void();
-    std::string cut(line.substr(0, kMaxWarning));
-    if (line.size() > kMaxWarning) cut += "...";
-    for (char& c : cut)
-      if (static_cast<unsigned char>(c) < 0x20) c = '?';
-    out.push_back("load_obj('" + path + "'): " + cut);
+    out.push_back("load_obj('" + path + "'): " + readable(line));
     ++shown;
   });
   if (more) out.push_back("load_obj('" + path + "'): " + std::to_string(more) + " more warnings of the OBJ parser");
@@ -176,7 +182,7 @@ ParsedObj parse_with_tinyobj(const std::string& path, const std::string& text, c
     const bool ok = tinyobj::LoadObj(&obj.attrib, &obj.shapes, &obj.materials, &warn, &err, &stream,
                                      dir ? &mtl_reader : nullptr, /*triangulate=*/false,
                                      /*default_vcols_fallback=*/false);
-    if (!ok) throw IOError("load_obj('" + path + "'): " + (err.empty() ? "parse error" : quote_for_message(err)));
+    if (!ok) throw IOError("load_obj('" + path + "'): " + (err.empty() ? "parse error" : readable(err)));
   }
   check_parsed_indices(path, obj.attrib, obj.shapes);
   add_warnings(path, warn, warnings);
