@@ -9,11 +9,23 @@
 #include <cstdlib>
 #include <new>
 
+#if defined(__SANITIZE_THREAD__)
+#define GR_HEAP_PEAK_COUNTS 0
+#elif defined(__has_feature)
+#if __has_feature(thread_sanitizer)
+#define GR_HEAP_PEAK_COUNTS 0
+#endif
+#endif
+#ifndef GR_HEAP_PEAK_COUNTS
+#define GR_HEAP_PEAK_COUNTS 1
+#endif
+
 namespace {
 
 std::atomic<long long> g_live{0};
 std::atomic<long long> g_peak{0};
 
+#if GR_HEAP_PEAK_COUNTS
 void* counted(std::size_t n) {
   void* p = std::malloc(n ? n : 1);
   if (!p) throw std::bad_alloc();
@@ -30,9 +42,11 @@ void uncounted(void* p) noexcept {
   g_live.fetch_sub(static_cast<long long>(malloc_usable_size(p)));
   std::free(p);
 }
+#endif
 
 }  // namespace
 
+#if GR_HEAP_PEAK_COUNTS
 void* operator new(std::size_t n) { return counted(n); }
 void* operator new[](std::size_t n) { return counted(n); }
 void* operator new(std::size_t n, const std::nothrow_t&) noexcept {
@@ -55,10 +69,13 @@ void operator delete(void* p, std::size_t) noexcept { uncounted(p); }
 void operator delete[](void* p, std::size_t) noexcept { uncounted(p); }
 void operator delete(void* p, const std::nothrow_t&) noexcept { uncounted(p); }
 void operator delete[](void* p, const std::nothrow_t&) noexcept { uncounted(p); }
+#endif
 
 namespace gr::testing {
 
 HeapPeak::HeapPeak() : start_(g_live.load()) { g_peak.store(start_); }
+
+bool HeapPeak::counting() { return GR_HEAP_PEAK_COUNTS != 0; }
 
 std::size_t HeapPeak::bytes() const {
   const long long above = g_peak.load() - start_;

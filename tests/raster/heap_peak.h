@@ -9,6 +9,9 @@
 //   peak.bytes();  // the most bytes held at once since `peak` was made, above what was held then
 //
 // Tensor buffers are not taken through operator new: StorageStats counts them.
+// ThreadSanitizer's runtime defines operator new itself (a second definition
+// does not link), so under TSan nothing is counted: counting() is false and
+// bytes() is 0; tests that need a measurement skip it.
 #pragma once
 
 #include <cstddef>
@@ -19,6 +22,8 @@ class HeapPeak {
  public:
   HeapPeak();  // starts a new peak (one HeapPeak at a time)
   std::size_t bytes() const;
+  // False in builds where operator new cannot be replaced (TSan).
+  static bool counting();
 
  private:
   long long start_;

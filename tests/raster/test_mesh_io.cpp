@@ -373,6 +373,8 @@ std::string many_corner_faces(int faces) {
   return text;
 }
 
+std::size_t slurp_size(const std::string& path) { return gr::testing::slurp(path).size(); }
+
 // The most bytes load_obj held at once, on the heap and in tensor buffers.
 std::size_t peak_bytes_of_load(const std::string& path) {
   gr::reset_storage_peak();
@@ -396,28 +398,37 @@ TEST_CASE("load_obj: faces of many corners that need more than the memory budget
   TempDir dir;
   const std::string text = many_corner_faces(1000);
   const std::string path = dir.write("faces.obj", text);
-  // Measured: the load holds about 45 bytes per byte of this text at its peak.
-  const std::size_t peak = peak_bytes_of_load(path);
-  INFO("peak " << peak << " bytes for " << text.size() << " bytes of OBJ");
-  REQUIRE(peak > 16 * text.size());  // the former estimate, 16 bytes per byte, let it through
+  // Measured: the load holds about 50 bytes per byte of this text at its peak
+  // (heap and tensors); the former estimate, 16 bytes per byte, let it through.
+  std::vector<std::size_t> budgets = {16 * text.size() + 1};
+  if (gr::testing::HeapPeak::counting()) {
+    const std::size_t peak = peak_bytes_of_load(path);
+    INFO("peak " << peak << " bytes for " << text.size() << " bytes of OBJ");
+    REQUIRE(peak > 16 * text.size());
+    budgets.push_back(peak - 1);
+  }
   // The estimate is an upper bound: any budget below the peak refuses the file before parsing.
-  for (const std::size_t budget : {16 * text.size() + 1, peak - 1}) {
+  for (const std::size_t budget : budgets) {
     MemoryLimit limit(budget);
     CHECK_THROWS_WITH(load_obj(path), Catch::Contains("faces.obj") && Catch::Contains("1000 faces of 255000 corners") &&
                                           Catch::Contains("memory limit"));
     CHECK_THROWS_AS(load_obj(path), MemoryError);
   }
   // A normal mesh (a sphere written by save_obj) loads within a budget of a
-  // few times its own measured peak.
+  // few times its own measured peak (about 6 bytes per byte of its text; the
+  // estimate says 8).
   Mesh sphere = make_uv_sphere(64, 32);
   save_obj(dir.file("sphere.obj"), sphere);
-  const std::size_t sphere_peak = peak_bytes_of_load(dir.file("sphere.obj"));
+  const std::size_t sphere_bytes = slurp_size(dir.file("sphere.obj"));
+  const std::size_t sphere_peak =
+      gr::testing::HeapPeak::counting() ? peak_bytes_of_load(dir.file("sphere.obj")) : 10 * sphere_bytes;
   MemoryLimit limit(3 * sphere_peak);
   CHECK(load_obj(dir.file("sphere.obj")).num_triangles() == sphere.num_triangles());
 }
 
 TEST_CASE("load_obj: an MTL file named by several mtllib lines is parsed once, whatever the spelling",
           "[raster][io][obj][mtl][memory]") {
+  if (!gr::testing::HeapPeak::counting()) return;  // TSan build: nothing to measure with
   TempDir dir;
   std::string mtl;
   for (int i = 0; i < 2000; ++i) mtl += "newmtl m" + std::to_string(i) + "\nKd 1 1 1\n";
@@ -460,8 +471,8 @@ TEST_CASE("load_obj: lines the loader does not read cost nothing, and warnings s
   // floats and strings), and every group copied all tags again.
   std::string tags = tri;
   for (int i = 0; i < 20; ++i) tags += "t crease 8192/8192/8192\ng group" + std::to_string(i) + "\nf 1 2 3\n";
-  const std::size_t peak = peak_bytes_of_load(dir.write("tags.obj", tags));
-  CHECK(peak < (std::size_t(1) << 20));
+  const std::string tag_file = dir.write("tags.obj", tags);
+  if (gr::testing::HeapPeak::counting()) CHECK(peak_bytes_of_load(tag_file) < (std::size_t(1) << 20));
   // One warning per unknown material, each repeating the path: at most 20 kept.
   std::string usemtl = tri;
   for (int i = 0; i < 1000; ++i) usemtl += "usemtl missing" + std::to_string(i) + "\nf 1 2 3\n";
