@@ -46,7 +46,7 @@ std::string refused_format(std::string_view bytes) {
   if (starts_with(bytes, "\x53\x80\xf6\x34")) return "a Softimage PIC image";
   if (starts_with(bytes, std::string_view("II*\0", 4)) || starts_with(bytes, std::string_view("MM\0*", 4)))
     return "a TIFF image";
-  if (starts_with(bytes, "RIFF") && bytes.substr(8, 4) == "WEBP") return "a WebP image";
+  if (bytes.size() >= 12 && starts_with(bytes, "RIFF") && bytes.substr(8, 4) == "WEBP") return "a WebP image";
   if (starts_with(bytes, "\x76\x2f\x31\x01")) return "an OpenEXR image";
   if (starts_with(bytes, "qoif")) return "a QOI image";
   return {};

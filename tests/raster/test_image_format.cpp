@@ -64,6 +64,10 @@ TEST_CASE("read_image: bytes of no known image format are refused, quoting their
                     Catch::Contains("notes.png") && Catch::Contains("not a PNG, JPEG, BMP or TGA image") &&
                         Catch::Contains("'hello, w'"));
   CHECK_THROWS_WITH(read_image(dir.write("empty.png", "")), Catch::Contains("empty.png") && Catch::Contains("empty"));
+  // Shorter than a WebP header (found by fuzz_image: the format check read past the end).
+  CHECK_THROWS_WITH(read_image(dir.write("short.webp", "RIFFPF~")), Catch::Contains("short.webp") && Catch::Contains("not a PNG"));
+  CHECK_THROWS_WITH(read_image(dir.write("long.webp", std::string("RIFF\0\0\0\0WEBPVP8 ", 16))),
+                    Catch::Contains("long.webp") && Catch::Contains("WebP"));
   // A TGA header whose image type no TGA has.
   std::string tga = encoded_pattern("tga", 2, 2, 3);
   tga[2] = 7;
