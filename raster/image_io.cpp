@@ -1,9 +1,10 @@
-// Image I/O over stb_image / stb_image_write (implementations live in libstb;
-// this file only includes the declarations). Files go through raster/files.h:
-// bytes are read with read_input_file, and written through an OutputSet.
+// Image I/O: reading checks the format (image_format.h) and the size in the
+// header before the decoder (image_decoder.h, stb_image built for the accepted
+// formats) runs under the memory budget; writing goes through libstb's
+// stb_image_write. Files go through raster/files.h: bytes are read with
+// read_input_file, and written through an OutputSet.
 #include "raster/image_io.h"
 
-#include <stb/stb_image.h>
 #include <stb/stb_image_write.h>
 
 #include <cmath>
@@ -14,6 +15,9 @@
 #include "autodiff/error.h"
 #include "autodiff/memory.h"
 #include "raster/files.h"
+#include "raster/image_decoder.h"
+#include "raster/image_format.h"
+#include "raster/jpeg_check.h"
 
 namespace gr::raster {
 namespace {
@@ -34,59 +38,44 @@ void write_raw(const std::string& path, const void* data, std::size_t bytes) {
 }
 
 Tensor read_image(const std::string& path, int channels) {
+  if (channels < 0 || channels > 4)
+    throw ValueError("read_image('" + path + "'): channels must be 0..4, got " +
+                     std::to_string(channels));
+  return read_image_from_memory(read_input_file(path, "cannot read image '" + path + "'"), path, channels);
+}
+
+Tensor read_image_from_memory(const std::string& file, const std::string& path, int channels) {
   const std::string what = "cannot read image '" + path + "'";
   if (channels < 0 || channels > 4)
     throw ValueError("read_image('" + path + "'): channels must be 0..4, got " +
                      std::to_string(channels));
-  const std::string file = read_input_file(path, what);
-  const auto* bytes = reinterpret_cast<const stbi_uc*>(file.data());
-  if (file.size() > static_cast<std::size_t>(std::numeric_limits<int>::max()))
-    throw IOError(what + ": file too large for the image decoder");
-  const int size = static_cast<int>(file.size());
 
-  // Size from the header, checked before anything is decoded.
-  int w = 0, h = 0, file_c = 0;
-  if (!stbi_info_from_memory(bytes, size, &w, &h, &file_c)) {
-    const char* why = stbi_failure_reason();
-    throw IOError(what + ": " + (why && *why ? why : "not a PNG, JPEG, BMP or TGA image"));
-  }
-  if (w < 1 || h < 1 || w > kMaxImageSide || h > kMaxImageSide)
-    throw IOError(what + ": the header says " + std::to_string(w) + " x " + std::to_string(h) +
-                  " pixels; each side must lie in 1.." + std::to_string(kMaxImageSide));
-  const bool wide = stbi_is_16_bit_from_memory(bytes, size);
-  const int c = channels ? channels : file_c;
-  // The decoded samples (1 or 2 bytes each) and the float32 tensor.
-  const std::size_t samples = static_cast<std::size_t>(w) * h * c;
-  check_memory_request(samples * (wide ? 2 : 1) + samples * sizeof(float),
-                       "read_image('" + path + "') " + std::to_string(w) + " x " + std::to_string(h) +
-                           " x " + std::to_string(c));
+  // The format from the first bytes, then the size from the header, both
+  // checked before anything is decoded.
+  if (identify_image_format(file, what) == ImageFormat::Jpeg) check_jpeg_huffman_tables(file, what);
+  const ImageHeader header = decode_image_header(file, what);
+  check_decodable_size(header, channels, what);
+  const int c = channels ? channels : header.channels;
+  const std::size_t samples = static_cast<std::size_t>(header.width) * header.height * c;
+  const std::size_t tensor_bytes = samples * sizeof(float);
+  check_memory_request(samples * (header.sixteen_bit ? 2 : 1) + tensor_bytes,
+                       "read_image('" + path + "') " + std::to_string(header.width) + " x " +
+                           std::to_string(header.height) + " x " + std::to_string(c));
 
-  stbi_set_flip_vertically_on_load_thread(0);  // row 0 stays the top row
-  void* pixels = wide ? static_cast<void*>(stbi_load_16_from_memory(bytes, size, &w, &h, &file_c, channels))
-                      : static_cast<void*>(stbi_load_from_memory(bytes, size, &w, &h, &file_c, channels));
-  if (!pixels) {
-    // stb's reasons are terse and sometimes empty or a chunk-name fragment.
-    const char* why = stbi_failure_reason();
-    throw IOError(what + ": truncated or corrupt image data (decoder: " + (why && *why ? why : "no reason given") +
-                  ")");
-  }
-  Tensor out;
-  try {
-    out = Tensor::empty({h, w, c});
-  } catch (...) {
-    stbi_image_free(pixels);
-    throw;
-  }
+  // The decoder may hold what the budget leaves once the tensor is counted.
+  const std::size_t limit = memory_limit(), used = memory_in_use();
+  const std::size_t left = limit > used + tensor_bytes ? limit - used - tensor_bytes : 0;
+  const DecodedPixels pixels = decode_image(file, header, channels, left, what);
+  Tensor out = Tensor::empty({header.height, header.width, c});
   float* dst = out.data<float>();
   // Scale the file's levels to [0, 1].
-  if (wide) {
-    const auto* src = static_cast<const std::uint16_t*>(pixels);
+  if (header.sixteen_bit) {
+    const auto* src = static_cast<const std::uint16_t*>(pixels.samples.get());
     for (std::size_t i = 0; i < samples; ++i) dst[i] = src[i] / 65535.0f;
   } else {
-    const auto* src = static_cast<const std::uint8_t*>(pixels);
+    const auto* src = static_cast<const std::uint8_t*>(pixels.samples.get());
     for (std::size_t i = 0; i < samples; ++i) dst[i] = src[i] / 255.0f;
   }
-  stbi_image_free(pixels);
   return out;
 }
 

@@ -1,5 +1,6 @@
-// Image and raw-buffer files: PNG/JPEG/BMP/TGA reading through stb_image, PNG
-// writing through stb_image_write, and an atomic raw writer for G-buffer dumps.
+// Image and raw-buffer files: PNG, JPEG, BMP and TGA reading (stb_image built
+// for these four formats only, image_decoder.h), PNG writing through
+// stb_image_write, and an atomic raw writer for G-buffer dumps.
 // Images are H×W×C float32 tensors with values in [0, 1], row 0 the top row (as
 // in the file and as in the screen convention of DESIGN.md). Files are read and
 // written through raster/files.h: inputs must be regular files of bounded size,
@@ -17,15 +18,26 @@ namespace gr::raster {
 
 // The largest image side read_image decodes (the texture op's limit too).
 constexpr int kMaxImageSide = 32768;
+// The most decoded sample bytes (width x height x channels x bytes per sample)
+// read_image decodes: stb_image's own limit for PNG.
+constexpr std::size_t kMaxDecodedImageBytes = std::size_t(1) << 30;
 
-// Reads an 8- or 16-bit image as H×W×C float32 in [0, 1]. `channels` == 0 keeps
-// the file's channel count (1 grey, 2 grey+alpha, 3 RGB, 4 RGBA); 1–4 converts.
-// The size in the header is checked (sides up to kMaxImageSide, the memory
-// budget) before anything is decoded. Throws IOError naming the path if the
-// file is missing, not a regular file, unreadable, corrupt or too large;
-// MemoryError if decoding it would exceed the memory budget; ValueError for a
-// bad `channels`.
+// Reads an 8- or 16-bit PNG, JPEG, BMP or TGA image as H×W×C float32 in [0, 1].
+// `channels` == 0 keeps the file's channel count (1 grey, 2 grey+alpha, 3 RGB,
+// 4 RGBA); 1–4 converts. The format is told by the file's first bytes; other
+// formats (Radiance HDR, GIF, PNM, PSD, ...) are refused, naming the format
+// found, before any decoder runs. The size in the header is checked (sides up
+// to kMaxImageSide, at most kMaxDecodedImageBytes decoded, the memory budget)
+// before anything is decoded, and the decoder's own allocations are counted
+// against what the budget leaves. Throws IOError naming the path if the file
+// is missing, not a regular file, unreadable, of another format, corrupt or
+// too large; MemoryError if decoding it would exceed the memory budget;
+// ValueError for a bad `channels`.
 Tensor read_image(const std::string& path, int channels = 0);
+
+// read_image on a file's bytes held in memory, with the same rules and errors;
+// `name` stands in for the path in messages.
+Tensor read_image_from_memory(const std::string& bytes, const std::string& name, int channels = 0);
 
 // Writes an H×W×C (C in 1..4) or H×W (grey) float32/float64 tensor as an 8-bit
 // PNG. Values are clamped to [0, 1] (NaN writes 0) and rounded to the nearest

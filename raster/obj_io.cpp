@@ -1,9 +1,8 @@
-// OBJ loading and saving. tinyobjloader does the parsing, but it is lenient in
-// ways that would hand garbage to a renderer (a bad number reads as 0, a
-// missing coordinate reads as 0, an out-of-range face index is only a warning
-// and is returned as is), so load_obj first checks every v/vt/vn/f line itself
-// and fails with the line number. tinyobjloader runs without triangulation;
-// this file triangulates (fan for convex polygons, ear clipping otherwise) so
+// OBJ loading and saving. tinyobjloader does the parsing, after load_obj has
+// checked every line itself (obj_lines.h), estimated the memory the load needs
+// (obj_memory.h) and kept only the lines it reads; MTL files are read by
+// MtlReader (mtl_reader.h). tinyobjloader runs without triangulation; this
+// file triangulates (fan for convex polygons, ear clipping otherwise) so
 // triangle ids are predictable, then welds (v, vt, vn) index triples into a
 // single-indexed Mesh.
 #include "raster/obj_io.h"
@@ -18,160 +17,26 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
-#include <map>
-#include <limits>
 #include <numeric>
-#include <sstream>
 #include <string_view>
 #include <vector>
 
 #include "autodiff/error.h"
 #include "autodiff/memory.h"
 #include "raster/files.h"
+#include "raster/mtl_reader.h"
+#include "raster/obj_lines.h"
+#include "raster/obj_memory.h"
+#include "raster/text_stream.h"
 
 namespace gr::raster {
 namespace fs = std::filesystem;
 namespace {
 
-// ---------------------------------------------------------------------------
-// Strict line check.
-
-[[noreturn]] void fail(const std::string& path, std::size_t line, const std::string& msg) {
-  throw IOError("load_obj('" + path + "'): line " + std::to_string(line) + ": " + msg);
-}
-
-// Splits a line (comment removed) into tokens separated by spaces and tabs.
-void split_tokens(std::string_view line, std::vector<std::string_view>& out) {
-  out.clear();
-  line = line.substr(0, std::min(line.find('#'), line.size()));
-  std::size_t i = 0;
-  while (i < line.size()) {
-    while (i < line.size() && (line[i] == ' ' || line[i] == '\t')) ++i;
-    std::size_t j = i;
-    while (j < line.size() && line[j] != ' ' && line[j] != '\t') ++j;
-    if (j > i) out.push_back(line.substr(i, j - i));
-    i = j;
-  }
-}
-
-// A whole token as a finite number, or false.
-bool parse_number(std::string_view s) {
-  if (s.size() > 1 && s[0] == '+' && s[1] != '-') s.remove_prefix(1);
-  double x = 0;
-  const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), x);
-  // Positions, normals and uvs are stored as float: the value must fit one.
-  return ec == std::errc() && end == s.data() + s.size() &&
-         std::fabs(x) <= std::numeric_limits<float>::max();
-}
-
-// A whole (possibly signed) decimal integer that fits in int, or false.
-bool parse_index(std::string_view s, long* out) {
-  if (s.size() > 1 && s[0] == '+' && s[1] != '-') s.remove_prefix(1);
-  int x = 0;
-  const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), x);
-  *out = x;
-  return !s.empty() && ec == std::errc() && end == s.data() + s.size();
-}
-
-constexpr std::size_t kMaxFaceCorners = 255;
-
-struct LineCheck {
-  long num_v = 0, num_vt = 0, num_vn = 0;
-  long faces = 0;
-  // Largest positive index per attribute and the line that used it; checked at
-  // the end because tinyobjloader (and some exporters) allow forward references.
-  std::array<long, 3> max_index{0, 0, 0};
-  std::array<std::size_t, 3> max_line{0, 0, 0};
-};
-
-// Checks one face corner "v", "v/t", "v//n" or "v/t/n".
-void check_corner(const std::string& path, std::size_t line, std::string_view tok,
-                  LineCheck& c) {
-  std::array<std::string_view, 3> parts;
-  int nparts = 0;
-  std::size_t start = 0;
-  // Built only for a message: the token quoted by a bounded prefix.
-  const auto corner = [&] { return "face corner " + quote_for_message(std::string(tok)); };
-  for (;;) {
-    const std::size_t slash = tok.find('/', start);
-    if (nparts == 3) fail(path, line, corner() + " has more than 3 indices");
-    parts[nparts++] = tok.substr(start, slash == std::string::npos ? slash : slash - start);
-    if (slash == std::string::npos) break;
-    start = slash + 1;
-  }
-  const long counts[3] = {c.num_v, c.num_vt, c.num_vn};
-  const char* names[3] = {"vertex", "texcoord", "normal"};
-  for (int k = 0; k < nparts; ++k) {
-    if (k == 1 && parts[k].empty() && nparts == 3) continue;  // v//n
-    long idx = 0;
-    if (!parse_index(parts[k], &idx))
-      fail(path, line, corner() + " has a malformed " + names[k] + " index");
-    if (idx == 0) fail(path, line, corner() + " uses index 0 (OBJ is 1-based)");
-    if (idx < 0 && counts[k] + idx < 0)
-      fail(path, line, corner() + " refers to " + names[k] + " " +
-                           std::to_string(idx) + " but only " + std::to_string(counts[k]) +
-                           " precede it");
-    if (idx > c.max_index[k]) {
-      c.max_index[k] = idx;
-      c.max_line[k] = line;
-    }
-  }
-}
-
-// Checks every v/vt/vn/f line of an OBJ text; throws IOError at the first problem.
-LineCheck check_lines(const std::string& path, const std::string& text) {
-  LineCheck c;
-  std::size_t line_no = 0, pos = 0;
-  std::vector<std::string_view> tok;
-  while (pos < text.size()) {
-    // Lines end in \n, \r\n or \r (as tinyobjloader reads them).
-    std::size_t end = pos;
-    while (end < text.size() && text[end] != '\n' && text[end] != '\r') ++end;
-    const std::string_view line = std::string_view(text).substr(pos, end - pos);
-    pos = end + ((end + 1 < text.size() && text[end] == '\r' && text[end + 1] == '\n') ? 2 : 1);
-    ++line_no;
-
-    split_tokens(line, tok);
-    if (tok.empty()) continue;
-    const std::string key(tok[0]);
-    const std::size_t n = tok.size() - 1;
-    if (key == "v" || key == "vt" || key == "vn") {
-      const std::size_t lo = key == "v" ? 3 : key == "vn" ? 3 : 1;
-      const std::size_t hi = key == "v" ? 7 : 3;
-      if (n < lo || n > hi)
-        fail(path, line_no, "'" + key + "' needs " + std::to_string(lo) +
-                                (lo == hi ? "" : " to " + std::to_string(hi)) + " numbers, got " +
-                                std::to_string(n) + " (truncated line?)");
-      for (std::size_t i = 1; i <= n; ++i)
-        if (!parse_number(tok[i]))
-          fail(path, line_no, "'" + key + "' has a bad, non-finite or out-of-float-range number " +
-                                  quote_for_message(std::string(tok[i])));
-      (key == "v" ? c.num_v : key == "vt" ? c.num_vt : c.num_vn) += 1;
-    } else if (key == "f") {
-      if (n < 3)
-        fail(path, line_no, "face has " + std::to_string(n) + " corners, needs at least 3");
-      // tinyobjloader counts a face's corners in a byte.
-      if (n > kMaxFaceCorners)
-        fail(path, line_no, "face has " + std::to_string(n) + " corners; at most " +
-                                std::to_string(kMaxFaceCorners) + " are supported (split the polygon)");
-      for (std::size_t i = 1; i <= n; ++i) check_corner(path, line_no, tok[i], c);
-      ++c.faces;
-    }
-  }
-  const long counts[3] = {c.num_v, c.num_vt, c.num_vn};
-  const char* names[3] = {"vertex", "texcoord", "normal"};
-  for (int k = 0; k < 3; ++k)
-    if (c.max_index[k] > counts[k])
-      fail(path, c.max_line[k], "face refers to " + std::string(names[k]) + " " +
-                                    std::to_string(c.max_index[k]) + " but the file has only " +
-                                    std::to_string(counts[k]));
-  return c;
-}
-
-// Second line of defence after tinyobjloader: its reading of a line can differ
-// from check_lines' (e.g. "f 1 2 3#4 5": we stop at the comment, it reads a
-// fourth corner "5"), so every index it returns is checked against what it
-// parsed before anything is looked up.
+// Second line of defence after tinyobjloader: its reading of a line could
+// differ from check_obj_lines' (before parser_text removed comments, "f 1 2
+// 3#4 5" gave it a fourth corner "5"), so every index it returns is checked
+// against what it parsed before anything is looked up.
 void check_parsed_indices(const std::string& path, const tinyobj::attrib_t& attrib,
                           const std::vector<tinyobj::shape_t>& shapes) {
   const auto nv = static_cast<long>(attrib.vertices.size() / 3);
@@ -267,33 +132,10 @@ void check_encoding(const std::string& path, const std::string& text) {
   if (!bom16 && nul == std::string::npos) return;
   const std::size_t at = bom16 ? 0 : nul;
   const std::size_t line = 1 + static_cast<std::size_t>(std::count(text.begin(), text.begin() + at, '\n'));
-  fail(path, line, std::string(bom16 ? "starts with a UTF-16 byte-order mark" : "contains a NUL byte") +
-                       ": UTF-16 (or binary) files are not supported; save the OBJ as UTF-8 or ASCII");
+  throw IOError("load_obj('" + path + "'): line " + std::to_string(line) + ": " +
+                (bom16 ? "starts with a UTF-16 byte-order mark" : "contains a NUL byte") +
+                ": UTF-16 (or binary) files are not supported; save the OBJ as UTF-8 or ASCII");
 }
-
-// Reads an MTL file named by an mtllib line through read_input_file (so a
-// FIFO, a device or a huge file is refused, not read). A missing MTL file is
-// a warning, as in tinyobjloader.
-class MtlReader : public tinyobj::MaterialReader {
- public:
-  MtlReader(std::string obj_path, fs::path dir) : obj_path_(std::move(obj_path)), dir_(std::move(dir)) {}
-  bool operator()(const std::string& name, std::vector<tinyobj::material_t>* materials,
-                  std::map<std::string, int>* ids, std::string* warn, std::string* err) override {
-    const std::string path = (dir_ / name).string();
-    std::error_code ec;
-    if (!fs::exists(path, ec)) {
-      *warn += "MTL file '" + path + "' not found\n";
-      return false;
-    }
-    std::istringstream in(read_input_file(path, "load_obj('" + obj_path_ + "'): MTL file '" + path + "'"));
-    tinyobj::LoadMtl(ids, materials, &in, warn, err);
-    return true;
-  }
-
- private:
-  std::string obj_path_;
-  fs::path dir_;
-};
 
 struct ParsedObj {
   tinyobj::attrib_t attrib;
@@ -301,33 +143,47 @@ struct ParsedObj {
   std::vector<tinyobj::material_t> materials;
 };
 
-// tinyobjloader's warnings, one per line, each cut to a readable length (they
-// can quote whole lines of the file).
-void add_warnings(const std::string& path, const std::string& text, std::vector<std::string>& out) {
+// A line of tinyobjloader's (it can quote a whole line of the file) cut to a
+// readable length, control bytes shown as '?'.
+std::string readable(std::string_view line) {
   constexpr std::size_t kMaxWarning = 200;
-  std::istringstream in(text);
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.empty() || line == ".") continue;
-    if (line.size() > kMaxWarning) line = line.substr(0, kMaxWarning) + "...";
-    for (char& c : line)
-      if (static_cast<unsigned char>(c) < 0x20) c = '?';
-    out.push_back("load_obj('" + path + "'): " + line);
-  }
+  std::string cut(line.substr(0, kMaxWarning));
+  if (line.size() > kMaxWarning) cut += "...";
+  for (char& c : cut)
+    if (static_cast<unsigned char>(c) < 0x20) c = '?';
+  return cut;
 }
 
-// Phase 2: tinyobjloader (no triangulation, no vertex colours); MTL files are
-// read from `dir` only if it is given.
+// tinyobjloader's warnings, one per line, made readable; at most
+// kMaxParserWarnings of them (a file can make one per line), then a count of
+// the others.
+void add_warnings(const std::string& path, std::string_view text, std::vector<std::string>& out) {
+  constexpr std::size_t kMaxParserWarnings = 20;
+  std::size_t shown = 0, more = 0;
+  for_each_line(text, [&](std::size_t, std::string_view line) {
+    if (line.empty() || line == ".") return;
+    if (shown == kMaxParserWarnings) return ++more, void();
+    out.push_back("load_obj('" + path + "'): " + readable(line));
+    ++shown;
+  });
+  if (more) out.push_back("load_obj('" + path + "'): " + std::to_string(more) + " more warnings of the OBJ parser");
+}
+
+// Phase 2: tinyobjloader (no triangulation, no vertex colours) on the lines
+// load_obj reads; MTL files are read from `dir` only if it is given.
 ParsedObj parse_with_tinyobj(const std::string& path, const std::string& text, const fs::path* dir,
-                             std::vector<std::string>& warnings) {
+                             std::size_t estimate, std::vector<std::string>& warnings) {
   ParsedObj obj;
   std::string warn, err;
-  std::istringstream stream(text);
-  MtlReader mtl_reader(path, dir ? *dir : fs::path());
-  const bool ok = tinyobj::LoadObj(&obj.attrib, &obj.shapes, &obj.materials, &warn, &err, &stream,
-                                   dir ? &mtl_reader : nullptr, /*triangulate=*/false,
-                                   /*default_vcols_fallback=*/false);
-  if (!ok) throw IOError("load_obj('" + path + "'): " + (err.empty() ? "parse error" : err));
+  {
+    const std::string kept = parser_text(text);
+    TextStream stream(kept);
+    MtlReader mtl_reader(path, dir ? *dir : fs::path(), estimate);
+    const bool ok = tinyobj::LoadObj(&obj.attrib, &obj.shapes, &obj.materials, &warn, &err, &stream,
+                                     dir ? &mtl_reader : nullptr, /*triangulate=*/false,
+                                     /*default_vcols_fallback=*/false);
+    if (!ok) throw IOError("load_obj('" + path + "'): " + (err.empty() ? "parse error" : readable(err)));
+  }
   check_parsed_indices(path, obj.attrib, obj.shapes);
   add_warnings(path, warn, warnings);
   add_warnings(path, err, warnings);  // only MTL problems reach here when ok
@@ -341,10 +197,14 @@ struct Corners {
   std::vector<int> material_of;   // per output triangle
 };
 
-// Phase 3: triangulates every face in file order, collecting corner keys.
-Corners triangulate_faces(const std::string& path, const ParsedObj& obj, long expected_faces) {
+// Phase 3: triangulates every face in file order, collecting corner keys (an
+// n-gon always gives n - 2 triangles: the arrays are sized exactly, as
+// obj_memory.cpp counts them).
+Corners triangulate_faces(const std::string& path, const ParsedObj& obj, const ObjLineCounts& lines) {
   Corners out;
-  long faces = 0;
+  out.keys.reserve(3 * lines.triangles());
+  out.material_of.reserve(lines.triangles());
+  std::size_t faces = 0;
   std::vector<P3> poly;
   std::vector<std::array<int, 3>> tris;
   for (const tinyobj::shape_t& shape : obj.shapes) {
@@ -368,9 +228,9 @@ Corners triangulate_faces(const std::string& path, const ParsedObj& obj, long ex
       offset += nv;
     }
   }
-  if (faces != expected_faces)
+  if (faces != lines.faces)
     throw IOError("load_obj('" + path + "'): tinyobjloader returned " + std::to_string(faces) +
-                  " faces, the file has " + std::to_string(expected_faces));
+                  " faces, the file has " + std::to_string(lines.faces));
   if (out.keys.empty()) throw IOError("load_obj('" + path + "'): no triangles (empty mesh)");
   return out;
 }
@@ -419,6 +279,7 @@ Welded weld(const std::vector<Key>& corners, std::size_t num_positions) {
                 [&](std::uint32_t a, std::uint32_t b) { return corners[a] < corners[b]; });
   Welded w;
   w.vertex_of.resize(corners.size());
+  w.first_corner.reserve(corners.size());  // a vertex per corner at most (obj_memory.cpp)
   for (std::size_t i = 0; i < order.size(); ++i) {
     if (i == 0 || corners[order[i]] != corners[order[i - 1]]) w.first_corner.push_back(order[i]);
     w.vertex_of[order[i]] = static_cast<std::int32_t>(w.first_corner.size() - 1);
@@ -499,14 +360,15 @@ void pick_texture(const std::string& path, const fs::path* dir, const std::vecto
 // Loads OBJ `text`; `path` names it in messages. With `dir` set, MTL files and
 // textures are looked up in that folder; without it they are not read at all.
 Mesh load_obj_text(const std::string& path, const std::string& text, const fs::path* dir) {
-  // Parsing holds the text's numbers several times over (tinyobjloader's
-  // arrays, corner keys, the weld): at most ~16 bytes per byte of text.
-  check_memory_request(16 * text.size(), "load_obj('" + path + "') of " + std::to_string(text.size()) + " bytes");
   check_encoding(path, text);
-  const LineCheck lines = check_lines(path, text);
+  const ObjLineCounts lines = check_obj_lines(path, text);
+  const std::size_t estimate = obj_load_bytes(lines, path.size());
+  check_memory_request(estimate, "load_obj('" + path + "') of " + std::to_string(text.size()) + " bytes (" +
+                                     std::to_string(lines.v) + " vertices, " + std::to_string(lines.faces) +
+                                     " faces of " + std::to_string(lines.corners) + " corners)");
   Mesh mesh;
-  const ParsedObj obj = parse_with_tinyobj(path, text, dir, mesh.warnings);
-  Corners corners = triangulate_faces(path, obj, lines.faces);
+  const ParsedObj obj = parse_with_tinyobj(path, text, dir, estimate, mesh.warnings);
+  Corners corners = triangulate_faces(path, obj, lines);
   const std::array<bool, 2> complete = keep_complete_attributes(path, corners.keys, mesh.warnings);
   const Welded welded = weld(corners.keys, obj.attrib.vertices.size() / 3);
   fill_tensors(path, obj.attrib, corners.keys, welded, complete, mesh);

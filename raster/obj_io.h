@@ -28,14 +28,19 @@ namespace gr::raster {
 //    A missing MTL file or texture is a warning in Mesh::warnings, not an error.
 // Files (the OBJ, its MTL files) are read with raster::read_input_file: regular
 // files only (a symlink to one is fine), at most kMaxInputFileBytes; a texture
-// that exists but is not a regular file is an error.
+// that exists but is not a regular file is an error. An MTL file named by
+// several mtllib lines (x.mtl, ./x.mtl, a link to it) is read once.
 // Throws IOError naming the path (and line) for a missing/unreadable file or
 // one that is not a regular file or too large, UTF-16 text or NUL bytes,
 // malformed `v`/`vt`/`vn`/`f` lines (bad or missing numbers, non-finite or
 // beyond-float values, faces with fewer than 3 or more than 255 corners,
 // indices that are 0, malformed or refer to missing vertices), and for a file
 // without any triangle. Bad tokens are quoted by their first 40 bytes.
-// MemoryError if parsing the text could exceed the memory budget.
+// MemoryError, before parsing, if loading the text could exceed the memory
+// budget (an upper bound from counts of its lines, raster/obj_memory.h), and
+// before reading each MTL file's materials if they would not fit either (the
+// message names the MTL file). Lines other than v, vt, vn, f, usemtl and
+// mtllib are ignored; at most 20 of the OBJ parser's warnings are kept.
 Mesh load_obj(const std::string& path);
 
 // load_obj on OBJ text held in memory, with the same rules and errors; `name`

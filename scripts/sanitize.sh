@@ -63,7 +63,7 @@ else
 fi
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
-for target in obj raster shapes; do
+for target in obj image raster shapes; do
   mkdir -p "$work/$target/corpus" "$work/$target/artifacts"
   cp tests/fuzz/corpus/"$target"/* "$work/$target/corpus/"
   echo "sanitize: fuzz_$target ${fuzz_args[*]}"

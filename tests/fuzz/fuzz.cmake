@@ -1,4 +1,4 @@
-# libFuzzer targets fuzz_obj, fuzz_raster and fuzz_shapes (GRADRASTER_FUZZ=ON, clang only).
+# libFuzzer targets fuzz_obj, fuzz_image, fuzz_raster and fuzz_shapes (GRADRASTER_FUZZ=ON, clang only).
 # Included from the top-level CMakeLists.txt before the library is defined:
 # everything is compiled with -fsanitize=fuzzer-no-link plus ASan and UBSan
 # (coverage for the fuzzer, reports for bugs), and only the fuzz programs
@@ -23,7 +23,7 @@ if(GRADRASTER_FUZZ)
   add_library(gradraster_fuzz_bodies STATIC ${GRADRASTER_FUZZ_DIR}/fuzz_targets.cpp)
   target_include_directories(gradraster_fuzz_bodies PUBLIC ${GRADRASTER_FUZZ_DIR}/..)
   target_link_libraries(gradraster_fuzz_bodies PUBLIC gradraster::gradraster)
-  foreach(name obj raster shapes)
+  foreach(name obj image raster shapes)
     add_executable(fuzz_${name} ${GRADRASTER_FUZZ_DIR}/fuzz_${name}_main.cc)
     target_link_libraries(fuzz_${name} PRIVATE gradraster_fuzz_bodies)
     target_link_options(fuzz_${name} PRIVATE -fsanitize=fuzzer)

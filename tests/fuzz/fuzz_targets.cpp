@@ -11,6 +11,7 @@
 #include "autodiff/memory.h"
 #include "autodiff/tape.h"
 #include "ops/ops.h"
+#include "raster/image_io.h"
 #include "raster/obj_io.h"
 
 namespace gr::fuzz {
@@ -176,6 +177,22 @@ void fuzz_obj_loader(const std::uint8_t* data, std::size_t size) {
     mesh.validate("fuzz_obj_loader");
     if (mesh.num_triangles() < 1)
       throw FuzzContractViolation("fuzz_obj_loader: loaded a mesh without triangles");
+  });
+}
+
+void fuzz_image_reader(const std::uint8_t* data, std::size_t size) {
+  struct LimitReset {
+    LimitReset() { set_memory_limit(memory_in_use() + (std::size_t(64) << 20)); }
+    ~LimitReset() { set_memory_limit(0); }
+  } limit;
+  run_checked("fuzz_image_reader", [&] {
+    const Tensor image = raster::read_image_from_memory(std::string(reinterpret_cast<const char*>(data), size), "fuzz");
+    if (image.dtype() != DType::Float32 || image.rank() != 3 || image.size(2) < 1 || image.size(2) > 4)
+      throw FuzzContractViolation("fuzz_image_reader: an image " + image.describe());
+    const float* v = image.data<float>();
+    for (std::int64_t i = 0; i < image.numel(); ++i)
+      if (!(v[i] >= 0.0f && v[i] <= 1.0f))
+        throw FuzzContractViolation("fuzz_image_reader: value " + std::to_string(v[i]) + " outside [0, 1]");
   });
 }
 

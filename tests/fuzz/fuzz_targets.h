@@ -26,6 +26,12 @@ struct FuzzContractViolation : std::logic_error {
 // must also be short (at most 512 bytes) and free of control bytes.
 void fuzz_obj_loader(const std::uint8_t* data, std::size_t size);
 
+// The bytes are an image file for raster::read_image_from_memory, under a
+// 64 MiB memory limit (so a header that claims a huge size, or data that
+// expands far beyond it, is refused quickly). Contract: a gr::Error, or an
+// H x W x C float32 image (C in 1..4) whose every value lies in [0, 1].
+void fuzz_image_reader(const std::uint8_t* data, std::size_t size);
+
 // The bytes encode a small scene (see RasterCase) that goes through
 // rasterize -> interpolate (or interpolate_with_derivatives) -> backward.
 // No known issue is tolerated: the two this fuzzer found (a NaN/Inf interpolate

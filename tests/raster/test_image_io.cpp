@@ -11,33 +11,17 @@
 
 #include "autodiff/error.h"
 #include "raster/image_io.h"
+#include "raster/image_bytes.h"
 #include "raster/temp_dir.h"
 
 using namespace gr;
 using namespace gr::raster;
+using gr::testing::put_be32;
+using gr::testing::put_chunk;
 using gr::testing::slurp;
 using gr::testing::TempDir;
 
 namespace {
-
-std::uint32_t crc32(const std::string& bytes) {
-  std::uint32_t c = 0xffffffffu;
-  for (unsigned char b : bytes) {
-    c ^= b;
-    for (int k = 0; k < 8; ++k) c = (c >> 1) ^ (0xedb88320u & (0u - (c & 1u)));
-  }
-  return ~c;
-}
-
-void put_be32(std::string& s, std::uint32_t x) {
-  for (int k = 3; k >= 0; --k) s += static_cast<char>((x >> (8 * k)) & 0xff);
-}
-
-void put_chunk(std::string& png, const std::string& type, const std::string& data) {
-  put_be32(png, static_cast<std::uint32_t>(data.size()));
-  png += type + data;
-  put_be32(png, crc32(type + data));
-}
 
 // A one-row 16-bit greyscale PNG whose pixel data is a stored (uncompressed)
 // deflate block.
@@ -175,4 +159,24 @@ TEST_CASE("write_raw replaces a file atomically and reports unwritable paths", "
   CHECK_THROWS_AS(write_raw(dir.file("nope/x.bin"), data, sizeof data), IOError);
   CHECK_THROWS_AS(write_raw(dir.path().string(), data, sizeof data), IOError);  // a directory
   CHECK(dir.count() == 2);
+}
+
+TEST_CASE("read_image: the documented formats load: PNG, BMP, TGA and JPEG in 1 to 4 channels", "[raster][io][image]") {
+  TempDir dir;
+  const int w = 5, h = 3;
+  for (const char* format : {"png", "bmp", "tga", "jpg"}) {
+    for (int c = 1; c <= 4; ++c) {
+      // JPEG has no alpha; stb_image_write keeps a BMP's alpha only with 4 channels.
+      if ((std::string(format) == "jpg" && (c == 2 || c == 4)) || (std::string(format) == "bmp" && c == 2)) continue;
+      INFO(format << ", " << c << " channels");
+      const std::string path = dir.write(std::string("pattern.") + format, gr::testing::encoded_pattern(format, w, h, c));
+      const Tensor image = read_image(path, c);
+      REQUIRE(image.shape() == Shape{h, w, c});
+      const std::vector<unsigned char> expected = gr::testing::test_pattern(w, h, c);
+      const std::vector<double> got = image.to_vector();
+      // JPEG is lossy; the others give back every level.
+      const double tolerance = std::string(format) == "jpg" ? 40.0 / 255 : 1e-6;
+      for (std::size_t i = 0; i < got.size(); ++i) REQUIRE(std::abs(got[i] - expected[i] / 255.0) <= tolerance);
+    }
+  }
 }

@@ -4,6 +4,7 @@
 #include <catch2/catch.hpp>
 
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <fstream>
@@ -11,9 +12,11 @@
 
 #include "autodiff/error.h"
 #include "autodiff/memory.h"
+#include "autodiff/storage.h"
 #include "raster/image_io.h"
 #include "raster/obj_io.h"
 #include "raster/procedural.h"
+#include "raster/heap_peak.h"
 #include "raster/temp_dir.h"
 
 using namespace gr;
@@ -354,4 +357,127 @@ TEST_CASE("load_obj: text whose parsing could exceed the memory budget is refuse
   CHECK_THROWS_WITH(load_obj_from_string(text, "big.obj"), Catch::Contains("load_obj('big.obj') of 160008 bytes"));
   gr::set_memory_limit(0);
   CHECK(load_obj_from_string(text, "big.obj").num_triangles() == 1);
+}
+
+namespace {
+
+// An OBJ of `faces` faces of 255 corners with one-digit indices ("f 1 2 3 ... "),
+// the cheapest text per corner: 512 bytes a face.
+std::string many_corner_faces(int faces) {
+  std::string text;
+  for (int i = 0; i < 9; ++i) text += "v " + std::to_string(i % 3) + " " + std::to_string(i / 3) + " 0\n";
+  std::string face = "f";
+  for (int k = 0; k < 255; ++k) face += " " + std::to_string(1 + k % 9);
+  face += "\n";
+  for (int f = 0; f < faces; ++f) text += face;
+  return text;
+}
+
+std::size_t slurp_size(const std::string& path) { return gr::testing::slurp(path).size(); }
+
+// The most bytes load_obj held at once, on the heap and in tensor buffers.
+std::size_t peak_bytes_of_load(const std::string& path) {
+  gr::reset_storage_peak();
+  const auto tensors_before = gr::storage_stats().live_bytes;
+  gr::testing::HeapPeak heap;
+  const Mesh mesh = load_obj(path);
+  REQUIRE(mesh.num_triangles() > 0);
+  return heap.bytes() + static_cast<std::size_t>(gr::storage_stats().peak_live_bytes - tensors_before);
+}
+
+// Restores the default memory limit when a test ends, also by an exception.
+struct MemoryLimit {
+  explicit MemoryLimit(std::size_t bytes_free) { gr::set_memory_limit(gr::memory_in_use() + bytes_free); }
+  ~MemoryLimit() { gr::set_memory_limit(0); }
+};
+
+}  // namespace
+
+TEST_CASE("load_obj: faces of many corners that need more than the memory budget are refused, a normal OBJ still loads",
+          "[raster][io][obj][memory]") {
+  TempDir dir;
+  const std::string text = many_corner_faces(1000);
+  const std::string path = dir.write("faces.obj", text);
+  // Measured: the load holds about 50 bytes per byte of this text at its peak
+  // (heap and tensors); the former estimate, 16 bytes per byte, let it through.
+  std::vector<std::size_t> budgets = {16 * text.size() + 1};
+  if (gr::testing::HeapPeak::counting()) {
+    const std::size_t peak = peak_bytes_of_load(path);
+    INFO("peak " << peak << " bytes for " << text.size() << " bytes of OBJ");
+    REQUIRE(peak > 16 * text.size());
+    budgets.push_back(peak - 1);
+  }
+  // The estimate is an upper bound: any budget below the peak refuses the file before parsing.
+  for (const std::size_t budget : budgets) {
+    MemoryLimit limit(budget);
+    CHECK_THROWS_WITH(load_obj(path), Catch::Contains("faces.obj") && Catch::Contains("1000 faces of 255000 corners") &&
+                                          Catch::Contains("memory limit"));
+    CHECK_THROWS_AS(load_obj(path), MemoryError);
+  }
+  // A normal mesh (a sphere written by save_obj) loads within a budget of a
+  // few times its own measured peak (about 6 bytes per byte of its text; the
+  // estimate says 8).
+  Mesh sphere = make_uv_sphere(64, 32);
+  save_obj(dir.file("sphere.obj"), sphere);
+  const std::size_t sphere_bytes = slurp_size(dir.file("sphere.obj"));
+  const std::size_t sphere_peak =
+      gr::testing::HeapPeak::counting() ? peak_bytes_of_load(dir.file("sphere.obj")) : 10 * sphere_bytes;
+  MemoryLimit limit(3 * sphere_peak);
+  CHECK(load_obj(dir.file("sphere.obj")).num_triangles() == sphere.num_triangles());
+}
+
+TEST_CASE("load_obj: an MTL file named by several mtllib lines is parsed once, whatever the spelling",
+          "[raster][io][obj][mtl][memory]") {
+  if (!gr::testing::HeapPeak::counting()) return;  // TSan build: nothing to measure with
+  TempDir dir;
+  std::string mtl;
+  for (int i = 0; i < 2000; ++i) mtl += "newmtl m" + std::to_string(i) + "\nKd 1 1 1\n";
+  mtl += "newmtl last\nmap_Kd tex.png\n";
+  dir.write("x.mtl", mtl);
+  write_png(dir.file("tex.png"), Tensor::full({2, 2, 3}, 0.5));
+  REQUIRE(::symlink("x.mtl", dir.file("alias.mtl").c_str()) == 0);
+  const std::string tri = "usemtl last\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n";
+  dir.write("once.obj", "mtllib x.mtl\n" + tri);
+  std::string lines;
+  for (const char* name : {"x.mtl", "./x.mtl", "././x.mtl", "alias.mtl"})
+    for (int k = 0; k < 5; ++k) lines += std::string("mtllib ") + name + "\n";
+  dir.write("twenty.obj", lines + tri);
+  const std::size_t once = peak_bytes_of_load(dir.file("once.obj"));
+  const std::size_t twenty = peak_bytes_of_load(dir.file("twenty.obj"));
+  INFO("peak with one mtllib line " << once << " bytes, with twenty " << twenty);
+  CHECK(twenty < once + once / 4);  // each parse held every material again (20 times the memory)
+  const Mesh mesh = load_obj(dir.file("twenty.obj"));
+  CHECK(mesh.texture_path == dir.file("tex.png"));
+}
+
+TEST_CASE("load_obj: an MTL file too large for the memory budget is refused naming it", "[raster][io][obj][mtl][memory]") {
+  TempDir dir;
+  std::string mtl;
+  for (int i = 0; i < 5000; ++i) mtl += "newmtl m" + std::to_string(i) + "\n";
+  dir.write("big.mtl", mtl);
+  const std::string obj = dir.write("small.obj", "mtllib big.mtl\nusemtl m1\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+  // 5000 materials hold about 15 MB in the parser; the OBJ itself needs less than 1 MiB.
+  MemoryLimit limit(std::size_t(2) << 20);
+  CHECK_THROWS_WITH(load_obj(obj), Catch::Contains("small.obj") && Catch::Contains("MTL file") &&
+                                       Catch::Contains("big.mtl") && Catch::Contains("5000 materials") &&
+                                       Catch::Contains("memory limit"));
+  CHECK_THROWS_AS(load_obj(obj), MemoryError);
+}
+
+TEST_CASE("load_obj: lines the loader does not read cost nothing, and warnings stay few", "[raster][io][obj][memory]") {
+  TempDir dir;
+  const std::string tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+  // A tag line of 20 bytes made tinyobjloader allocate 320 KB (8192 ints,
+  // floats and strings), and every group copied all tags again.
+  std::string tags = tri;
+  for (int i = 0; i < 20; ++i) tags += "t crease 8192/8192/8192\ng group" + std::to_string(i) + "\nf 1 2 3\n";
+  const std::string tag_file = dir.write("tags.obj", tags);
+  if (gr::testing::HeapPeak::counting()) CHECK(peak_bytes_of_load(tag_file) < (std::size_t(1) << 20));
+  // One warning per unknown material, each repeating the path: at most 20 kept.
+  std::string usemtl = tri;
+  for (int i = 0; i < 1000; ++i) usemtl += "usemtl missing" + std::to_string(i) + "\nf 1 2 3\n";
+  const Mesh mesh = load_obj(dir.write("materials.obj", usemtl));
+  CHECK(mesh.num_triangles() == 1001);
+  CHECK(mesh.warnings.size() <= 22);
+  CHECK(contains(mesh.warnings, "more warnings"));
 }
