@@ -14,20 +14,21 @@
 // training loop's tape never grows from one iteration to the next. Compute what
 // you only log under NoGradGuard, or after backward from detach()ed values.
 //
-// In-place writes: the tape saves, with every tensor it records (each op's
-// inputs and outputs), its storage's version (autodiff/storage.h), which each
-// call of the non-const Tensor::data<T>() bumps, through any handle sharing the
-// storage (detach()). Before a node's adjoint runs, backward() checks that none
-// of them was written since, and throws TapeError naming the op and the input
-// or output otherwise: an adjoint would compute the gradient from the new
-// values (y = x * w; writing w before backward() changes dL/dx). So between
-// the forward computation and backward(), write into a copy() of a recorded
-// tensor, not into it, and read it through the const data<T>(); write
-// parameters (an optimizer step) after backward(). Every input counts, also
-// one whose values the adjoint does not use (sum's): one rule, no list of
-// exceptions. Only nodes the sweep runs are checked; a tensor nothing holds
-// any more is not checked (nothing can have written it). The gradients added
-// before the throw stay where they are: zero_grad() before trying again.
+// In-place writes: with every tensor it records (an op's inputs, outputs and
+// the index tensors its adjoint reads, such as triangles), the tape saves its
+// storage's version (autodiff/storage.h), which every call of the non-const
+// Tensor::data<T>() bumps, through any handle sharing the storage (detach()).
+// Before a node's adjoint runs, backward() checks that none of them was
+// written since, and otherwise throws TapeError naming the op and the input or
+// output: the adjoint would compute the gradient from the new values (y = x *
+// w; writing w before backward() changes dL/dx). So between the forward
+// computation and backward(), write into a copy() of a recorded tensor, read
+// it through the const data<T>() (taking the non-const one only to read counts
+// as a write too), and write parameters (an optimizer step) after backward().
+// Every input counts, also one whose values the adjoint does not use (sum's):
+// one rule, no list of exceptions. Only nodes the sweep runs are checked, and
+// only tensors still alive (a freed one cannot have been written). Gradients
+// added by the nodes swept before the throw stay: zero_grad() before retrying.
 //
 // Threads: each thread records on its own tape, each tape has a process-unique
 // id, and every recorded tensor remembers it. A graph is recorded and
@@ -46,6 +47,12 @@
 //       if (ctx.needs_grad(0)) ctx.accumulate(0, g * b);   // dL/da = g b
 //       if (ctx.needs_grad(1)) ctx.accumulate(1, g * a);   // dL/db = g a
 //     });
+// Tensors the adjoint reads that take no gradient (triangles, a G-buffer's
+// tri_id, gather's index, where's mask) go after the differentiable inputs,
+// detach()ed if they might require grad: needs_grad() is false for them, and
+// backward() checks them for in-place writes like the rest. An op reads its
+// inputs through the const data<T>() (std::as_const), also after recording
+// them: the non-const one counts as a write.
 // Adjoints run with recording switched off.
 #pragma once
 

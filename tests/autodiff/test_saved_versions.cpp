@@ -152,6 +152,48 @@ TEST_CASE("saved versions: writing the texture between forward and backward of a
   Tape::current().clear();
 }
 
+TEST_CASE("saved versions: writing the triangles between forward and backward of a render throws, naming the op",
+          "[autodiff][tape][versions][errors]") {
+  // The adjoints of rasterize and interpolate index with the triangles and
+  // tri_id the forward checked; rewritten, they would give another gradient
+  // (or read out of bounds). They get no gradient but are checked like inputs.
+  TexturedQuad quad;
+  Tensor loss = quad.loss();
+  std::swap(quad.triangles.data<std::int32_t>()[1], quad.triangles.data<std::int32_t>()[2]);
+  CHECK_THROWS_WITH(backward(loss), Catch::Contains("'interpolate'") && Catch::Contains("input 3 (int32[2, 3])"));
+  Tape::current().clear();
+}
+
+TEST_CASE("saved versions: writing gather's index or where's mask between forward and backward throws",
+          "[autodiff][tape][versions][errors]") {
+  Tensor a = leaf({1, 2, 3});
+  Tensor index = Tensor::from_vector<std::int32_t>({0, 1}, {2});
+  Tensor picked = sum(gather(a, index));
+  index.data<std::int32_t>()[1] = 2;
+  CHECK_THROWS_WITH(backward(picked), Catch::Contains("'gather'") && Catch::Contains("input 1"));
+  Tape::current().clear();
+
+  Tensor mask = Tensor::from_values({1, 0, 1}, {3}, DType::Float64);
+  Tensor chosen = sum(where(mask, a, a * 2.0));
+  mask.data<double>()[1] = 1;
+  CHECK_THROWS_WITH(backward(chosen), Catch::Contains("'where'") && Catch::Contains("input 2"));
+  Tape::current().clear();
+}
+
+TEST_CASE("saved versions: depth peeling and fragments raise nothing", "[autodiff][tape][versions]") {
+  // The peeler copies each layer's tri_id after rasterize recorded it, and
+  // fragments() reads the G-buffer: reads only, so backward runs.
+  TexturedQuad quad;
+  DepthPeeler peeler(quad.clip, quad.triangles, {16, 16});
+  const GBuffer first = peeler.rasterize_next_layer();
+  const GBuffer second = peeler.rasterize_next_layer();
+  const Fragments fr = fragments(first);
+  Tensor values = interpolate(quad.uvs, quad.clip, fr, quad.triangles);
+  Tensor loss = sum(to_image(values, fr)) + sum(interpolate(quad.uvs, quad.clip, second, quad.triangles));
+  backward(loss);
+  CHECK(quad.clip.has_grad());
+}
+
 TEST_CASE("saved versions: a render fitted by Adam for many iterations raises nothing",
           "[autodiff][tape][versions]") {
   // Every iteration recycles the previous one's buffers (the storage cache) and
