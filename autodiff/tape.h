@@ -95,9 +95,6 @@ class Tape {
   void run_backward(const Tensor& output, const Tensor& upstream);
 
  private:
-  // What the sweep needs of an input: where its gradient goes and what shape
-  // it must have. Not the tensor itself, so an input's values stay alive only
-  // if the op's adjoint captured them (a sum needs only its input's shape).
   // A recorded tensor's storage and its version at record time. Weak: the
   // check keeps no tensor alive, and a storage freed (its buffer maybe recycled
   // into another tensor) is simply not checked.
@@ -108,6 +105,10 @@ class Tape {
     // True if the storage is still alive and was written since.
     bool written() const;
   };
+  // What the sweep needs of an input: where its gradient goes, what shape it
+  // must have and its saved version. Not the tensor itself, so an input's
+  // values stay alive only if the op's adjoint captured them (a sum needs only
+  // its input's shape).
   struct InputRef {
     SavedVersion saved;
     bool defined = false;
