@@ -4,8 +4,14 @@
 // that builds the same graph every iteration stops allocating after the first
 // iteration. `storage_stats()` counts fresh allocations so tests and benchmarks
 // can verify that.
+//
+// Each Storage counts the in-place writes made into it (its version): the
+// non-const Tensor::data<T>() bumps it, the gradient tape saves it when it
+// records a tensor, and backward() refuses a recorded tensor written since
+// (autodiff/tape.h). A recycled buffer gets a new Storage, so a new count.
 #pragma once
 
+#include <atomic>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -23,9 +29,16 @@ class Storage {
   const void* data() const { return ptr_; }
   std::size_t bytes() const { return bytes_; }
 
+  // Writes counted so far. Atomic (relaxed: a count, not a synchronization),
+  // so that a thread taking the non-const data<T>() of a leaf shared between
+  // threads while another thread's backward() checks that leaf is no data race.
+  std::uint64_t version() const { return version_.load(std::memory_order_relaxed); }
+  void bump_version() { version_.fetch_add(1, std::memory_order_relaxed); }
+
  private:
   void* ptr_ = nullptr;
   std::size_t bytes_ = 0;
+  std::atomic<std::uint64_t> version_{0};
 };
 
 struct StorageStats {

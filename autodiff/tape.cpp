@@ -10,7 +10,22 @@ namespace {
 thread_local bool g_grad_mode = true;
 thread_local Tape* g_scoped_tape = nullptr;  // innermost ScopedTape, if any
 std::atomic<std::uint64_t> g_next_tape_id{1};
+
+TapeError written_in_place(const char* op, const std::string& which) {
+  return TapeError(std::string("backward: ") + which + " of '" + op +
+                   "' was written in place (a non-const Tensor::data<T>(), through it or a handle sharing its "
+                   "storage) after '" + op + "' was recorded, so its adjoint would compute the gradient from the new "
+                   "values. Write into a copy() of the tensor, or write after backward(); to only read it between "
+                   "the forward computation and backward(), use the const data<T>() (std::as_const(t).data<T>())");
+}
 }  // namespace
+
+Tape::SavedVersion Tape::SavedVersion::of(const TensorImpl& t) { return {t.storage, t.storage->version()}; }
+
+bool Tape::SavedVersion::written() const {
+  const std::shared_ptr<Storage> s = storage.lock();
+  return s && s->version() != version;
+}
 
 Tape::Tape() : id_(g_next_tape_id.fetch_add(1, std::memory_order_relaxed)) {}
 
@@ -36,6 +51,7 @@ ScopedTape::~ScopedTape() {
 void Tape::clear() {
   nodes_.clear();
   node_of_slot_.clear();
+  output_versions_.clear();
   slot_grads_.clear();
   ++generation_;
 }
@@ -82,6 +98,7 @@ void Tape::append(const char* name, std::vector<Tensor> inputs, const std::vecto
       ref.requires_grad = impl->requires_grad;
       ref.shape = impl->shape;
       ref.dtype = impl->dtype;
+      ref.saved = SavedVersion::of(*impl);
       if (impl->recorded)
         ref.slot = impl->grad_slot;
       else if (impl->requires_grad)
@@ -98,6 +115,7 @@ void Tape::append(const char* name, std::vector<Tensor> inputs, const std::vecto
     o->tape_generation = generation_;
     o->grad_slot = static_cast<std::int64_t>(node_of_slot_.size());
     node_of_slot_.push_back(static_cast<std::int64_t>(nodes_.size()));
+    output_versions_.push_back(SavedVersion::of(*o));
     node.output_slots.push_back(o->grad_slot);
   }
   nodes_.push_back(std::move(node));
@@ -169,6 +187,17 @@ void Tape::give_zero_grads(Node& node) {
   }
 }
 
+void Tape::check_not_written(const Node& node) const {
+  for (std::size_t i = 0; i < node.inputs.size(); ++i) {
+    const InputRef& in = node.inputs[i];
+    if (in.saved.written())
+      throw written_in_place(node.name, "input " + std::to_string(i) + " (" + dtype_name(in.dtype) + in.shape.str() + ")");
+  }
+  for (std::size_t k = 0; k < node.output_slots.size(); ++k)
+    if (output_versions_[static_cast<std::size_t>(node.output_slots[k])].written())
+      throw written_in_place(node.name, "output " + std::to_string(k));
+}
+
 void Tape::run_backward(const Tensor& output, const Tensor& upstream) {
   if (!output.defined()) throw TapeError("backward: the output tensor is undefined");
   if (!output.requires_grad())
@@ -195,6 +224,7 @@ void Tape::run_backward(const Tensor& output, const Tensor& upstream) {
       if (!node.adjoint)
         throw TapeError(std::string("backward: reached '") + node.name +
                         "', whose saved values were freed by an earlier backward(); run the forward computation again");
+      check_not_written(node);
       AdjointContext ctx(*this, node);
       node.adjoint(ctx);
       ctx.add_leaf_buffers();
@@ -203,7 +233,10 @@ void Tape::run_backward(const Tensor& output, const Tensor& upstream) {
     // Release what the sweep has passed: saved values, inputs, output grads.
     node.adjoint = nullptr;
     node.inputs.clear();
-    for (std::int64_t s : node.output_slots) slot_grads_[s] = Tensor();
+    for (std::int64_t s : node.output_slots) {
+      slot_grads_[s] = Tensor();
+      output_versions_[s] = SavedVersion();
+    }
   }
   // The sweep reached node 0: empty the tape for the next iteration (capacity is
   // kept). Nodes recorded after the output go too (a logged psnr = -10 log(loss)),

@@ -14,6 +14,22 @@
 // training loop's tape never grows from one iteration to the next. Compute what
 // you only log under NoGradGuard, or after backward from detach()ed values.
 //
+// In-place writes: with every tensor it records (an op's inputs, outputs and
+// the index tensors its adjoint reads, such as triangles), the tape saves its
+// storage's version (autodiff/storage.h), which every call of the non-const
+// Tensor::data<T>() bumps, through any handle sharing the storage (detach()).
+// Before a node's adjoint runs, backward() checks that none of them was
+// written since, and otherwise throws TapeError naming the op and the input or
+// output: the adjoint would compute the gradient from the new values (y = x *
+// w; writing w before backward() changes dL/dx). So between the forward
+// computation and backward(), write into a copy() of a recorded tensor, read
+// it through the const data<T>() (taking the non-const one only to read counts
+// as a write too), and write parameters (an optimizer step) after backward().
+// Every input counts, also one whose values the adjoint does not use (sum's):
+// one rule, no list of exceptions. Only nodes the sweep runs are checked, and
+// only tensors still alive (a freed one cannot have been written). Gradients
+// added by the nodes swept before the throw stay: zero_grad() before retrying.
+//
 // Threads: each thread records on its own tape, each tape has a process-unique
 // id, and every recorded tensor remembers it. A graph is recorded and
 // backpropagated on one thread: a recorded tensor given to another thread's
@@ -31,12 +47,19 @@
 //       if (ctx.needs_grad(0)) ctx.accumulate(0, g * b);   // dL/da = g b
 //       if (ctx.needs_grad(1)) ctx.accumulate(1, g * a);   // dL/db = g a
 //     });
+// Tensors the adjoint reads that take no gradient (triangles, a G-buffer's
+// tri_id, gather's index, where's mask) go after the differentiable inputs,
+// detach()ed if they might require grad: needs_grad() is false for them, and
+// backward() checks them for in-place writes like the rest. An op reads its
+// inputs through the const data<T>() (std::as_const), also after recording
+// them: the non-const one counts as a write.
 // Adjoints run with recording switched off.
 #pragma once
 
 #include <cstdint>
 #include <functional>
 #include <initializer_list>
+#include <memory>
 #include <string>
 #include <utility>
 #include <vector>
@@ -72,10 +95,22 @@ class Tape {
   void run_backward(const Tensor& output, const Tensor& upstream);
 
  private:
-  // What the sweep needs of an input: where its gradient goes and what shape
-  // it must have. Not the tensor itself, so an input's values stay alive only
-  // if the op's adjoint captured them (a sum needs only its input's shape).
+  // A recorded tensor's storage and its version at record time. Weak: the
+  // check keeps no tensor alive, and a storage freed (its buffer maybe recycled
+  // into another tensor) is simply not checked.
+  struct SavedVersion {
+    std::weak_ptr<Storage> storage;
+    std::uint64_t version = 0;
+    static SavedVersion of(const TensorImpl& t);
+    // True if the storage is still alive and was written since.
+    bool written() const;
+  };
+  // What the sweep needs of an input: where its gradient goes, what shape it
+  // must have and its saved version. Not the tensor itself, so an input's
+  // values stay alive only if the op's adjoint captured them (a sum needs only
+  // its input's shape).
   struct InputRef {
+    SavedVersion saved;
     bool defined = false;
     bool requires_grad = false;
     Shape shape;
@@ -90,6 +125,8 @@ class Tape {
     Adjoint adjoint;  // empty once swept
   };
   void give_zero_grads(Node& node);
+  // Throws TapeError if an input or output of `node` was written in place since it was recorded.
+  void check_not_written(const Node& node) const;
   friend class AdjointContext;
   // Throws TapeError (naming `what`) unless recorded tensor `t` belongs to this
   // tape's current recording.
@@ -97,6 +134,7 @@ class Tape {
   const std::uint64_t id_;
   std::vector<Node> nodes_;
   std::vector<std::int64_t> node_of_slot_;
+  std::vector<SavedVersion> output_versions_;  // by gradient slot
   std::vector<Tensor> slot_grads_;
   std::uint64_t generation_ = 1;
 };

@@ -69,6 +69,12 @@ class Tensor {
   DType dtype() const;
 
   // Typed access to the contiguous elements; throws DTypeError if T does not match.
+  // The non-const overload is the in-place write path: each call counts as a
+  // write into the storage (shared with detach()ed handles), so taking it on a
+  // tensor the tape recorded, between the forward computation and backward(),
+  // makes backward() throw TapeError (autodiff/tape.h). Write into a copy()
+  // instead, or after backward(); to only read, use the const overload
+  // (std::as_const(t).data<T>(), or a const Tensor&).
   template <class T> T* data();
   template <class T> const T* data() const;
   // The single element of a one-element tensor, converted to double.
@@ -114,6 +120,7 @@ class Tensor {
 template <class T>
 T* Tensor::data() {
   check_dtype(dtype_of<T>::value);
+  impl_->storage->bump_version();
   return static_cast<T*>(impl_->storage->data());
 }
 

@@ -154,7 +154,9 @@ GBuffer rasterize_images(const Tensor& clip, const Tensor& triangles, const Imag
     gb.stats.clipped_near += s.clipped_near;
   }
   if (should_record({clip})) {
-    record(op, {clip}, {&gb.uv, &gb.depth}, [clip, positions, triangles, settings, B, P, tri_id = gb.tri_id](
+    // triangles and tri_id: no gradient, checked for in-place writes (autodiff/tape.h).
+    record(op, {clip, triangles, gb.tri_id}, {&gb.uv, &gb.depth}, [clip, positions, triangles, settings, B, P,
+                                                                   tri_id = gb.tri_id](
                                                 AdjointContext& ctx) {
       const Tensor& g_uv = ctx.grad_output(0);
       const Tensor& g_depth = ctx.grad_output(1);
@@ -238,7 +240,8 @@ Tensor interpolate_batch(const Tensor& attributes, const Tensor& clip, const GBu
     for_each_image(B, [&](std::int64_t b) { raster::interpolate_forward(params(tag, attr, pos, b), out.data<T>() + b * P * C); });
   });
   if (should_record({attributes, clip, uv})) {
-    record("interpolate_batch", {attributes, clip, uv}, {&out},
+    // triangles and tri_id: no gradient, checked for in-place writes (autodiff/tape.h).
+    record("interpolate_batch", {attributes, clip, uv, triangles, tri_id}, {&out},
            [attributes, clip, uv_in = uv.detach(), attr, pos, params, B, P](AdjointContext& ctx) {
              PerImage a = attr, c = pos;
              a.t = &attributes;

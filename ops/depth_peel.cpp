@@ -36,7 +36,8 @@ GBuffer DepthPeeler::rasterize_next_layer() {
     key = {Tensor::empty({pixels}, DType::Int32), Tensor::empty({pixels}, DType::Float64)};
     gb = detail::rasterize_layer(clip_, triangles_, options_, floor ? floor->id.data<std::int32_t>() : nullptr,
                                  floor ? floor->z.data<double>() : nullptr, key.z.data<double>());
-    const std::int32_t* id = gb.tri_id.data<std::int32_t>();
+    // Read through the const data<T>(): rasterize recorded tri_id (autodiff/tape.h).
+    const std::int32_t* id = std::as_const(gb.tri_id).data<std::int32_t>();
     std::copy(id, id + pixels, key.id.data<std::int32_t>());
   }
   floor_ = std::move(key);

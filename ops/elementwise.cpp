@@ -440,7 +440,8 @@ Tensor where(const Tensor& mask_in, const Tensor& a_in, const Tensor& b_in) {
     });
   });
   if (should_record({a, b})) {
-    record("where", {a, b}, {&out}, [em, m_full = is_full(em, n)](AdjointContext& ctx) {
+    // The mask, detached (no gradient), so that backward() refuses it written in place.
+    record("where", {a, b, em.detach()}, {&out}, [em, m_full = is_full(em, n)](AdjointContext& ctx) {
       const Tensor& g = ctx.grad_output();
       for (std::size_t input = 0; input < 2; ++input) {
         if (!ctx.needs_grad(input)) continue;

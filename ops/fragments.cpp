@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "autodiff/error.h"
@@ -64,11 +65,13 @@ Fragments fragments(const GBuffer& gbuffer) {
                               fr.tri_id.data<std::int32_t>());
   });
   fr.uv = gather_fragments(gbuffer.uv, fr);
-  fr.groups = std::make_shared<raster::TriangleGroups>(fr.tri_id.data<std::int32_t>(),
+  // Const reads from here: gather_fragments recorded pixel_index (autodiff/tape.h).
+  fr.groups = std::make_shared<raster::TriangleGroups>(std::as_const(fr.tri_id).data<std::int32_t>(),
                                                        std::make_shared<Tensor>(fr.tri_id));
   // rasterize's adjoint can then group the G-buffer's pixels from the fragments' grouping.
   if (gbuffer.groups)
-    gbuffer.groups->set_fragments(id.data<std::int32_t>(), fr.groups, fr.pixel_index.data<std::int32_t>(), fr.count(),
+    gbuffer.groups->set_fragments(id.data<std::int32_t>(), fr.groups,
+                                  std::as_const(fr.pixel_index).data<std::int32_t>(), fr.count(),
                                   std::make_shared<Tensor>(fr.pixel_index));
   return fr;
 }
@@ -86,7 +89,9 @@ Tensor gather_fragments(const Tensor& image, const Fragments& fr) {
     raster::gather_fragment_rows(image.data<T>(), fr.pixel_index.data<std::int32_t>(), n, c, out.data<T>());
   });
   if (should_record({image})) {
-    record("gather_fragments", {image}, {&out}, [index = fr.pixel_index, shape = image.shape()](AdjointContext& ctx) {
+    // pixel_index: no gradient, checked for in-place writes (autodiff/tape.h).
+    record("gather_fragments", {image, fr.pixel_index}, {&out}, [index = fr.pixel_index,
+                                                                 shape = image.shape()](AdjointContext& ctx) {
       const Tensor& g = ctx.grad_output();
       if (!g.defined()) return;
       // dL/dimage = g's rows at the fragments' pixels, zero elsewhere.
@@ -135,7 +140,8 @@ Tensor to_image(const Tensor& values, const Fragments& fr, const Tensor& backgro
     raster::scatter_fragment_rows(values.data<T>(), fr.pixel_index.data<std::int32_t>(), n, c, o);
   });
   if (should_record({values, background})) {
-    record("to_image", {values, background}, {&out},
+    // pixel_index: no gradient, checked for in-place writes (autodiff/tape.h).
+    record("to_image", {values, background, fr.pixel_index}, {&out},
            [index = fr.pixel_index, bg_shape = background.defined() ? background.shape() : Shape{}, per_pixel,
             h, w, c](AdjointContext& ctx) {
              const Tensor& g = ctx.grad_output();

@@ -101,7 +101,9 @@ Tensor interpolate_items(const Tensor& attributes, const Tensor& clip, const Ten
     raster::interpolate_forward(p, out.data<T>());
   });
   if (should_record({attributes, clip, uv})) {
-    record(pixel_index.defined() ? "interpolate_fragments" : "interpolate", {attributes, clip, uv}, {&out},
+    // The index tensors get no gradient; listed so that backward() refuses them written in place.
+    record(pixel_index.defined() ? "interpolate_fragments" : "interpolate",
+           {attributes, clip, uv, triangles, tri_id, pixel_index}, {&out},
            [attributes, clip, triangles, tri_id, uv = uv.detach(), width, height, pixel_index,
             perspective, groups](AdjointContext& ctx) {
              // The kernel adds (+=) into the gradients summed so far.

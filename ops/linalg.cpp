@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -285,8 +286,10 @@ Tensor matmul(const Tensor& a_in, const Tensor& b_in) {
       std::fill(out.data<T>(), out.data<T>() + out.numel(), T(0));
       return;
     }
-    // C_t = A_t B_t for each broadcast batch.
-    mm_batched(a.data<T>(), p.a_off, b.data<T>(), p.b_off, out.data<T>(), p.n, p.k, p.m);
+    // C_t = A_t B_t for each broadcast batch. a and b are read through the
+    // const data<T>(): the non-const one counts as a write (autodiff/tape.h).
+    mm_batched(std::as_const(a).data<T>(), p.a_off, std::as_const(b).data<T>(), p.b_off, out.data<T>(), p.n, p.k,
+               p.m);
   });
   if (should_record({a, b})) {
     record("matmul", {a, b}, {&out}, [a, b, p](AdjointContext& ctx) {

@@ -51,8 +51,9 @@ GBuffer rasterize_layer(const Tensor& clip, const Tensor& triangles, const Raste
     gb.groups = std::make_shared<raster::TriangleGroups>(gb.tri_id.data<std::int32_t>(),
                                                          std::make_shared<Tensor>(gb.tri_id));
     // The backward trusts what the forward checked: same clip, triangles and
-    // settings, and the forward's own tri_id.
-    record("rasterize", {clip}, {&gb.uv, &gb.depth},
+    // settings, and the forward's own tri_id (listed after clip so that
+    // backward() refuses them written in place since; they get no gradient).
+    record("rasterize", {clip, triangles, gb.tri_id}, {&gb.uv, &gb.depth},
            [clip, triangles, settings, tri_id = gb.tri_id, groups = gb.groups](AdjointContext& ctx) {
              const Tensor& g_uv = ctx.grad_output(0);
              const Tensor& g_depth = ctx.grad_output(1);

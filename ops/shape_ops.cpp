@@ -373,7 +373,8 @@ Tensor gather(const Tensor& a, const Tensor& index) {
   const std::int64_t inner = prod(a.shape(), 1, a.rank()), rows = a.size(0);
   Tensor out = gather_raw(a, index, inner, Shape(dims));
   if (is_floating(a.dtype()) && should_record({a})) {
-    record("gather", {a}, {&out}, [index, inner, rows](AdjointContext& ctx) {
+    // index: no gradient, checked for in-place writes (autodiff/tape.h).
+    record("gather", {a, index}, {&out}, [index, inner, rows](AdjointContext& ctx) {
       const Tensor& g = ctx.grad_output();
       if (!g.defined()) return;
       // dL/da = scatter_add of g's rows into the picked rows (fixed order).
@@ -401,7 +402,8 @@ Tensor scatter_add(const Tensor& src, const Tensor& index, std::int64_t rows) {
   const std::int64_t inner = prod(src.shape(), index.rank(), src.rank());
   Tensor out = scatter_raw(src, index, rows, inner, Shape(dims));
   if (is_floating(src.dtype()) && should_record({src})) {
-    record("scatter_add", {src}, {&out}, [index, inner](AdjointContext& ctx) {
+    // index: no gradient, checked for in-place writes (autodiff/tape.h).
+    record("scatter_add", {src, index}, {&out}, [index, inner](AdjointContext& ctx) {
       const Tensor& g = ctx.grad_output();
       if (!g.defined()) return;
       // dL/dsrc = gather(g, index).

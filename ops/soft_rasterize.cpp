@@ -72,7 +72,8 @@ Tensor soft_rasterize(const Tensor& clip, const Tensor& triangles, const Tensor&
     raster::soft_rasterize_forward(params<T>(clip, triangles, attributes, background, s, g, options), out.data<T>());
   });
   if (should_record({clip, attributes, background, sigma, gamma})) {
-    record("soft_rasterize", {clip, attributes, background, sigma, gamma}, {&out},
+    // triangles: no gradient, checked for in-place writes (autodiff/tape.h).
+    record("soft_rasterize", {clip, attributes, background, sigma, gamma, triangles}, {&out},
            [clip = clip.detach(), triangles, attributes = attributes.detach(), background = background.detach(), s, g,
             options, sigma_dtype = sigma.dtype(), gamma_dtype = gamma.dtype()](AdjointContext& ctx) {
              Tensor g_clip = ctx.needs_grad(0) ? Tensor::zeros(clip.shape(), clip.dtype()) : Tensor();

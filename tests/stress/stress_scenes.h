@@ -567,7 +567,7 @@ inline GradcheckRun run_gradcheck(const Case& c, const Case::Check& check) {
   auto changes = std::make_shared<std::int64_t>(0);
   const RenderFn render = c.render;
   GradcheckFn f = [render, reference, changes](const std::vector<Tensor>& x) {
-    Render r = render(x);
+    const Render r = render(x);  // const: a non-const data<T>() would count as a write into tri_id
     const std::int32_t* a = r.tri_id.data<std::int32_t>();
     const std::int32_t* b = reference.data<std::int32_t>();
     for (std::int64_t i = 0; i < reference.numel(); ++i)
