@@ -22,6 +22,7 @@ struct Mesh {
   Tensor normals;            // N×3 float32, or undefined
   Tensor uvs;                // N×2 float32 (u right, v up: OBJ convention), or undefined
   std::string texture_path;  // diffuse map (MTL map_Kd), set only if the file exists
+  std::vector<std::string> material_files;  // the MTL files load_obj read (inputs too)
   std::vector<std::string> warnings;  // non-fatal problems met while loading
 
   std::int64_t num_vertices() const { return positions.defined() ? positions.size(0) : 0; }

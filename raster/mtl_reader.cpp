@@ -75,6 +75,7 @@ bool MtlReader::operator()(const std::string& name, std::vector<tinyobj::materia
 
   const std::string what = "load_obj('" + obj_path_ + "'): MTL file '" + path + "'";
   const std::string text = read_input_file(path, what);
+  files_read_.push_back(path);
   const MtlLineCounts counts = count_mtl_lines(text);
   check_memory_request(held_ + mtl_held_bytes(counts) + mtl_parse_bytes(counts),
                        what + " (" + std::to_string(counts.bytes) + " bytes, " + std::to_string(counts.materials) +

@@ -38,11 +38,15 @@ class MtlReader : public tinyobj::MaterialReader {
   bool operator()(const std::string& name, std::vector<tinyobj::material_t>* materials,
                   std::map<std::string, int>* ids, std::string* warn, std::string* err) override;
 
+  // The MTL files read, each once, as their paths were resolved.
+  const std::vector<std::string>& files_read() const { return files_read_; }
+
  private:
   std::string obj_path_;
   std::filesystem::path dir_;
   std::size_t held_;  // the OBJ's estimate plus what the MTL files read so far hold
   std::set<std::pair<dev_t, ino_t>> read_;
+  std::vector<std::string> files_read_;
   int missing_ = 0;
 };
 

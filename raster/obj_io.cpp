@@ -141,6 +141,7 @@ struct ParsedObj {
   tinyobj::attrib_t attrib;
   std::vector<tinyobj::shape_t> shapes;
   std::vector<tinyobj::material_t> materials;
+  std::vector<std::string> material_files;  // the MTL files read
 };
 
 // A line of tinyobjloader's (it can quote a whole line of the file) cut to a
@@ -183,6 +184,7 @@ ParsedObj parse_with_tinyobj(const std::string& path, const std::string& text, c
                                      dir ? &mtl_reader : nullptr, /*triangulate=*/false,
                                      /*default_vcols_fallback=*/false);
     if (!ok) throw IOError("load_obj('" + path + "'): " + (err.empty() ? "parse error" : readable(err)));
+    obj.material_files = mtl_reader.files_read();
   }
   check_parsed_indices(path, obj.attrib, obj.shapes);
   add_warnings(path, warn, warnings);
@@ -368,6 +370,7 @@ Mesh load_obj_text(const std::string& path, const std::string& text, const fs::p
                                      " faces of " + std::to_string(lines.corners) + " corners)");
   Mesh mesh;
   const ParsedObj obj = parse_with_tinyobj(path, text, dir, estimate, mesh.warnings);
+  mesh.material_files = obj.material_files;
   Corners corners = triangulate_faces(path, obj, lines);
   const std::array<bool, 2> complete = keep_complete_attributes(path, corners.keys, mesh.warnings);
   const Welded welded = weld(corners.keys, obj.attrib.vertices.size() / 3);

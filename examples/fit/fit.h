@@ -89,7 +89,7 @@ struct FitResult {
   gr::Tensor positions;            // shape: fitted points [P, 3]; pose: the posed reference points
   gr::Tensor colours, texture;     // the fitted appearance (one of them)
   std::vector<std::string> files;  // everything written, in order
-  std::vector<std::string> inputs;  // the files read: the mesh and its texture, when given
+  std::vector<std::string> inputs;  // the files read: the mesh, its MTL files and its texture, when given
 };
 
 // Runs the optimization, writing PNG strips, a loss plot and the fitted OBJ to

@@ -72,12 +72,14 @@ SurfaceMesh make_builtin_object(int subdivisions) {
 }
 
 SurfaceMesh load_reference_object(const std::string& path, std::string* texture_path,
-                                  std::vector<std::string>* warnings) {
+                                  std::vector<std::string>* warnings, std::vector<std::string>* material_files) {
   const raster::Mesh loaded = raster::load_obj(path);
   SurfaceMesh s = make_surface(loaded);
   fit_in_unit_sphere(s.positions);
   if (texture_path) *texture_path = loaded.texture_path;
   if (warnings) warnings->insert(warnings->end(), loaded.warnings.begin(), loaded.warnings.end());
+  if (material_files)
+    material_files->insert(material_files->end(), loaded.material_files.begin(), loaded.material_files.end());
   return s;
 }
 
@@ -139,7 +141,7 @@ Scene make_scene(const SceneOptions& options) {
     scene.name = options.mesh_path;
     scene.files_read.push_back(options.mesh_path);
     std::string texture_path;
-    scene.reference = load_reference_object(options.mesh_path, &texture_path, &scene.warnings);
+    scene.reference = load_reference_object(options.mesh_path, &texture_path, &scene.warnings, &scene.files_read);
     const bool named_by_mtl = options.texture_path.empty();
     if (!named_by_mtl) texture_path = options.texture_path;
     const bool has_uvs = scene.reference.uvs.defined();

@@ -35,7 +35,7 @@ struct Scene {
   SurfaceMesh start;           // the sphere the shape fit starts from (with uvs)
   std::vector<Camera> cameras;
   Tensor background;           // [3]
-  std::vector<std::string> files_read;  // the mesh and the texture, when given
+  std::vector<std::string> files_read;  // the mesh, its MTL files and the texture, when given
   // Problems that did not stop the run: the OBJ loader's warnings (a missing
   // MTL or texture, ...) and, when a texture was named but is not used, why
   // the reference wears the procedural pattern instead.
@@ -54,10 +54,11 @@ SurfaceMesh make_builtin_object(int subdivisions);
 // scaling into the unit sphere.
 double builtin_radius(double x, double y, double z);
 // Loads an OBJ and scales it into the unit sphere around its bounding-box
-// centre; the texture its MTL names (empty if none was found) and the
-// loader's warnings go to the optional outputs.
+// centre; the texture its MTL names (empty if none was found), the loader's
+// warnings and the MTL files it read go to the optional outputs.
 SurfaceMesh load_reference_object(const std::string& path, std::string* texture_path,
-                                  std::vector<std::string>* warnings = nullptr);
+                                  std::vector<std::string>* warnings = nullptr,
+                                  std::vector<std::string>* material_files = nullptr);
 // A procedural equirectangular texture [height, 2 height, 3]: wavy warm/cool
 // latitude stripes with pale spots (what the built-in object wears).
 gr::Tensor striped_texture(int height);

@@ -298,9 +298,12 @@ int render(const RenderArgs& a, std::ostream& out, std::ostream& err) {
   raster::Mesh mesh = load_mesh(a);
   mesh.validate("gradraster-render: mesh");
   for (const std::string& w : mesh.warnings) err << "gradraster-render: warning: " << w << "\n";
-  // The texture its MTL names is the mesh's too.
-  cli::check_distinct_files({{"the texture named by --mesh '" + a.mesh_path + "',", mesh.texture_path}},
-                            outputs_of(a));
+  // Its MTL files and the texture they name are inputs too.
+  std::vector<cli::NamedFile> read_with_mesh;
+  for (const std::string& mtl : mesh.material_files)
+    read_with_mesh.push_back({"the MTL file named by --mesh '" + a.mesh_path + "',", mtl});
+  read_with_mesh.push_back({"the texture named by --mesh '" + a.mesh_path + "',", mesh.texture_path});
+  cli::check_distinct_files(read_with_mesh, outputs_of(a));
 
   const std::size_t estimate = request_bytes(a, mesh);
   const std::string request = "gradraster-render " + std::to_string(a.width) + "x" + std::to_string(a.height);

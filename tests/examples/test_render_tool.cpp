@@ -394,6 +394,20 @@ TEST_CASE("render tool: an output that is the texture the mesh's MTL names is re
   CHECK(slurp(dir.file("tex.png")) == texture);
 }
 
+TEST_CASE("render tool: an output that is the mesh's MTL file is refused", "[examples][render][distinct_files]") {
+  TempDir dir;
+  raster::Mesh cube = raster::make_cube();
+  raster::write_png(dir.file("tex.png"), Tensor::full({2, 2, 3}, 0.5));
+  cube.texture_path = dir.file("tex.png");
+  cube.uvs = Tensor::zeros({cube.num_vertices(), 2});
+  raster::save_obj(dir.file("v.obj"), cube);  // writes v.mtl, named by v.obj's mtllib line
+  const std::string mtl = slurp(dir.file("v.mtl"));
+  const Run r = render({"--mesh", dir.file("v.obj"), "--width", "8", "--height", "8", "--out-depth", dir.file("./v.mtl")});
+  CHECK(r.code == 2);
+  CHECK_THAT(r.err, Catch::Contains("the MTL file named by --mesh"));
+  CHECK(slurp(dir.file("v.mtl")) == mtl);
+}
+
 TEST_CASE("render tool: a mesh 1e-14 units across is framed like a unit one; a mesh of one point is refused",
           "[examples][render][mesh_framing]") {
   TempDir dir;

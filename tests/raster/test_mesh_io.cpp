@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -448,6 +449,16 @@ TEST_CASE("load_obj: an MTL file named by several mtllib lines is parsed once, w
   CHECK(twenty < once + once / 4);  // each parse held every material again (20 times the memory)
   const Mesh mesh = load_obj(dir.file("twenty.obj"));
   CHECK(mesh.texture_path == dir.file("tex.png"));
+}
+
+TEST_CASE("load_obj: the mesh names each MTL file it read once, as resolved", "[raster][io][obj][mtl]") {
+  TempDir dir;
+  dir.write("x.mtl", "newmtl m\nKd 1 1 1\n");
+  dir.write("v.obj", "mtllib x.mtl\nmtllib ./x.mtl\nmtllib missing.mtl\nusemtl m\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+  const Mesh mesh = load_obj(dir.file("v.obj"));
+  REQUIRE(mesh.material_files.size() == 1);
+  CHECK(std::filesystem::equivalent(mesh.material_files[0], dir.file("x.mtl")));
+  CHECK(load_obj_from_string("mtllib x.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").material_files.empty());
 }
 
 TEST_CASE("load_obj: an MTL file too large for the memory budget is refused naming it", "[raster][io][obj][mtl][memory]") {
