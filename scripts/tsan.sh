@@ -32,7 +32,7 @@ cmake --build "$build" --target gradraster_tests -j "$jobs"
 # checks (1, 2 and 8 threads), the rasterizer and its adjoint, interpolation,
 # antialiasing, texturing, SSR, elementwise ops and reductions, the whole
 # pipeline and the fit example.
-subset='[parallel],[determinism],[rasterize],[interpolate],[antialias],[texture],[ssr],[elementwise],[reduce],[pipeline],[fit]'
+subset='[parallel],[determinism],[rasterize],[interpolate],[antialias],[texture],[ssr],[elementwise],[reduce],[pipeline],[fit],[tape],[versions],[temporaries]'
 spec=${1:-$subset}
 args=("$spec")
 [[ "$spec" == all ]] && args=()
