@@ -31,7 +31,8 @@ cmake --build "$build" --target gradraster_tests -j "$jobs"
 # The tests that run parallel loops: the thread wrapper, the determinism
 # checks (1, 2 and 8 threads), the rasterizer and its adjoint, interpolation,
 # antialiasing, texturing, SSR, elementwise ops and reductions, the whole
-# pipeline and the fit example.
+# pipeline and the fit example; and the tape (its saved versions) and the
+# temporaries' registry, which other threads and a signal handler read.
 subset='[parallel],[determinism],[rasterize],[interpolate],[antialias],[texture],[ssr],[elementwise],[reduce],[pipeline],[fit],[tape],[versions],[temporaries]'
 spec=${1:-$subset}
 args=("$spec")
