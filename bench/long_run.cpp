@@ -15,7 +15,6 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <set>
 #include <sstream>
 #include <string>
 #include <unistd.h>
@@ -74,30 +73,19 @@ int main(int argc, char** argv) {
       "                [--fit-camera]\n"
       "Runs the fit example for N steps (default 1000) and checks losses, parameters and memory\n"
       "(docs/robustness.md, \"Long run\"). Exit codes: 0 pass, 1 fail, 2 usage error.\n";
-  try {
-    std::set<std::string> seen;
-    const bool run = gr::cli::for_each_flag(
-        std::vector<std::string>(argv + 1, argv + argc),
-        {{"--iterations", "--size", "--views", "--subdivisions", "--threads"}, {"--texture", "--fit-camera"}},
-        [&](const std::string& flag, const std::string& v) {
-          using gr::cli::parse_int;
-          if (flag == "--texture") options.appearance = fit::Appearance::Texture;
-          else if (flag == "--fit-camera") options.fit_camera = true;
-          else if (flag == "--iterations") options.iterations = parse_int(flag, v, 1, 1000000);
-          else if (flag == "--size") options.size = parse_int(flag, v, 16, 4096);
-          else if (flag == "--views") options.views = parse_int(flag, v, 1, 64);
-          else if (flag == "--subdivisions") options.start_subdivisions = parse_int(flag, v, 0, 6);
-          else options.threads = parse_int(flag, v, 0, 1024);
-        },
-        seen);
-    if (!run) {
-      std::fputs(usage, stdout);
-      return 0;
-    }
-  } catch (const gr::cli::UsageError& e) {
-    std::fprintf(stderr, "long_run: %s\n\n%s", e.what(), usage);
-    return 2;
-  }
+  gr::cli::parse_flags_or_exit(
+      "long_run", usage, argc, argv,
+      {{"--iterations", "--size", "--views", "--subdivisions", "--threads"}, {"--texture", "--fit-camera"}},
+      [&](const std::string& flag, const std::string& v) {
+        using gr::cli::parse_int;
+        if (flag == "--texture") options.appearance = fit::Appearance::Texture;
+        else if (flag == "--fit-camera") options.fit_camera = true;
+        else if (flag == "--iterations") options.iterations = parse_int(flag, v, 1, 1000000);
+        else if (flag == "--size") options.size = parse_int(flag, v, 16, 4096);
+        else if (flag == "--views") options.views = parse_int(flag, v, 1, 64);
+        else if (flag == "--subdivisions") options.start_subdivisions = parse_int(flag, v, 0, 6);
+        else options.threads = parse_int(flag, v, 0, 1024);
+      });
   const std::filesystem::path out =
       std::filesystem::temp_directory_path() / ("gradraster_long_run_" + std::to_string(::getpid()));
   options.out_dir = out.string();

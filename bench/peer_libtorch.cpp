@@ -20,7 +20,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <set>
 #include <string>
 #include <vector>
 
@@ -45,25 +44,14 @@ Options parse(int argc, char** argv) {
   const char* usage =
       "usage: peer_libtorch [--pixels N] [--reps R] [--rss-iterations K]\n"
       "       peer_libtorch --profile-ours K [--pixels N]   (ours only, for perf/callgrind)\n";
-  try {
-    std::set<std::string> seen;
-    const bool run = gr::cli::for_each_flag(
-        std::vector<std::string>(argv + 1, argv + argc), {{"--pixels", "--reps", "--rss-iterations", "--profile-ours"}, {}},
-        [&](const std::string& flag, const std::string& v) {
-          if (flag == "--pixels") o.pixels = gr::cli::parse_integer(flag, v, 1, std::int64_t(1) << 30);
-          else if (flag == "--reps") o.reps = gr::cli::parse_int(flag, v, 1, 1000000);
-          else if (flag == "--rss-iterations") o.rss_iterations = gr::cli::parse_int(flag, v, 1, 1000000);
-          else o.profile_ours = gr::cli::parse_int(flag, v, 1, 1000000);
-        },
-        seen);
-    if (!run) {
-      std::fputs(usage, stdout);
-      std::exit(0);
-    }
-  } catch (const gr::cli::UsageError& e) {
-    std::fprintf(stderr, "peer_libtorch: %s\n%s", e.what(), usage);
-    std::exit(2);
-  }
+  gr::cli::parse_flags_or_exit(
+      "peer_libtorch", usage, argc, argv, {{"--pixels", "--reps", "--rss-iterations", "--profile-ours"}, {}},
+      [&](const std::string& flag, const std::string& v) {
+        if (flag == "--pixels") o.pixels = gr::cli::parse_integer(flag, v, 1, std::int64_t(1) << 30);
+        else if (flag == "--reps") o.reps = gr::cli::parse_int(flag, v, 1, 1000000);
+        else if (flag == "--rss-iterations") o.rss_iterations = gr::cli::parse_int(flag, v, 1, 1000000);
+        else o.profile_ours = gr::cli::parse_int(flag, v, 1, 1000000);
+      });
   return o;
 }
 

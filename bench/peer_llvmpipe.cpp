@@ -18,7 +18,6 @@
 #include <cstdlib>
 #include <fstream>
 #include <memory>
-#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -60,30 +59,19 @@ Options parse(int argc, char** argv) {
   const char* usage =
       "usage: peer_llvmpipe [--mesh FILE.obj] [--size N] [--reps N] [--lp-threads N]\n"
       "                     [--meshes name,name] [--ours-only] [--profile N]\n";
-  try {
-    std::set<std::string> seen;
-    const bool run = gr::cli::for_each_flag(
-        std::vector<std::string>(argv + 1, argv + argc),
-        {{"--mesh", "--size", "--reps", "--lp-threads", "--meshes", "--profile"}, {"--ours-only"}},
-        [&](const std::string& flag, const std::string& v) {
-          using gr::cli::parse_int;
-          if (flag == "--mesh") o.mesh_path = v;
-          else if (flag == "--size") o.size = parse_int(flag, v, 1, 16384);
-          else if (flag == "--reps") o.reps = parse_int(flag, v, 1, 1000000);
-          else if (flag == "--lp-threads") o.lp_threads = parse_int(flag, v, 1, 1024);
-          else if (flag == "--meshes") o.only = v;
-          else if (flag == "--ours-only") o.ours_only = true;
-          else o.profile = parse_int(flag, v, 1, 1000000);
-        },
-        seen);
-    if (!run) {
-      std::fputs(usage, stdout);
-      std::exit(0);
-    }
-  } catch (const gr::cli::UsageError& e) {
-    std::fprintf(stderr, "peer_llvmpipe: %s\n%s", e.what(), usage);
-    std::exit(2);
-  }
+  gr::cli::parse_flags_or_exit(
+      "peer_llvmpipe", usage, argc, argv,
+      {{"--mesh", "--size", "--reps", "--lp-threads", "--meshes", "--profile"}, {"--ours-only"}},
+      [&](const std::string& flag, const std::string& v) {
+        using gr::cli::parse_int;
+        if (flag == "--mesh") o.mesh_path = v;
+        else if (flag == "--size") o.size = parse_int(flag, v, 1, 16384);
+        else if (flag == "--reps") o.reps = parse_int(flag, v, 1, 1000000);
+        else if (flag == "--lp-threads") o.lp_threads = parse_int(flag, v, 1, 1024);
+        else if (flag == "--meshes") o.only = v;
+        else if (flag == "--ours-only") o.ours_only = true;
+        else o.profile = parse_int(flag, v, 1, 1000000);
+      });
   return o;
 }
 

@@ -11,7 +11,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
-#include <set>
 #include <string>
 #include <vector>
 
@@ -25,20 +24,10 @@ int main(int argc, char** argv) {
       "Runs every numerical stress scene (tests/stress) and prints a table (docs/robustness.md).\n"
       "  --threads N   worker threads, 0 = all (default 0)\n"
       "Exit codes: 0 all finite and every gradcheck passed, 1 otherwise, 2 usage error.\n";
-  try {
-    std::set<std::string> seen;
-    const bool run = cli::for_each_flag(
-        std::vector<std::string>(argv + 1, argv + argc), {{"--threads"}, {}},
-        [](const std::string& flag, const std::string& value) { set_num_threads(cli::parse_int(flag, value, 0, 1024)); },
-        seen);
-    if (!run) {
-      std::fputs(usage, stdout);
-      return 0;
-    }
-  } catch (const cli::UsageError& e) {
-    std::fprintf(stderr, "stress_report: %s\n\n%s", e.what(), usage);
-    return 2;
-  }
+  cli::parse_flags_or_exit("stress_report", usage, argc, argv, {{"--threads"}, {}},
+                           [](const std::string& flag, const std::string& value) {
+                             set_num_threads(cli::parse_int(flag, value, 0, 1024));
+                           });
   const auto t0 = std::chrono::steady_clock::now();
   bool ok = true;
   std::printf("| %-12s | %-38s | f64 finite | f32 finite | gradcheck rel err (f64)    | f32 vs f64 image | f32 vs f64 grad      | cov. diff |\n",

@@ -2,6 +2,7 @@
 
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 
 #include "raster/files.h"
@@ -68,6 +69,19 @@ bool for_each_flag(const std::vector<std::string>& args, const Flags& flags,
     on_flag(flag, args[++i]);
   }
   return true;
+}
+
+void parse_flags_or_exit(const char* program, const char* usage, int argc, char** argv, const Flags& flags,
+                         const std::function<void(const std::string& flag, const std::string& value)>& on_flag) {
+  try {
+    std::set<std::string> seen;
+    if (for_each_flag(std::vector<std::string>(argv + 1, argv + argc), flags, on_flag, seen)) return;
+    std::fputs(usage, stdout);
+    std::exit(0);
+  } catch (const UsageError& e) {
+    std::fprintf(stderr, "%s: %s\n\n%s", program, e.what(), usage);
+    std::exit(2);
+  }
 }
 
 }  // namespace gr::cli

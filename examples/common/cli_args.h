@@ -48,4 +48,10 @@ bool for_each_flag(const std::vector<std::string>& args, const Flags& flags,
                    const std::function<void(const std::string& flag, const std::string& value)>& on_flag,
                    std::set<std::string>& seen);
 
+// For a program whose command line is only flags: for_each_flag over argv; at
+// --help prints `usage` to stdout and exits 0, on a UsageError prints
+// "program: message" and `usage` to stderr and exits 2.
+void parse_flags_or_exit(const char* program, const char* usage, int argc, char** argv, const Flags& flags,
+                         const std::function<void(const std::string& flag, const std::string& value)>& on_flag);
+
 }  // namespace gr::cli

@@ -30,9 +30,9 @@ def _threads():
 
 # ----------------------------------------------------------------------------
 # Tensor addresses. _core reads tensors through raw addresses (data_ptr()),
-# and an address does not keep its tensor alive: in
-# `kernel(dy.contiguous().data_ptr())` the copy that contiguous() made is freed
-# before the kernel runs, which then reads freed memory (issue 30). So no
+# and an address does not keep its tensor alive: the address of a temporary
+# (say, the copy contiguous() makes of an upstream gradient) points at freed
+# memory once that expression ends, before the kernel reads it (issue 30). So no
 # address for _core is taken anywhere but here: every function that calls
 # _core makes one `pins = _Pins()` local, and `pins(t)` returns t's address
 # and holds t until that function returns. Whatever a kernel reads therefore
