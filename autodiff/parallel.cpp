@@ -124,6 +124,12 @@ void parallel_for(std::int64_t begin, std::int64_t end, std::int64_t grain,
   }
 }
 
+void parallel_tasks(int n, const std::function<void(int)>& task) {
+  parallel_for(0, n, 1, [&](std::int64_t lo, std::int64_t hi) {
+    for (std::int64_t i = lo; i < hi; ++i) tbb::this_task_arena::isolate([&] { task(static_cast<int>(i)); });
+  });
+}
+
 void set_num_threads(int n) {
   if (n < 0 || n > kMaxThreads)
     throw ValueError("set_num_threads: n = " + std::to_string(n) + " is outside 0.." + std::to_string(kMaxThreads) +

@@ -22,6 +22,14 @@ constexpr std::int64_t kElementwiseGrain = 16384;
 void parallel_for(std::int64_t begin, std::int64_t end, std::int64_t grain,
                   const std::function<void(std::int64_t, std::int64_t)>& body);
 
+// Runs task(i) for every i in [0, n), concurrently where threads are free
+// (in order i = 0, 1, ... with one thread). Each task is isolated: while it
+// waits for its own inner parallel_for, its thread helps only with that loop,
+// never starts another task, so thread-local state a task sets up (a
+// ScopedTape, a NoGradGuard) is seen by that task alone. For a few large
+// independent jobs, such as the views of one optimization step.
+void parallel_tasks(int n, const std::function<void(int)>& task);
+
 // Largest n set_num_threads accepts.
 constexpr int kMaxThreads = 1024;
 

@@ -67,29 +67,49 @@ ViewGradients::ViewGradients(std::vector<Tensor> params, int views, int values_p
   }
 }
 
-void ViewGradients::take(int view, const std::vector<double>& values) {
+void ViewGradients::take(int view, const std::vector<double>& values) { take(view, params_, values); }
+
+std::vector<Tensor> ViewGradients::view_leaves() const {
+  std::vector<Tensor> leaves;
+  for (const Tensor& p : params_) leaves.push_back(p.detach().set_requires_grad());
+  return leaves;
+}
+
+void ViewGradients::take(int view, const std::vector<Tensor>& leaves, const std::vector<double>& values) {
   if (view < 0 || view >= views_)
     throw ValueError("ViewGradients::take: view " + std::to_string(view) + " is outside [0, " +
                      std::to_string(views_) + ")");
-  if (std::find(taken_views_.begin(), taken_views_.end(), view) != taken_views_.end())
-    throw ValueError("ViewGradients::take: view " + std::to_string(view) + " was taken twice");
   if (values.size() != values_per_view_)
     throw ValueError("ViewGradients::take: view " + std::to_string(view) + " gives " +
                      std::to_string(values.size()) + " values, expected " + std::to_string(values_per_view_));
-  taken_views_.push_back(view);
-  taken_.push_back(double(view));
-  taken_.insert(taken_.end(), values.begin(), values.end());
-  for (Tensor& p : params_) {
-    const std::size_t at = taken_.size(), n = static_cast<std::size_t>(p.numel());
-    taken_.resize(at + n, 0.0);
-    if (!p.has_grad()) continue;
-    const Tensor g = p.grad();
+  if (leaves.size() != params_.size())
+    throw ValueError("ViewGradients::take: view " + std::to_string(view) + " gives " + std::to_string(leaves.size()) +
+                     " leaves, expected one per param (" + std::to_string(params_.size()) + ")");
+  for (std::size_t i = 0; i < leaves.size(); ++i)
+    if (!leaves[i].defined() || leaves[i].shape() != params_[i].shape() || leaves[i].dtype() != params_[i].dtype())
+      throw ShapeError("ViewGradients::take: view " + std::to_string(view) + "'s leaves[" + std::to_string(i) +
+                       "] is " + leaves[i].describe() + ", expected the shape and dtype of " + params_[i].describe());
+
+  // [view index, values..., gradients...], built outside the lock.
+  std::vector<double> record{double(view)};
+  record.reserve(1 + values.size() + gradient_length_);
+  record.insert(record.end(), values.begin(), values.end());
+  for (const Tensor& leaf : leaves) {
+    const std::size_t at = record.size(), n = static_cast<std::size_t>(leaf.numel());
+    record.resize(at + n, 0.0);
+    if (!leaf.has_grad()) continue;
+    const Tensor g = leaf.grad();
     dispatch_float(g.dtype(), "ViewGradients::take", [&](auto tag) {
       using T = decltype(tag);
-      std::copy_n(g.data<T>(), n, taken_.data() + at);  // exact: float32 -> float64
+      std::copy_n(g.data<T>(), n, record.data() + at);  // exact: float32 -> float64
     });
-    p.zero_grad();
+    Tensor(leaf).zero_grad();
   }
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (std::find(taken_views_.begin(), taken_views_.end(), view) != taken_views_.end())
+    throw ValueError("ViewGradients::take: view " + std::to_string(view) + " was taken twice");
+  taken_views_.push_back(view);
+  taken_.insert(taken_.end(), record.begin(), record.end());
 }
 
 std::vector<double> ViewGradients::reduce(Communicator& comm) {
@@ -118,6 +138,7 @@ std::vector<double> ViewGradients::reduce(Communicator& comm) {
     for (std::size_t i = 0; i < sum.size(); ++i) sum[i] += rec[i];
   }
   std::size_t at = values;
+  ScopedTape own_tape;  // setting the params' gradients leaves the caller's recording alone
   for (Tensor& p : params_) {
     const std::int64_t n = p.numel();
     Tensor g = Tensor::empty(p.shape(), p.dtype());

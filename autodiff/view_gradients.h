@@ -22,6 +22,7 @@
 #pragma once
 
 #include <exception>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -84,13 +85,30 @@ class ViewGradients {
   // throws ValueError otherwise.
   void take(int view, const std::vector<double>& values = {});
 
+  // Views evaluated concurrently (each on its own thread and tape) cannot
+  // share the params' gradients. Each view instead differentiates its own
+  // leaves, from view_leaves(): the params' values (shared storage, not
+  // copied) with a gradient of their own. take(view, leaves, values) then
+  // takes that view's contribution from them (clearing their gradients); it
+  // may be called from several threads at once, for different views.
+  //   gr::parallel_tasks(views, [&](int v) {
+  //     gr::ScopedTape tape;
+  //     std::vector<gr::Tensor> mine = grads.view_leaves();
+  //     gr::Tensor loss = render_loss(v, mine) / double(views);
+  //     gr::backward(loss);
+  //     grads.take(v, mine, {loss.item()});
+  //   });
+  std::vector<Tensor> view_leaves() const;
+  void take(int view, const std::vector<Tensor>& leaves, const std::vector<double>& values);
+
   // Gathers every view's contribution (the views this process did not take
   // come from the others), sets each param's gradient to the sum over views in
   // view order (float64, rounded once to the param's dtype) and returns the
   // summed values. Throws ValueError if some view was taken by no process or by
   // two. Afterwards the object is ready for the next iteration; keep it across
   // iterations, so its buffers (views x parameters doubles) are reused rather
-  // than allocated and paged in again.
+  // than allocated and paged in again. The calling thread's tape is left as it
+  // was (a graph recorded before reduce() can still be backpropagated).
   std::vector<double> reduce(Communicator& comm);
 
  private:
@@ -101,6 +119,7 @@ class ViewGradients {
   // Per taken view: [view index, values..., gradients...] (the gathered layout).
   std::vector<double> taken_, gathered_, sum_;
   std::vector<int> taken_views_;
+  std::mutex mutex_;  // guards taken_ and taken_views_ (take from several threads)
 };
 
 }  // namespace gr

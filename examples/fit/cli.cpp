@@ -39,6 +39,7 @@ std::string usage(const std::string& program) {
     << "  --threads N          worker threads, 0 = all (default 0)\n"
     << "  --seed N             pose mode: the pose and its start error; --fit-camera: the camera errors\n"
     << "                       (default 1)\n"
+    << "  --profile            print the loop's wall time per phase, in ms per iteration\n"
     << "  --help               this message\n"
     << "Writes snapshot_NNNN.png (target | current | |difference|, one row per view), loss.png and\n"
     << "fitted.obj (pose mode: posed.obj; with --fit texture also fitted.mtl, fitted_texture.png).\n"
@@ -53,6 +54,7 @@ CommandLine parse_command_line(const std::vector<std::string>& args) {
   using gr::cli::parse_int;
   auto set = [&](const std::string& flag, const std::string& v) {
     if (flag == "--fit-camera") o.fit_camera = true;
+    else if (flag == "--profile") cl.profile = true;
     else if (flag == "--iterations") o.iterations = parse_int(flag, v, 1, 1000000);
     else if (flag == "--size") o.size = parse_int(flag, v, 16, 4096);
     else if (flag == "--views") o.views = parse_int(flag, v, 1, 64);
@@ -73,7 +75,7 @@ CommandLine parse_command_line(const std::vector<std::string>& args) {
   };
   const gr::cli::Flags flags{{"--iterations", "--size", "--views", "--threads", "--seed", "--out", "--mesh",
                               "--texture", "--mode", "--fit", "--subdivisions"},
-                             {"--fit-camera"}};
+                             {"--fit-camera", "--profile"}};
   try {
     std::set<std::string> seen;
     if (!gr::cli::for_each_flag(args, flags, set, seen)) cl.action = CommandLine::Action::Help;

@@ -12,6 +12,7 @@ namespace fit {
 struct CommandLine {
   enum class Action { Run, Help, Error } action = Action::Run;
   FitOptions options;
+  bool profile = false;  // --profile: print where the loop's time went
   std::string error;  // for Action::Error
 };
 

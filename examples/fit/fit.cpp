@@ -15,6 +15,8 @@
 
 #include "autodiff/error.h"
 #include "autodiff/optim.h"
+#include "autodiff/parallel.h"
+#include "autodiff/tape.h"
 #include "autodiff/view_gradients.h"
 #include "examples/fit/geometry.h"
 #include "examples/fit/plot.h"
@@ -22,6 +24,7 @@
 #include "examples/fit/scene.h"
 #include "examples/fit/shading.h"
 #include "examples/fit/snapshot.h"
+#include "examples/fit/snapshot_writer.h"
 #include "ops/ops.h"
 #include "raster/image_io.h"
 #include "raster/obj_io.h"
@@ -103,7 +106,7 @@ class Run {
   void snapshot(int iteration, const std::vector<Tensor>& targets, const std::vector<Tensor>& current) {
     if (!wants_snapshot(iteration)) return;
     result_.files.push_back(in_dir(options_.out_dir, snapshot_name(iteration)));
-    write_snapshot(result_.files.back(), targets, current);
+    writer_.write(result_.files.back(), targets, current);
   }
   void step_done(int done, double loss) {
     result_.losses.push_back(loss);
@@ -113,7 +116,9 @@ class Run {
   void finish_loop() {
     if (options_.progress_bar) progress_.finish();
   }
-  void write_plot() {
+  // Waits for the snapshots (the last one included) and writes the loss plot.
+  void finish_outputs() {
+    writer_.finish();
     if (!options_.write_outputs) return;
     result_.files.push_back(in_dir(options_.out_dir, "loss.png"));
     raster::write_png(result_.files.back(), plot_loss_curve(result_.losses));
@@ -124,6 +129,7 @@ class Run {
   FitResult& result_;
   std::vector<int> snapshots_;
   ProgressBar progress_;
+  SnapshotWriter writer_;  // snapshots are written beside the loop
 };
 
 // Writes the render vertices of `mesh` at `points` (with normals; with uvs and
@@ -247,10 +253,12 @@ class CameraCorrections {
     return p;
   }
 
-  Tensor view_projection(std::size_t v) const {
+  Tensor view_projection(std::size_t v) const { return fitted() ? view_projection(v, q_[v], t_[v]) : view_projection(v, {}, {}); }
+  // With the correction (q, t) given: a view's aliases of q_[v] and t_[v] (ViewGradients::view_leaves).
+  Tensor view_projection(std::size_t v, const Tensor& q, const Tensor& t) const {
     const Camera& c = scene_.cameras[v];
     if (!fitted()) return matmul(c.projection, c.view);
-    return matmul(c.projection, matmul(rigid(q_[v], t_[v]), matmul(errors_[v], c.view)));
+    return matmul(c.projection, matmul(rigid(q, t), matmul(errors_[v], c.view)));
   }
 
   // Mean over views of what remains of the error after the correction.
@@ -270,31 +278,93 @@ class CameraCorrections {
   std::vector<Tensor> errors_, q_, t_;
 };
 
+// What the views of one step share, as leaves of their own: the render
+// vertices' positions, normals and colours (or the texture). update() computes
+// them once per step from the smoothed positions, recorded on this thread's
+// tape, and copies their values into the leaves. Each view renders from its
+// aliases of the leaves (ViewGradients::view_leaves) on a tape of its own;
+// once the views' gradients are summed into the leaves, pullback() carries
+// them on to the positions in one backward.
+class SharedSurface {
+ public:
+  SharedSurface(const SurfaceMesh& mesh, const Material& material) : mesh_(mesh), material_(material) {
+    const std::int64_t r = mesh.render_to_point.numel();
+    leaves_.push_back(Tensor::zeros({r, 3}).set_requires_grad());  // vertices
+    leaves_.push_back(Tensor::zeros({r, 3}).set_requires_grad());  // normals
+    // The texture is a fitted leaf already: the views differentiate it directly.
+    leaves_.push_back(material.texture.defined() ? material.texture : Tensor::zeros({r, 3}).set_requires_grad());
+  }
+
+  // The leaves, in the order as_surface() reads them.
+  const std::vector<Tensor>& leaves() const { return leaves_; }
+
+  void update(const Tensor& positions) {
+    recorded_ = surface(mesh_, positions, material_);
+    set_values(leaves_[0], recorded_.vertices);
+    set_values(leaves_[1], recorded_.normals);
+    if (recorded_.colours.defined()) set_values(leaves_[2], recorded_.colours);
+  }
+
+  // A view's surface from its aliases of leaves() (the first three of `leaves`).
+  Surface as_surface(const std::vector<Tensor>& leaves) const {
+    Surface s;
+    s.vertices = leaves[0], s.normals = leaves[1];
+    (material_.texture.defined() ? s.texture : s.colours) = leaves[2];
+    return s;
+  }
+
+  // sum over the recorded values of value * (its leaf's gradient): its
+  // gradient with respect to each value is the leaf's gradient, so its
+  // backward carries the views' sum on to the positions (and colours).
+  Tensor pullback() const {
+    Tensor total = sum(recorded_.vertices * leaves_[0].grad()) + sum(recorded_.normals * leaves_[1].grad());
+    if (recorded_.colours.defined()) total = total + sum(recorded_.colours * leaves_[2].grad());
+    return total;
+  }
+
+  void zero_grad() {
+    for (std::size_t i = 0; i < 2; ++i) leaves_[i].zero_grad();
+    if (!material_.texture.defined()) leaves_[2].zero_grad();
+  }
+
+ private:
+  // dst's values become src's, in place (both float32 of one shape): the
+  // leaves keep their identity from step to step.
+  static void set_values(Tensor& dst, const Tensor& src) {
+    if (src.shape() != dst.shape()) throw ShapeError("fit: the surface changed shape to " + src.describe());
+    std::copy_n(std::as_const(src).data<float>(), src.numel(), dst.data<float>());
+  }
+
+  const SurfaceMesh& mesh_;
+  const Material& material_;
+  std::vector<Tensor> leaves_;
+  Surface recorded_;
+};
+
 // One view's part of the loss (the per-pixel colour MSE plus alpha-mask MSE,
-// divided by the number of views), its image and its silhouette IoU.
+// divided by the number of views), its image and its silhouette IoU (only when
+// asked: it is logged once).
 struct ViewLoss {
   Tensor loss;
   Tensor image;
   double iou = 0;
 };
 
-ViewLoss render_view(const Scene& scene, const Targets& targets, const Tensor& positions, const Material& material,
-                     const CameraCorrections& cameras, int size, std::size_t v) {
-  const Camera& camera = scene.cameras[v];
-  const Render r =
-      render(scene.start, positions, material, cameras.view_projection(v), camera.light, scene.background, size);
+ViewLoss render_view(const Scene& scene, const Targets& targets, const Surface& surface,
+                     const Tensor& view_projection, int size, std::size_t v, bool with_iou) {
+  const Render r = render(scene.start, surface, view_projection, scene.cameras[v].light, scene.background, size);
   // Colour MSE plus the alpha masks' MSE: a flap of the surface that takes
   // the background's colour is invisible to the first term, not the second.
   const double views = double(scene.cameras.size());
   ViewLoss out;
   out.loss = (mean(pow(r.image - targets.images[v], 2.0)) + mean(pow(r.alpha - targets.alpha[v], 2.0))) / views;
   out.image = r.image.detach();
-  out.iou = coverage_iou(r.coverage, targets.coverage[v]) / views;
+  if (with_iou) out.iou = coverage_iou(r.coverage, targets.coverage[v]) / views;
   return out;
 }
 
-// Every view without gradients: the loss (summed in view order in float64, as
-// ViewGradients sums it), the images and the mean silhouette IoU.
+// Every view without gradients, concurrently: the loss (summed in view order
+// in float64, as ViewGradients sums it), the images and the mean silhouette IoU.
 struct ViewsLoss {
   double loss = 0;
   std::vector<Tensor> images;
@@ -304,21 +374,20 @@ struct ViewsLoss {
 ViewsLoss render_views(const Scene& scene, const Targets& targets, const Tensor& positions, const Material& material,
                        const CameraCorrections& cameras, int size) {
   NoGradGuard no_grad;
+  const Surface shared = surface(scene.start, positions, material);
+  const int views = static_cast<int>(scene.cameras.size());
+  std::vector<ViewLoss> each(static_cast<std::size_t>(views));
+  parallel_tasks(views, [&](int v) {
+    NoGradGuard no_grad_here;  // grad mode is per thread
+    each[v] = render_view(scene, targets, shared, cameras.view_projection(v), size, v, true);
+  });
   ViewsLoss out;
-  for (std::size_t v = 0; v < scene.cameras.size(); ++v) {
-    const ViewLoss view = render_view(scene, targets, positions, material, cameras, size, v);
+  for (const ViewLoss& view : each) {
     out.loss += view.loss.item();
     out.images.push_back(view.image);
     out.iou += view.iou;
   }
   return out;
-}
-
-// dst's values become src's, in place (both float32 of one shape): the leaf
-// that the views backpropagate into keeps its identity from step to step.
-void set_values(Tensor& dst, const Tensor& src) {
-  if (src.shape() != dst.shape()) throw ShapeError("fit: positions changed shape to " + src.describe());
-  std::copy_n(src.data<float>(), src.numel(), dst.data<float>());
 }
 
 // The test hook of the fault test (tests/mpi): GRADRASTER_FIT_FAIL_RANK=R makes
@@ -380,69 +449,88 @@ FitResult run_shape(const FitOptions& options, std::ostream& log) {
   if (cameras.fitted()) groups.push_back({cameras.parameters(), AdamOptions{options.camera_lr}});
   Adam adam(groups);
 
-  // Data parallel over views (one process without MPI): each process renders
-  // its block of views and backpropagates each view alone into `points`, a
-  // leaf copy of the positions; ViewGradients then sums every view's gradients
-  // in view order on every process, so all of them take the same Adam step and
-  // the run is bit-identical for any process count (docs/scaling.md).
+  // Data parallel over views, within a process and across processes (MPI):
+  // each process renders its block of views, concurrently, each view on its
+  // own thread and tape from its own aliases of the shared surface's leaves;
+  // ViewGradients then sums every view's gradients in view order on every
+  // process, so all of them take the same Adam step and the run is
+  // bit-identical for any thread and process count (docs/scaling.md,
+  // docs/performance.md).
   SingleProcess single_process;
   Communicator& comm = options.communicator ? *options.communicator : single_process;
   const int views = static_cast<int>(scene.cameras.size());
   const ViewRange mine = views_of_rank(views, comm.rank(), comm.size());
-  Tensor points = Tensor::zeros({mesh.num_points(), 3}).set_requires_grad();  // the positions, as a leaf
-  std::vector<Tensor> view_params{points, appearance.parameter};
+  SharedSurface shared(mesh, appearance.material);
+  std::vector<Tensor> view_params = shared.leaves();
   for (const Tensor& c : cameras.parameters()) view_params.push_back(c);
   ViewGradients view_grads(view_params, views, 2);  // values per view: loss, IoU
+  // View v's camera correction among its leaves (after the surface's three).
+  auto view_projection = [&](int v, const std::vector<Tensor>& leaves) {
+    return cameras.fitted() ? cameras.view_projection(v, leaves[3 + 2 * v], leaves[4 + 2 * v])
+                            : cameras.view_projection(v);
+  };
 
   Run run(options, iterations, log, result);
   const auto loop_start = Clock::now();
+  PhaseTimes phases;
+  phases.start();
   for (int it = 0; it < iterations; ++it) {
     // Learning rates and the Laplacian weight decay geometrically to 10% at the end.
     const double decay = std::pow(0.1, double(it) / iterations);
     for (std::size_t g = 0; g < groups.size(); ++g) adam.set_lr(g, groups[g].options.lr * decay);
 
-    {
-      NoGradGuard no_grad;
-      set_values(points, smoothed.evaluate());
-    }
+    const Tensor positions = smoothed.evaluate();
+    shared.update(positions);
+    phases.mark("positions, normals, gathers");
+
     std::vector<Tensor> images(static_cast<std::size_t>(views));
     std::exception_ptr failure;  // every process must reach the reduction, failed or not
     try {
-      for (int v = mine.begin; v < mine.end; ++v) {
-        if (it == 0 && v == mine.begin) fail_if_asked(comm);
-        const ViewLoss view = render_view(scene, targets, points, appearance.material, cameras, options.size, v);
+      if (it == 0 && mine.begin < mine.end) fail_if_asked(comm);
+      parallel_tasks(mine.end - mine.begin, [&](int i) {
+        const int v = mine.begin + i;
+        ScopedTape tape;
+        const std::vector<Tensor> leaves = view_grads.view_leaves();
+        const ViewLoss view = render_view(scene, targets, shared.as_surface(leaves), view_projection(v, leaves),
+                                          options.size, v, it == 0);
         backward(view.loss);
-        view_grads.take(v, {view.loss.item(), view.iou});
+        view_grads.take(v, leaves, {view.loss.item(), view.iou});
         images[v] = view.image;
-      }
+      });
     } catch (...) {
       failure = std::current_exception();
     }
+    phases.mark("views (render, loss, backward)");
     raise_if_any_failed(comm, failure);
     const std::vector<double> totals = view_grads.reduce(comm);  // loss, IoU
     const double loss_value = totals[0];
     if (it == 0) result.initial_iou = totals[1];
     if (!std::isfinite(loss_value)) throw ValueError("fit: the loss became " + std::to_string(loss_value));
-
-    // The smoothing and the Laplacian term, once: d/d offsets of
-    // penalty(positions) + <positions, dL/dpoints> (dL/dpoints held constant).
-    const Tensor positions = smoothed.evaluate();
-    backward(options.laplacian_weight * decay * smoothed.laplacian.penalty(positions) +
-             sum(positions * points.grad()));
-    adam.step();
-    adam.zero_grad();
-    points.zero_grad();
+    phases.mark("reduce (view order)");
 
     if (run.wants_snapshot(it)) {  // this process rendered only its own views
       NoGradGuard no_grad;
+      const Surface now = shared.as_surface(shared.leaves());
       for (int v = 0; v < views; ++v)
         if (!images[v].defined())
-          images[v] = render_view(scene, targets, points, appearance.material, cameras, options.size, v).image;
+          images[v] = render_view(scene, targets, now, cameras.view_projection(v), options.size, v, false).image;
       run.snapshot(it, targets.images, images);
     }
+    phases.mark("snapshots (hand-off)");
+
+    // The views' gradient and the Laplacian term, once: d/d offsets of
+    // penalty(positions) + <surface(positions), dL/dsurface> (dL/dsurface held constant).
+    backward(options.laplacian_weight * decay * smoothed.laplacian.penalty(positions) + shared.pullback());
+    shared.zero_grad();
+    phases.mark("Laplacian, smoothing, normals backward");
+    adam.step();
+    adam.zero_grad();
+    phases.mark("Adam");
     run.step_done(it + 1, loss_value);
+    phases.mark("progress");
   }
   const double loop_seconds = seconds_since(loop_start);
+  result.phases = phases.phases();
   run.finish_loop();
 
   // Final state: one more render of every view without gradient.
@@ -456,7 +544,7 @@ FitResult run_shape(const FitOptions& options, std::ostream& log) {
     run.snapshot(iterations, targets.images, final_views.images);
   }
   if (cameras.fitted()) cameras.mean_error(result.final_rotation_error, result.final_translation_error);
-  run.write_plot();
+  run.finish_outputs();
   if (options.write_outputs) write_fitted_mesh(options, mesh, positions, appearance.material, result);
 
   result.positions = positions.detach();
@@ -543,7 +631,7 @@ FitResult run_pose(const FitOptions& options, std::ostream& log) {
     result.positions = posed(rigid(q, t));
   }
   pose_error(result.final_rotation_error, result.final_translation_error);
-  run.write_plot();
+  run.finish_outputs();
   result.files.push_back(in_dir(options.out_dir, "posed.obj"));
   write_mesh(result.files.back(), mesh, result.positions, Tensor(), "");
 
@@ -578,15 +666,37 @@ std::vector<std::string> output_file_names(const FitOptions& options) {
   return names;
 }
 
-double coverage_iou(const Tensor& a, const Tensor& b) {
-  const std::vector<double> x = a.to_vector(), y = b.to_vector();
-  if (x.size() != y.size()) throw ShapeError("coverage_iou: masks of different sizes");
-  double both = 0, either = 0;
-  for (std::size_t i = 0; i < x.size(); ++i) {
-    const bool p = x[i] > 0.5, q = y[i] > 0.5;
-    both += p && q, either += p || q;
+namespace {
+
+// Pixels covered in both masks and in either (counts: exact in any order).
+struct OverlapCounts {
+  std::int64_t both = 0, either = 0;
+  explicit OverlapCounts(int = 0) {}
+  OverlapCounts& operator+=(const OverlapCounts& o) {
+    both += o.both, either += o.either;
+    return *this;
   }
-  return either > 0 ? both / either : 1.0;
+};
+
+const Tensor as_float32(const Tensor& t) { return t.dtype() == DType::Float32 ? t : cast(t, DType::Float32); }
+
+}  // namespace
+
+double coverage_iou(const Tensor& a, const Tensor& b) {
+  if (a.numel() != b.numel()) throw ShapeError("coverage_iou: masks of different sizes");
+  NoGradGuard no_grad;
+  const Tensor fa = as_float32(a), fb = as_float32(b);
+  const float* x = fa.data<float>();
+  const float* y = fb.data<float>();
+  const OverlapCounts n = deterministic_sum<OverlapCounts>(a.numel(), 1 << 14, [&](std::int64_t lo, std::int64_t hi) {
+    OverlapCounts c;
+    for (std::int64_t i = lo; i < hi; ++i) {
+      const bool p = x[i] > 0.5f, q = y[i] > 0.5f;
+      c.both += p && q, c.either += p || q;
+    }
+    return c;
+  });
+  return n.either > 0 ? double(n.both) / double(n.either) : 1.0;
 }
 
 FitResult run_fit(const FitOptions& options, std::ostream& log) {

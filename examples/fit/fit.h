@@ -26,6 +26,7 @@
 
 #include "autodiff/tensor.h"
 #include "autodiff/view_gradients.h"
+#include "examples/fit/phase_times.h"
 
 namespace fit {
 
@@ -90,6 +91,7 @@ struct FitResult {
   gr::Tensor colours, texture;     // the fitted appearance (one of them)
   std::vector<std::string> files;  // everything written, in order
   std::vector<std::string> inputs;  // the files read: the mesh, its MTL files and its texture, when given
+  std::vector<PhaseTime> phases;    // the optimization loop's wall time by phase (--profile prints it)
 };
 
 // Runs the optimization, writing PNG strips, a loss plot and the fitted OBJ to

@@ -11,11 +11,13 @@ if(NOT TARGET gradraster_fit)
     ${CMAKE_CURRENT_LIST_DIR}/fit_outputs.cpp
     ${CMAKE_CURRENT_LIST_DIR}/geometry.cpp
     ${CMAKE_CURRENT_LIST_DIR}/option_agreement.cpp
+    ${CMAKE_CURRENT_LIST_DIR}/phase_times.cpp
     ${CMAKE_CURRENT_LIST_DIR}/plot.cpp
     ${CMAKE_CURRENT_LIST_DIR}/progress.cpp
     ${CMAKE_CURRENT_LIST_DIR}/scene.cpp
     ${CMAKE_CURRENT_LIST_DIR}/shading.cpp
-    ${CMAKE_CURRENT_LIST_DIR}/snapshot.cpp)
+    ${CMAKE_CURRENT_LIST_DIR}/snapshot.cpp
+    ${CMAKE_CURRENT_LIST_DIR}/snapshot_writer.cpp)
   target_compile_options(gradraster_fit PRIVATE -Wall -Wextra)
   target_link_libraries(gradraster_fit PUBLIC gradraster_example_common PRIVATE gradraster_plot)
 endif()

@@ -12,6 +12,7 @@
 #include "examples/fit/option_agreement.h"
 #include "examples/fit/progress.h"
 #include "examples/fit/snapshot.h"
+#include "autodiff/parallel.h"
 #include "raster/temporaries.h"
 #ifdef GRADRASTER_FIT_MPI
 #include "examples/fit/mpi_main.h"
@@ -88,6 +89,12 @@ int run(int argc, char** argv, const fit::Job& job) {
               << (pose ? "" : ", one row per view") << "), loss.png, " << (pose ? "posed.obj" : "fitted.obj")
               << (o.appearance == fit::Appearance::Texture && !pose ? " (+ fitted.mtl, fitted_texture.png)" : "")
               << " in " << o.out_dir << "/\n";
+    if (cl.profile) {
+      out << "loop, ms per iteration (" << gr::num_threads() << " threads):\n" << std::setprecision(2);
+      for (const fit::PhaseTime& p : r.phases)
+        out << "  " << std::left << std::setw(34) << p.name << std::right << std::setw(8)
+            << 1000 * p.seconds / r.iterations << "\n";
+    }
   } catch (const gr::ProcessFailed& e) {  // every process of the job knows: each ends cleanly
     if (job.root || (job.comm && e.failed_rank == job.comm->rank())) std::cerr << program << ": " << e.what() << "\n";
     return 1;

@@ -14,25 +14,34 @@ Tensor lambert(const Tensor& albedo, const Tensor& normal, const Tensor& light, 
   return albedo * (ambient + (1.0 - ambient) * maximum(dot(normal, light), 0.0));
 }
 
-Render render(const SurfaceMesh& mesh, const Tensor& positions, const Material& material, const Tensor& view_projection,
-              const Tensor& light, const Tensor& background, int size) {
-  // Vertex data on the render vertices; normals are computed on the welded points.
-  const Tensor vertices = mesh.to_render(positions);
-  const Tensor normals = mesh.to_render(vertex_normals(positions, mesh.point_triangles));
-  const Tensor clip = transform_points(vertices, view_projection);  // [R, 4]
+Surface surface(const SurfaceMesh& mesh, const Tensor& positions, const Material& material) {
+  Surface s;
+  s.vertices = mesh.to_render(positions);
+  s.normals = mesh.to_render(vertex_normals(positions, mesh.point_triangles));
+  if (material.texture.defined()) {
+    if (!mesh.uvs.defined()) throw ValueError("fit: a texture needs a mesh with uvs");
+    s.texture = material.texture;
+  } else {
+    s.colours = mesh.to_render(material.point_colours);
+  }
+  return s;
+}
+
+Render render(const SurfaceMesh& mesh, const Surface& surface, const Tensor& view_projection, const Tensor& light,
+              const Tensor& background, int size) {
+  const Tensor clip = transform_points(surface.vertices, view_projection);  // [R, 4]
   const GBuffer gb = rasterize(clip, mesh.triangles, {size, size});
 
   Tensor albedo;  // [H, W, 3]
-  if (material.texture.defined()) {
-    if (!mesh.uvs.defined()) throw ValueError("fit: a texture needs a mesh with uvs");
+  if (surface.texture.defined()) {
     const auto uv = interpolate_with_derivatives(mesh.uvs, clip, gb, mesh.triangles);
     TextureOptions options;
     options.filter = Filter::Trilinear;
-    albedo = texture(material.texture, uv.values, options, uv.d_dx, uv.d_dy);
+    albedo = texture(surface.texture, uv.values, options, uv.d_dx, uv.d_dy);
   } else {
-    albedo = interpolate(mesh.to_render(material.point_colours), clip, gb, mesh.triangles);
+    albedo = interpolate(surface.colours, clip, gb, mesh.triangles);
   }
-  const Tensor normal = normalize(interpolate(normals, clip, gb, mesh.triangles));
+  const Tensor normal = normalize(interpolate(surface.normals, clip, gb, mesh.triangles));
 
   // Coverage from the triangle ids (no gradient); the background fills the rest.
   const Tensor covered = greater(cast(gb.tri_id, DType::Float32), Tensor::scalar(0.0));
@@ -45,6 +54,11 @@ Render render(const SurfaceMesh& mesh, const Tensor& positions, const Material& 
   aa.topology = mesh.topology;
   const Tensor rgba = antialias(concat({composited, coverage}, 2), gb, clip, mesh.triangles, aa);
   return {slice(rgba, 2, 0, 3), coverage, slice(rgba, 2, 3, 4)};
+}
+
+Render render(const SurfaceMesh& mesh, const Tensor& positions, const Material& material, const Tensor& view_projection,
+              const Tensor& light, const Tensor& background, int size) {
+  return render(mesh, surface(mesh, positions, material), view_projection, light, background, size);
 }
 
 }  // namespace fit

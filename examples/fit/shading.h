@@ -30,8 +30,25 @@ struct Render {
 // albedo * (ambient + (1 - ambient) * max(n . l, 0)), per pixel.
 Tensor lambert(const Tensor& albedo, const Tensor& normal, const Tensor& light, double ambient = 0.2);
 
-// positions [P, 3] (the mesh's points, moved), view_projection [4, 4],
-// light [3] (unit, towards the light), background [3] -> a size x size render.
+// What every view of a mesh shares, per render vertex: the positions, the
+// unit normals (computed on the welded points, so a uv seam stays smooth) and
+// the colours, or the texture. Computed once and rendered from many views.
+struct Surface {
+  Tensor vertices;  // [R, 3]
+  Tensor normals;   // [R, 3]
+  Tensor colours;   // [R, 3], or undefined when the material has a texture
+  Tensor texture;   // the material's texture, or undefined
+};
+
+// positions [P, 3] (the mesh's points, moved) -> the surface the views render.
+Surface surface(const SurfaceMesh& mesh, const Tensor& positions, const Material& material);
+
+// view_projection [4, 4], light [3] (unit, towards the light), background [3]
+// -> a size x size render of `surface`.
+Render render(const SurfaceMesh& mesh, const Surface& surface, const Tensor& view_projection, const Tensor& light,
+              const Tensor& background, int size);
+
+// One view straight from the positions: render(mesh, surface(mesh, positions, material), ...).
 Render render(const SurfaceMesh& mesh, const Tensor& positions, const Material& material, const Tensor& view_projection,
               const Tensor& light, const Tensor& background, int size);
 

@@ -14,6 +14,8 @@
 
 #include "autodiff/error.h"
 #include "autodiff/parallel.h"
+#include "autodiff/tape.h"
+#include "ops/ops.h"
 
 using namespace gr;
 
@@ -169,4 +171,45 @@ TEST_CASE("parallel: changing the thread count while another thread runs loops i
   worker.join();
   set_num_threads(0);
   CHECK(bad == 0);
+}
+
+TEST_CASE("parallel: parallel_tasks runs every task once, in order on one thread", "[autodiff][parallel]") {
+  {
+    ThreadCount one(1);
+    std::vector<int> order;
+    parallel_tasks(5, [&](int i) { order.push_back(i); });
+    CHECK(order == std::vector<int>{0, 1, 2, 3, 4});
+  }
+  ThreadCount four(4);
+  std::vector<std::atomic<int>> runs(37);
+  parallel_tasks(37, [&](int i) { ++runs[i]; });
+  for (const auto& r : runs) CHECK(r == 1);
+  parallel_tasks(0, [](int) { FAIL("no task to run"); });
+}
+
+TEST_CASE("parallel: tasks record and differentiate on their own tapes while their inner loops run in parallel",
+          "[autodiff][parallel][tape]") {
+  // Each task: loss_i = sum((x * (i + 1))^2) over a vector large enough that
+  // the elementwise ops split; d loss_i / dx = 2 (i + 1)^2 x.
+  const Tensor x0 = Tensor::full({300000}, 0.5);
+  auto gradients = [&] {
+    std::vector<double> g(6);
+    parallel_tasks(6, [&](int i) {
+      ScopedTape tape;
+      Tensor x = x0.detach().set_requires_grad();
+      backward(sum(pow(x * double(i + 1), 2.0)));
+      g[i] = x.grad().to_vector()[12345];
+    });
+    return g;
+  };
+  std::vector<double> serial;
+  {
+    ThreadCount one(1);
+    serial = gradients();
+  }
+  for (int i = 0; i < 6; ++i) CHECK(serial[i] == 2.0 * (i + 1) * (i + 1) * 0.5);
+  for (int threads : {2, 3, 8}) {
+    ThreadCount n(threads);
+    CHECK(gradients() == serial);
+  }
 }

@@ -3,10 +3,13 @@
 // simulated by threads (each records on its own tape) sharing a gather.
 #include <catch2/catch.hpp>
 
+#include <cmath>
 #include <condition_variable>
 #include <mutex>
 #include <thread>
 
+#include "autodiff/parallel.h"
+#include "autodiff/tape.h"
 #include "autodiff/view_gradients.h"
 #include "ops/ops.h"
 
@@ -159,4 +162,81 @@ TEST_CASE("view gradients: a view taken twice or by no process is refused", "[au
   SingleProcess alone;
   CHECK_THROWS_WITH(grads.reduce(alone), Catch::Contains("no process took view 1"));
   CHECK_THROWS_AS(ViewGradients({Tensor::zeros({2})}, 3), ValueError);  // not requiring grad
+}
+
+namespace {
+
+// run_member's views on one process, evaluated concurrently by parallel_tasks:
+// each view on its own tape, differentiating its own aliases of w and b.
+std::vector<double> run_concurrent_views() {
+  Tensor w = Tensor::from_values({0.3, -1.7, 2.5, 1e-3}, {4}, DType::Float32).set_requires_grad();
+  Tensor b = Tensor::from_values({0.1}, {1}, DType::Float64).set_requires_grad();
+  ViewGradients grads({w, b}, kViews, 1);
+  parallel_tasks(kViews, [&](int v) {
+    ScopedTape tape;
+    const std::vector<Tensor> mine = grads.view_leaves();
+    const double scale = std::pow(10.0, 2 * v - 6);
+    Tensor x = Tensor::from_values({scale, 1.0 / 3, -scale, 7.0}, {4}, DType::Float32);
+    Tensor loss = pow(sum(mine[0] * x), 2.0) / double(kViews) + sum(mine[1] * double(v + 1)) / double(kViews);
+    backward(loss);
+    grads.take(v, mine, {loss.item()});
+  });
+  SingleProcess one;
+  std::vector<double> out = grads.reduce(one);
+  for (double g : w.grad().to_vector()) out.push_back(g);
+  for (double g : b.grad().to_vector()) out.push_back(g);
+  return out;
+}
+
+}  // namespace
+
+TEST_CASE("view gradients: views evaluated concurrently on their own leaves give the sequential bits for any thread count",
+          "[autodiff][distributed][parallel]") {
+  const std::vector<double> sequential = run_group(1)[0];
+  for (int threads : {1, 2, 3, 8}) {
+    set_num_threads(threads);
+    INFO(threads << " threads");
+    CHECK(run_concurrent_views() == sequential);
+  }
+  set_num_threads(0);
+}
+
+TEST_CASE("view gradients: a view's leaves share the params' values but not their gradients", "[autodiff][distributed]") {
+  Tensor w = Tensor::from_values({1, 2}, {2}).set_requires_grad();
+  ViewGradients grads({w}, 2, 0);
+  const std::vector<Tensor> mine = grads.view_leaves();
+  REQUIRE(mine.size() == 1);
+  CHECK(mine[0].is_leaf());
+  CHECK(mine[0].requires_grad());
+  CHECK(mine[0].to_vector() == w.to_vector());
+  backward(sum(mine[0] * 3.0));
+  CHECK_FALSE(w.has_grad());
+  grads.take(0, mine, {});
+  CHECK_FALSE(mine[0].has_grad());  // taken: the next view starts from nothing
+}
+
+TEST_CASE("view gradients: leaves of the wrong count or shape are refused, naming the view", "[autodiff][distributed][errors]") {
+  Tensor w = Tensor::from_values({1, 2}, {2}).set_requires_grad();
+  Tensor b = Tensor::from_values({1}, {1}).set_requires_grad();
+  ViewGradients grads({w, b}, 2, 0);
+  CHECK_THROWS_WITH(grads.take(1, {w}, {}), Catch::Contains("view 1 gives 1 leaves, expected one per param (2)"));
+  CHECK_THROWS_AS(grads.take(1, {b, w}, {}), ShapeError);
+  CHECK_THROWS_WITH(grads.take(1, {b, w}, {}), Catch::Contains("view 1's leaves[0]"));
+}
+
+TEST_CASE("view gradients: reduce leaves a graph recorded before it on the caller's tape", "[autodiff][distributed][tape]") {
+  Tensor w = Tensor::from_values({1, 2}, {2}).set_requires_grad();
+  Tensor u = Tensor::from_values({3, 4}, {2}).set_requires_grad();
+  ViewGradients grads({w}, 1, 0);
+  const Tensor recorded = sum(u * u);  // before reduce, on this thread's tape
+  {
+    ScopedTape view_tape;  // the view's own recording
+    backward(sum(w * 2.0));
+    grads.take(0, {});
+  }
+  SingleProcess one;
+  grads.reduce(one);
+  CHECK(w.grad().to_vector() == std::vector<double>{2, 2});
+  backward(recorded);  // still differentiable
+  CHECK(u.grad().to_vector() == std::vector<double>{6, 8});
 }

@@ -14,6 +14,9 @@
 #include "examples/fit/fit.h"
 #include "examples/fit/geometry.h"
 #include "examples/fit/plot.h"
+#include "examples/fit/snapshot.h"
+#include "examples/fit/snapshot_writer.h"
+#include "autodiff/parallel.h"
 #include "ops/ops.h"
 #include "raster/image_io.h"
 #include "raster/obj_io.h"
@@ -73,6 +76,58 @@ TEST_CASE("fit example: a sphere fitted to 3 views for 60 steps lowers the loss 
   const raster::Mesh fitted = raster::load_obj(dir.file("out/fitted.obj"));
   CHECK(fitted.num_triangles() == r.triangles);
   CHECK(gr::testing::all_finite(fitted.positions));
+}
+
+TEST_CASE("fit example: the shape fit is the same bits for 1, 2 and 8 threads (its views run concurrently)",
+          "[examples][fit][parallel]") {
+  gr::testing::TempDir dir;
+  auto run = [&](int threads, fit::Appearance appearance) {
+    fit::FitOptions options = tiny_shape_options(dir.file("out"));
+    options.iterations = 12;
+    options.size = 32;
+    options.fit_camera = true;  // each view also differentiates its own camera correction
+    options.appearance = appearance;
+    options.texture_size = 16;
+    options.write_outputs = false;
+    options.progress_bar = false;
+    options.threads = threads;
+    std::ostringstream log;
+    return fit::run_fit(options, log);
+  };
+  for (fit::Appearance appearance : {fit::Appearance::Colours, fit::Appearance::Texture}) {
+    const fit::FitResult one = run(1, appearance);
+    for (int threads : {2, 8}) {
+      INFO(threads << " threads, " << (appearance == fit::Appearance::Texture ? "texture" : "colours"));
+      const fit::FitResult r = run(threads, appearance);
+      CHECK(r.losses == one.losses);
+      CHECK(r.initial_iou == one.initial_iou);
+      CHECK(r.final_iou == one.final_iou);
+      CHECK(r.positions.to_vector() == one.positions.to_vector());
+      const Tensor& fitted = appearance == fit::Appearance::Texture ? r.texture : r.colours;
+      CHECK(fitted.to_vector() == (appearance == fit::Appearance::Texture ? one.texture : one.colours).to_vector());
+      CHECK(r.final_rotation_error == one.final_rotation_error);
+    }
+  }
+  gr::set_num_threads(0);
+}
+
+TEST_CASE("fit example: snapshots written beside the loop are the bytes write_snapshot writes", "[examples][fit][files]") {
+  gr::testing::TempDir dir;
+  const Tensor target = Tensor::full({8, 8, 3}, 0.25), current = Tensor::full({8, 8, 3}, 0.75);
+  fit::write_snapshot(dir.file("direct.png"), {target, target}, {current, target});
+  {
+    fit::SnapshotWriter writer;
+    writer.write(dir.file("beside_1.png"), {target, target}, {current, target});
+    writer.write(dir.file("beside_2.png"), {target}, {current});
+    writer.finish();
+    CHECK(gr::testing::slurp(dir.file("beside_1.png")) == gr::testing::slurp(dir.file("direct.png")));
+    CHECK(std::filesystem::exists(dir.file("beside_2.png")));
+  }
+  // A write that fails is reported by finish(), naming the file.
+  fit::SnapshotWriter writer;
+  writer.write(dir.file("no_such_folder/x.png"), {target}, {current});
+  CHECK_THROWS_WITH(writer.finish(), Catch::Contains("no_such_folder"));
+  CHECK_THROWS(writer.finish());  // and stays reported
 }
 
 TEST_CASE("fit example: fitting a texture lowers the loss 10x and writes the texture with the OBJ",
