@@ -163,7 +163,7 @@ Scene shape_scene(const FitOptions& options) {
 
 // What every view of the reference looks like: colour, coverage and alpha.
 struct Targets {
-  std::vector<Tensor> images, coverage, alpha;
+  std::vector<Tensor> images, coverage, rgba;
 };
 
 Targets render_targets(const Scene& scene, int size) {
@@ -172,9 +172,9 @@ Targets render_targets(const Scene& scene, int size) {
   for (const Camera& camera : scene.cameras) {
     const Render r = render(scene.reference, scene.reference.positions, scene.reference_material,
                             matmul(camera.projection, camera.view), camera.light, scene.background, size);
-    targets.images.push_back(r.image);
+    targets.images.push_back(r.image());
     targets.coverage.push_back(r.coverage);
-    targets.alpha.push_back(r.alpha);
+    targets.rgba.push_back(r.rgba);
   }
   return targets;
 }
@@ -350,15 +350,16 @@ struct ViewLoss {
   double iou = 0;
 };
 
+// The image only when asked (for a snapshot).
 ViewLoss render_view(const Scene& scene, const Targets& targets, const Surface& surface,
-                     const Tensor& view_projection, int size, std::size_t v, bool with_iou) {
+                     const Tensor& view_projection, int size, std::size_t v, bool with_iou, bool with_image) {
   const Render r = render(scene.start, surface, view_projection, scene.cameras[v].light, scene.background, size);
   // Colour MSE plus the alpha masks' MSE: a flap of the surface that takes
   // the background's colour is invisible to the first term, not the second.
   const double views = double(scene.cameras.size());
   ViewLoss out;
-  out.loss = (mean(pow(r.image - targets.images[v], 2.0)) + mean(pow(r.alpha - targets.alpha[v], 2.0))) / views;
-  out.image = r.image.detach();
+  out.loss = colour_and_alpha_mse(r.rgba, targets.rgba[v]) / views;
+  if (with_image) out.image = r.image().detach();
   if (with_iou) out.iou = coverage_iou(r.coverage, targets.coverage[v]) / views;
   return out;
 }
@@ -379,7 +380,7 @@ ViewsLoss render_views(const Scene& scene, const Targets& targets, const Tensor&
   std::vector<ViewLoss> each(static_cast<std::size_t>(views));
   parallel_tasks(views, [&](int v) {
     NoGradGuard no_grad_here;  // grad mode is per thread
-    each[v] = render_view(scene, targets, shared, cameras.view_projection(v), size, v, true);
+    each[v] = render_view(scene, targets, shared, cameras.view_projection(v), size, v, true, true);
   });
   ViewsLoss out;
   for (const ViewLoss& view : each) {
@@ -492,7 +493,7 @@ FitResult run_shape(const FitOptions& options, std::ostream& log) {
         ScopedTape tape;
         const std::vector<Tensor> leaves = view_grads.view_leaves();
         const ViewLoss view = render_view(scene, targets, shared.as_surface(leaves), view_projection(v, leaves),
-                                          options.size, v, it == 0);
+                                          options.size, v, it == 0, run.wants_snapshot(it));
         backward(view.loss);
         view_grads.take(v, leaves, {view.loss.item(), view.iou});
         images[v] = view.image;
@@ -513,7 +514,7 @@ FitResult run_shape(const FitOptions& options, std::ostream& log) {
       const Surface now = shared.as_surface(shared.leaves());
       for (int v = 0; v < views; ++v)
         if (!images[v].defined())
-          images[v] = render_view(scene, targets, now, cameras.view_projection(v), options.size, v, false).image;
+          images[v] = render_view(scene, targets, now, cameras.view_projection(v), options.size, v, false, true).image;
       run.snapshot(it, targets.images, images);
     }
     phases.mark("snapshots (hand-off)");
@@ -609,13 +610,14 @@ FitResult run_pose(const FitOptions& options, std::ostream& log) {
     const Render r = render(mesh, posed(rigid(q, t)), scene.reference_material, vp, camera.light, scene.background,
                             options.size);
     if (it == 0) result.initial_iou = coverage_iou(r.coverage, target.coverage);
-    const Tensor loss = mean(pow(r.image - target.image, 2.0));
+    const Tensor image = r.image();
+    const Tensor loss = mean(pow(image - target.image(), 2.0));
     const double loss_value = loss.item();
     if (!std::isfinite(loss_value)) throw ValueError("fit: the loss became " + std::to_string(loss_value));
     backward(loss);
     optimizer.step();
     optimizer.zero_grad();
-    run.snapshot(it, {target.image}, {r.image.detach()});
+    run.snapshot(it, {target.image()}, {image.detach()});
     run.step_done(it + 1, loss_value);
   }
   const double loop_seconds = seconds_since(loop_start);
@@ -625,9 +627,9 @@ FitResult run_pose(const FitOptions& options, std::ostream& log) {
     NoGradGuard no_grad;
     const Render r = render(mesh, posed(rigid(q, t)), scene.reference_material, vp, camera.light, scene.background,
                             options.size);
-    result.losses.push_back(mse(r.image, target.image));
+    result.losses.push_back(mse(r.image(), target.image()));
     result.final_iou = coverage_iou(r.coverage, target.coverage);
-    run.snapshot(iterations, {target.image}, {r.image});
+    run.snapshot(iterations, {target.image()}, {r.image()});
     result.positions = posed(rigid(q, t));
   }
   pose_error(result.final_rotation_error, result.final_translation_error);

@@ -14,6 +14,30 @@ Tensor lambert(const Tensor& albedo, const Tensor& normal, const Tensor& light, 
   return albedo * (ambient + (1.0 - ambient) * maximum(dot(normal, light), 0.0));
 }
 
+Tensor shade_over_background_rows(const std::vector<Tensor>& rows, const std::vector<Tensor>& shared) {
+  const Tensor& coverage = rows[2];
+  return lambert(rows[0], normalize(rows[1]), shared[0]) * coverage + shared[1] * (1.0 - coverage);
+}
+
+Tensor shade_over_background(const Tensor& albedo, const Tensor& normal, const Tensor& coverage, const Tensor& light,
+                             const Tensor& background) {
+  return map_rows(shade_over_background_rows, {albedo, normal, coverage}, {light, background});
+}
+
+// Per pixel: |rgb - t|^2 / 3 + (alpha - t_alpha)^2, a dot with weights; its
+// mean over pixels is the mean over the colour channels plus the alpha's.
+Tensor colour_and_alpha_error_rows(const std::vector<Tensor>& rows, const std::vector<Tensor>&) {
+  const Tensor d = rows[0] - rows[1];
+  return dot(d, d * Tensor::from_values({1.0 / 3, 1.0 / 3, 1.0 / 3, 1.0}, {4}, d.dtype()));
+}
+
+Tensor colour_and_alpha_mse(const Tensor& rgba, const Tensor& target_rgba) {
+  return map_rows_mean(colour_and_alpha_error_rows, {rgba, target_rgba});
+}
+
+Tensor Render::image() const { return slice(rgba, 2, 0, 3); }
+Tensor Render::alpha() const { return slice(rgba, 2, 3, 4); }
+
 Surface surface(const SurfaceMesh& mesh, const Tensor& positions, const Material& material) {
   Surface s;
   s.vertices = mesh.to_render(positions);
@@ -41,19 +65,19 @@ Render render(const SurfaceMesh& mesh, const Surface& surface, const Tensor& vie
   } else {
     albedo = interpolate(surface.colours, clip, gb, mesh.triangles);
   }
-  const Tensor normal = normalize(interpolate(surface.normals, clip, gb, mesh.triangles));
+  const Tensor normal = interpolate(surface.normals, clip, gb, mesh.triangles);
 
   // Coverage from the triangle ids (no gradient); the background fills the rest.
   const Tensor covered = greater(cast(gb.tri_id, DType::Float32), Tensor::scalar(0.0));
   const Tensor coverage = reshape(covered, {size, size, 1});
-  const Tensor composited = lambert(albedo, normal, light) * coverage + background * (1.0 - coverage);
+  const Tensor composited = shade_over_background(albedo, normal, coverage, light, background);
   // The coverage goes through antialias as a fourth channel: an alpha mask
   // whose silhouette gradient does not vanish where the surface's colour
   // happens to match the background.
   AntialiasOptions aa;
   aa.topology = mesh.topology;
   const Tensor rgba = antialias(concat({composited, coverage}, 2), gb, clip, mesh.triangles, aa);
-  return {slice(rgba, 2, 0, 3), coverage, slice(rgba, 2, 3, 4)};
+  return {rgba, coverage};
 }
 
 Render render(const SurfaceMesh& mesh, const Tensor& positions, const Material& material, const Tensor& view_projection,

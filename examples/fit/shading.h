@@ -7,6 +7,8 @@
 // to copy into your own program.
 #pragma once
 
+#include <vector>
+
 #include "autodiff/tensor.h"
 #include "examples/fit/geometry.h"
 
@@ -22,13 +24,32 @@ struct Material {
 };
 
 struct Render {
-  Tensor image;     // [H, W, 3] shaded, composited over the background, antialiased
+  // [H, W, 4]: the colour (shaded, composited over the background) and the
+  // coverage as alpha, both antialiased (so differentiable at silhouettes).
+  Tensor rgba;
   Tensor coverage;  // [H, W, 1] 1 where a triangle covers the pixel centre, else 0 (no gradient)
-  Tensor alpha;     // [H, W, 1] the coverage antialiased like the image (differentiable at silhouettes)
+  Tensor image() const;  // [H, W, 3] the colour channels of rgba
+  Tensor alpha() const;  // [H, W, 1] its alpha channel
 };
 
 // albedo * (ambient + (1 - ambient) * max(n . l, 0)), per pixel.
 Tensor lambert(const Tensor& albedo, const Tensor& normal, const Tensor& light, double ambient = 0.2);
+
+// lambert(albedo, normalize(normal), light) where coverage is 1, background
+// where it is 0: albedo, normal [H, W, 3], coverage [H, W, 1], light and
+// background [3]. One fused pass over the pixels (ops/map_rows.h), the same
+// bits as the tensor ops one by one.
+Tensor shade_over_background(const Tensor& albedo, const Tensor& normal, const Tensor& coverage, const Tensor& light,
+                             const Tensor& background);
+
+// mean over pixels and channels of (rgb - target rgb)^2, plus the same of
+// alpha: the fit's image loss, as one fused pass (rgba, target_rgba [H, W, 4]).
+Tensor colour_and_alpha_mse(const Tensor& rgba, const Tensor& target_rgba);
+
+// Their per-pixel functions (gr::RowFunction: rows = the per-pixel inputs in
+// the order above, shared = light and background), e.g. for map_rows_fuses.
+Tensor shade_over_background_rows(const std::vector<Tensor>& rows, const std::vector<Tensor>& shared);
+Tensor colour_and_alpha_error_rows(const std::vector<Tensor>& rows, const std::vector<Tensor>& shared);
 
 // What every view of a mesh shares, per render vertex: the positions, the
 // unit normals (computed on the welded points, so a uv seam stays smooth) and

@@ -14,6 +14,7 @@
 #include "examples/fit/fit.h"
 #include "examples/fit/geometry.h"
 #include "examples/fit/plot.h"
+#include "examples/fit/shading.h"
 #include "examples/fit/snapshot.h"
 #include "examples/fit/snapshot_writer.h"
 #include "autodiff/parallel.h"
@@ -256,6 +257,43 @@ TEST_CASE("fit example: gradients of vertex normals and of the Laplacian penalty
   gr::testing::require_gradcheck("laplacian penalty", [&](const std::vector<Tensor>& in) {
     return laplacian.penalty(in[0]);
   }, {p});
+}
+
+TEST_CASE("fit example: shading and the loss run as fused passes with the tensor ops' values and gradients",
+          "[examples][fit][gradcheck]") {
+  const Tensor albedo = gr::testing::random_input({5, 7, 3}, 0, 1, 11);
+  const Tensor normal = gr::testing::random_input({5, 7, 3}, -1, 1, 12);
+  Tensor coverage = gr::testing::random_input({5, 7, 1}, 0, 1, 13).detach();
+  coverage = cast(greater(coverage, Tensor::scalar(0.5)), DType::Float64);  // 0 or 1, as a G-buffer's coverage
+  const Tensor light = Tensor::from_values({0.36, 0.48, 0.8}, {3}, DType::Float64);
+  const Tensor background = Tensor::from_values({0.1, 0.2, 0.3}, {3}, DType::Float64);
+  const Tensor rgba = gr::testing::random_input({6, 5, 4}, 0, 1, 14);
+  const Tensor target = gr::testing::random_input({6, 5, 4}, 0, 1, 15).detach();
+
+  // Fused (in float32, at an image size, as the fit runs them), so the passes
+  // really replace the ops one by one ...
+  const auto image = [](std::int64_t c, std::uint64_t seed) {
+    return cast(gr::testing::random_input({32, 32, c}, 0, 1, seed), DType::Float32).detach().set_requires_grad();
+  };
+  const auto f32 = [](const Tensor& t) { return cast(t, DType::Float32).detach(); };
+  CHECK(map_rows_fuses(fit::shade_over_background_rows, {image(3, 1), image(3, 2), image(1, 3).detach()},
+                       {f32(light), f32(background)}));
+  CHECK(map_rows_fuses(fit::colour_and_alpha_error_rows, {image(4, 4), image(4, 5).detach()}));
+  // ... with their values: the shading bit for bit, the loss up to its summation order.
+  {
+    NoGradGuard no_grad;
+    const Tensor eager = fit::lambert(albedo, normalize(normal), light) * coverage + background * (1.0 - coverage);
+    CHECK(fit::shade_over_background(albedo, normal, coverage, light, background).to_vector() == eager.to_vector());
+    const Tensor rgb_mse = mean(pow(slice(rgba, 2, 0, 3) - slice(target, 2, 0, 3), 2.0));
+    const Tensor alpha_mse = mean(pow(slice(rgba, 2, 3, 4) - slice(target, 2, 3, 4), 2.0));
+    CHECK(fit::colour_and_alpha_mse(rgba, target).item() == Approx((rgb_mse + alpha_mse).item()).epsilon(1e-14));
+  }
+  gr::testing::require_gradcheck("shade_over_background", [&](const std::vector<Tensor>& in) {
+    return fit::shade_over_background(in[0], in[1], coverage, light, background);
+  }, {albedo, normal});
+  gr::testing::require_gradcheck("colour_and_alpha_mse", [&](const std::vector<Tensor>& in) {
+    return fit::colour_and_alpha_mse(in[0], target);
+  }, {rgba});
 }
 
 TEST_CASE("fit example: the loss plot has the requested size and draws the curve", "[examples][fit]") {
