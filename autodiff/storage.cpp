@@ -3,6 +3,10 @@
 #include "autodiff/error.h"
 #include "autodiff/memory.h"
 
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
+
 #include <algorithm>
 #include <cassert>
 #include <cstdlib>
@@ -43,7 +47,9 @@ struct Cache {
 };
 
 Cache& cache() {
-  static Cache* c = new Cache();  // never destroyed: tensors may outlive static destructors
+  // Never destroyed: tensors may outlive static destructors. Big buffers then
+  // come back from malloc without fresh pages, cached or not (autodiff/memory.h).
+  static Cache* c = (tune_malloc(), new Cache());
   return *c;
 }
 
@@ -184,6 +190,9 @@ void release_cached_storage() {
     evict_all_locked(c, evicted);
   }
   free_all(evicted);
+#if defined(__GLIBC__)
+  if (tune_malloc()) malloc_trim(0);  // the tuned heap keeps freed memory: give it back too
+#endif
 }
 
 std::size_t memory_in_use() {

@@ -61,7 +61,9 @@ struct StorageStats {
 StorageStats storage_stats();
 // The most bytes the cache holds: memory_limit() / 4, read when a buffer is given back.
 std::size_t storage_cache_limit();
-// Returns every cached buffer to the system allocator.
+// Returns every cached buffer to the system allocator and, where malloc is
+// tuned to keep freed memory (tune_malloc(), autodiff/memory.h), asks it to
+// return its free memory to the system (malloc_trim).
 void release_cached_storage();
 // Starts a new peak: peak_live_bytes = live_bytes (benchmarks measure a step's peak).
 void reset_storage_peak();

@@ -1,5 +1,9 @@
 #include <catch2/catch.hpp>
 
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
+
 #include <atomic>
 #include <cstdlib>
 #include <new>
@@ -137,6 +141,22 @@ TEST_CASE("storage: lowering the memory limit shrinks the cache when a buffer is
   ScopedMemoryLimit limit(memory_in_use() + 100 * kMiB);  // cap: a quarter of it, under 96 MiB
   { Tensor small = Tensor::empty({1024}); }
   CHECK(storage_stats().cached_bytes <= std::int64_t(storage_cache_limit()));
+}
+
+TEST_CASE("memory: once malloc is tuned, a 48 MiB block comes from its heap, not a fresh mapping",
+          "[autodiff][memory]") {
+#if defined(__GLIBC__) && (__GLIBC__ > 2 || __GLIBC_MINOR__ >= 33)
+  if (!tune_malloc()) {
+    WARN("malloc is not tuned (GRADRASTER_MALLOC_DEFAULTS=1, or a sanitizer's allocator): nothing to check");
+    return;
+  }
+  const std::size_t mapped = mallinfo2().hblkhd;
+  void* volatile block = std::malloc(48 * kMiB);  // volatile: the pair must not be optimized away
+  REQUIRE(block != nullptr);
+  CHECK(mallinfo2().hblkhd == mapped);
+  std::free(block);
+  CHECK(tune_malloc());  // applied once; later calls give the same answer
+#endif
 }
 
 TEST_CASE("memory: check_memory_request names the request and the limit", "[autodiff][memory][errors]") {
