@@ -1,10 +1,15 @@
 #include "autodiff/memory.h"
 
 #include <unistd.h>
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 
+#include <algorithm>
 #include <atomic>
 #include <cerrno>
 #include <cstdlib>
+#include <cstring>
 #include <limits>
 
 #include "autodiff/error.h"
@@ -94,6 +99,22 @@ void detail::throw_allocation_failure(const std::string& what) {
   throw MemoryError(what + ": the system refused to allocate scratch memory (" + mib(memory_in_use()) +
                     " of tensor storage in use, memory limit " + mib(memory_limit()) +
                     "); make the request smaller or free memory");
+}
+
+bool tune_malloc() {
+  static const bool applied = [] {  // once per process; thread-safe (a function-local static)
+#if defined(__GLIBC__)
+    const char* defaults = std::getenv("GRADRASTER_MALLOC_DEFAULTS");
+    if (defaults && std::strcmp(defaults, "1") == 0) return false;
+    const int keep = static_cast<int>(std::clamp(physical_memory() / 16, std::size_t(32) << 20, std::size_t(1) << 30));
+    // Older glibc refuses a threshold above 32 MiB (HEAP_MAX_SIZE / 2): then no block is mapped.
+    const bool from_heap = mallopt(M_MMAP_THRESHOLD, keep) == 1 || mallopt(M_MMAP_MAX, 0) == 1;
+    return mallopt(M_TRIM_THRESHOLD, keep) == 1 && from_heap;
+#else
+    return false;
+#endif
+  }();
+  return applied;
 }
 
 void check_memory_request(std::size_t bytes, const std::string& what) {

@@ -12,6 +12,12 @@
 // 1024, optionally followed by B or iB) overrides the default; it is read when
 // the limit is first needed and by set_memory_limit(0), and a malformed value
 // throws ValueError naming it. set_memory_limit(bytes) overrides both.
+//
+// Freed memory is kept for reuse at two levels, because on virtual machines
+// faulting in fresh pages can cost as much as the rendering (docs/performance.md,
+// "Memory"): the storage cache (autodiff/storage.h) keeps tensor buffers, and
+// tune_malloc() asks glibc's malloc to keep large freed blocks in its heap
+// instead of mapping and unmapping them for every request.
 #pragma once
 
 #include <cstddef>
@@ -32,6 +38,19 @@ std::size_t memory_in_use();
 void check_memory_request(std::size_t bytes, const std::string& what);
 // Parses a size such as "8G", "512M", "1048576"; throws ValueError naming `what`.
 std::size_t parse_memory_size(const std::string& text, const std::string& what);
+
+// Asks glibc's malloc (process-wide: it also serves the libraries in the process,
+// torch's CPU tensors included) to serve blocks up to K bytes from its heap and to
+// keep up to K bytes of free heap top for reuse, K = RAM / 16 between 32 MiB and
+// 1 GiB. glibc's defaults map every block above 32 MiB afresh and unmap it on
+// free, so a loop that allocates a 2048 x 2048 texture's gradient faults 48 MiB
+// of new pages every iteration. The cost: the resident set stays near its peak
+// (release_cached_storage() hands the free heap back). Applied once per process,
+// by the first call (the storage cache's first use, `import gradraster.torch`);
+// returns whether the settings are in force: false when the environment variable
+// GRADRASTER_MALLOC_DEFAULTS is 1 (glibc's defaults kept), with another C library,
+// or where the sanitizers' allocators ignore mallopt.
+bool tune_malloc();
 
 namespace detail {
 // The error check_memory_request throws (also used by the storage cache).

@@ -3,21 +3,23 @@
 #include "autodiff/error.h"
 #include "autodiff/memory.h"
 
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
+
 #include <algorithm>
+#include <cassert>
 #include <cstdlib>
+#include <iterator>
+#include <list>
 #include <map>
 #include <mutex>
 #include <new>
-#include <vector>
 
 namespace gr {
 namespace {
 
 constexpr std::size_t kAlignment = 64;
-// Buffers larger than this are not cached: holding on to them would pin memory
-// that the rest of the program may need.
-constexpr std::size_t kMaxCachedBuffer = std::size_t(1) << 31;
-constexpr std::size_t kMaxCachedTotal = std::size_t(4) << 30;
 
 // Rounds a request up to a bucket: the next multiple of 64 below 4 KiB, else the
 // next power-of-two quarter step (so at most 25% of a buffer is wasted).
@@ -29,26 +31,59 @@ std::size_t bucket_size(std::size_t bytes) {
   return (bytes + step - 1) / step * step;
 }
 
+// The cached buffers, oldest first (`recent`), and by size (`by_size`). Among
+// buffers of one size `by_size` keeps the order they were cached in (a multimap
+// inserts equal keys last), and reuse takes the newest, so the oldest buffer of
+// the oldest entry's size is always by_size.lower_bound(its size).
+using Entry = std::pair<std::size_t, void*>;  // bytes, buffer
+using Entries = std::list<Entry>;
+
 struct Cache {
   std::mutex mutex;
-  std::multimap<std::size_t, void*> free_buffers;
+  Entries recent;
+  std::multimap<std::size_t, Entries::iterator> by_size;
   StorageStats stats;
   std::size_t in_use = 0;  // bytes of live and cached buffers (the memory budget's count)
 };
 
 Cache& cache() {
-  static Cache* c = new Cache();  // never destroyed: tensors may outlive static destructors
+  // Never destroyed: tensors may outlive static destructors. Big buffers then
+  // come back from malloc without fresh pages, cached or not (autodiff/memory.h).
+  static Cache* c = (tune_malloc(), new Cache());
   return *c;
 }
 
-// Empties the cache (c.mutex held) and returns its buffers, to be freed after unlocking.
-std::vector<void*> take_cached_locked(Cache& c) {
-  std::vector<void*> taken;
-  for (auto& kv : c.free_buffers) taken.push_back(kv.second);
-  c.free_buffers.clear();
-  c.in_use -= static_cast<std::size_t>(c.stats.cached_bytes);
-  c.stats.cached_bytes = 0;
-  return taken;
+// Takes a cached buffer of exactly `bytes` out of the cache (c.mutex held), or null.
+void* take_cached_locked(Cache& c, std::size_t bytes) {
+  const auto end = c.by_size.upper_bound(bytes);
+  if (end == c.by_size.begin() || std::prev(end)->first != bytes) return nullptr;
+  const auto it = std::prev(end);  // the newest of its size: likely still in the CPU's caches
+  void* p = it->second->second;
+  c.recent.erase(it->second);
+  c.by_size.erase(it);
+  c.stats.cached_bytes -= static_cast<std::int64_t>(bytes);
+  return p;
+}
+
+// Moves the buffer cached longest ago out of the cache and out of the budget's
+// count into `out` (c.mutex held; a splice, so no allocation in ~Storage).
+void evict_oldest_locked(Cache& c, Entries& out) {
+  const std::size_t bytes = c.recent.front().first;
+  const auto it = c.by_size.lower_bound(bytes);
+  assert(it->second == c.recent.begin());
+  c.by_size.erase(it);
+  out.splice(out.end(), c.recent, c.recent.begin());
+  c.stats.cached_bytes -= static_cast<std::int64_t>(bytes);
+  c.in_use -= bytes;
+}
+
+void evict_all_locked(Cache& c, Entries& out) {
+  while (!c.recent.empty()) evict_oldest_locked(c, out);
+}
+
+// Frees evicted buffers (after unlocking: freeing a large one unmaps it).
+void free_all(const Entries& evicted) {
+  for (const Entry& e : evicted) std::free(e.second);
 }
 
 // Counts `bytes` against the memory budget, giving the cached buffers back
@@ -57,15 +92,15 @@ std::vector<void*> take_cached_locked(Cache& c) {
 void reserve(Cache& c, std::size_t bytes) {
   const std::size_t limit = memory_limit();
   auto fits = [&] { return bytes <= limit && c.in_use <= limit - bytes; };
-  std::vector<void*> released;
+  Entries released;
   std::size_t used = 0;
   {
     std::lock_guard<std::mutex> lock(c.mutex);
-    if (!fits()) released = take_cached_locked(c);
+    if (!fits()) evict_all_locked(c, released);
     used = c.in_use;
     if (fits()) c.in_use += bytes;
   }
-  for (void* p : released) std::free(p);
+  free_all(released);
   if (bytes > limit || used > limit - bytes) throw detail::memory_limit_error(bytes, "a tensor buffer", used, limit);
 }
 
@@ -90,12 +125,9 @@ Storage::Storage(std::size_t bytes) {
   Cache& c = cache();
   {
     std::lock_guard<std::mutex> lock(c.mutex);
-    auto it = c.free_buffers.find(bytes_);
-    if (it != c.free_buffers.end()) {
-      ptr_ = it->second;
-      c.free_buffers.erase(it);
+    ptr_ = take_cached_locked(c, bytes_);
+    if (ptr_) {
       c.stats.reused++;
-      c.stats.cached_bytes -= static_cast<std::int64_t>(bytes_);
       count_live(c, static_cast<std::int64_t>(bytes_));
       return;
     }
@@ -117,19 +149,23 @@ Storage::Storage(std::size_t bytes) {
 
 Storage::~Storage() {
   Cache& c = cache();
+  const std::size_t cap = storage_cache_limit();
+  const bool kept = bytes_ <= cap;
+  Entries evicted;
   {
     std::lock_guard<std::mutex> lock(c.mutex);
     count_live(c, -static_cast<std::int64_t>(bytes_));
-    const bool cacheable = bytes_ <= kMaxCachedBuffer && c.stats.cached_bytes + static_cast<std::int64_t>(bytes_) <=
-                                                         static_cast<std::int64_t>(kMaxCachedTotal);
-    if (cacheable) {
-      c.free_buffers.emplace(bytes_, ptr_);
+    // Room under the cap (which follows the memory limit): the buffers cached longest ago go first.
+    while (static_cast<std::size_t>(c.stats.cached_bytes) + (kept ? bytes_ : 0) > cap) evict_oldest_locked(c, evicted);
+    if (kept) {
+      c.by_size.emplace(bytes_, c.recent.emplace(c.recent.end(), bytes_, ptr_));
       c.stats.cached_bytes += static_cast<std::int64_t>(bytes_);
-      return;
+    } else {
+      c.in_use -= bytes_;
     }
   }
-  unreserve(c, bytes_);
-  std::free(ptr_);
+  free_all(evicted);
+  if (!kept) std::free(ptr_);
 }
 
 StorageStats storage_stats() {
@@ -144,14 +180,19 @@ void reset_storage_peak() {
   c.stats.peak_live_bytes = c.stats.live_bytes;
 }
 
+std::size_t storage_cache_limit() { return memory_limit() / 4; }
+
 void release_cached_storage() {
   Cache& c = cache();
-  std::vector<void*> to_free;
+  Entries evicted;
   {
     std::lock_guard<std::mutex> lock(c.mutex);
-    to_free = take_cached_locked(c);
+    evict_all_locked(c, evicted);
   }
-  for (void* p : to_free) std::free(p);
+  free_all(evicted);
+#if defined(__GLIBC__)
+  if (tune_malloc()) malloc_trim(0);  // the tuned heap keeps freed memory: give it back too
+#endif
 }
 
 std::size_t memory_in_use() {

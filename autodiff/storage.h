@@ -5,6 +5,15 @@
 // iteration. `storage_stats()` counts fresh allocations so tests and benchmarks
 // can verify that.
 //
+// The cache keeps buffers of any size (a 2048 x 2048 texture's gradient as well
+// as a scalar) up to storage_cache_limit() bytes in all, a quarter of the memory
+// limit (autodiff/memory.h): a loop whose buffers fit stops faulting in fresh
+// pages, and an idle process holds at most that much for reuse. To make room
+// the buffers cached longest ago go back to the system allocator first; a
+// request that would pass the memory limit empties the whole cache first, and
+// release_cached_storage() empties it on demand. A recycled buffer is handed
+// out as it was left, never cleared (Tensor::zeros clears, Tensor::empty not).
+//
 // Each Storage counts the in-place writes made into it (its version): the
 // non-const Tensor::data<T>() bumps it, the gradient tape saves it when it
 // records a tensor, and backward() refuses a recorded tensor written since
@@ -50,7 +59,11 @@ struct StorageStats {
 };
 
 StorageStats storage_stats();
-// Returns every cached buffer to the system allocator.
+// The most bytes the cache holds: memory_limit() / 4, read when a buffer is given back.
+std::size_t storage_cache_limit();
+// Returns every cached buffer to the system allocator and, where malloc is
+// tuned to keep freed memory (tune_malloc(), autodiff/memory.h), asks it to
+// return its free memory to the system (malloc_trim).
 void release_cached_storage();
 // Starts a new peak: peak_live_bytes = live_bytes (benchmarks measure a step's peak).
 void reset_storage_peak();

@@ -6,6 +6,7 @@
 #include <pybind11/stl.h>
 
 #include "autodiff/error.h"
+#include "autodiff/memory.h"
 #include "autodiff/parallel.h"
 #include "python/src/antialias.h"
 #include "python/src/image.h"
@@ -13,28 +14,8 @@
 #include "python/src/rasterize.h"
 #include "python/src/texture.h"
 
-#if defined(__GLIBC__)
-#include <malloc.h>
-#endif
-
 namespace py = pybind11;
 using namespace gr::python;
-
-namespace {
-
-// Asks glibc to keep freed blocks up to 32 MiB in the heap and not to return
-// the heap's top below 256 MiB to the system, so the image-sized tensors an
-// optimization loop allocates every iteration reuse their pages instead of
-// faulting fresh ones (docs/python.md, "Memory"). Returns whether it applied.
-bool keep_freed_memory() {
-#if defined(__GLIBC__)
-  return mallopt(M_MMAP_THRESHOLD, 32 << 20) == 1 && mallopt(M_TRIM_THRESHOLD, 256 << 20) == 1;
-#else
-  return false;
-#endif
-}
-
-}  // namespace
 
 PYBIND11_MODULE(_core, m) {
   m.doc() = "gradraster's C++ kernels for gradraster.torch (internal; use gradraster.torch)";
@@ -59,7 +40,9 @@ PYBIND11_MODULE(_core, m) {
     }
   });
 
-  m.def("keep_freed_memory", &keep_freed_memory);
+  // Keep freed memory for reuse (gr::tune_malloc, docs/python.md "Memory");
+  // returns whether glibc's malloc is tuned (False with GRADRASTER_MALLOC_DEFAULTS=1).
+  m.def("keep_freed_memory", &gr::tune_malloc);
   m.attr("MAX_THREADS") = gr::kMaxThreads;
 
   py::class_<Mesh>(m, "Mesh")

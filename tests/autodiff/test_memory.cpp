@@ -1,5 +1,9 @@
 #include <catch2/catch.hpp>
 
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
+
 #include <atomic>
 #include <cstdlib>
 #include <new>
@@ -21,6 +25,9 @@ struct ScopedMemoryLimit {
   explicit ScopedMemoryLimit(std::size_t bytes) { set_memory_limit(bytes); }
   ~ScopedMemoryLimit() { set_memory_limit(0); }
 };
+
+// Where a tensor's buffer starts (the const data<T>(), so no version bump).
+const void* address(const Tensor& t) { return t.data<float>(); }
 
 }  // namespace
 
@@ -62,6 +69,94 @@ TEST_CASE("memory: cached buffers are released before a request is refused", "[a
   ScopedMemoryLimit limit(memory_in_use() + 8 * kMiB);
   Tensor b = Tensor::empty({6 << 20});
   CHECK(storage_stats().cached_bytes < std::int64_t(32 * kMiB));
+}
+
+TEST_CASE("memory: a request past the limit empties the whole cache, large buffers included, before it is served",
+          "[autodiff][memory][storage]") {
+  release_cached_storage();
+  {
+    Tensor a = Tensor::empty({12 << 20}), b = Tensor::empty({12 << 20});  // 48 MiB each, then cached
+  }
+  REQUIRE(storage_stats().cached_bytes >= std::int64_t(96 * kMiB));
+  ScopedMemoryLimit limit(memory_in_use() - 96 * kMiB + 64 * kMiB);  // 64 MiB fit only without the cache
+  Tensor c = Tensor::empty({16 << 20});
+  CHECK(storage_stats().cached_bytes == 0);
+}
+
+TEST_CASE("storage: a 48 MiB buffer given back is served again from the cache, not allocated afresh",
+          "[autodiff][memory][storage]") {
+  release_cached_storage();
+  const void* first = nullptr;
+  {
+    Tensor a = Tensor::empty({12 << 20});  // 48 MiB: above glibc's 32 MiB mmap ceiling
+    first = address(a);
+  }
+  const StorageStats before = storage_stats();
+  CHECK(before.cached_bytes >= std::int64_t(48 * kMiB));
+  Tensor b = Tensor::empty({12 << 20});
+  CHECK(address(b) == first);  // the same pages, already faulted in
+  CHECK(storage_stats().reused == before.reused + 1);
+  CHECK(storage_stats().fresh_allocations == before.fresh_allocations);
+}
+
+TEST_CASE("storage: the cache never holds more than a quarter of the memory limit, giving back the oldest buffers first",
+          "[autodiff][memory][storage]") {
+  release_cached_storage();
+  ScopedMemoryLimit limit(memory_in_use() + 400 * kMiB);
+  const std::size_t cap = storage_cache_limit();
+  CHECK(cap == memory_limit() / 4);
+  const std::int64_t buffer = 48 * kMiB;
+  REQUIRE(cap >= 2 * std::size_t(buffer));  // room for two 48 MiB buffers, not three
+  REQUIRE(cap < 3 * std::size_t(buffer));
+  const void* given_back[3];
+  {
+    Tensor t[3] = {Tensor::empty({12 << 20}), Tensor::empty({12 << 20}), Tensor::empty({12 << 20})};
+    for (int i = 0; i < 3; ++i) given_back[i] = address(t[i]);
+    for (Tensor& x : t) {
+      x = Tensor();  // given back in order 0, 1, 2
+      CHECK(storage_stats().cached_bytes <= std::int64_t(cap));
+    }
+  }
+  CHECK(storage_stats().cached_bytes == 2 * buffer);
+  // The newest of a size is reused first; buffer 0 went back to the system to make room for 2.
+  const std::int64_t fresh = storage_stats().fresh_allocations;
+  Tensor x = Tensor::empty({12 << 20}), y = Tensor::empty({12 << 20});
+  CHECK(address(x) == given_back[2]);
+  CHECK(address(y) == given_back[1]);
+  CHECK(storage_stats().fresh_allocations == fresh);
+  Tensor z = Tensor::empty({12 << 20});
+  CHECK(storage_stats().fresh_allocations == fresh + 1);
+  // A buffer larger than the cap is not cached at all.
+  const std::size_t in_use = memory_in_use();
+  { Tensor big = Tensor::empty({std::int64_t(cap / 4) + 1}); }
+  CHECK(storage_stats().cached_bytes == 0);  // nothing else was cached
+  CHECK(memory_in_use() == in_use);
+}
+
+TEST_CASE("storage: lowering the memory limit shrinks the cache when a buffer is next given back",
+          "[autodiff][memory][storage]") {
+  release_cached_storage();
+  { Tensor a = Tensor::empty({12 << 20}), b = Tensor::empty({12 << 20}); }  // 96 MiB cached
+  REQUIRE(storage_stats().cached_bytes >= std::int64_t(96 * kMiB));
+  ScopedMemoryLimit limit(memory_in_use() + 100 * kMiB);  // cap: a quarter of it, under 96 MiB
+  { Tensor small = Tensor::empty({1024}); }
+  CHECK(storage_stats().cached_bytes <= std::int64_t(storage_cache_limit()));
+}
+
+TEST_CASE("memory: once malloc is tuned, a 48 MiB block comes from its heap, not a fresh mapping",
+          "[autodiff][memory]") {
+#if defined(__GLIBC__) && (__GLIBC__ > 2 || __GLIBC_MINOR__ >= 33)
+  if (!tune_malloc()) {
+    WARN("malloc is not tuned (GRADRASTER_MALLOC_DEFAULTS=1, or a sanitizer's allocator): nothing to check");
+    return;
+  }
+  const std::size_t mapped = mallinfo2().hblkhd;
+  void* volatile block = std::malloc(48 * kMiB);  // volatile: the pair must not be optimized away
+  REQUIRE(block != nullptr);
+  CHECK(mallinfo2().hblkhd == mapped);
+  std::free(block);
+  CHECK(tune_malloc());  // applied once; later calls give the same answer
+#endif
 }
 
 TEST_CASE("memory: check_memory_request names the request and the limit", "[autodiff][memory][errors]") {

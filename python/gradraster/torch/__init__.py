@@ -2,8 +2,6 @@
 then `glctx = dr.RasterizeCpuContext()` where nvdiffrast code creates a
 RasterizeCudaContext, and CPU tensors. The names RasterizeCudaContext and
 RasterizeGLContext exist too; constructing either gives a CPU context."""
-import os as _os
-
 from .. import _core as _gradraster_core
 from .ops import (RasterizeCpuContext, RasterizeCudaContext, RasterizeGLContext, rasterize, DepthPeeler,
                   interpolate, texture, texture_construct_mip, antialias, antialias_construct_topology_hash,
@@ -14,6 +12,6 @@ __all__ = ['RasterizeCpuContext', 'RasterizeCudaContext', 'RasterizeGLContext', 
            'visibility_antialias']
 
 # Fresh pages are expensive, and every iteration of a fitting loop allocates
-# image-sized tensors: keep freed memory for reuse (docs/python.md, "Memory").
-if _os.environ.get('GRADRASTER_MALLOC_DEFAULTS') != '1':
-    _gradraster_core.keep_freed_memory()
+# image- and texture-sized tensors: keep freed memory for reuse (docs/python.md,
+# "Memory"; GRADRASTER_MALLOC_DEFAULTS=1 keeps glibc's defaults).
+_gradraster_core.keep_freed_memory()
