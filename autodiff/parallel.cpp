@@ -10,6 +10,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
+#include <algorithm>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -82,6 +83,12 @@ struct BodyScope {
 
 }  // namespace
 
+std::int64_t parallel_chunk(std::int64_t n, std::int64_t grain, int threads) {
+  grain = std::max<std::int64_t>(grain, 1);
+  const std::int64_t chunks = kChunksPerThread * std::max(threads, 1);
+  return std::clamp((n + chunks - 1) / chunks, (grain + kGrainSplit - 1) / kGrainSplit, grain);
+}
+
 void parallel_for(std::int64_t begin, std::int64_t end, std::int64_t grain,
                   const std::function<void(std::int64_t, std::int64_t)>& body) {
   if (end <= begin) return;
@@ -97,7 +104,9 @@ void parallel_for(std::int64_t begin, std::int64_t end, std::int64_t grain,
       ~Join() { sync.after_join(); }
     } join{sync};
     sync.before_fork();
-    tbb::parallel_for(tbb::blocked_range<std::int64_t>(begin, end, static_cast<std::size_t>(grain)),
+    // The arena's thread count: the top-level one, or the outer loop's for a nested call.
+    const std::int64_t chunk = parallel_chunk(end - begin, grain, tbb::this_task_arena::max_concurrency());
+    tbb::parallel_for(tbb::blocked_range<std::int64_t>(begin, end, static_cast<std::size_t>(chunk)),
                       [&](const tbb::blocked_range<std::int64_t>& r) {
                         BodyScope scope(&sync);
                         body(r.begin(), r.end());

@@ -11,6 +11,8 @@
 #include <algorithm>
 #include <cstring>
 #include <string>
+#include <type_traits>
+#include <utility>
 
 #include "autodiff/parallel.h"
 #include "autodiff/tape.h"
@@ -35,6 +37,30 @@ void check_defined(const Tensor& t, const std::string& op, const std::string& na
 // Rows per parallel chunk when each row moves `inner` elements.
 std::int64_t copy_grain(std::int64_t inner) {
   return std::max<std::int64_t>(1, kElementwiseGrain / std::max<std::int64_t>(1, inner));
+}
+
+// For r in [lo, hi): copies `len` elements from src_of(r) to dst_of(r). Runs
+// of 1-4 elements (image channels, xyz rows) get a loop of fixed length: no
+// library call and no division per element.
+template <class SrcOf, class DstOf>
+void copy_rows(std::int64_t len, std::int64_t lo, std::int64_t hi, SrcOf src_of, DstOf dst_of) {
+  auto fixed = [&](auto length) {
+    constexpr int L = decltype(length)::value;
+    for (std::int64_t r = lo; r < hi; ++r) {
+      const auto* s = src_of(r);
+      auto* d = dst_of(r);
+      for (int k = 0; k < L; ++k) d[k] = s[k];
+    }
+  };
+  switch (len) {
+    case 0: return;
+    case 1: return fixed(std::integral_constant<int, 1>());
+    case 2: return fixed(std::integral_constant<int, 2>());
+    case 3: return fixed(std::integral_constant<int, 3>());
+    case 4: return fixed(std::integral_constant<int, 4>());
+    default:
+      for (std::int64_t r = lo; r < hi; ++r) std::copy_n(src_of(r), len, dst_of(r));
+  }
 }
 
 // A tensor sharing t's storage under another shape (not recorded).
@@ -69,33 +95,46 @@ void join_raw(const std::vector<Tensor>& parts, const std::vector<std::int64_t>&
   dispatch_any(out.dtype(), [&](auto tag) {
     using T = decltype(tag);
     T* o = out.data<T>();
-    std::int64_t offset = 0;
-    for (std::size_t i = 0; i < parts.size(); ++i) {
-      const T* src = parts[i].data<T>();
-      const std::int64_t c = chunk[i];
-      // out[r, offset : offset + c] = part_i[r, :].
-      parallel_for(0, c == 0 ? 0 : outer, copy_grain(c), [&](std::int64_t lo, std::int64_t hi) {
-        for (std::int64_t r = lo; r < hi; ++r) std::copy(src + r * c, src + (r + 1) * c, o + r * total + offset);
-      });
-      offset += c;
-    }
+    // out[r, offset_i : offset_i + c_i] = part_i[r, :], every part for a block of rows at a time.
+    parallel_for(0, total == 0 ? 0 : outer, copy_grain(total), [&](std::int64_t lo, std::int64_t hi) {
+      std::int64_t offset = 0;
+      for (std::size_t i = 0; i < parts.size(); ++i) {
+        const T* src = std::as_const(parts[i]).data<T>();
+        const std::int64_t c = chunk[i];
+        copy_rows(c, lo, hi, [=](std::int64_t r) { return src + r * c; },
+                  [=](std::int64_t r) { return o + r * total + offset; });
+        offset += c;
+      }
+    });
   });
 }
 
-// Part [outer, c] of g at column `offset`, with shape `shape`.
-Tensor split_raw(const Tensor& g, std::int64_t outer, std::int64_t offset, std::int64_t c, const Shape& shape) {
-  Tensor part = Tensor::empty(shape, g.dtype());
+// The parts [outer, chunk_i] of g (viewed as [outer, total]) that `wanted`
+// marks, with shapes `shapes`, in one pass over g's rows; undefined for the others.
+std::vector<Tensor> split_raw(const Tensor& g, std::int64_t outer, const std::vector<std::int64_t>& chunk,
+                              const std::vector<bool>& wanted, const std::vector<Shape>& shapes) {
+  std::vector<Tensor> parts(chunk.size());
+  for (std::size_t i = 0; i < chunk.size(); ++i)
+    if (wanted[i]) parts[i] = Tensor::empty(shapes[i], g.dtype());
   const std::int64_t total = g.numel() / std::max<std::int64_t>(1, outer);
   dispatch_any(g.dtype(), [&](auto tag) {
     using T = decltype(tag);
     const T* src = g.data<T>();
-    T* o = part.data<T>();
-    parallel_for(0, c == 0 ? 0 : outer, copy_grain(c), [&](std::int64_t lo, std::int64_t hi) {
-      for (std::int64_t r = lo; r < hi; ++r)
-        std::copy(src + r * total + offset, src + r * total + offset + c, o + r * c);
+    // part_i[r, :] = g[r, offset_i : offset_i + c_i].
+    parallel_for(0, total == 0 ? 0 : outer, copy_grain(total), [&](std::int64_t lo, std::int64_t hi) {
+      std::int64_t offset = 0;
+      for (std::size_t i = 0; i < parts.size(); ++i) {
+        const std::int64_t c = chunk[i];
+        if (parts[i].defined()) {
+          T* o = parts[i].data<T>();
+          copy_rows(c, lo, hi, [=](std::int64_t r) { return src + r * total + offset; },
+                    [=](std::int64_t r) { return o + r * c; });
+        }
+        offset += c;
+      }
     });
   });
-  return part;
+  return parts;
 }
 
 // Shared by concat and stack: joins `parts` (already validated) into `out_shape`
@@ -109,11 +148,12 @@ Tensor join(const char* name, const std::vector<Tensor>& parts, const std::vecto
       const Tensor& g = ctx.grad_output();
       if (!g.defined()) return;
       // dL/d part_i = the columns of g that part_i filled.
-      std::int64_t offset = 0;
-      for (std::size_t i = 0; i < chunk.size(); ++i) {
-        if (ctx.needs_grad(i)) ctx.accumulate(i, split_raw(g, outer, offset, chunk[i], ctx.input_shape(i)));
-        offset += chunk[i];
-      }
+      std::vector<bool> wanted(chunk.size());
+      std::vector<Shape> shapes(chunk.size());
+      for (std::size_t i = 0; i < chunk.size(); ++i) wanted[i] = ctx.needs_grad(i), shapes[i] = ctx.input_shape(i);
+      const std::vector<Tensor> parts = split_raw(g, outer, chunk, wanted, shapes);
+      for (std::size_t i = 0; i < chunk.size(); ++i)
+        if (wanted[i]) ctx.accumulate(i, parts[i]);
     });
   }
   return out;
@@ -138,7 +178,8 @@ void check_index(const Tensor& index, std::int64_t rows, const std::string& op, 
 template <class T>
 void gather_rows(const T* src, const std::int32_t* idx, T* out, std::int64_t n, std::int64_t inner) {
   parallel_for(0, n, copy_grain(inner), [&](std::int64_t lo, std::int64_t hi) {
-    for (std::int64_t i = lo; i < hi; ++i) std::copy(src + idx[i] * inner, src + (idx[i] + 1) * inner, out + i * inner);
+    copy_rows(inner, lo, hi, [=](std::int64_t i) { return src + idx[i] * inner; },
+              [=](std::int64_t i) { return out + i * inner; });
   });
 }
 
@@ -263,37 +304,49 @@ Tensor slice(const Tensor& a, int axis, std::int64_t start, std::int64_t stop, s
   d[static_cast<std::size_t>(ax)] = count;
   const Shape out_shape(d);
   const std::int64_t outer = prod(a.shape(), 0, ax), inner = prod(a.shape(), ax + 1, a.rank());
-  // Rows to copy; none when they are empty (a [2^31, 7, 0, 0] slice must not walk 2^34 empty rows).
-  const std::int64_t rows = inner == 0 ? 0 : outer * count;
+  // a is viewed as [outer, n, inner] and out as [outer, count, inner]; with
+  // step 1 each q moves one run of count * inner elements, else count runs of
+  // inner. Blocks of q in parallel: no division per element.
+  // No q loop when the output is empty (a [2^31, 7, 0, 0] slice must not walk 2^31 empty blocks).
+  const std::int64_t picked = count * inner, in_block = n * inner, stride = step * inner, base = first * inner;
   Tensor out = Tensor::empty(out_shape, a.dtype());
   dispatch_any(a.dtype(), [&](auto tag) {
     using T = decltype(tag);
-    const T* src = a.data<T>();
+    const T* src = std::as_const(a).data<T>();
     T* o = out.data<T>();
-    // out[o, j, :] = a[o, first + j step, :], one (o, j) row at a time.
-    parallel_for(0, rows, copy_grain(inner), [&](std::int64_t lo, std::int64_t hi) {
-      for (std::int64_t row = lo; row < hi; ++row) {
-        const std::int64_t q = row / count, j = row % count;
-        const T* s = src + (q * n + first + j * step) * inner;
-        std::copy(s, s + inner, o + row * inner);
+    // out[q, j, :] = a[q, first + j step, :].
+    parallel_for(0, picked == 0 ? 0 : outer, copy_grain(picked), [&](std::int64_t lo, std::int64_t hi) {
+      if (step == 1) {
+        copy_rows(picked, lo, hi, [=](std::int64_t q) { return src + (q * in_block + base); },
+                  [=](std::int64_t q) { return o + q * picked; });
+        return;
       }
+      for (std::int64_t q = lo; q < hi; ++q)
+        copy_rows(inner, 0, count, [=](std::int64_t j) { return src + (q * in_block + base + j * stride); },
+                  [=](std::int64_t j) { return o + q * picked + j * inner; });
     });
   });
   if (is_floating(a.dtype()) && should_record({a})) {
-    record("slice", {a}, {&out}, [first, step, count, n, rows, inner](AdjointContext& ctx) {
+    record("slice", {a}, {&out}, [step, count, outer, picked, in_block, stride, base, inner](AdjointContext& ctx) {
       const Tensor& g = ctx.grad_output();
       if (!g.defined()) return;
-      Tensor ga = Tensor::zeros(ctx.input_shape(0), g.dtype());
+      Tensor ga = Tensor::empty(ctx.input_shape(0), g.dtype());
       dispatch_float(g.dtype(), "slice", [&](auto tag) {
         using T = decltype(tag);
         const T* pg = g.data<T>();
         T* o = ga.data<T>();
-        // dL/da[o, first + j step, :] = g[o, j, :]; the picked rows are distinct.
-        parallel_for(0, rows, copy_grain(inner), [&](std::int64_t lo, std::int64_t hi) {
-          for (std::int64_t row = lo; row < hi; ++row) {
-            const std::int64_t q = row / count, j = row % count;
-            std::copy(pg + row * inner, pg + (row + 1) * inner, o + (q * n + first + j * step) * inner);
+        // dL/da[q, first + j step, :] = g[q, j, :], 0 elsewhere: each block of q is
+        // zeroed, then its picked (distinct) rows are written.
+        parallel_for(0, in_block == 0 ? 0 : outer, copy_grain(in_block), [&](std::int64_t lo, std::int64_t hi) {
+          std::fill(o + lo * in_block, o + hi * in_block, T(0));
+          if (step == 1) {
+            copy_rows(picked, lo, hi, [=](std::int64_t q) { return pg + q * picked; },
+                      [=](std::int64_t q) { return o + (q * in_block + base); });
+            return;
           }
+          for (std::int64_t q = lo; q < hi; ++q)
+            copy_rows(inner, 0, count, [=](std::int64_t j) { return pg + q * picked + j * inner; },
+                      [=](std::int64_t j) { return o + (q * in_block + base + j * stride); });
         });
       });
       ctx.accumulate(0, ga);

@@ -1,16 +1,19 @@
-// Vertex normals and the uniform Laplacian, built from gather / scatter_add so
-// both are differentiable with respect to the vertex positions.
+// Vertex normals, built from gather / scatter_add, and the uniform Laplacian,
+// one recorded sparse product with its adjoint; both differentiable with
+// respect to the vertex positions.
 #include "examples/fit/geometry.h"
 
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <map>
-#include <set>
+#include <string>
 #include <utility>
 #include <vector>
 
 #include "autodiff/error.h"
+#include "autodiff/parallel.h"
+#include "autodiff/tape.h"
 #include "ops/ops.h"
 #include "raster/procedural.h"
 
@@ -38,32 +41,111 @@ Tensor vertex_normals(const Tensor& positions, const Tensor& triangles) {
 
 UniformLaplacian::UniformLaplacian(const Tensor& triangles, std::int64_t num_vertices)
     : num_vertices_(num_vertices) {
-  // Unique undirected edges (works for closed and open meshes alike).
-  std::set<std::pair<std::int32_t, std::int32_t>> edges;
-  const std::int32_t* t = triangles.data<std::int32_t>();
+  if (triangles.dtype() != DType::Int32 || triangles.rank() != 2 || triangles.size(1) != 3)
+    throw ShapeError("UniformLaplacian: triangles must be int32 [M, 3], got " + triangles.describe());
+  // Each vertex's distinct edge neighbours, ascending (works for open and closed meshes).
+  std::vector<std::vector<std::int32_t>> lists(static_cast<std::size_t>(num_vertices));
+  const std::int32_t* t = std::as_const(triangles).data<std::int32_t>();
+  for (std::int64_t k = 0; k < triangles.numel(); ++k)
+    if (t[k] < 0 || t[k] >= num_vertices)
+      throw IndexError("UniformLaplacian: triangle index " + std::to_string(t[k]) + " is outside [0, " +
+                       std::to_string(num_vertices) + ")");
   for (std::int64_t f = 0; f < triangles.size(0); ++f)
     for (int k = 0; k < 3; ++k) {
-      std::int32_t a = t[3 * f + k], b = t[3 * f + (k + 1) % 3];
-      if (a > b) std::swap(a, b);
-      if (a != b) edges.insert({a, b});
+      const std::int32_t a = t[3 * f + k], b = t[3 * f + (k + 1) % 3];
+      if (a == b) continue;
+      lists[a].push_back(b);
+      lists[b].push_back(a);
     }
-  std::vector<std::int32_t> from, to;
-  std::vector<double> degree(static_cast<std::size_t>(num_vertices), 0.0);
-  for (const auto& [a, b] : edges) {
-    from.push_back(a), to.push_back(b);
-    from.push_back(b), to.push_back(a);
-    degree[a] += 1, degree[b] += 1;
+  auto adjacency = std::make_shared<Adjacency>();
+  adjacency->start.push_back(0);
+  for (auto& list : lists) {
+    std::sort(list.begin(), list.end());
+    list.erase(std::unique(list.begin(), list.end()), list.end());
+    adjacency->neighbours.insert(adjacency->neighbours.end(), list.begin(), list.end());
+    adjacency->start.push_back(static_cast<std::int64_t>(adjacency->neighbours.size()));
+    adjacency->inv_degree.push_back(list.empty() ? 0.0f : float(1.0 / double(list.size())));
   }
-  for (double& d : degree) d = d > 0 ? 1.0 / d : 0.0;
-  const std::int64_t e = static_cast<std::int64_t>(from.size());
-  from_ = Tensor::from_vector(from, {e});
-  to_ = Tensor::from_vector(to, {e});
-  inv_degree_ = Tensor::from_values(degree, {num_vertices, 1});
+  adjacency_ = std::move(adjacency);
 }
 
+namespace {
+
+using Adjacency = UniformLaplacian::Adjacency;
+
+// Rows per parallel chunk: each output row reads about (mean degree + 1) C values.
+std::int64_t laplacian_grain(const Adjacency& a, std::int64_t channels) {
+  const std::int64_t rows = std::max<std::int64_t>(1, std::int64_t(a.inv_degree.size()));
+  const std::int64_t reads = (std::int64_t(a.neighbours.size()) / rows + 1) * std::max<std::int64_t>(1, channels);
+  return std::max<std::int64_t>(1, kElementwiseGrain / reads);
+}
+
+// out[i, c] = p[i, c] - (sum_{j in N(i)} p[j, c]) w_i, the sum in ascending j
+// from 0, then one product and one difference in T (the order gather +
+// scatter_add + mul + sub had, so the bits are theirs).
+template <class T>
+void laplacian_forward(const Adjacency& a, const T* p, T* out, std::int64_t channels) {
+  const std::int64_t n = std::int64_t(a.inv_degree.size());
+  parallel_for(0, n, laplacian_grain(a, channels), [&](std::int64_t lo, std::int64_t hi) {
+    for (std::int64_t i = lo; i < hi; ++i) {
+      const T w = T(a.inv_degree[i]);
+      for (std::int64_t c = 0; c < channels; ++c) {
+        T sum = 0;
+        for (std::int64_t e = a.start[i]; e < a.start[i + 1]; ++e) sum += p[a.neighbours[e] * channels + c];
+        out[i * channels + c] = p[i * channels + c] - sum * w;
+      }
+    }
+  });
+}
+
+// The second term of L^T g: out[j, c] = -sum_{i in N(j)} g[i, c] w_i, over the
+// transpose's rows. N is symmetric (i in N(j) iff j in N(i)), so the transpose
+// has the same lists, weighted by the neighbour's w_i; ascending i from 0, as
+// the scatter_add adjoint of gather summed them.
+template <class T>
+void laplacian_transpose_part(const Adjacency& a, const T* g, T* out, std::int64_t channels) {
+  const std::int64_t n = std::int64_t(a.inv_degree.size());
+  parallel_for(0, n, laplacian_grain(a, channels), [&](std::int64_t lo, std::int64_t hi) {
+    for (std::int64_t j = lo; j < hi; ++j)
+      for (std::int64_t c = 0; c < channels; ++c) {
+        T sum = 0;
+        for (std::int64_t e = a.start[j]; e < a.start[j + 1]; ++e) {
+          const std::int32_t i = a.neighbours[e];
+          sum -= g[i * channels + c] * T(a.inv_degree[i]);
+        }
+        out[j * channels + c] = sum;
+      }
+  });
+}
+
+}  // namespace
+
 Tensor UniformLaplacian::apply(const Tensor& positions) const {
-  const Tensor neighbour_sum = scatter_add(gather(positions, to_), from_, num_vertices_);
-  return positions - neighbour_sum * cast(inv_degree_, positions.dtype());
+  if (!positions.defined() || positions.rank() != 2 || positions.size(0) != num_vertices_)
+    throw ShapeError("UniformLaplacian::apply: positions must be [" + std::to_string(num_vertices_) + ", C], got " +
+                     (positions.defined() ? positions.describe() : std::string("an undefined tensor")));
+  const std::int64_t channels = positions.size(1);
+  Tensor out = Tensor::empty(positions.shape(), positions.dtype());
+  dispatch_float(positions.dtype(), "UniformLaplacian::apply", [&](auto tag) {
+    using T = decltype(tag);
+    laplacian_forward(*adjacency_, std::as_const(positions).data<T>(), out.data<T>(), channels);
+  });
+  if (should_record({positions})) {
+    record("uniform_laplacian", {positions}, {&out}, [adjacency = adjacency_, channels](AdjointContext& ctx) {
+      const Tensor& g = ctx.grad_output();
+      if (!g.defined()) return;
+      // dL/dp = L^T g = g - N^T (g w), added in that order (as sub's and then
+      // gather's adjoints added their parts).
+      Tensor part = Tensor::empty(g.shape(), g.dtype());
+      dispatch_float(g.dtype(), "uniform_laplacian", [&](auto tag) {
+        using T = decltype(tag);
+        laplacian_transpose_part(*adjacency, g.data<T>(), part.data<T>(), channels);
+      });
+      ctx.accumulate(0, g);
+      ctx.accumulate(0, part);
+    });
+  }
+  return out;
 }
 
 Tensor UniformLaplacian::penalty(const Tensor& positions) const {

@@ -5,6 +5,10 @@
 // the vertices the rasterizer sees (split where the texture coordinates jump).
 #pragma once
 
+#include <cstdint>
+#include <memory>
+#include <vector>
+
 #include "autodiff/tensor.h"
 #include "ops/antialias.h"
 #include "raster/mesh.h"
@@ -19,18 +23,31 @@ using gr::Tensor;
 Tensor vertex_normals(const Tensor& positions, const Tensor& triangles);
 
 // The uniform ("umbrella") Laplacian of a fixed triangle list:
-// L(p)_i = p_i - mean of p over the neighbours of vertex i.
+// L(p)_i = p_i - (1/deg_i) sum_{j in N(i)} p_j, N(i) the edge neighbours of
+// vertex i (an isolated vertex has L(p)_i = p_i). apply() is one recorded op,
+// a sparse product over the neighbour lists (CSR) in parallel over rows.
 class UniformLaplacian {
  public:
   UniformLaplacian(const Tensor& triangles, std::int64_t num_vertices);
-  // L(p) [N, 3].
+  // L(p) for p [N, C] float32 or float64. Each neighbour sum runs in ascending
+  // neighbour order and is then scaled by 1/deg_i rounded to float32, so the
+  // result is the same for any thread count.
+  // dL/dp_j = g_j - sum_{i in N(j)} g_i / deg_i (L^T g: N is symmetric, the
+  // weights are not).
   Tensor apply(const Tensor& positions) const;
   // mean over vertices of |L(p)_i|^2: the smoothness penalty.
   Tensor penalty(const Tensor& positions) const;
 
+  // The neighbour lists: vertex i's neighbours, ascending, are
+  // neighbours[start[i] .. start[i + 1]); inv_degree[i] = 1/deg_i (0 when isolated).
+  struct Adjacency {
+    std::vector<std::int64_t> start;
+    std::vector<std::int32_t> neighbours;
+    std::vector<float> inv_degree;
+  };
+
  private:
-  Tensor from_, to_;     // [E] int32: every undirected edge in both directions
-  Tensor inv_degree_;    // [N, 1] float32: 1 / neighbour count
+  std::shared_ptr<const Adjacency> adjacency_;  // shared with recorded adjoints
   std::int64_t num_vertices_;
 };
 
