@@ -78,7 +78,7 @@ std::pair<Tensor, Tensor> value_and_gradient(const std::function<Tensor(const Te
 TEST_CASE("fit example: the uniform Laplacian op has the bits of the gather + scatter_add composite, value and "
           "gradient, in float32 and float64",
           "[examples][fit]") {
-  for (int subdivisions : {1, 4}) {  // 42 points serial, 2562 points in parallel chunks
+  for (int subdivisions : {1, 5}) {  // 42 points inline, 10242 points in parallel chunks
     const raster::Mesh mesh = raster::make_icosphere(subdivisions);
     const fit::UniformLaplacian op(mesh.triangles, mesh.num_vertices());
     const CompositeLaplacian composite(mesh.triangles, mesh.num_vertices());
@@ -122,7 +122,7 @@ TEST_CASE("fit example: the uniform Laplacian's gradient matches float64 finite 
 
 TEST_CASE("fit example: the uniform Laplacian's value and gradient are bit-identical for 1, 2 and 8 threads",
           "[examples][fit][determinism]") {
-  const raster::Mesh mesh = raster::make_icosphere(4);
+  const raster::Mesh mesh = raster::make_icosphere(5);  // 10242 points: several chunks
   const fit::UniformLaplacian op(mesh.triangles, mesh.num_vertices());
   const Tensor p = bumpy_positions(mesh, 8, DType::Float32);
   auto run = [&](int threads) {
