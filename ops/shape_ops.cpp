@@ -63,6 +63,45 @@ void copy_rows(std::int64_t len, std::int64_t lo, std::int64_t hi, SrcOf src_of,
   }
 }
 
+// The row moves of slice: row (q, j) of the result, viewed as [outer, count,
+// inner], is row (q, first + j step) of a, viewed as [outer, n, inner].
+struct SliceRows {
+  std::int64_t outer, n, count, inner, first, step;
+  std::int64_t a_row(std::int64_t q, std::int64_t j) const { return (q * n + first + j * step) * inner; }
+  std::int64_t out_row(std::int64_t q, std::int64_t j) const { return (q * count + j) * inner; }
+
+  // Copies every picked row from src to dst: a -> result, or with kIntoA
+  // result -> a (the adjoint), zeroing a's other rows. Parallel over blocks of
+  // q (step 1: one run of count * inner elements per q), or over j when there
+  // are fewer q than j (a slice along axis 0). No division per element.
+  template <bool kIntoA, class T>
+  void move(const T* src, T* dst) const {
+    auto from = [=](std::int64_t q, std::int64_t j) { return src + (kIntoA ? out_row(q, j) : a_row(q, j)); };
+    auto to = [=](std::int64_t q, std::int64_t j) { return dst + (kIntoA ? a_row(q, j) : out_row(q, j)); };
+    const std::int64_t picked = count * inner, block = n * inner;
+    if (picked > 0 && outer >= count) {
+      parallel_for(0, outer, copy_grain(kIntoA ? block : picked), [&](std::int64_t lo, std::int64_t hi) {
+        if (kIntoA) std::fill(dst + lo * block, dst + hi * block, T(0));
+        if (step == 1) {
+          copy_rows(picked, lo, hi, [&](std::int64_t q) { return from(q, 0); }, [&](std::int64_t q) { return to(q, 0); });
+          return;
+        }
+        for (std::int64_t q = lo; q < hi; ++q)
+          copy_rows(inner, 0, count, [&](std::int64_t j) { return from(q, j); }, [&](std::int64_t j) { return to(q, j); });
+      });
+      return;
+    }
+    // No q loop at all for an empty result (a [2^31, 7, 0, 0] slice must not walk 2^31 empty blocks).
+    if (kIntoA && block > 0)
+      parallel_for(0, outer * block, kElementwiseGrain,
+                   [&](std::int64_t lo, std::int64_t hi) { std::fill(dst + lo, dst + hi, T(0)); });
+    for (std::int64_t q = 0; picked > 0 && q < outer; ++q)
+      parallel_for(0, count, copy_grain(inner), [&](std::int64_t j0, std::int64_t j1) {
+        copy_rows(inner, j0, j1, [&](std::int64_t j) { return from(q, j); }, [&](std::int64_t j) { return to(q, j); });
+      });
+  }
+};
+
 // A tensor sharing t's storage under another shape (not recorded).
 Tensor view_as(const Tensor& t, const Shape& shape) {
   auto impl = std::make_shared<TensorImpl>();
@@ -304,50 +343,22 @@ Tensor slice(const Tensor& a, int axis, std::int64_t start, std::int64_t stop, s
   d[static_cast<std::size_t>(ax)] = count;
   const Shape out_shape(d);
   const std::int64_t outer = prod(a.shape(), 0, ax), inner = prod(a.shape(), ax + 1, a.rank());
-  // a is viewed as [outer, n, inner] and out as [outer, count, inner]; with
-  // step 1 each q moves one run of count * inner elements, else count runs of
-  // inner. Blocks of q in parallel: no division per element.
-  // No q loop when the output is empty (a [2^31, 7, 0, 0] slice must not walk 2^31 empty blocks).
-  const std::int64_t picked = count * inner, in_block = n * inner, stride = step * inner, base = first * inner;
+  const SliceRows rows{outer, n, count, inner, first, step};
   Tensor out = Tensor::empty(out_shape, a.dtype());
   dispatch_any(a.dtype(), [&](auto tag) {
     using T = decltype(tag);
-    const T* src = std::as_const(a).data<T>();
-    T* o = out.data<T>();
     // out[q, j, :] = a[q, first + j step, :].
-    parallel_for(0, picked == 0 ? 0 : outer, copy_grain(picked), [&](std::int64_t lo, std::int64_t hi) {
-      if (step == 1) {
-        copy_rows(picked, lo, hi, [=](std::int64_t q) { return src + (q * in_block + base); },
-                  [=](std::int64_t q) { return o + q * picked; });
-        return;
-      }
-      for (std::int64_t q = lo; q < hi; ++q)
-        copy_rows(inner, 0, count, [=](std::int64_t j) { return src + (q * in_block + base + j * stride); },
-                  [=](std::int64_t j) { return o + q * picked + j * inner; });
-    });
+    rows.move<false>(std::as_const(a).data<T>(), out.data<T>());
   });
   if (is_floating(a.dtype()) && should_record({a})) {
-    record("slice", {a}, {&out}, [step, count, outer, picked, in_block, stride, base, inner](AdjointContext& ctx) {
+    record("slice", {a}, {&out}, [rows](AdjointContext& ctx) {
       const Tensor& g = ctx.grad_output();
       if (!g.defined()) return;
       Tensor ga = Tensor::empty(ctx.input_shape(0), g.dtype());
       dispatch_float(g.dtype(), "slice", [&](auto tag) {
         using T = decltype(tag);
-        const T* pg = g.data<T>();
-        T* o = ga.data<T>();
-        // dL/da[q, first + j step, :] = g[q, j, :], 0 elsewhere: each block of q is
-        // zeroed, then its picked (distinct) rows are written.
-        parallel_for(0, in_block == 0 ? 0 : outer, copy_grain(in_block), [&](std::int64_t lo, std::int64_t hi) {
-          std::fill(o + lo * in_block, o + hi * in_block, T(0));
-          if (step == 1) {
-            copy_rows(picked, lo, hi, [=](std::int64_t q) { return pg + q * picked; },
-                      [=](std::int64_t q) { return o + (q * in_block + base); });
-            return;
-          }
-          for (std::int64_t q = lo; q < hi; ++q)
-            copy_rows(inner, 0, count, [=](std::int64_t j) { return pg + q * picked + j * inner; },
-                      [=](std::int64_t j) { return o + (q * in_block + base + j * stride); });
-        });
+        // dL/da[q, first + j step, :] = g[q, j, :] (the picked rows are distinct), 0 elsewhere.
+        rows.move<true>(g.data<T>(), ga.data<T>());
       });
       ctx.accumulate(0, ga);
     });

@@ -208,3 +208,32 @@ TEST_CASE("slice and concat of image channels: the fit's rgba moves are bit-iden
     }
   }
 }
+
+TEST_CASE("slice: along axis 0 of a long tensor (more rows than blocks, so split over rows) it matches the index "
+          "loop, gradient too, for 1, 2 and 8 threads",
+          "[ops][shape][determinism]") {
+  const std::int64_t n = 40000;
+  for (std::int64_t step : {1, -3}) {
+    INFO("step " << step);
+    const std::vector<std::int64_t> picked = python_slice(n, step > 0 ? 7 : -2, step > 0 ? n - 5 : 3, step);
+    for (int threads : {1, 2, 8}) {
+      INFO(threads << " threads");
+      set_num_threads(threads);
+      const Tensor a = Tensor::uniform({n, 2}, -1, 1, 11).set_requires_grad();
+      const Tensor out = slice(a, 0, step > 0 ? 7 : -2, step > 0 ? n - 5 : 3, step);
+      const Tensor g = Tensor::uniform(out.shape(), -1, 1, 12);
+      backward(out, g);
+      set_num_threads(0);
+      REQUIRE(out.shape() == Shape({std::int64_t(picked.size()), 2}));
+      const std::vector<double> av = a.to_vector(), ov = out.to_vector(), gv = g.to_vector();
+      std::vector<double> expected(ov.size()), ga(av.size(), 0.0);
+      for (std::size_t j = 0; j < picked.size(); ++j)
+        for (int c = 0; c < 2; ++c) {
+          expected[2 * j + c] = av[2 * picked[j] + c];
+          ga[2 * picked[j] + c] = gv[2 * j + c];
+        }
+      CHECK(ov == expected);
+      CHECK(a.grad().to_vector() == ga);
+    }
+  }
+}
