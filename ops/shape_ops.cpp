@@ -72,22 +72,25 @@ struct SliceRows {
 
   // Copies every picked row from src to dst: a -> result, or with kIntoA
   // result -> a (the adjoint), zeroing a's other rows. Parallel over blocks of
-  // q (step 1: one run of count * inner elements per q), or over j when there
-  // are fewer q than j (a slice along axis 0). No division per element.
+  // q (step 1: one run of count * inner elements per q) when there are as many
+  // q as j or enough for 4 chunks on 16 threads, else over j (slices along
+  // axis 0 have one q). No division per element.
   template <bool kIntoA, class T>
   void move(const T* src, T* dst) const {
     auto from = [=](std::int64_t q, std::int64_t j) { return src + (kIntoA ? out_row(q, j) : a_row(q, j)); };
     auto to = [=](std::int64_t q, std::int64_t j) { return dst + (kIntoA ? a_row(q, j) : out_row(q, j)); };
     const std::int64_t picked = count * inner, block = n * inner;
-    if (picked > 0 && outer >= count) {
+    if (picked > 0 && (outer >= count || outer >= 64)) {
       parallel_for(0, outer, copy_grain(kIntoA ? block : picked), [&](std::int64_t lo, std::int64_t hi) {
         if (kIntoA) std::fill(dst + lo * block, dst + hi * block, T(0));
         if (step == 1) {
-          copy_rows(picked, lo, hi, [&](std::int64_t q) { return from(q, 0); }, [&](std::int64_t q) { return to(q, 0); });
+          copy_rows(picked, lo, hi, [&](std::int64_t q) { return from(q, 0); },
+                    [&](std::int64_t q) { return to(q, 0); });
           return;
         }
         for (std::int64_t q = lo; q < hi; ++q)
-          copy_rows(inner, 0, count, [&](std::int64_t j) { return from(q, j); }, [&](std::int64_t j) { return to(q, j); });
+          copy_rows(inner, 0, count, [&](std::int64_t j) { return from(q, j); },
+                    [&](std::int64_t j) { return to(q, j); });
       });
       return;
     }

@@ -6,9 +6,9 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <type_traits>
 #include <map>
 #include <string>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -101,7 +101,8 @@ void neighbour_sums(const Adjacency& a, std::int64_t channels, Term term, Emit e
       for (int c = 0; c < K; ++c) emit(i, c, s[c]);
     }
   };
-  parallel_for(0, std::int64_t(a.inv_degree.size()), laplacian_grain(a, channels), [&](std::int64_t lo, std::int64_t hi) {
+  const std::int64_t n = std::int64_t(a.inv_degree.size());
+  parallel_for(0, n, laplacian_grain(a, channels), [&](std::int64_t lo, std::int64_t hi) {
     switch (channels) {
       case 1: return rows(std::integral_constant<int, 1>(), lo, hi);
       case 2: return rows(std::integral_constant<int, 2>(), lo, hi);

@@ -25,7 +25,8 @@ Tensor vertex_normals(const Tensor& positions, const Tensor& triangles);
 // The uniform ("umbrella") Laplacian of a fixed triangle list:
 // L(p)_i = p_i - (1/deg_i) sum_{j in N(i)} p_j, N(i) the edge neighbours of
 // vertex i (an isolated vertex has L(p)_i = p_i). apply() is one recorded op,
-// a sparse product over the neighbour lists (CSR) in parallel over rows.
+// a sparse product over the neighbour lists (CSR), in parallel over rows on
+// large meshes.
 class UniformLaplacian {
  public:
   UniformLaplacian(const Tensor& triangles, std::int64_t num_vertices);

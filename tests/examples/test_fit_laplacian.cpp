@@ -112,8 +112,8 @@ TEST_CASE("fit example: the uniform Laplacian's gradient matches float64 finite 
   const fit::UniformLaplacian laplacian(mesh.triangles, mesh.num_vertices());
   const Tensor p = bumpy_positions(mesh, 5, DType::Float64).set_requires_grad();
   require_gradcheck("uniform laplacian", [&](const std::vector<Tensor>& in) { return laplacian.apply(in[0]); }, {p});
-  require_gradcheck("uniform laplacian penalty", [&](const std::vector<Tensor>& in) { return laplacian.penalty(in[0]); },
-                    {p});
+  require_gradcheck(
+      "uniform laplacian penalty", [&](const std::vector<Tensor>& in) { return laplacian.penalty(in[0]); }, {p});
   const fit::UniformLaplacian hard(hard_triangles(), 6);
   const Tensor q = gr::testing::random_input({6, 2}, -1, 1, 6);  // any channel count
   require_gradcheck("uniform laplacian, hard mesh", [&](const std::vector<Tensor>& in) { return hard.apply(in[0]); },

@@ -71,6 +71,41 @@ Dims random_dims(std::mt19937& rng, int rank, std::int64_t max_extent) {
 
 const DType kDTypes[] = {DType::Float32, DType::Float64, DType::Int32};
 
+// Checks slice(a, axis, start, stop, step) of a counting tensor against the
+// index loop, and for float dtypes its gradient from a random g.
+void check_slice(const Dims& dims, int axis, std::int64_t start, std::int64_t stop, std::int64_t step, DType dtype,
+                 std::uint64_t seed) {
+  INFO("shape " << Shape(dims).str() << " axis " << axis << " slice " << start << ":" << stop << ":" << step << " "
+                << dtype_name(dtype));
+  const std::vector<std::int64_t> picked = python_slice(dims[axis], start, stop, step);
+  Dims out_dims = dims;
+  out_dims[axis] = std::int64_t(picked.size());
+  // Input index of every output element.
+  std::vector<std::int64_t> source(static_cast<std::size_t>(numel(out_dims)));
+  for (std::int64_t o = 0; o < numel(out_dims); ++o) {
+    Dims idx = unravel(o, out_dims);
+    idx[axis] = picked[idx[axis]];
+    source[o] = ravel(idx, dims);
+  }
+
+  Tensor a = counting(dims, dtype);
+  if (dtype != DType::Int32) a.set_requires_grad();
+  const Tensor out = slice(a, axis, start, stop, step);
+  REQUIRE(out.shape() == Shape(out_dims));
+  const std::vector<double> av = a.to_vector(), ov = out.to_vector();
+  std::vector<double> expected(source.size());
+  for (std::size_t o = 0; o < source.size(); ++o) expected[o] = av[source[o]];
+  CHECK(ov == expected);
+
+  if (dtype == DType::Int32) return;
+  const Tensor g = Tensor::uniform(Shape(out_dims), -1, 1, seed, dtype);
+  backward(out, g);
+  std::vector<double> ga(av.size(), 0.0);
+  const std::vector<double> gv = g.to_vector();
+  for (std::size_t o = 0; o < source.size(); ++o) ga[source[o]] += gv[o];
+  CHECK(a.grad().to_vector() == ga);
+}
+
 }  // namespace
 
 TEST_CASE("slice: on random shapes, steps and bounds it picks what a naive index loop picks, and its gradient "
@@ -87,37 +122,8 @@ TEST_CASE("slice: on random shapes, steps and bounds it picks what a naive index
     const std::int64_t start = bound(), stop = bound();
     std::int64_t step = std::uniform_int_distribution<std::int64_t>(-3, 3)(rng);
     if (step == 0 || trial % 2 == 0) step = 1;  // step 1 is the fast path: test it most
-    const DType dtype = kDTypes[trial % 3];
-    INFO("trial " << trial << ": shape " << Shape(dims).str() << " axis " << axis << " slice " << start << ":" << stop
-                  << ":" << step);
-
-    const std::vector<std::int64_t> picked = python_slice(n, start, stop, step);
-    Dims out_dims = dims;
-    out_dims[axis] = std::int64_t(picked.size());
-    // Input index of every output element.
-    std::vector<std::int64_t> source(static_cast<std::size_t>(numel(out_dims)));
-    for (std::int64_t o = 0; o < numel(out_dims); ++o) {
-      Dims idx = unravel(o, out_dims);
-      idx[axis] = picked[idx[axis]];
-      source[o] = ravel(idx, dims);
-    }
-
-    Tensor a = counting(dims, dtype);
-    if (dtype != DType::Int32) a.set_requires_grad();
-    const Tensor out = slice(a, axis, start, stop, step);
-    REQUIRE(out.shape() == Shape(out_dims));
-    const std::vector<double> av = a.to_vector(), ov = out.to_vector();
-    std::vector<double> expected(source.size());
-    for (std::size_t o = 0; o < source.size(); ++o) expected[o] = av[source[o]];
-    CHECK(ov == expected);
-
-    if (dtype == DType::Int32) continue;
-    const Tensor g = Tensor::uniform(Shape(out_dims), -1, 1, 100 + trial, dtype);
-    backward(out, g);
-    std::vector<double> ga(av.size(), 0.0);
-    const std::vector<double> gv = g.to_vector();
-    for (std::size_t o = 0; o < source.size(); ++o) ga[source[o]] += gv[o];
-    CHECK(a.grad().to_vector() == ga);
+    INFO("trial " << trial);
+    check_slice(dims, axis, start, stop, step, kDTypes[trial % 3], 100 + trial);
   }
 }
 
@@ -209,31 +215,16 @@ TEST_CASE("slice and concat of image channels: the fit's rgba moves are bit-iden
   }
 }
 
-TEST_CASE("slice: along axis 0 of a long tensor (more rows than blocks, so split over rows) it matches the index "
-          "loop, gradient too, for 1, 2 and 8 threads",
+TEST_CASE("slice: long slices split over rows (axis 0) or over blocks with more rows than blocks match the "
+          "index loop, gradient too, for 1, 2 and 8 threads",
           "[ops][shape][determinism]") {
-  const std::int64_t n = 40000;
-  for (std::int64_t step : {1, -3}) {
-    INFO("step " << step);
-    const std::vector<std::int64_t> picked = python_slice(n, step > 0 ? 7 : -2, step > 0 ? n - 5 : 3, step);
-    for (int threads : {1, 2, 8}) {
-      INFO(threads << " threads");
-      set_num_threads(threads);
-      const Tensor a = Tensor::uniform({n, 2}, -1, 1, 11).set_requires_grad();
-      const Tensor out = slice(a, 0, step > 0 ? 7 : -2, step > 0 ? n - 5 : 3, step);
-      const Tensor g = Tensor::uniform(out.shape(), -1, 1, 12);
-      backward(out, g);
-      set_num_threads(0);
-      REQUIRE(out.shape() == Shape({std::int64_t(picked.size()), 2}));
-      const std::vector<double> av = a.to_vector(), ov = out.to_vector(), gv = g.to_vector();
-      std::vector<double> expected(ov.size()), ga(av.size(), 0.0);
-      for (std::size_t j = 0; j < picked.size(); ++j)
-        for (int c = 0; c < 2; ++c) {
-          expected[2 * j + c] = av[2 * picked[j] + c];
-          ga[2 * picked[j] + c] = gv[2 * j + c];
-        }
-      CHECK(ov == expected);
-      CHECK(a.grad().to_vector() == ga);
-    }
+  for (int threads : {1, 2, 8}) {
+    INFO(threads << " threads");
+    set_num_threads(threads);
+    check_slice({40000, 2}, 0, 7, -5, 1, DType::Float32, 11);   // one block of 39988 rows
+    check_slice({40000, 2}, 0, -2, 3, -3, DType::Float64, 12);  // stepped backwards
+    check_slice({80, 2000}, 1, 5, 1990, 1, DType::Float32, 13);  // 80 blocks of 1985 rows
+    check_slice({80, 2000}, 1, 1999, 0, -7, DType::Float32, 14);
+    set_num_threads(0);
   }
 }
