@@ -11,6 +11,7 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <atomic>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -64,6 +65,8 @@ std::shared_ptr<tbb::task_arena> g_arena;
 // > 0 while this thread runs a parallel_for body: a nested parallel_for then
 // stays in the arena the thread is already working in.
 thread_local int t_body_depth = 0;
+// > 0 while a SerialScope is alive on this thread.
+thread_local int t_serial_depth = 0;
 
 struct BodyScope {
   explicit BodyScope(ForkJoin* sync = nullptr) : sync_(sync) {
@@ -89,14 +92,14 @@ std::int64_t parallel_chunk(std::int64_t n, std::int64_t grain, int threads) {
   return std::clamp((n + chunks - 1) / chunks, (grain + kGrainSplit - 1) / kGrainSplit, grain);
 }
 
-void parallel_for(std::int64_t begin, std::int64_t end, std::int64_t grain,
-                  const std::function<void(std::int64_t, std::int64_t)>& body) {
-  if (end <= begin) return;
-  if (grain < 1) grain = 1;
-  if (end - begin <= grain) {
-    body(begin, end);
-    return;
-  }
+namespace {
+
+// parallel_for's work, split into chunks of `chunk` elements: with TBB's
+// auto_partitioner (a body may get several chunks at once, fewer tasks) or,
+// with `one_chunk_each`, a simple_partitioner (every body gets one chunk, so
+// idle threads can take any chunk not yet started: for a few long tasks).
+void run_chunks(std::int64_t begin, std::int64_t end, std::int64_t grain, bool one_chunk_each,
+                const std::function<void(std::int64_t, std::int64_t)>& body) {
   ForkJoin sync;
   auto run = [&] {
     struct Join {  // also when a body throws
@@ -104,13 +107,18 @@ void parallel_for(std::int64_t begin, std::int64_t end, std::int64_t grain,
       ~Join() { sync.after_join(); }
     } join{sync};
     sync.before_fork();
+    auto chunk_body = [&](const tbb::blocked_range<std::int64_t>& r) {
+      BodyScope scope(&sync);
+      body(r.begin(), r.end());
+    };
+    if (one_chunk_each) {
+      tbb::parallel_for(tbb::blocked_range<std::int64_t>(begin, end, static_cast<std::size_t>(grain)), chunk_body,
+                        tbb::simple_partitioner());
+      return;
+    }
     // The arena's thread count: the top-level one, or the outer loop's for a nested call.
     const std::int64_t chunk = parallel_chunk(end - begin, grain, tbb::this_task_arena::max_concurrency());
-    tbb::parallel_for(tbb::blocked_range<std::int64_t>(begin, end, static_cast<std::size_t>(chunk)),
-                      [&](const tbb::blocked_range<std::int64_t>& r) {
-                        BodyScope scope(&sync);
-                        body(r.begin(), r.end());
-                      });
+    tbb::parallel_for(tbb::blocked_range<std::int64_t>(begin, end, static_cast<std::size_t>(chunk)), chunk_body);
   };
   if (t_body_depth > 0) {  // nested: the current arena
     run();
@@ -123,7 +131,7 @@ void parallel_for(std::int64_t begin, std::int64_t end, std::int64_t grain,
     arena = g_arena;
     threads = g_threads;
   }
-  if (threads == 1) {  // one thread: a plain serial loop
+  if (threads == 1 || t_serial_depth > 0) {  // one thread: a plain serial loop
     BodyScope scope;
     body(begin, end);
   } else if (arena) {
@@ -133,9 +141,31 @@ void parallel_for(std::int64_t begin, std::int64_t end, std::int64_t grain,
   }
 }
 
+}  // namespace
+
+void parallel_for(std::int64_t begin, std::int64_t end, std::int64_t grain,
+                  const std::function<void(std::int64_t, std::int64_t)>& body) {
+  if (end <= begin) return;
+  if (grain < 1) grain = 1;
+  if (end - begin <= grain) {
+    body(begin, end);
+    return;
+  }
+  run_chunks(begin, end, grain, false, body);
+}
+
+SerialScope::SerialScope() { ++t_serial_depth; }
+SerialScope::~SerialScope() { --t_serial_depth; }
+
 void parallel_tasks(int n, const std::function<void(int)>& task) {
-  parallel_for(0, n, 1, [&](std::int64_t lo, std::int64_t hi) {
-    for (std::int64_t i = lo; i < hi; ++i) tbb::this_task_arena::isolate([&] { task(static_cast<int>(i)); });
+  if (n <= 0) return;
+  // One taker per thread; each takes the next task not yet taken, so tasks
+  // start in index order (a caller that puts long tasks first gets the
+  // shortest tail) and no thread idles while one is left.
+  std::atomic<int> next{0};
+  const int takers = std::min(n, num_threads());
+  run_chunks(0, takers, 1, true, [&](std::int64_t, std::int64_t) {
+    for (int i = next++; i < n; i = next++) tbb::this_task_arena::isolate([&] { task(i); });
   });
 }
 

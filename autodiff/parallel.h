@@ -38,13 +38,25 @@ constexpr std::int64_t kChunksPerThread = 4;
 constexpr std::int64_t kGrainSplit = 4;
 std::int64_t parallel_chunk(std::int64_t n, std::int64_t grain, int threads);
 
-// Runs task(i) for every i in [0, n), concurrently where threads are free
-// (in order i = 0, 1, ... with one thread). Each task is isolated: while it
+// Runs task(i) for every i in [0, n), concurrently where threads are free:
+// each thread takes the next task not yet started, in order i = 0, 1, ...
+// (so put the longest first for the shortest tail). Each task is isolated: while it
 // waits for its own inner parallel_for, its thread helps only with that loop,
 // never starts another task, so thread-local state a task sets up (a
 // ScopedTape, a NoGradGuard) is seen by that task alone. For a few large
 // independent jobs, such as the views of one optimization step.
 void parallel_tasks(int n, const std::function<void(int)>& task);
+
+// While alive, every parallel_for this thread starts runs inline on it, as
+// with one thread. For a background thread (a file writer) that must not take
+// a slot among the workers the foreground's loops share. Nests; per thread.
+class SerialScope {
+ public:
+  SerialScope();
+  ~SerialScope();
+  SerialScope(const SerialScope&) = delete;
+  SerialScope& operator=(const SerialScope&) = delete;
+};
 
 // Largest n set_num_threads accepts.
 constexpr int kMaxThreads = 1024;

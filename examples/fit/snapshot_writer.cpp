@@ -2,6 +2,12 @@
 
 #include <utility>
 
+#ifdef __linux__
+#include <pthread.h>
+#include <sched.h>
+#endif
+
+#include "autodiff/parallel.h"
 #include "autodiff/tape.h"
 #include "examples/fit/snapshot.h"
 
@@ -24,6 +30,14 @@ void SnapshotWriter::finish() {
 }
 
 void SnapshotWriter::work() {
+#ifdef __linux__
+  // Idle priority: the writer takes only CPU time the optimization leaves
+  // (on one thread, a whole core; on all of them, the pauses and the end of
+  // the loop), never slowing it down. finish() waits for it either way.
+  sched_param idle{};
+  pthread_setschedparam(pthread_self(), SCHED_IDLE, &idle);
+#endif
+  gr::SerialScope serial;    // and on this thread alone: the workers' slots belong to the loop
   gr::NoGradGuard no_grad;  // the strip is made of tensor ops: nothing to record
   std::unique_lock<std::mutex> lock(mutex_);
   for (;;) {

@@ -213,3 +213,18 @@ TEST_CASE("parallel: tasks record and differentiate on their own tapes while the
     CHECK(gradients() == serial);
   }
 }
+
+TEST_CASE("parallel: inside a SerialScope loops run inline on the calling thread", "[autodiff][parallel]") {
+  ThreadCount four(4);
+  std::set<std::thread::id> ids;
+  std::mutex m;
+  {
+    SerialScope serial;
+    parallel_for(0, 1 << 20, 1, [&](std::int64_t, std::int64_t) {
+      std::lock_guard<std::mutex> lock(m);
+      ids.insert(std::this_thread::get_id());
+    });
+  }
+  CHECK(ids == std::set<std::thread::id>{std::this_thread::get_id()});
+  CHECK(distinct_threads(8, std::chrono::milliseconds(20)) > 1);  // and in parallel again after it
+}
