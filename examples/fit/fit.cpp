@@ -18,6 +18,7 @@
 #include "autodiff/parallel.h"
 #include "autodiff/tape.h"
 #include "autodiff/view_gradients.h"
+#include "examples/fit/concurrent_views.h"
 #include "examples/fit/geometry.h"
 #include "examples/fit/plot.h"
 #include "examples/fit/progress.h"
@@ -253,7 +254,9 @@ class CameraCorrections {
     return p;
   }
 
-  Tensor view_projection(std::size_t v) const { return fitted() ? view_projection(v, q_[v], t_[v]) : view_projection(v, {}, {}); }
+  Tensor view_projection(std::size_t v) const {
+    return fitted() ? view_projection(v, q_[v], t_[v]) : view_projection(v, Tensor(), Tensor());
+  }
   // With the correction (q, t) given: a view's aliases of q_[v] and t_[v] (ViewGradients::view_leaves).
   Tensor view_projection(std::size_t v, const Tensor& q, const Tensor& t) const {
     const Camera& c = scene_.cameras[v];
@@ -276,69 +279,6 @@ class CameraCorrections {
  private:
   const Scene& scene_;
   std::vector<Tensor> errors_, q_, t_;
-};
-
-// What the views of one step share, as leaves of their own: the render
-// vertices' positions, normals and colours (or the texture). update() computes
-// them once per step from the smoothed positions, recorded on this thread's
-// tape, and copies their values into the leaves. Each view renders from its
-// aliases of the leaves (ViewGradients::view_leaves) on a tape of its own;
-// once the views' gradients are summed into the leaves, pullback() carries
-// them on to the positions in one backward.
-class SharedSurface {
- public:
-  SharedSurface(const SurfaceMesh& mesh, const Material& material) : mesh_(mesh), material_(material) {
-    const std::int64_t r = mesh.render_to_point.numel();
-    leaves_.push_back(Tensor::zeros({r, 3}).set_requires_grad());  // vertices
-    leaves_.push_back(Tensor::zeros({r, 3}).set_requires_grad());  // normals
-    // The texture is a fitted leaf already: the views differentiate it directly.
-    leaves_.push_back(material.texture.defined() ? material.texture : Tensor::zeros({r, 3}).set_requires_grad());
-  }
-
-  // The leaves, in the order as_surface() reads them.
-  const std::vector<Tensor>& leaves() const { return leaves_; }
-
-  void update(const Tensor& positions) {
-    recorded_ = surface(mesh_, positions, material_);
-    set_values(leaves_[0], recorded_.vertices);
-    set_values(leaves_[1], recorded_.normals);
-    if (recorded_.colours.defined()) set_values(leaves_[2], recorded_.colours);
-  }
-
-  // A view's surface from its aliases of leaves() (the first three of `leaves`).
-  Surface as_surface(const std::vector<Tensor>& leaves) const {
-    Surface s;
-    s.vertices = leaves[0], s.normals = leaves[1];
-    (material_.texture.defined() ? s.texture : s.colours) = leaves[2];
-    return s;
-  }
-
-  // sum over the recorded values of value * (its leaf's gradient): its
-  // gradient with respect to each value is the leaf's gradient, so its
-  // backward carries the views' sum on to the positions (and colours).
-  Tensor pullback() const {
-    Tensor total = sum(recorded_.vertices * leaves_[0].grad()) + sum(recorded_.normals * leaves_[1].grad());
-    if (recorded_.colours.defined()) total = total + sum(recorded_.colours * leaves_[2].grad());
-    return total;
-  }
-
-  void zero_grad() {
-    for (std::size_t i = 0; i < 2; ++i) leaves_[i].zero_grad();
-    if (!material_.texture.defined()) leaves_[2].zero_grad();
-  }
-
- private:
-  // dst's values become src's, in place (both float32 of one shape): the
-  // leaves keep their identity from step to step.
-  static void set_values(Tensor& dst, const Tensor& src) {
-    if (src.shape() != dst.shape()) throw ShapeError("fit: the surface changed shape to " + src.describe());
-    std::copy_n(std::as_const(src).data<float>(), src.numel(), dst.data<float>());
-  }
-
-  const SurfaceMesh& mesh_;
-  const Material& material_;
-  std::vector<Tensor> leaves_;
-  Surface recorded_;
 };
 
 // One view's part of the loss (the per-pixel colour MSE plus alpha-mask MSE,
@@ -390,28 +330,6 @@ ViewsLoss render_views(const Scene& scene, const Targets& targets, const Tensor&
   }
   return out;
 }
-
-// The order the views of one process start in: the longest of the last
-// step first, so that the concurrent views end close together (greedy
-// longest-first scheduling). Only when each view runs changes, not what it
-// computes: results are the same for any order.
-class ViewSchedule {
- public:
-  explicit ViewSchedule(ViewRange mine) : begin_(mine.begin), seconds_(std::size_t(mine.end - mine.begin)) {
-    for (int v = mine.begin; v < mine.end; ++v) order_.push_back(v);
-  }
-  int view(int i) const { return order_[i]; }
-  void took(int view, double seconds) { seconds_[std::size_t(view - begin_)] = seconds; }  // one writer per view
-  void reorder() {
-    std::stable_sort(order_.begin(), order_.end(),
-                     [&](int a, int b) { return seconds_[std::size_t(a - begin_)] > seconds_[std::size_t(b - begin_)]; });
-  }
-
- private:
-  int begin_;
-  std::vector<double> seconds_;
-  std::vector<int> order_;
-};
 
 // The test hook of the fault test (tests/mpi): GRADRASTER_FIT_FAIL_RANK=R makes
 // process R throw in its first view, as bad input on one rank would.

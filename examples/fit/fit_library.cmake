@@ -7,6 +7,7 @@ include(${CMAKE_CURRENT_LIST_DIR}/../common/plot_library.cmake)
 if(NOT TARGET gradraster_fit)
   add_library(gradraster_fit STATIC
     ${CMAKE_CURRENT_LIST_DIR}/cli.cpp
+    ${CMAKE_CURRENT_LIST_DIR}/concurrent_views.cpp
     ${CMAKE_CURRENT_LIST_DIR}/fit.cpp
     ${CMAKE_CURRENT_LIST_DIR}/fit_outputs.cpp
     ${CMAKE_CURRENT_LIST_DIR}/geometry.cpp
