@@ -100,6 +100,11 @@ namespace {
 // idle threads can take any chunk not yet started: for a few long tasks).
 void run_chunks(std::int64_t begin, std::int64_t end, std::int64_t grain, bool one_chunk_each,
                 const std::function<void(std::int64_t, std::int64_t)>& body) {
+  if (t_serial_depth > 0) {  // a SerialScope: inline, also inside another loop's body
+    BodyScope scope;
+    body(begin, end);
+    return;
+  }
   ForkJoin sync;
   auto run = [&] {
     struct Join {  // also when a body throws
@@ -131,7 +136,7 @@ void run_chunks(std::int64_t begin, std::int64_t end, std::int64_t grain, bool o
     arena = g_arena;
     threads = g_threads;
   }
-  if (threads == 1 || t_serial_depth > 0) {  // one thread: a plain serial loop
+  if (threads == 1) {  // one thread: a plain serial loop
     BodyScope scope;
     body(begin, end);
   } else if (arena) {

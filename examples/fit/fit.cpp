@@ -547,6 +547,7 @@ FitResult run_pose(const FitOptions& options, std::ostream& log) {
   }
   pose_error(result.initial_rotation_error, result.initial_translation_error);
 
+  const Tensor target_image = target.image();
   Adam optimizer({q, t}, AdamOptions{options.pose_lr});
   Run run(options, iterations, log, result);
   const auto loop_start = Clock::now();
@@ -556,13 +557,13 @@ FitResult run_pose(const FitOptions& options, std::ostream& log) {
                             options.size);
     if (it == 0) result.initial_iou = coverage_iou(r.coverage, target.coverage);
     const Tensor image = r.image();
-    const Tensor loss = mean(pow(image - target.image(), 2.0));
+    const Tensor loss = mean(pow(image - target_image, 2.0));
     const double loss_value = loss.item();
     if (!std::isfinite(loss_value)) throw ValueError("fit: the loss became " + std::to_string(loss_value));
     backward(loss);
     optimizer.step();
     optimizer.zero_grad();
-    run.snapshot(it, {target.image()}, {image.detach()});
+    run.snapshot(it, {target_image}, {image.detach()});
     run.step_done(it + 1, loss_value);
   }
   const double loop_seconds = seconds_since(loop_start);
@@ -572,9 +573,9 @@ FitResult run_pose(const FitOptions& options, std::ostream& log) {
     NoGradGuard no_grad;
     const Render r = render(mesh, posed(rigid(q, t)), scene.reference_material, vp, camera.light, scene.background,
                             options.size);
-    result.losses.push_back(mse(r.image(), target.image()));
+    result.losses.push_back(mse(r.image(), target_image));
     result.final_iou = coverage_iou(r.coverage, target.coverage);
-    run.snapshot(iterations, {target.image()}, {r.image()});
+    run.snapshot(iterations, {target_image}, {r.image()});
     result.positions = posed(rigid(q, t));
   }
   pose_error(result.final_rotation_error, result.final_translation_error);
@@ -625,14 +626,12 @@ struct OverlapCounts {
   }
 };
 
-const Tensor as_float32(const Tensor& t) { return t.dtype() == DType::Float32 ? t : cast(t, DType::Float32); }
-
 }  // namespace
 
 double coverage_iou(const Tensor& a, const Tensor& b) {
   if (a.numel() != b.numel()) throw ShapeError("coverage_iou: masks of different sizes");
   NoGradGuard no_grad;
-  const Tensor fa = as_float32(a), fb = as_float32(b);
+  const Tensor fa = cast(a, DType::Float32), fb = cast(b, DType::Float32);  // no copy when float32 already
   const float* x = fa.data<float>();
   const float* y = fb.data<float>();
   const OverlapCounts n = deterministic_sum<OverlapCounts>(a.numel(), 1 << 14, [&](std::int64_t lo, std::int64_t hi) {
