@@ -8,8 +8,9 @@ include(CMakePackageConfigHelpers)
 set(GRADRASTER_INCLUDE_SUBDIR ${CMAKE_INSTALL_INCLUDEDIR}/gradraster)
 set(GRADRASTER_CMAKE_DIR ${CMAKE_INSTALL_LIBDIR}/cmake/gradraster)
 
+# raster/vulkan is not installed yet: gradraster::vulkan is a build-tree library.
 install(DIRECTORY autodiff raster ops DESTINATION ${GRADRASTER_INCLUDE_SUBDIR}
-  COMPONENT dev FILES_MATCHING PATTERN "*.h")
+  COMPONENT dev FILES_MATCHING PATTERN "*.h" PATTERN vulkan EXCLUDE)
 install(TARGETS gradraster_base gradraster_raster gradraster EXPORT gradrasterTargets
   COMPONENT dev
   ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}

@@ -8,7 +8,8 @@ cd "$(dirname "$0")/.."
 source scripts/install_missing.sh
 install_missing g++ cmake make pkg-config libeigen3-dev libtbb-dev libtinyobjloader-dev libstb-dev catch2 libbenchmark-dev \
   libopenmpi-dev openmpi-bin \
-  python3-dev pybind11-dev python3-torch python3-numpy python3-pytest
+  python3-dev pybind11-dev python3-torch python3-numpy python3-pytest \
+  libvulkan-dev glslc mesa-vulkan-drivers
 
 build_dir=${GRADRASTER_BUILD_DIR:-build}
 cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=Release ${GRADRASTER_CMAKE_ARGS:-} > /dev/null

@@ -1,0 +1,20 @@
+// Internal to the Vulkan path: the SPIR-V of raster/vulkan/shaders/*.comp,
+// compiled by glslc at build time and embedded (cmake/vulkan.cmake).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+namespace gr::vulkan::shaders {
+
+struct Spirv {
+  const std::uint32_t* words;
+  std::size_t count;
+};
+
+Spirv project();
+Spirv raster_small();
+Spirv raster_large();
+Spirv resolve();
+
+}  // namespace gr::vulkan::shaders

@@ -1,0 +1,29 @@
+// rasterize_forward on a Vulkan device: the same G-buffer as the CPU kernel
+// (raster/rasterize.h), bit for bit: tri_id, (u, v) and depth, row 0 at the
+// top. Triangle ids are decided by the CPU's expressions in double precision
+// and two order-independent atomic minima (depth, then id at that depth), so
+// the result does not depend on scheduling (docs/gpu.md).
+//
+// Not yet on the GPU: depth peeling (floor_id/floor_z must be null), the
+// adjoint, RasterStats and key_depth.
+#pragma once
+
+#include <cstdint>
+
+#include "raster/rasterize.h"
+#include "raster/vulkan/device.h"
+
+namespace gr::vulkan {
+
+struct GpuRasterOptions {
+  // Row 0 is the bottom row (nvdiffrast's convention): the result is the CPU
+  // kernel's on clip coordinates with y negated.
+  bool y_up = false;
+};
+
+// p is trusted as for the CPU kernel (the op validates); peeling fields must be null.
+void rasterize_forward(Device& device, const raster::RasterParams<float>& p, std::int32_t* tri_id,
+                       float* uv, float* depth, const GpuRasterOptions& options = {},
+                       GpuTimes* times = nullptr);
+
+}  // namespace gr::vulkan

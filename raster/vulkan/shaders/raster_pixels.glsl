@@ -1,0 +1,22 @@
+// The depth buffer passes over one triangle's pixels, shared by the per-triangle
+// (small boxes) and per-workgroup (large boxes) shaders. Pass 0 keeps the
+// nearest depth per pixel (a 64-bit atomic min of an order-preserving key);
+// pass 1 keeps the smallest triangle index among those at exactly that depth.
+// Both are minima, so the result does not depend on the order in which
+// triangles or pixels are visited: the CPU's (depth, id) rule, bit for bit.
+#extension GL_EXT_shader_atomic_int64 : require
+
+layout(std430, binding = 3) buffer KeyBuf { uint64_t keys[]; };
+layout(std430, binding = 4) buffer IdBuf { int ids[]; };
+layout(std430, binding = 5) buffer LargeBuf { uint large_count; uint large[]; };
+
+void raster_pixel(Setup s, int t, int x, int y) {
+  double z, u, v;
+  if (!shade_pixel(s, x, y, z, u, v)) return;
+  int p = y * P.width + x;
+  uint64_t key = depth_key(z);
+  if (P.pass == 0)
+    atomicMin(keys[p], key);
+  else if (keys[p] == key)
+    atomicMin(ids[p], t);
+}

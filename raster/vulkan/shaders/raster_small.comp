@@ -1,0 +1,23 @@
+#version 460
+// One thread per triangle: classify, and scan the box when it is small; a
+// larger box is listed (pass 0) for raster_large.comp.
+#include "raster_common.glsl"
+#include "raster_pixels.glsl"
+
+layout(local_size_x = 64) in;
+layout(constant_id = 0) const int kMaxSmallBox = 64;
+
+void main() {
+  int t = linear_id();
+  if (t >= P.num_tris) return;
+  ivec3 tri = tri_of(t);
+  ivec4 box;
+  if (classify_triangle(tri, box) == kRejected) return;
+  if ((box.z - box.x + 1) * (box.w - box.y + 1) > kMaxSmallBox) {
+    if (P.pass == 0) large[atomicAdd(large_count, 1u)] = uint(t);
+    return;
+  }
+  Setup s = setup_edges(tri);
+  for (int y = box.y; y <= box.w; ++y)
+    for (int x = box.x; x <= box.z; ++x) raster_pixel(s, t, x, y);
+}

@@ -1,0 +1,37 @@
+#version 460
+// Per pixel: the winning triangle's (u, v, depth) in the CPU layout
+// (raster/rasterize.h): tri_id 1-based, (u, v) the screen weights of vertices
+// 1 and 2, depth z_ndc; background: 0, (0, 0), 1.
+#include "raster_common.glsl"
+
+layout(local_size_x = 256) in;
+layout(std430, binding = 4) readonly buffer IdBuf { int ids[]; };
+layout(std430, binding = 6) writeonly buffer TriIdOut { int tri_id[]; };
+layout(std430, binding = 7) writeonly buffer UvOut { float uv[]; };
+layout(std430, binding = 8) writeonly buffer DepthOut { float depth[]; };
+
+// x rounded to float, saturated at float's largest finite value (as the CPU's saturate<float>).
+float saturate_float(double x) {
+  const double kMax = 3.4028234663852886e38;
+  return float(x > kMax ? kMax : x < -kMax ? -kMax : x);
+}
+
+void main() {
+  int p = linear_id();
+  if (p >= P.width * P.height) return;
+  int t = ids[p];
+  if (t == 0x7fffffff) {
+    tri_id[p] = 0;
+    uv[2 * p] = 0.0;
+    uv[2 * p + 1] = 0.0;
+    depth[p] = 1.0;
+    return;
+  }
+  Setup s = setup_edges(tri_of(t));
+  double z, u, v;
+  shade_pixel(s, p % P.width, p / P.width, z, u, v);
+  tri_id[p] = t + 1;
+  uv[2 * p] = saturate_float(u);
+  uv[2 * p + 1] = saturate_float(v);
+  depth[p] = saturate_float(z);
+}
