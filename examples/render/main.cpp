@@ -1,5 +1,5 @@
 // gradraster-render: renders an OBJ or builtin mesh with gradraster and writes
-// a shaded PNG and the raw G-buffer (see --help and README "Render tool").
+// a shaded PNG and the raw G-buffer (see --help and docs/tools.md, "gradraster-render").
 // All the work is in render_tool.cpp, so the tests can drive it in-process.
 #include <iostream>
 #include <string>
