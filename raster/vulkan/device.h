@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 namespace gr::vulkan {
 
@@ -51,6 +52,8 @@ struct GpuTimes {
   double upload_ms = 0.0;    // host -> device copies
   double kernels_ms = 0.0;   // the compute passes
   double download_ms = 0.0;  // device -> host copies
+  // kernels_ms by pass, in the order the call's header lists them.
+  std::vector<double> pass_ms;
 };
 
 }  // namespace gr::vulkan

@@ -8,6 +8,7 @@
 #include "raster/vulkan/rasterize.h"
 
 #include <cstring>
+#include <map>
 #include <memory>
 #include <string>
 
@@ -19,11 +20,12 @@
 namespace gr::vulkan {
 namespace {
 
-// Boxes of more pixels than this go to raster_large (one workgroup each).
-constexpr std::int32_t kMaxSmallBox = 64;
 // Workgroups of raster_large; each takes listed triangles in turn.
 constexpr std::uint32_t kLargeWorkgroups = 1024;
 constexpr std::uint32_t kMaxGroupsX = 65535;
+
+// Timestamps: start, uploaded, cleared, projected, depth pass, id pass, resolved, downloaded.
+constexpr std::uint32_t kTimestamps = 8;
 
 struct PushConstants {
   std::int32_t width, height, num_vertices, num_tris, cull, pass, y_up, pad;
@@ -37,12 +39,12 @@ struct RasterState {
     const shaders::Spirv pr = shaders::project(), sm = shaders::raster_small(), lg = shaders::raster_large(),
                          rs = shaders::resolve();
     project = pipelines.add(pr.words, pr.count);
-    small = pipelines.add(sm.words, sm.count, {kMaxSmallBox});
+    small_words = sm;
     large = pipelines.add(lg.words, lg.count);
     resolve = pipelines.add(rs.words, rs.count);
     VkQueryPoolCreateInfo qi{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
     qi.queryType = VK_QUERY_TYPE_TIMESTAMP;
-    qi.queryCount = 4;
+    qi.queryCount = kTimestamps;
     check(vkCreateQueryPool(dev.device, &qi, nullptr, &queries), "vkCreateQueryPool");
     device = dev.device;
   }
@@ -51,12 +53,21 @@ struct RasterState {
   }
 
   PipelineSet pipelines;
-  VkPipeline project, small, large, resolve;
+  VkPipeline project, large, resolve;
+  // raster_small by its small_box specialization.
+  shaders::Spirv small_words;
+  std::map<int, VkPipeline> small;
   VkQueryPool queries = VK_NULL_HANDLE;
   VkDevice device;
   Buffer buffers[kBindings];
   Buffer upload, download;
 };
+
+VkPipeline small_pipeline(RasterState& st, int small_box) {
+  auto it = st.small.find(small_box);
+  if (it != st.small.end()) return it->second;
+  return st.small[small_box] = st.pipelines.add(st.small_words.words, st.small_words.count, {small_box});
+}
 
 RasterState& state_of(Device::Impl& dev) {
   if (!dev.raster_state) dev.raster_state = std::make_shared<RasterState>(dev);
@@ -88,6 +99,8 @@ void rasterize_forward(Device& device, const raster::RasterParams<float>& p, std
                        float* depth, const GpuRasterOptions& options, GpuTimes* times) {
   if (p.floor_id || p.floor_z)
     throw ValueError("vulkan rasterize: depth peeling (floor_id, floor_z) is not on the GPU yet");
+  if (options.small_box < 1)
+    throw ValueError("vulkan rasterize: small_box must be at least 1, got " + std::to_string(options.small_box));
   Device::Impl& dev = device.impl();
   std::lock_guard<std::mutex> lock(dev.mutex);
   RasterState& st = state_of(dev);
@@ -111,8 +124,8 @@ void rasterize_forward(Device& device, const raster::RasterParams<float>& p, std
   b[kDepthOut].reserve(dev, out_bytes[2], false);
   st.upload.reserve(dev, clip_bytes + tri_bytes, true);
   st.download.reserve(dev, out_bytes[0] + out_bytes[1] + out_bytes[2], true);
-  std::memcpy(st.upload.mapped(), p.clip, clip_bytes);
-  std::memcpy(static_cast<char*>(st.upload.mapped()) + clip_bytes, p.tris, tri_bytes);
+  if (clip_bytes) std::memcpy(st.upload.mapped(), p.clip, clip_bytes);
+  if (tri_bytes) std::memcpy(static_cast<char*>(st.upload.mapped()) + clip_bytes, p.tris, tri_bytes);
 
   VkBuffer handles[kBindings];
   for (std::uint32_t i = 0; i < kBindings; ++i) handles[i] = b[i].handle();
@@ -122,9 +135,13 @@ void rasterize_forward(Device& device, const raster::RasterParams<float>& p, std
                    p.settings.cull == raster::Cull::Back ? 1 : p.settings.cull == raster::Cull::Front ? -1 : 0,
                    0, options.y_up ? 1 : 0, 0};
 
+  const VkPipeline small = small_pipeline(st, options.small_box);
   dev.run([&](VkCommandBuffer cb) {
+    auto stamp = [&](VkPipelineStageFlagBits stage, std::uint32_t i) {
+      if (timed) vkCmdWriteTimestamp(cb, stage, st.queries, i);
+    };
     if (timed) {
-      vkCmdResetQueryPool(cb, st.queries, 0, 4);
+      vkCmdResetQueryPool(cb, st.queries, 0, kTimestamps);
       vkCmdWriteTimestamp(cb, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, st.queries, 0);
     }
     if (clip_bytes) {
@@ -135,12 +152,13 @@ void rasterize_forward(Device& device, const raster::RasterParams<float>& p, std
       const VkBufferCopy c{clip_bytes, 0, tri_bytes};
       vkCmdCopyBuffer(cb, st.upload.handle(), b[kTris].handle(), 1, &c);
     }
-    if (timed) vkCmdWriteTimestamp(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, st.queries, 1);
+    stamp(VK_PIPELINE_STAGE_TRANSFER_BIT, 1);
     // Keys "beyond everything", ids "none", an empty large list.
     vkCmdFillBuffer(cb, b[kKeys].handle(), 0, px * sizeof(std::uint64_t), 0xffffffffu);
     vkCmdFillBuffer(cb, b[kIds].handle(), 0, px * sizeof(std::int32_t), 0x7fffffffu);
     vkCmdFillBuffer(cb, b[kLarge].handle(), 0, sizeof(std::uint32_t), 0u);
     barrier(cb);
+    stamp(VK_PIPELINE_STAGE_TRANSFER_BIT, 2);
 
     const VkPipelineLayout layout = st.pipelines.layout();
     vkCmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &set, 0, nullptr);
@@ -152,19 +170,21 @@ void rasterize_forward(Device& device, const raster::RasterParams<float>& p, std
     vkCmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_COMPUTE, st.project);
     dispatch_items(cb, p.num_vertices, 256);
     barrier(cb);
+    stamp(VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 3);
     for (std::int32_t pass = 0; pass < 2; ++pass) {
       push(pass);
-      vkCmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_COMPUTE, st.small);
+      vkCmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_COMPUTE, small);
       dispatch_items(cb, p.num_tris, 64);
       barrier(cb);
       vkCmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_COMPUTE, st.large);
       if (p.num_tris > 0) vkCmdDispatch(cb, kLargeWorkgroups, 1, 1);
       barrier(cb);
+      stamp(VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 4 + pass);
     }
     vkCmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_COMPUTE, st.resolve);
     dispatch_items(cb, pixels, 256);
     barrier(cb);
-    if (timed) vkCmdWriteTimestamp(cb, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, st.queries, 2);
+    stamp(VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 6);
 
     std::size_t offset = 0;
     const Binding outs[3] = {kTriIdOut, kUvOut, kDepthOut};
@@ -173,7 +193,7 @@ void rasterize_forward(Device& device, const raster::RasterParams<float>& p, std
       vkCmdCopyBuffer(cb, b[outs[k]].handle(), st.download.handle(), 1, &c);
       offset += out_bytes[k];
     }
-    if (timed) vkCmdWriteTimestamp(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, st.queries, 3);
+    stamp(VK_PIPELINE_STAGE_TRANSFER_BIT, 7);
   });
 
   const char* out = static_cast<const char*>(st.download.mapped());
@@ -183,13 +203,15 @@ void rasterize_forward(Device& device, const raster::RasterParams<float>& p, std
 
   if (times) {
     *times = GpuTimes{};
-    std::uint64_t ts[4];
-    if (timed && vkGetQueryPoolResults(dev.device, st.queries, 0, 4, sizeof(ts), ts, sizeof(std::uint64_t),
+    std::uint64_t ts[kTimestamps];
+    if (timed && vkGetQueryPoolResults(dev.device, st.queries, 0, kTimestamps, sizeof(ts), ts, sizeof(std::uint64_t),
                                        VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT) == VK_SUCCESS) {
       const double ms = dev.info.timestamp_period_ns * 1e-6;
-      times->upload_ms = static_cast<double>(ts[1] - ts[0]) * ms;
-      times->kernels_ms = static_cast<double>(ts[2] - ts[1]) * ms;
-      times->download_ms = static_cast<double>(ts[3] - ts[2]) * ms;
+      auto span = [&](int a, int b) { return static_cast<double>(ts[b] - ts[a]) * ms; };
+      times->upload_ms = span(0, 1);
+      times->kernels_ms = span(1, 6);
+      times->download_ms = span(6, 7);
+      for (int i = 1; i < 6; ++i) times->pass_ms.push_back(span(i, i + 1));
     }
   }
 }

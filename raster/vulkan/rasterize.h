@@ -19,9 +19,13 @@ struct GpuRasterOptions {
   // Row 0 is the bottom row (nvdiffrast's convention): the result is the CPU
   // kernel's on clip coordinates with y negated.
   bool y_up = false;
+  // Triangles whose pixel box has more pixels than this are scanned by a
+  // workgroup each, the others by one thread each (same result; a tuning knob).
+  int small_box = 64;
 };
 
 // p is trusted as for the CPU kernel (the op validates); peeling fields must be null.
+// times->pass_ms: clear, project, depth (pass 0), id (pass 1), resolve.
 void rasterize_forward(Device& device, const raster::RasterParams<float>& p, std::int32_t* tri_id,
                        float* uv, float* depth, const GpuRasterOptions& options = {},
                        GpuTimes* times = nullptr);

@@ -51,10 +51,11 @@ GBuffer on_cpu(const Scene& s, int W, int H, Cull cull = Cull::None) {
   return g;
 }
 
-GBuffer on_gpu(const Scene& s, int W, int H, Cull cull = Cull::None, bool y_up = false) {
+GBuffer on_gpu(const Scene& s, int W, int H, Cull cull = Cull::None, bool y_up = false, int small_box = 64) {
   GBuffer g(W, H);
   vulkan::GpuRasterOptions options;
   options.y_up = y_up;
+  options.small_box = small_box;
   vulkan::rasterize_forward(*gpu(), s.params(W, H, cull), g.id.data(), g.uv.data(), g.depth.data(), options);
   return g;
 }
@@ -167,7 +168,12 @@ TEST_CASE("the GPU's large-triangle path covers big boxes like the CPU", "[vulka
     big.clip[i] *= 4.0f;
     big.clip[i + 1] *= 4.0f;
   }
-  require_same(on_gpu(big, 120, 100), on_cpu(big, 120, 100));
+  const GBuffer cpu_g = on_cpu(big, 120, 100);
+  // Every triangle per workgroup, every triangle per thread, and the default split.
+  for (int small_box : {1, 64, 1 << 20}) {
+    INFO("small_box " << small_box);
+    require_same(on_gpu(big, 120, 100, Cull::None, false, small_box), cpu_g);
+  }
 }
 
 TEST_CASE("the GPU G-buffer of real meshes, also crossing the near plane, is the CPU's", "[vulkan]") {
@@ -215,7 +221,7 @@ TEST_CASE("the GPU handles an empty mesh and a one-pixel image", "[vulkan]") {
   require_same(on_gpu(s, 1, 1), on_cpu(s, 1, 1));
 }
 
-TEST_CASE("the GPU rasterizer refuses depth peeling, which it does not do yet", "[vulkan]") {
+TEST_CASE("the GPU rasterizer refuses depth peeling (not on the GPU yet) and a small_box below 1", "[vulkan]") {
   if (!gpu()) return;
   const Scene s = random_soup(4, 6);
   std::vector<std::int32_t> floor_id(16, 0);
@@ -225,4 +231,8 @@ TEST_CASE("the GPU rasterizer refuses depth peeling, which it does not do yet", 
   p.floor_z = floor_z.data();
   GBuffer g(4, 4);
   REQUIRE_THROWS_AS(vulkan::rasterize_forward(*gpu(), p, g.id.data(), g.uv.data(), g.depth.data()), ValueError);
+  vulkan::GpuRasterOptions bad;
+  bad.small_box = 0;
+  REQUIRE_THROWS_WITH(vulkan::rasterize_forward(*gpu(), s.params(4, 4), g.id.data(), g.uv.data(), g.depth.data(), bad),
+                      Catch::Contains("small_box"));
 }
