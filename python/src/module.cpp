@@ -13,6 +13,9 @@
 #include "python/src/interpolate.h"
 #include "python/src/rasterize.h"
 #include "python/src/texture.h"
+#ifdef GRADRASTER_HAS_VULKAN
+#include "raster/vulkan/device.h"
+#endif
 
 namespace py = pybind11;
 using namespace gr::python;
@@ -51,7 +54,38 @@ PYBIND11_MODULE(_core, m) {
         return Mesh{f64, pos, images, vertices, instanced, tri, triangles, std::move(ranges)};
       }));
 
-  py::class_<Context>(m, "Context").def(py::init<>());
+  py::class_<Context>(m, "Context")
+      .def(py::init<>())
+      // A context whose rasterizer runs on a Vulkan device (Device::open's
+      // choice); RuntimeError saying why when there is none.
+      .def_static("vulkan",
+                  [] {
+#ifdef GRADRASTER_HAS_VULKAN
+                    std::string why;
+                    auto device = gr::vulkan::Device::open(&why);
+                    if (!device) throw std::runtime_error("RasterizeVulkanContext: " + why);
+                    Context ctx;
+                    ctx.gpu = std::move(device);
+                    return ctx;
+#else
+                    throw std::runtime_error(
+                        "RasterizeVulkanContext: this build of gradraster has no GPU path (built without Vulkan: "
+                        "install libvulkan-dev and glslc, then rebuild)");
+                    return Context{};
+#endif
+                  })
+      .def_property_readonly("device_name", [](const Context& ctx) -> std::string {
+#ifdef GRADRASTER_HAS_VULKAN
+        if (ctx.gpu) return ctx.gpu->info().name;
+#endif
+        return "cpu";
+      });
+  m.attr("HAS_VULKAN") =
+#ifdef GRADRASTER_HAS_VULKAN
+      true;
+#else
+      false;
+#endif
   py::class_<PeelState>(m, "PeelState").def(py::init<>()).def_readonly("layers", &PeelState::layers);
   m.def("rasterize_forward", &rasterize_forward);
   m.def("rasterize_backward", &rasterize_backward);

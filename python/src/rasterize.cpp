@@ -2,10 +2,14 @@
 
 #include <algorithm>
 #include <string>
+#include <type_traits>
 
 #include "autodiff/error.h"
 #include "raster/barycentric_gbuffer.h"
 #include "raster/rasterize.h"
+#ifdef GRADRASTER_HAS_VULKAN
+#include "raster/vulkan/rasterize.h"
+#endif
 
 namespace gr::python {
 
@@ -17,6 +21,33 @@ template <>
 std::vector<double>& ImageScratch::buffer<double>(Buffer b) {
   return d_[b];
 }
+
+namespace {
+
+// The Vulkan context's rasterizer, for what it covers: float32 positions
+// outside a depth peeler (which needs the exact key depths the CPU kernel
+// writes); the others take the CPU kernel, which gives the same bits.
+// It reads the caller's positions and negates y itself (y_up); p.clip is the
+// flipped copy the CPU kernel and the G-buffer's layout step read.
+template <class T>
+bool rasterize_on_gpu(Context& ctx, const raster::RasterParams<T>& p, const T* pos, bool peeling, ImageScratch& s) {
+#ifdef GRADRASTER_HAS_VULKAN
+  if constexpr (std::is_same_v<T, float>) {
+    if (!ctx.gpu || peeling) return false;
+    raster::RasterParams<float> unflipped = p;
+    unflipped.clip = pos;
+    vulkan::GpuRasterOptions options;
+    options.y_up = true;
+    vulkan::rasterize_forward(*ctx.gpu, unflipped, s.tri_id.data(), s.buffer<float>(ImageScratch::kUv).data(),
+                              s.buffer<float>(ImageScratch::kDepth).data(), options);
+    return true;
+  }
+#endif
+  (void)ctx, (void)p, (void)pos, (void)peeling, (void)s;
+  return false;
+}
+
+}  // namespace
 
 void rasterize_forward(Context& ctx, const Mesh& mesh, int height, int width, Address rast, Address db,
                        PeelState* peel, int threads) {
@@ -57,9 +88,10 @@ void rasterize_forward(Context& ctx, const Mesh& mesh, int height, int width, Ad
         p.floor_id = peel->floor_id.data() + b * pixels;
         p.floor_z = peel->floor_z.data() + b * pixels;
       }
-      raster::rasterize_forward(p, s.tri_id.data(), s.buffer<T>(ImageScratch::kUv).data(),
-                                s.buffer<T>(ImageScratch::kDepth).data(), nullptr,
-                                peel ? s.key_depth.data() : nullptr);
+      if (!rasterize_on_gpu(ctx, p, at<const T>(mesh.pos) + mesh.pos_offset(b), peel != nullptr, s))
+        raster::rasterize_forward(p, s.tri_id.data(), s.buffer<T>(ImageScratch::kUv).data(),
+                                  s.buffer<T>(ImageScratch::kDepth).data(), nullptr,
+                                  peel ? s.key_depth.data() : nullptr);
       if (peel) {
         std::copy(s.tri_id.begin(), s.tri_id.end(), peel->floor_id.begin() + b * pixels);
         std::copy(s.key_depth.begin(), s.key_depth.end(), peel->floor_z.begin() + b * pixels);

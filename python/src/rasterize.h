@@ -1,9 +1,14 @@
 // rasterize and the depth peeler in nvdiffrast's layout, over a Mesh.
 #pragma once
 
+#include <memory>
 #include <vector>
 
 #include "python/src/common.h"
+
+namespace gr::vulkan {
+class Device;  // raster/vulkan/device.h (built with the GPU path only)
+}
 
 namespace gr::python {
 
@@ -34,6 +39,9 @@ struct ImageScratch {
 // Images of a minibatch run in parallel, each on its own slot.
 struct Context {
   std::vector<ImageScratch> images;
+  // RasterizeVulkanContext: the device that rasterizes float32 positions
+  // (null: the CPU kernels). Same G-buffer bits either way.
+  std::shared_ptr<vulkan::Device> gpu;
   ImageScratch& image(std::int64_t b) { return images[static_cast<std::size_t>(b)]; }
   void reserve(std::int64_t count) {
     if (static_cast<std::int64_t>(images.size()) < count) images.resize(static_cast<std::size_t>(count));

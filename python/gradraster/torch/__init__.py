@@ -1,14 +1,15 @@
 """nvdiffrast.torch's interface on the CPU: `import gradraster.torch as dr`,
 then `glctx = dr.RasterizeCpuContext()` where nvdiffrast code creates a
 RasterizeCudaContext, and CPU tensors. The names RasterizeCudaContext and
-RasterizeGLContext exist too; constructing either gives a CPU context."""
+RasterizeGLContext exist too; constructing either gives a CPU context.
+RasterizeVulkanContext() rasterizes on a Vulkan device (docs/gpu.md)."""
 from .. import _core as _gradraster_core
-from .ops import (RasterizeCpuContext, RasterizeCudaContext, RasterizeGLContext, rasterize, DepthPeeler,
-                  interpolate, texture, texture_construct_mip, antialias, antialias_construct_topology_hash,
+from .ops import (RasterizeCpuContext, RasterizeVulkanContext, RasterizeCudaContext, RasterizeGLContext, rasterize,
+                  DepthPeeler, interpolate, texture, texture_construct_mip, antialias, antialias_construct_topology_hash,
                   visibility_antialias)
 
-__all__ = ['RasterizeCpuContext', 'RasterizeCudaContext', 'RasterizeGLContext', 'rasterize', 'DepthPeeler',
-           'interpolate', 'texture', 'texture_construct_mip', 'antialias', 'antialias_construct_topology_hash',
+__all__ = ['RasterizeCpuContext', 'RasterizeVulkanContext', 'RasterizeCudaContext', 'RasterizeGLContext', 'rasterize',
+           'DepthPeeler', 'interpolate', 'texture', 'texture_construct_mip', 'antialias', 'antialias_construct_topology_hash',
            'visibility_antialias']
 
 # Fresh pages are expensive, and every iteration of a fitting loop allocates

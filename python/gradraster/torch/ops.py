@@ -159,6 +159,28 @@ def _check_cpu_device(context, device):
                          f"'cpu' (and CPU tensors)")
 
 
+class RasterizeVulkanContext(RasterizeCpuContext):
+    """A context whose rasterizer runs on a Vulkan device (any vendor's GPU,
+    or Mesa's lavapipe on the CPU), with CPU tensors in and out: accepted by
+    every function that takes a context. The G-buffer is the CPU context's
+    bit for bit (docs/gpu.md). On the GPU so far: rasterize's forward for
+    float32 positions (not within a DepthPeeler); the rest (float64, peeling, the
+    backward passes, interpolate, texture, antialias) runs on the CPU kernels.
+    The device is the first discrete GPU, else any GPU, else a CPU device;
+    the environment variable GRADRASTER_VULKAN_DEVICE (part of the device's
+    name) chooses another. Raises RuntimeError, saying why, when there is none.
+    `device` must be None or a CPU device: tensors stay on the CPU."""
+
+    def __init__(self, device=None):
+        super().__init__(device)
+        self.cpp_wrapper = _core.Context.vulkan()
+
+    @property
+    def vulkan_device(self):
+        """The Vulkan device's name, e.g. 'NVIDIA H200' or 'llvmpipe (LLVM 15.0.6, 256 bits)'."""
+        return self.cpp_wrapper.device_name
+
+
 # nvdiffrast's two context classes, by name, so that programs that name them
 # (in type annotations, isinstance checks or construction) run unchanged:
 # constructing either gives a CPU context (docs/python.md).
