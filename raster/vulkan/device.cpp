@@ -120,12 +120,13 @@ std::unique_ptr<Device::Impl> open_impl(std::string* why) {
   vkEnumeratePhysicalDevices(impl->instance, &n, devices.data());
   const char* wanted = std::getenv("GRADRASTER_VULKAN_DEVICE");
   int best = -1, best_rank = 99;
-  std::string rejected;
+  std::string rejected, found;
   for (std::uint32_t i = 0; i < n; ++i) {
     VkPhysicalDeviceProperties props;
     vkGetPhysicalDeviceProperties(devices[i], &props);
-    const std::string lack = missing_features(devices[i]);
+    found += std::string(found.empty() ? "" : ", ") + props.deviceName;
     if (wanted && *wanted && !std::strstr(props.deviceName, wanted)) continue;
+    const std::string lack = missing_features(devices[i]);
     if (!lack.empty() || compute_queue_family(devices[i]) < 0) {
       rejected += std::string(" ") + props.deviceName + " lacks" + (lack.empty() ? " a compute queue" : lack) + ";";
       continue;
@@ -134,10 +135,13 @@ std::unique_ptr<Device::Impl> open_impl(std::string* why) {
     if (rank < best_rank) best = static_cast<int>(i), best_rank = rank;
   }
   if (best < 0) {
-    *why = n == 0 ? "no Vulkan device found"
-                  : std::string("no Vulkan device qualifies") +
-                        (wanted && *wanted ? std::string(" (GRADRASTER_VULKAN_DEVICE=") + wanted + ")" : "") +
-                        ":" + rejected;
+    if (n == 0)
+      *why = "no Vulkan device found";
+    else if (rejected.empty())
+      *why = std::string("no Vulkan device's name contains GRADRASTER_VULKAN_DEVICE=\"") + wanted + "\" (found: " +
+             found + ")";
+    else
+      *why = "no Vulkan device has what the kernels need:" + rejected;
     return nullptr;
   }
   impl->physical = devices[best];

@@ -8,6 +8,7 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <random>
 #include <string>
@@ -235,4 +236,19 @@ TEST_CASE("the GPU rasterizer refuses depth peeling (not on the GPU yet) and a s
   bad.small_box = 0;
   REQUIRE_THROWS_WITH(vulkan::rasterize_forward(*gpu(), s.params(4, 4), g.id.data(), g.uv.data(), g.depth.data(), bad),
                       Catch::Contains("small_box"));
+}
+
+TEST_CASE("Device::open says why when GRADRASTER_VULKAN_DEVICE names no device", "[vulkan]") {
+  if (!gpu()) return;
+  const char* old = std::getenv("GRADRASTER_VULKAN_DEVICE");
+  const std::string saved = old ? old : "";
+  setenv("GRADRASTER_VULKAN_DEVICE", "no such device 7f3a", 1);
+  std::string why;
+  const auto none = vulkan::Device::open(&why);
+  if (old)
+    setenv("GRADRASTER_VULKAN_DEVICE", saved.c_str(), 1);
+  else
+    unsetenv("GRADRASTER_VULKAN_DEVICE");
+  CHECK(none == nullptr);
+  CHECK_THAT(why, Catch::Contains("no such device 7f3a") && Catch::Contains(gpu()->info().name));
 }
