@@ -18,7 +18,8 @@ void check(VkResult r, const char* what) {
 Device::Impl::~Impl() {
   if (device) {
     vkDeviceWaitIdle(device);
-    raster_state.reset();
+    default_frame.reset();
+    kernels.reset();
     if (command_pool) vkDestroyCommandPool(device, command_pool, nullptr);
     vkDestroyDevice(device, nullptr);
   }

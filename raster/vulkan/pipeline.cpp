@@ -18,19 +18,12 @@ PipelineSet::PipelineSet(Device::Impl& dev) : dev_(dev) {
   pli.pushConstantRangeCount = 1;
   pli.pPushConstantRanges = &push;
   check(vkCreatePipelineLayout(dev.device, &pli, nullptr, &layout_), "vkCreatePipelineLayout");
-  const VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, kBindings};
-  VkDescriptorPoolCreateInfo dpi{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
-  dpi.maxSets = 1;
-  dpi.poolSizeCount = 1;
-  dpi.pPoolSizes = &size;
-  check(vkCreateDescriptorPool(dev.device, &dpi, nullptr, &pool_), "vkCreateDescriptorPool");
 }
 
 PipelineSet::~PipelineSet() {
   VkDevice d = dev_.device;
   for (VkPipeline p : pipelines_) vkDestroyPipeline(d, p, nullptr);
   for (VkShaderModule m : modules_) vkDestroyShaderModule(d, m, nullptr);
-  if (pool_) vkDestroyDescriptorPool(d, pool_, nullptr);
   if (layout_) vkDestroyPipelineLayout(d, layout_, nullptr);
   if (set_layout_) vkDestroyDescriptorSetLayout(d, set_layout_, nullptr);
 }
@@ -60,15 +53,26 @@ VkPipeline PipelineSet::add(const std::uint32_t* words, std::size_t count, const
   return pipeline;
 }
 
-VkDescriptorSet PipelineSet::bind(const VkBuffer (&buffers)[kBindings]) {
-  if (!set_) {
-    VkDescriptorSetAllocateInfo ai{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
-    ai.descriptorPool = pool_;
-    ai.descriptorSetCount = 1;
-    ai.pSetLayouts = &set_layout_;
-    check(vkAllocateDescriptorSets(dev_.device, &ai, &set_), "vkAllocateDescriptorSets");
-  }
-  const VkDescriptorSet set = set_;
+DescriptorSet::DescriptorSet(Device::Impl& dev, const PipelineSet& pipelines) : dev_(dev) {
+  const VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, kBindings};
+  VkDescriptorPoolCreateInfo dpi{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
+  dpi.maxSets = 1;
+  dpi.poolSizeCount = 1;
+  dpi.pPoolSizes = &size;
+  check(vkCreateDescriptorPool(dev.device, &dpi, nullptr, &pool_), "vkCreateDescriptorPool");
+  const VkDescriptorSetLayout layout = pipelines.set_layout();
+  VkDescriptorSetAllocateInfo ai{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
+  ai.descriptorPool = pool_;
+  ai.descriptorSetCount = 1;
+  ai.pSetLayouts = &layout;
+  const VkResult r = vkAllocateDescriptorSets(dev.device, &ai, &set_);
+  if (r != VK_SUCCESS) vkDestroyDescriptorPool(dev.device, pool_, nullptr);
+  check(r, "vkAllocateDescriptorSets");
+}
+
+DescriptorSet::~DescriptorSet() { vkDestroyDescriptorPool(dev_.device, pool_, nullptr); }
+
+VkDescriptorSet DescriptorSet::bind(const VkBuffer (&buffers)[kBindings]) {
   VkDescriptorBufferInfo info[kBindings];
   VkWriteDescriptorSet w[kBindings];
   std::uint32_t n = 0;
@@ -76,7 +80,7 @@ VkDescriptorSet PipelineSet::bind(const VkBuffer (&buffers)[kBindings]) {
     if (!buffers[i]) continue;
     info[n] = {buffers[i], 0, VK_WHOLE_SIZE};
     w[n] = {VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
-    w[n].dstSet = set;
+    w[n].dstSet = set_;
     w[n].dstBinding = i;
     w[n].descriptorCount = 1;
     w[n].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
@@ -84,7 +88,7 @@ VkDescriptorSet PipelineSet::bind(const VkBuffer (&buffers)[kBindings]) {
     ++n;
   }
   vkUpdateDescriptorSets(dev_.device, n, w, 0, nullptr);
-  return set;
+  return set_;
 }
 
 }  // namespace gr::vulkan

@@ -25,9 +25,10 @@ struct Device::Impl {
   VkPhysicalDeviceMemoryProperties memory{};
   DeviceInfo info;
   std::mutex mutex;  // one call on the queue at a time
-  // The raster kernels' pipelines and buffers (raster/vulkan/rasterize.cpp),
-  // made on first use; released before the device.
-  std::shared_ptr<void> raster_state;
+  // The compiled kernels (internal/kernels.h) and the Frame that
+  // rasterize_forward reuses, made on first use; released before the device.
+  std::shared_ptr<void> kernels;
+  std::shared_ptr<void> default_frame;
 
   ~Impl();
 

@@ -16,5 +16,8 @@ Spirv project();
 Spirv raster_small();
 Spirv raster_large();
 Spirv resolve();
+Spirv interpolate_forward();
+Spirv interpolate_backward();
+Spirv fixed_point_finish();
 
 }  // namespace gr::vulkan::shaders

@@ -1,0 +1,270 @@
+// The Frame's calls: each records its uploads, passes and downloads into one
+// command buffer with timestamps between them, submits it and waits.
+#include "raster/vulkan/frame.h"
+
+#include <cstring>
+#include <string>
+
+#include "autodiff/error.h"
+#include "raster/vulkan/internal/buffer.h"
+#include "raster/vulkan/internal/kernels.h"
+
+namespace gr::vulkan {
+namespace {
+
+// Workgroups of raster_large; each takes listed triangles in turn.
+constexpr std::uint32_t kLargeWorkgroups = 1024;
+
+struct RasterPush {
+  std::int32_t width, height, num_vertices, num_tris, cull, pass, y_up, pad;
+};
+struct InterpolatePush {
+  std::int32_t width, height, num_vertices, num_tris, channels, pass, perspective, y_up;
+};
+struct FinishPush {
+  std::int32_t count, split, pixels, pad[5];
+};
+static_assert(sizeof(RasterPush) == kPushBytes && sizeof(InterpolatePush) == kPushBytes &&
+                  sizeof(FinishPush) == kPushBytes,
+              "push constant blocks");
+
+// The frame's buffers by role (device-local), and two host-visible staging buffers.
+enum Role {
+  kClip, kTris, kVerts, kKeys, kIds, kLarge, kTriId, kUv, kDepth,  // mesh and G-buffer
+  kAttr, kInterpolated, kGradOut, kGradUv, kSums, kLargest, kFinished,  // interpolate
+  kRoles
+};
+
+}  // namespace
+
+struct Frame::State {
+  State(Device::Impl& dev, Kernels& k)
+      : dev(dev), k(k), raster_set(dev, k.pipelines), forward_set(dev, k.pipelines), backward_set(dev, k.pipelines),
+        timestamps(dev, 8) {}
+
+  Device::Impl& dev;
+  Kernels& k;
+  Buffer buffers[kRoles];
+  Buffer upload, download;
+  DescriptorSet raster_set, forward_set, backward_set;
+  Timestamps timestamps;
+  // What the last rasterize and interpolate were given.
+  int width = 0, height = 0;
+  std::int64_t num_vertices = 0, num_tris = 0;
+  bool y_up = false, rasterized = false;
+  std::int64_t channels = -1;
+  bool perspective = true;
+
+  Buffer& operator[](Role r) { return buffers[r]; }
+  std::int64_t pixels() const { return static_cast<std::int64_t>(width) * height; }
+  void reserve(Role r, std::size_t bytes) { buffers[r].reserve(dev, bytes, false); }
+  VkDescriptorSet bind(DescriptorSet& set, std::initializer_list<std::pair<std::uint32_t, Role>> bindings) {
+    VkBuffer handles[kBindings] = {};
+    for (const auto& [binding, role] : bindings) handles[binding] = buffers[role].handle();
+    return set.bind(handles);
+  }
+  void use(VkCommandBuffer cb, VkDescriptorSet set) {
+    vkCmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_COMPUTE, k.pipelines.layout(), 0, 1, &set, 0, nullptr);
+  }
+};
+
+Frame::Frame(std::shared_ptr<Device> device) : device_(std::move(device)) {
+  if (!device_) throw ValueError("vulkan Frame: no device");
+  Device::Impl& dev = device_->impl();
+  std::lock_guard<std::mutex> lock(dev.mutex);
+  state_ = std::make_unique<State>(dev, kernels_of(dev));
+}
+
+Frame::~Frame() {
+  if (!state_) return;
+  std::lock_guard<std::mutex> lock(state_->dev.mutex);
+  state_.reset();
+}
+
+GpuTimes Frame::rasterize(const raster::RasterParams<float>& p, const GpuRasterOptions& options, std::int32_t* tri_id,
+                      float* uv, float* depth) {
+  if (p.floor_id || p.floor_z)
+    throw ValueError("vulkan rasterize: depth peeling (floor_id, floor_z) is not on the GPU yet");
+  if (options.small_box < 1)
+    throw ValueError("vulkan rasterize: small_box must be at least 1, got " + std::to_string(options.small_box));
+  State& s = *state_;
+  std::lock_guard<std::mutex> lock(s.dev.mutex);
+  s.rasterized = false;
+  s.width = p.settings.width;
+  s.height = p.settings.height;
+  s.num_vertices = p.num_vertices;
+  s.num_tris = p.num_tris;
+  s.y_up = options.y_up;
+  s.channels = -1;
+  const std::size_t px = static_cast<std::size_t>(s.pixels());
+  const std::size_t clip_bytes = static_cast<std::size_t>(p.num_vertices) * 4 * sizeof(float);
+  const std::size_t tri_bytes = static_cast<std::size_t>(p.num_tris) * 3 * sizeof(std::int32_t);
+  const std::size_t out_bytes[3] = {tri_id ? px * sizeof(std::int32_t) : 0, uv ? px * 2 * sizeof(float) : 0,
+                                    depth ? px * sizeof(float) : 0};
+  s.reserve(kClip, clip_bytes);
+  s.reserve(kTris, tri_bytes);
+  s.reserve(kVerts, static_cast<std::size_t>(p.num_vertices) * 32);
+  s.reserve(kKeys, px * sizeof(std::uint64_t));
+  s.reserve(kIds, px * sizeof(std::int32_t));
+  s.reserve(kLarge, (static_cast<std::size_t>(p.num_tris) + 1) * sizeof(std::uint32_t));
+  s.reserve(kTriId, px * sizeof(std::int32_t));
+  s.reserve(kUv, px * 2 * sizeof(float));
+  s.reserve(kDepth, px * sizeof(float));
+  s.upload.reserve(s.dev, clip_bytes + tri_bytes, true);
+  s.download.reserve(s.dev, out_bytes[0] + out_bytes[1] + out_bytes[2], true);
+  if (clip_bytes) std::memcpy(s.upload.mapped(), p.clip, clip_bytes);
+  if (tri_bytes) std::memcpy(static_cast<char*>(s.upload.mapped()) + clip_bytes, p.tris, tri_bytes);
+
+  // Raster shaders' bindings: 0 clip, 1 tris, 2 verts, 3 keys, 4 ids, 5 large list, 6-8 the G-buffer.
+  const VkDescriptorSet set = s.bind(s.raster_set, {{0, kClip}, {1, kTris}, {2, kVerts}, {3, kKeys}, {4, kIds},
+                                                    {5, kLarge}, {6, kTriId}, {7, kUv}, {8, kDepth}});
+  const VkPipeline small = s.k.raster_small(options.small_box);
+  RasterPush push{s.width, s.height, static_cast<std::int32_t>(p.num_vertices), static_cast<std::int32_t>(p.num_tris),
+                  p.settings.cull == raster::Cull::Back ? 1 : p.settings.cull == raster::Cull::Front ? -1 : 0,
+                  0, options.y_up ? 1 : 0, 0};
+  s.dev.run([&](VkCommandBuffer cb) {
+    s.timestamps.reset(cb);
+    s.timestamps.stamp(cb, 0);
+    copy(cb, s.upload.handle(), 0, s[kClip].handle(), 0, clip_bytes);
+    copy(cb, s.upload.handle(), clip_bytes, s[kTris].handle(), 0, tri_bytes);
+    barrier(cb);
+    s.timestamps.stamp(cb, 1);
+    // Keys "beyond everything", ids "none", an empty large list.
+    vkCmdFillBuffer(cb, s[kKeys].handle(), 0, px * sizeof(std::uint64_t), 0xffffffffu);
+    vkCmdFillBuffer(cb, s[kIds].handle(), 0, px * sizeof(std::int32_t), 0x7fffffffu);
+    vkCmdFillBuffer(cb, s[kLarge].handle(), 0, sizeof(std::uint32_t), 0u);
+    barrier(cb);
+    s.timestamps.stamp(cb, 2);
+    s.use(cb, set);
+    dispatch(cb, s.k, s.k.project, &push, p.num_vertices, 256);
+    barrier(cb);
+    s.timestamps.stamp(cb, 3);
+    for (std::int32_t pass = 0; pass < 2; ++pass) {
+      push.pass = pass;
+      dispatch(cb, s.k, small, &push, p.num_tris, 64);
+      barrier(cb);
+      if (p.num_tris > 0) dispatch(cb, s.k, s.k.raster_large, &push, std::int64_t(kLargeWorkgroups) * 256, 256);
+      barrier(cb);
+      s.timestamps.stamp(cb, 4 + pass);
+    }
+    dispatch(cb, s.k, s.k.resolve, &push, s.pixels(), 256);
+    barrier(cb);
+    s.timestamps.stamp(cb, 6);
+    const Role outs[3] = {kTriId, kUv, kDepth};
+    std::size_t offset = 0;
+    for (int i = 0; i < 3; ++i) {
+      copy(cb, s[outs[i]].handle(), 0, s.download.handle(), offset, out_bytes[i]);
+      offset += out_bytes[i];
+    }
+    barrier(cb);
+    s.timestamps.stamp(cb, 7);
+  });
+  const char* from = static_cast<const char*>(s.download.mapped());
+  void* to[3] = {tri_id, uv, depth};
+  for (int i = 0; i < 3; ++i) {
+    if (out_bytes[i]) std::memcpy(to[i], from, out_bytes[i]);
+    from += out_bytes[i];
+  }
+  s.rasterized = true;
+  return s.timestamps.read();
+}
+
+GpuTimes Frame::interpolate(const float* attr, std::int64_t channels, bool perspective, float* out) {
+  State& s = *state_;
+  if (!s.rasterized) throw ValueError("vulkan interpolate: the frame has no G-buffer (call rasterize first)");
+  if (channels < 0) throw ValueError("vulkan interpolate: negative channel count " + std::to_string(channels));
+  std::lock_guard<std::mutex> lock(s.dev.mutex);
+  s.channels = channels;
+  s.perspective = perspective;
+  const std::size_t attr_bytes = static_cast<std::size_t>(s.num_vertices * channels) * sizeof(float);
+  const std::size_t out_bytes = static_cast<std::size_t>(s.pixels() * channels) * sizeof(float);
+  s.reserve(kAttr, attr_bytes);
+  s.reserve(kInterpolated, out_bytes);
+  s.upload.reserve(s.dev, attr_bytes, true);
+  s.download.reserve(s.dev, out ? out_bytes : 0, true);
+  if (attr_bytes) std::memcpy(s.upload.mapped(), attr, attr_bytes);
+  // Interpolate shaders' bindings: 0 clip, 1 tris, 2 attr, 3 tri_id, 4 uv, 5 out.
+  const VkDescriptorSet set =
+      s.bind(s.forward_set, {{0, kClip}, {1, kTris}, {2, kAttr}, {3, kTriId}, {4, kUv}, {5, kInterpolated}});
+  const InterpolatePush push{s.width, s.height, static_cast<std::int32_t>(s.num_vertices),
+                             static_cast<std::int32_t>(s.num_tris), static_cast<std::int32_t>(channels),
+                             0, perspective ? 1 : 0, s.y_up ? 1 : 0};
+  s.dev.run([&](VkCommandBuffer cb) {
+    s.timestamps.reset(cb);
+    s.timestamps.stamp(cb, 0);
+    copy(cb, s.upload.handle(), 0, s[kAttr].handle(), 0, attr_bytes);
+    barrier(cb);
+    s.timestamps.stamp(cb, 1);
+    s.use(cb, set);
+    if (channels > 0) dispatch(cb, s.k, s.k.interpolate_forward, &push, s.pixels(), 256);
+    barrier(cb);
+    s.timestamps.stamp(cb, 2);
+    if (out) copy(cb, s[kInterpolated].handle(), 0, s.download.handle(), 0, out_bytes);
+    barrier(cb);
+    s.timestamps.stamp(cb, 3);
+  });
+  if (out && out_bytes) std::memcpy(out, s.download.mapped(), out_bytes);
+  return s.timestamps.read();
+}
+
+GpuTimes Frame::interpolate_backward(const float* grad_out, float* grad_attr, float* grad_clip, float* grad_uv) {
+  State& s = *state_;
+  if (s.channels < 0) throw ValueError("vulkan interpolate_backward: the frame has no interpolate to differentiate");
+  std::lock_guard<std::mutex> lock(s.dev.mutex);
+  const std::int64_t N = s.num_vertices, C = s.channels, px = s.pixels();
+  const std::size_t grad_bytes = static_cast<std::size_t>(px * C) * sizeof(float);
+  const std::size_t sums = static_cast<std::size_t>(N * C + N * 4);
+  const std::size_t uv_bytes = static_cast<std::size_t>(px) * 2 * sizeof(float);
+  s.reserve(kGradOut, grad_bytes);
+  s.reserve(kGradUv, uv_bytes);
+  s.reserve(kSums, sums * sizeof(std::int64_t));
+  s.reserve(kLargest, 2 * sizeof(std::uint64_t));
+  s.reserve(kFinished, sums * sizeof(float));
+  s.upload.reserve(s.dev, grad_bytes, true);
+  s.download.reserve(s.dev, sums * sizeof(float) + uv_bytes, true);
+  if (grad_bytes) std::memcpy(s.upload.mapped(), grad_out, grad_bytes);
+  // Bindings: 0-4 as the forward, 5 grad_out, 6 grad_uv, 7 sums, 8 largest magnitudes, 9 finished sums.
+  const VkDescriptorSet set = s.bind(s.backward_set, {{0, kClip}, {1, kTris}, {2, kAttr}, {3, kTriId}, {4, kUv},
+                                                      {5, kGradOut}, {6, kGradUv}, {7, kSums}, {8, kLargest},
+                                                      {9, kFinished}});
+  InterpolatePush push{s.width, s.height, static_cast<std::int32_t>(N), static_cast<std::int32_t>(s.num_tris),
+                       static_cast<std::int32_t>(C), 0, s.perspective ? 1 : 0, s.y_up ? 1 : 0};
+  const FinishPush finish{static_cast<std::int32_t>(sums), static_cast<std::int32_t>(N * C),
+                          static_cast<std::int32_t>(px), {}};
+  s.dev.run([&](VkCommandBuffer cb) {
+    s.timestamps.reset(cb);
+    s.timestamps.stamp(cb, 0);
+    copy(cb, s.upload.handle(), 0, s[kGradOut].handle(), 0, grad_bytes);
+    barrier(cb);
+    s.timestamps.stamp(cb, 1);
+    vkCmdFillBuffer(cb, s[kSums].handle(), 0, sums * sizeof(std::int64_t), 0u);
+    vkCmdFillBuffer(cb, s[kLargest].handle(), 0, 2 * sizeof(std::uint64_t), 0u);
+    barrier(cb);
+    s.use(cb, set);
+    for (std::int32_t pass = 0; pass < 2; ++pass) {
+      push.pass = pass;
+      dispatch(cb, s.k, s.k.interpolate_backward, &push, px, 256);
+      barrier(cb);
+      s.timestamps.stamp(cb, 2 + pass);
+    }
+    dispatch(cb, s.k, s.k.fixed_point_finish, &finish, static_cast<std::int64_t>(sums), 256);
+    barrier(cb);
+    s.timestamps.stamp(cb, 4);
+    copy(cb, s[kFinished].handle(), 0, s.download.handle(), 0, sums * sizeof(float));
+    copy(cb, s[kGradUv].handle(), 0, s.download.handle(), sums * sizeof(float), uv_bytes);
+    barrier(cb);
+    s.timestamps.stamp(cb, 5);
+  });
+  const float* got = static_cast<const float*>(s.download.mapped());
+  if (grad_attr)
+    for (std::int64_t i = 0; i < N * C; ++i) grad_attr[i] += got[i];
+  if (grad_clip)
+    for (std::int64_t i = 0; i < N * 4; ++i) grad_clip[i] += got[N * C + i];
+  if (grad_uv) {
+    const float* g = got + sums;
+    for (std::int64_t i = 0; i < 2 * px; ++i) grad_uv[i] += g[i];
+  }
+  return s.timestamps.read();
+}
+
+}  // namespace gr::vulkan

@@ -1,0 +1,57 @@
+// A render kept on a Vulkan device: one mesh's clip positions and triangles,
+// the G-buffer rasterized from them, and the buffers of the ops run on it, so
+// that interpolate (and its adjoint) read the G-buffer without a round trip.
+// Host arrays cross at each call: inputs are uploaded, and outputs are
+// downloaded only where the caller passes a pointer. Each call returns where
+// its time went (device timestamps; docs/gpu.md).
+//
+// Results: rasterize gives the CPU kernel's G-buffer bit for bit; interpolate
+// the CPU kernel's values (the same double expressions: equal or within an
+// ulp of float); the adjoint's sums are taken in 64-bit fixed point (exact
+// and order-independent, so bit-identical run to run; resolution about
+// 2^-61 x pixels x the largest contribution), within 1e-12 of the CPU's
+// double sums relative to the largest gradient.
+//
+// A Frame is used by one thread at a time; Frames on one device share its
+// queue (calls are serialized).
+#pragma once
+
+#include <cstdint>
+#include <memory>
+
+#include "raster/rasterize.h"
+#include "raster/vulkan/device.h"
+#include "raster/vulkan/rasterize.h"
+
+namespace gr::vulkan {
+
+class Frame {
+ public:
+  explicit Frame(std::shared_ptr<Device> device);
+  ~Frame();
+  Frame(const Frame&) = delete;
+  Frame& operator=(const Frame&) = delete;
+
+  // rasterize_forward (raster/vulkan/rasterize.h); the G-buffer stays on the
+  // device and is downloaded into the arrays given (each may be null).
+  // pass_ms: clear, project, depth pass, id pass, resolve.
+  GpuTimes rasterize(const raster::RasterParams<float>& p, const GpuRasterOptions& options = {},
+                     std::int32_t* tri_id = nullptr, float* uv = nullptr, float* depth = nullptr);
+
+  // interpolate_forward (raster/interpolate.h, image form, zeros on the
+  // background) of attr (num_vertices x channels) over the last rasterize's
+  // G-buffer and clip positions; out (H x W x channels) if not null.
+  GpuTimes interpolate(const float* attr, std::int64_t channels, bool perspective = true, float* out = nullptr);
+
+  // The adjoint of the last interpolate for grad_out (H x W x channels),
+  // ACCUMULATED (+=) into grad_attr (N x C), grad_clip (N x 4) and grad_uv
+  // (H x W x 2), each may be null. pass_ms: magnitudes, sums, finish.
+  GpuTimes interpolate_backward(const float* grad_out, float* grad_attr, float* grad_clip, float* grad_uv);
+
+ private:
+  struct State;
+  std::shared_ptr<Device> device_;
+  std::unique_ptr<State> state_;
+};
+
+}  // namespace gr::vulkan

@@ -1,0 +1,35 @@
+// Deterministic gradient sums (docs/gpu.md, "Sums without float atomics"):
+// each contribution x is added as the integer round(x 2^S) with a 64-bit
+// atomic add, which is associative, so the sum does not depend on the order
+// in which threads arrive. S is chosen per call from the largest magnitude M
+// of any contribution (a first pass takes it with an atomic max on its bits)
+// and the number of pixels P, each element getting at most one contribution
+// per pixel: |sum| <= P (M 2^S + 1/2) < 2^63 with S = 62 - e(M) - e(P)
+// (e: the exponent with x < 2^e). Resolution: 2^-S = 2^(e(M) + e(P) - 62),
+// about M P 2^-61, relative to the largest contribution.
+#extension GL_EXT_shader_atomic_int64 : require
+
+// Largest magnitudes of the contributions, one per summed tensor (the bits
+// of a non-negative double order as unsigned integers).
+layout(std430, binding = 8) buffer MaxBuf { uint64_t largest[]; };
+
+void note_magnitude(int tensor, double x) {
+  uvec2 b = unpackDouble2x32(abs(x));
+  uint64_t bits = (uint64_t(b.y) << 32) | uint64_t(b.x);
+  if ((b.y & 0x7ff00000u) != 0x7ff00000u) atomicMax(largest[tensor], bits);
+}
+
+// S for tensor `tensor` with at most `count` contributions per element.
+int fixed_point_shift(int tensor, int count) {
+  uint64_t bits = largest[tensor];
+  double m = packDouble2x32(uvec2(uint(bits & 0xffffffffu), uint(bits >> 32)));
+  if (m == 0.0) return 0;
+  int em, ec;
+  frexp(m, em);
+  frexp(double(max(count, 1)), ec);
+  return clamp(62 - em - ec, -1000, 1000);
+}
+
+// round(x 2^S); both scalings by powers of two are exact.
+int64_t to_fixed(double x, int shift) { return int64_t(roundEven(ldexp(x, shift))); }
+double from_fixed(int64_t v, int shift) { return ldexp(double(v), -shift); }

@@ -1,0 +1,91 @@
+// Scenes shared by the GPU tests: float32 clip-space triangle soups (some
+// crossing the near plane), pixel-centre grids and meshes in perspective, and
+// the shared device (null, with a warning saying why, when there is none).
+#pragma once
+
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <memory>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "raster/mesh.h"
+#include "raster/rasterize.h"
+#include "raster/vulkan/device.h"
+
+namespace gr::testing {
+
+using raster::Cull;
+using raster::Mesh;
+using raster::RasterParams;
+using raster::RasterSettings;
+
+inline std::shared_ptr<vulkan::Device> shared_gpu() {
+  static std::string why;
+  static std::shared_ptr<vulkan::Device> device = vulkan::Device::open(&why);
+  if (!device) WARN("no Vulkan device, GPU test skipped: " << why);
+  return device;
+}
+
+struct Scene {
+  std::vector<float> clip;
+  std::vector<std::int32_t> tris;
+  RasterParams<float> params(int W, int H, Cull cull = Cull::None) const {
+    return {clip.data(), static_cast<std::int64_t>(clip.size() / 4), tris.data(),
+            static_cast<std::int64_t>(tris.size() / 3), RasterSettings{W, H, cull}};
+  }
+};
+
+// Random triangles: vertices anywhere around the view, w in [-0.5, 2] (some
+// behind the camera, so triangles cross the near plane), z beyond [-w, w] too.
+inline Scene random_soup(int triangles, unsigned seed, double spread = 1.3) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> xy(-spread, spread), zz(-1.3, 1.3), ww(-0.5, 2.0), jitter(-0.15, 0.15);
+  Scene s;
+  for (int t = 0; t < triangles; ++t) {
+    const double cx = xy(rng), cy = xy(rng), cz = zz(rng), cw = ww(rng);
+    for (int k = 0; k < 3; ++k) {
+      const double w = cw + 0.3 * jitter(rng);
+      s.clip.insert(s.clip.end(), {float((cx + jitter(rng)) * std::abs(w)), float((cy + jitter(rng)) * std::abs(w)),
+                                   float((cz + jitter(rng)) * w), float(w)});
+      s.tris.push_back(3 * t + k);
+    }
+  }
+  return s;
+}
+
+// A grid of n x n quads whose vertices lie on pixel centres of a W x W image
+// (every diagonal passes through centres): the tie rule decides most pixels.
+inline Scene pixel_centre_grid(int W, int n) {
+  Scene s;
+  for (int j = 0; j <= n; ++j)
+    for (int i = 0; i <= n; ++i) {
+      const double px = 0.5 + (W - 1.0) * i / n, py = 0.5 + (W - 1.0) * j / n;
+      s.clip.insert(s.clip.end(), {float(2.0 * px / W - 1.0), float(1.0 - 2.0 * py / W), 0.25f, 1.0f});
+    }
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      const std::int32_t a = j * (n + 1) + i, b = a + 1, c = a + n + 1, d = c + 1;
+      s.tris.insert(s.tris.end(), {a, b, d, a, d, c});
+    }
+  return s;
+}
+
+// A mesh in perspective: positions scaled and moved `distance` in front of
+// the camera (w = distance - z), so that a small distance puts part of it behind.
+inline Scene perspective(const Mesh& m, double scale, double distance) {
+  Scene s;
+  const float* p = m.positions.data<float>();
+  for (std::int64_t i = 0; i < m.num_vertices(); ++i) {
+    const double x = scale * p[3 * i], y = scale * p[3 * i + 1], z = scale * p[3 * i + 2];
+    const double w = distance - z;
+    s.clip.insert(s.clip.end(), {float(1.2 * x), float(1.2 * y), float(1.02 * w - 0.2), float(w)});
+  }
+  const std::int32_t* t = m.triangles.data<std::int32_t>();
+  s.tris.assign(t, t + 3 * m.num_triangles());
+  return s;
+}
+
+}  // namespace gr::testing
