@@ -12,7 +12,7 @@
 namespace gr::vulkan {
 namespace {
 
-// Workgroups of raster_large; each takes listed triangles in turn.
+// Workgroups of raster_large; their invocations take the listed chunks in turn.
 constexpr std::uint32_t kLargeWorkgroups = 1024;
 
 struct RasterPush {
@@ -106,7 +106,7 @@ GpuTimes Frame::rasterize(const raster::RasterParams<float>& p, const GpuRasterO
   s.reserve(kVerts, static_cast<std::size_t>(p.num_vertices) * 32);
   s.reserve(kKeys, px * sizeof(std::uint64_t));
   s.reserve(kIds, px * sizeof(std::int32_t));
-  s.reserve(kLarge, (static_cast<std::size_t>(p.num_tris) + 1) * sizeof(std::uint32_t));
+  s.reserve(kLarge, (static_cast<std::size_t>(p.num_tris) + 1) * 2 * sizeof(std::uint32_t));
   s.reserve(kTriId, px * sizeof(std::int32_t));
   s.reserve(kUv, px * 2 * sizeof(float));
   s.reserve(kDepth, px * sizeof(float));
@@ -132,7 +132,7 @@ GpuTimes Frame::rasterize(const raster::RasterParams<float>& p, const GpuRasterO
     // Keys "beyond everything", ids "none", an empty large list.
     vkCmdFillBuffer(cb, s[kKeys].handle(), 0, px * sizeof(std::uint64_t), 0xffffffffu);
     vkCmdFillBuffer(cb, s[kIds].handle(), 0, px * sizeof(std::int32_t), 0x7fffffffu);
-    vkCmdFillBuffer(cb, s[kLarge].handle(), 0, sizeof(std::uint32_t), 0u);
+    vkCmdFillBuffer(cb, s[kLarge].handle(), 0, sizeof(std::uint64_t), 0u);
     barrier(cb);
     s.timestamps.stamp(cb, 2);
     s.use(cb, set);

@@ -1,21 +1,32 @@
 #version 460
-// Triangles with large boxes, listed by raster_small.comp: one workgroup per
-// listed triangle at a time, its threads over the box's pixels.
+// The chunks of the large boxes listed by raster_small.comp: one invocation
+// per chunk of kChunk pixels (box rows in order), over all listed triangles,
+// so a huge triangle spreads over many invocations and a modest one takes a
+// few. An invocation finds its triangle by a binary search of the entries'
+// first chunks, then sets it up itself (the setup is small next to a chunk).
 #include "raster_common.glsl"
 #include "raster_pixels.glsl"
 
 layout(local_size_x = 256) in;
 
 void main() {
-  for (uint i = gl_WorkGroupID.x; i < large_count; i += gl_NumWorkGroups.x) {
-    int t = int(large[i]);
+  uint entries = uint(large_counter >> 32), chunks = uint(large_counter & 0xffffffffu);
+  uint stride = gl_NumWorkGroups.x * gl_WorkGroupSize.x;
+  for (uint g = gl_GlobalInvocationID.x; g < chunks; g += stride) {
+    // The last entry whose first chunk is <= g.
+    uint lo = 0u, hi = entries - 1u;
+    while (lo < hi) {
+      uint mid = (lo + hi + 1u) >> 1;
+      if (large[mid].y <= g) lo = mid; else hi = mid - 1u;
+    }
+    int t = int(large[lo].x);
     ivec3 tri = tri_of(t);
     ivec4 box;
     classify_triangle(tri, box);
     Setup s = setup_edges(tri);
     int w = box.z - box.x + 1;
     int n = w * (box.w - box.y + 1);
-    for (int k = int(gl_LocalInvocationID.x); k < n; k += int(gl_WorkGroupSize.x))
-      raster_pixel(s, t, box.x + k % w, box.y + k / w);
+    int first = int(g - large[lo].y) * kChunk;
+    for (int k = first; k < min(n, first + kChunk); ++k) raster_pixel(s, t, box.x + k % w, box.y + k / w);
   }
 }

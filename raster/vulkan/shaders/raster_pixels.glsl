@@ -8,7 +8,16 @@
 
 layout(std430, binding = 3) buffer KeyBuf { uint64_t keys[]; };
 layout(std430, binding = 4) buffer IdBuf { int ids[]; };
-layout(std430, binding = 5) buffer LargeBuf { uint large_count; uint large[]; };
+// The triangles with large boxes, listed by raster_small.comp's pass 0: entry e
+// = (triangle, first chunk), chunks of kChunk pixels of the box numbered over
+// all entries in entry order. large_counter: entries << 32 | chunks, advanced
+// by one 64-bit atomic add per triangle, so each entry's first chunk is the
+// chunks before it and the entries ascend by first chunk.
+const int kChunk = 64;
+layout(std430, binding = 5) buffer LargeBuf {
+  uint64_t large_counter;
+  uvec2 large[];
+};
 
 void raster_pixel(Setup s, int t, int x, int y) {
   double z, u, v;

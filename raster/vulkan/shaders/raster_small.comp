@@ -1,6 +1,6 @@
 #version 460
 // One thread per triangle: classify, and scan the box when it is small; a
-// larger box is listed (pass 0) for raster_large.comp.
+// larger box is listed (pass 0) for raster_large.comp, in chunks.
 #include "raster_common.glsl"
 #include "raster_pixels.glsl"
 
@@ -13,8 +13,13 @@ void main() {
   ivec3 tri = tri_of(t);
   ivec4 box;
   if (classify_triangle(tri, box) == kRejected) return;
-  if ((box.z - box.x + 1) * (box.w - box.y + 1) > kMaxSmallBox) {
-    if (P.pass == 0) large[atomicAdd(large_count, 1u)] = uint(t);
+  int n = (box.z - box.x + 1) * (box.w - box.y + 1);
+  if (n > kMaxSmallBox) {
+    if (P.pass == 0) {
+      uint chunks = uint((n + kChunk - 1) / kChunk);
+      uint64_t before = atomicAdd(large_counter, (uint64_t(1) << 32) | uint64_t(chunks));
+      large[uint(before >> 32)] = uvec2(uint(t), uint(before & 0xffffffffu));
+    }
     return;
   }
   Setup s = setup_edges(tri);
