@@ -31,7 +31,9 @@ static_assert(sizeof(RasterPush) == kPushBytes && sizeof(InterpolatePush) == kPu
 // The frame's buffers by role (device-local), and two host-visible staging buffers.
 enum Role {
   kClip, kTris, kVerts, kKeys, kIds, kLarge, kTriId, kUv, kDepth,  // mesh and G-buffer
-  kAttr, kInterpolated, kGradOut, kGradUv, kSums, kLargest, kFinished,  // interpolate
+  kAttr, kInterpolated, kGradOut, kGradUv,  // interpolate
+  kSums, kLargest, kFinished,  // an adjoint's fixed-point sums, their scales, the result
+  kGradUvIn, kGradDepthIn,  // rasterize_backward's incoming gradients
   kRoles
 };
 
@@ -40,13 +42,13 @@ enum Role {
 struct Frame::State {
   State(Device::Impl& dev, Kernels& k)
       : dev(dev), k(k), raster_set(dev, k.pipelines), forward_set(dev, k.pipelines), backward_set(dev, k.pipelines),
-        timestamps(dev, 8) {}
+        raster_backward_set(dev, k.pipelines), timestamps(dev, 8) {}
 
   Device::Impl& dev;
   Kernels& k;
   Buffer buffers[kRoles];
   Buffer upload, download;
-  DescriptorSet raster_set, forward_set, backward_set;
+  DescriptorSet raster_set, forward_set, backward_set, raster_backward_set;
   Timestamps timestamps;
   // What the last rasterize and interpolate were given.
   int width = 0, height = 0;
@@ -264,6 +266,58 @@ GpuTimes Frame::interpolate_backward(const float* grad_out, float* grad_attr, fl
     const float* g = got + sums;
     for (std::int64_t i = 0; i < 2 * px; ++i) grad_uv[i] += g[i];
   }
+  return s.timestamps.read();
+}
+
+GpuTimes Frame::rasterize_backward(const float* grad_uv, const float* grad_depth, float* grad_clip) {
+  State& s = *state_;
+  if (!s.rasterized) throw ValueError("vulkan rasterize_backward: the frame has no G-buffer (call rasterize first)");
+  std::lock_guard<std::mutex> lock(s.dev.mutex);
+  const std::int64_t N = s.num_vertices, px = s.pixels();
+  const std::size_t uv_bytes = static_cast<std::size_t>(px) * 2 * sizeof(float);
+  const std::size_t depth_bytes = grad_depth ? static_cast<std::size_t>(px) * sizeof(float) : 0;
+  const std::size_t sums = static_cast<std::size_t>(N * 3 + N * 4), out_bytes = static_cast<std::size_t>(N) * 4 * 4;
+  s.reserve(kGradUvIn, uv_bytes);
+  s.reserve(kGradDepthIn, depth_bytes);
+  s.reserve(kSums, sums * sizeof(std::int64_t));
+  s.reserve(kLargest, 2 * sizeof(std::uint64_t));
+  s.reserve(kFinished, out_bytes);
+  s.upload.reserve(s.dev, uv_bytes + depth_bytes, true);
+  s.download.reserve(s.dev, out_bytes, true);
+  std::memcpy(s.upload.mapped(), grad_uv, uv_bytes);
+  if (depth_bytes) std::memcpy(static_cast<char*>(s.upload.mapped()) + uv_bytes, grad_depth, depth_bytes);
+  // Bindings: 0 clip, 1 tris, 2 verts, 3 tri_id, 4 grad_uv, 5 grad_depth, 7 sums, 8 largest, 9 dL/dclip.
+  const VkDescriptorSet set =
+      s.bind(s.raster_backward_set, {{0, kClip}, {1, kTris}, {2, kVerts}, {3, kTriId}, {4, kGradUvIn},
+                                     {5, kGradDepthIn}, {7, kSums}, {8, kLargest}, {9, kFinished}});
+  RasterPush push{s.width, s.height, static_cast<std::int32_t>(N), static_cast<std::int32_t>(s.num_tris), 0, 0,
+                  s.y_up ? 1 : 0, grad_depth ? 1 : 0};
+  s.dev.run([&](VkCommandBuffer cb) {
+    s.timestamps.reset(cb);
+    s.timestamps.stamp(cb, 0);
+    copy(cb, s.upload.handle(), 0, s[kGradUvIn].handle(), 0, uv_bytes);
+    copy(cb, s.upload.handle(), uv_bytes, s[kGradDepthIn].handle(), 0, depth_bytes);
+    barrier(cb);
+    s.timestamps.stamp(cb, 1);
+    vkCmdFillBuffer(cb, s[kSums].handle(), 0, sums * sizeof(std::int64_t), 0u);
+    vkCmdFillBuffer(cb, s[kLargest].handle(), 0, 2 * sizeof(std::uint64_t), 0u);
+    barrier(cb);
+    s.use(cb, set);
+    for (std::int32_t pass = 0; pass < 2; ++pass) {
+      push.pass = pass;
+      dispatch(cb, s.k, s.k.rasterize_backward, &push, px, 256);
+      barrier(cb);
+      s.timestamps.stamp(cb, 2 + pass);
+    }
+    dispatch(cb, s.k, s.k.rasterize_backward_finish, &push, N, 256);
+    barrier(cb);
+    s.timestamps.stamp(cb, 4);
+    copy(cb, s[kFinished].handle(), 0, s.download.handle(), 0, out_bytes);
+    barrier(cb);
+    s.timestamps.stamp(cb, 5);
+  });
+  const float* got = static_cast<const float*>(s.download.mapped());
+  for (std::int64_t i = 0; i < 4 * N; ++i) grad_clip[i] += got[i];
   return s.timestamps.read();
 }
 

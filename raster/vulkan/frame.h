@@ -48,6 +48,11 @@ class Frame {
   // (H x W x 2), each may be null. pass_ms: magnitudes, sums, finish.
   GpuTimes interpolate_backward(const float* grad_out, float* grad_attr, float* grad_clip, float* grad_uv);
 
+  // The adjoint of the last rasterize (raster::rasterize_backward, for its
+  // coverage) for grad_uv (H x W x 2) and grad_depth (H x W, may be null),
+  // ACCUMULATED (+=) into grad_clip (N x 4). pass_ms: magnitudes, sums, finish.
+  GpuTimes rasterize_backward(const float* grad_uv, const float* grad_depth, float* grad_clip);
+
  private:
   struct State;
   std::shared_ptr<Device> device_;

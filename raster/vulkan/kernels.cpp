@@ -20,6 +20,8 @@ Kernels::Kernels(Device::Impl& dev) : pipelines(dev) {
   interpolate_forward = add(pipelines, shaders::interpolate_forward());
   interpolate_backward = add(pipelines, shaders::interpolate_backward());
   fixed_point_finish = add(pipelines, shaders::fixed_point_finish());
+  rasterize_backward = add(pipelines, shaders::rasterize_backward());
+  rasterize_backward_finish = add(pipelines, shaders::rasterize_backward_finish());
 }
 
 VkPipeline Kernels::raster_small(int small_box) {

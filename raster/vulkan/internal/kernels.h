@@ -21,6 +21,7 @@ struct Kernels {
   PipelineSet pipelines;
   VkPipeline project, raster_large, resolve;
   VkPipeline interpolate_forward, interpolate_backward, fixed_point_finish;
+  VkPipeline rasterize_backward, rasterize_backward_finish;
 
  private:
   std::map<int, VkPipeline> small_;

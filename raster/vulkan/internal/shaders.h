@@ -19,5 +19,7 @@ Spirv resolve();
 Spirv interpolate_forward();
 Spirv interpolate_backward();
 Spirv fixed_point_finish();
+Spirv rasterize_backward();
+Spirv rasterize_backward_finish();
 
 }  // namespace gr::vulkan::shaders

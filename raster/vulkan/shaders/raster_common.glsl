@@ -18,9 +18,10 @@ layout(push_constant) uniform Params {
   int num_vertices;
   int num_tris;
   int cull;    // 0 none, +1 drop back faces, -1 drop front faces
-  int pass;    // raster passes: 0 = nearest depth, 1 = smallest id at that depth
+  int pass;    // raster passes: 0 = nearest depth, 1 = smallest id at that depth;
+               // rasterize_backward: 0 = largest magnitudes, 1 = sums
   int y_up;    // 1: row 0 is the bottom row (nvdiffrast); 0: the top row
-  int pad;
+  int flags;   // rasterize_backward: bit 0 set when grad_depth is given
 } P;
 
 // Per vertex, written by project.comp: screen x, y, z_ndc (valid when
@@ -43,6 +44,9 @@ int linear_id() {
   return int(gl_GlobalInvocationID.x + gl_GlobalInvocationID.y * gl_NumWorkGroups.x * gl_WorkGroupSize.x);
 }
 
+// detail::safe_inv: 1 / (x + copysign(1e-30, x)).
+double safe_inv(double x);
+
 bool finite_bits(double x) { return (unpackDouble2x32(x).y & 0x7ff00000u) != 0x7ff00000u; }
 
 // a / b rounded to nearest: one Newton step on the reciprocal, then
@@ -58,6 +62,12 @@ double div_rn(double a, double b) {
   // Non-finite or zero operands: the plain quotient (inf, nan, 0 as IEEE says).
   if (!finite_bits(res) || !finite_bits(y) || a == 0.0) res = a / b;
   return res;
+}
+
+double safe_inv(double x) {
+  bool negative = (unpackDouble2x32(x).y & 0x80000000u) != 0u;
+  precise double d = x + (negative ? -1e-30 : 1e-30);
+  return div_rn(1.0, d);
 }
 
 // Clip coordinates (x, y, z, w) of vertex i in double (exact from float);
