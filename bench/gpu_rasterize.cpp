@@ -10,6 +10,12 @@
 //                          small_box: GpuRasterOptions::small_box (tuning).
 //   BM_CpuRasterize/mesh/threads: the CPU kernel on the same scene, for the
 //                          side-by-side figure.
+//   BM_GpuChain/mesh:      rasterize, interpolate (3 channels), then the
+//                          adjoints of interpolate and rasterize, on one
+//                          vulkan::Frame: iteration time = the four calls'
+//                          compute passes; counters transfers_ms (their
+//                          uploads and downloads) and host_ms.
+//   BM_CpuChain/mesh/threads: the same four CPU kernels.
 // The device is Device::open()'s choice (GRADRASTER_VULKAN_DEVICE selects).
 #include <benchmark/benchmark.h>
 
@@ -23,7 +29,9 @@
 #include "mesh_framing.h"
 #include "raster/obj_io.h"
 #include "raster/procedural.h"
+#include "raster/interpolate.h"
 #include "raster/rasterize.h"
+#include "raster/vulkan/frame.h"
 #include "raster/vulkan/rasterize.h"
 
 namespace {
@@ -50,10 +58,20 @@ const Scene& mesh_scene(int level) {
   return cache[level] = Scene{gr::bench::frame_mesh(m), m.triangles};
 }
 
-gr::vulkan::Device* device() {
+const std::shared_ptr<gr::vulkan::Device>& shared_device() {
   static std::shared_ptr<gr::vulkan::Device> d = gr::vulkan::Device::open();
-  return d.get();
+  return d;
 }
+gr::vulkan::Device* device() { return shared_device().get(); }
+
+// Per-vertex colours and a per-pixel upstream gradient for the chains.
+struct ChainInputs {
+  std::vector<float> attr, grad_out;
+  explicit ChainInputs(std::int64_t vertices) : grad_out(std::size_t(kSize) * kSize * 3, 1e-3f) {
+    const gr::Tensor colours = gr::Tensor::uniform({vertices, 3}, 0, 1, 3);
+    attr.assign(colours.data<float>(), colours.data<float>() + 3 * vertices);
+  }
+};
 
 struct GBuffer {
   std::vector<std::int32_t> id = std::vector<std::int32_t>(kSize * kSize);
@@ -109,6 +127,74 @@ void BM_CpuRasterize(benchmark::State& state) {
   gr::set_num_threads(0);
 }
 
+void BM_GpuChain(benchmark::State& state) {
+  if (!device()) {
+    state.SkipWithError("no Vulkan device");
+    return;
+  }
+  const Scene& scene = mesh_scene(state.range(0) == 0 ? 0 : 2);
+  const std::int64_t N = scene.clip.size(0);
+  const ChainInputs in(N);
+  gr::vulkan::Frame frame(shared_device());
+  std::vector<float> grad_attr(N * 3), grad_clip(N * 4), grad_uv(std::size_t(kSize) * kSize * 2);
+  double transfers = 0.0, host_ms = 0.0;
+  for (auto _ : state) {
+    const auto start = std::chrono::steady_clock::now();
+    std::fill(grad_uv.begin(), grad_uv.end(), 0.0f);
+    const gr::vulkan::GpuTimes t[4] = {
+        frame.rasterize(scene.params()), frame.interpolate(in.attr.data(), 3, true, nullptr),
+        frame.interpolate_backward(in.grad_out.data(), grad_attr.data(), grad_clip.data(), grad_uv.data()),
+        frame.rasterize_backward(grad_uv.data(), nullptr, grad_clip.data())};
+    host_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    double kernels = 0.0;
+    for (const auto& ti : t) {
+      kernels += ti.kernels_ms;
+      transfers += ti.upload_ms + ti.download_ms;
+    }
+    state.SetIterationTime(kernels * 1e-3);
+  }
+  const double n = static_cast<double>(state.iterations());
+  state.counters["transfers_ms"] = transfers / n;
+  state.counters["host_ms"] = host_ms / n;
+  state.counters["triangles"] = static_cast<double>(scene.tris.size(0));
+  state.SetLabel(device()->info().name);
+}
+
+void BM_CpuChain(benchmark::State& state) {
+  const Scene& scene = mesh_scene(state.range(0) == 0 ? 0 : 2);
+  gr::set_num_threads(static_cast<int>(state.range(1)));
+  const std::int64_t N = scene.clip.size(0);
+  const ChainInputs in(N);
+  GBuffer g;
+  std::vector<float> out(std::size_t(kSize) * kSize * 3), grad_attr(N * 3), grad_clip(N * 4),
+      grad_uv(std::size_t(kSize) * kSize * 2);
+  gr::raster::InterpolateParams<float> ip;
+  ip.attr = in.attr.data();
+  ip.num_vertices = N;
+  ip.channels = 3;
+  ip.clip = scene.clip.data<float>();
+  ip.tris = scene.tris.data<std::int32_t>();
+  ip.num_tris = scene.tris.size(0);
+  ip.tri_id = g.id.data();
+  ip.uv = g.uv.data();
+  ip.width = ip.height = kSize;
+  for (auto _ : state) {
+    std::fill(grad_uv.begin(), grad_uv.end(), 0.0f);
+    gr::raster::rasterize_forward(scene.params(), g.id.data(), g.uv.data(), g.depth.data());
+    gr::raster::interpolate_forward(ip, out.data());
+    gr::raster::interpolate_backward(ip, in.grad_out.data(), {grad_attr.data(), grad_clip.data(), grad_uv.data()});
+    gr::raster::rasterize_backward(scene.params(), g.id.data(), grad_uv.data(), static_cast<const float*>(nullptr),
+                                   grad_clip.data());
+  }
+  gr::set_num_threads(0);
+}
+
+BENCHMARK(BM_GpuChain)->ArgName("mesh")->Arg(0)->Arg(1)->UseManualTime()->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_CpuChain)
+    ->ArgNames({"mesh", "threads"})
+    ->ArgsProduct({{0, 1}, {2, 16}})
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_GpuRasterize)
     ->ArgNames({"mesh", "small_box"})
     ->ArgsProduct({{0, 1}, {16, 64, 256}})
