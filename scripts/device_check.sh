@@ -1,0 +1,34 @@
+#!/usr/bin/env bash
+# Runs on a lent GPU machine over the files scripts/device_pack.sh put in
+# .devcarry/ (docs/gpu.md, "Measuring on a GPU"): the machine, the [vulkan]
+# tests on its GPU, bench_gpu_rasterize (GPU against CPU, tri_id compared),
+# and the fit example's thread scaling (bench/fit_threads.sh). Writes logs to
+# $OUT (or ./device-out). Usage: scripts/device_check.sh [fit rounds]
+set -uo pipefail
+cd "$(dirname "$0")/.."
+out=${OUT:-device-out}; mkdir -p "$out"
+rounds=${1:-3}
+export LD_LIBRARY_PATH=$PWD/.devcarry/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
+export GRADRASTER_BENCH_BUNNY=$PWD/.devcarry/bunny.obj
+bin=.devcarry/build/bench
+{
+  date -u; nproc; lscpu | grep -m1 'Model name'
+  nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader 2>&1
+} | tee "$out/machine.txt"
+# The loader finds NVIDIA's driver through its ICD file; where the image keeps it elsewhere, name it.
+for f in /usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json; do
+  [[ -f $f ]] && export VK_DRIVER_FILES=$f VK_ICD_FILENAMES=$f
+done
+if ! "$bin/vulkan_tests" '[vulkan]' > "$out/vulkan_tests.txt" 2>&1 || grep -q 'no Vulkan device' "$out/vulkan_tests.txt"; then
+  for f in /usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json /usr/share/vulkan/icd.d/nvidia_icd.json \
+           /etc/vulkan/icd.d/nvidia_icd.json; do
+    [[ -f $f ]] && export VK_DRIVER_FILES=$f VK_ICD_FILENAMES=$f && break
+  done
+  echo "retrying with VK_DRIVER_FILES=${VK_DRIVER_FILES:-none}" | tee -a "$out/machine.txt"
+  "$bin/vulkan_tests" '[vulkan]' > "$out/vulkan_tests.txt" 2>&1
+fi
+tail -3 "$out/vulkan_tests.txt"
+"$bin/bench_gpu_rasterize" --benchmark_min_time=0.1 --benchmark_repetitions=5 \
+  --benchmark_report_aggregates_only=true --benchmark_out="$out/gpu_rasterize.json" 2>&1 | tee "$out/gpu_rasterize.txt" |
+  grep -E 'median|Benchmark|rror'
+bench/fit_threads.sh .devcarry/build 512 12 "$rounds" 1 4 8 16 2>&1 | tee "$out/fit_threads.txt"

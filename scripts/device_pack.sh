@@ -1,0 +1,26 @@
+#!/usr/bin/env bash
+# Packs what scripts/device_check.sh runs on a lent GPU machine (docs/gpu.md,
+# "Measuring on a GPU") into .devcarry/ (git-ignored): a portable x86-64-v3
+# build of gradraster-fit, bench_gpu_rasterize and the [vulkan] tests, the
+# shared libraries they load (TBB, Google Benchmark, tinyobjloader, stb, the
+# Vulkan loader) and the glmark2 bunny. Usage: scripts/device_pack.sh [build dir]
+set -euo pipefail
+cd "$(dirname "$0")/.."
+build=${1:-/tmp/gradraster-devbuild}
+cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release -DGRADRASTER_NATIVE=OFF -DCMAKE_CXX_FLAGS=-march=x86-64-v3 \
+  -DGRADRASTER_WITH_PYTHON=OFF -DGRADRASTER_WITH_MPI=OFF -DGRADRASTER_BUILD_TESTS=OFF > /dev/null
+cmake --build "$build" -j "$(nproc)" --target gradraster-fit bench_gpu_rasterize
+# The [vulkan] Catch2 cases alone (the full test binary is not needed there).
+g++ -std=c++17 -O2 -march=x86-64-v3 -ffp-contract=off -I. -Itests tests/main.cpp tests/raster/vulkan/*.cpp \
+  "$build"/libgradraster_vulkan.a "$build"/libgradraster_raster.a "$build"/libgradraster_base.a \
+  -ltbb -lvulkan -ltinyobjloader -lstb -o "$build/vulkan_tests"
+rm -rf .devcarry
+mkdir -p .devcarry/build/examples/fit .devcarry/build/bench .devcarry/lib
+cp "$build/examples/fit/gradraster-fit" .devcarry/build/examples/fit/
+cp "$build/bench/bench_gpu_rasterize" "$build/vulkan_tests" .devcarry/build/bench/
+for lib in libtbb.so.12 libbenchmark.so.1debian libtinyobjloader.so.2rc10 libstb.so.0 libvulkan.so.1; do
+  cp -L "/lib/x86_64-linux-gnu/$lib" .devcarry/lib/
+done
+cp /usr/share/glmark2/models/bunny.obj .devcarry/
+grep -qx '/.devcarry/' .git/info/exclude 2>/dev/null || echo '/.devcarry/' >> .git/info/exclude
+du -sh .devcarry
