@@ -28,6 +28,10 @@ install(FILES ${CMAKE_CURRENT_BINARY_DIR}/gradrasterConfig.cmake
   DESTINATION ${GRADRASTER_CMAKE_DIR} COMPONENT dev)
 
 # The .pc file finds its prefix from its own folder, so the tree can be installed anywhere.
+# Its Cflags carry the same usage requirements as the CMake targets (the
+# PUBLIC compile options of gradraster_base), so both kinds of consumer compile
+# alike; the build's machine flags (GRADRASTER_NATIVE) are in neither.
+string(JOIN " " GRADRASTER_PC_CFLAGS ${GRADRASTER_CONSUMER_COMPILE_OPTIONS})
 file(RELATIVE_PATH GRADRASTER_PC_TO_PREFIX ${CMAKE_INSTALL_FULL_LIBDIR}/pkgconfig ${CMAKE_INSTALL_PREFIX})
 configure_file(cmake/gradraster.pc.in ${CMAKE_CURRENT_BINARY_DIR}/gradraster.pc @ONLY)
 install(FILES ${CMAKE_CURRENT_BINARY_DIR}/gradraster.pc

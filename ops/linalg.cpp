@@ -14,6 +14,12 @@
 #include <utility>
 #include <vector>
 
+// Eigen is private to the library (docs/decisions.md): under its own namespace
+// here, so the instantiations this file makes (compiled for the build machine,
+// GRADRASTER_NATIVE) are not the weak Eigen::... symbols of a consumer's own
+// Eigen code, and the linker cannot swap one for the other. No header of ours
+// includes Eigen.
+#define Eigen gr_private_eigen
 #include <Eigen/Core>
 
 #include "autodiff/memory.h"
