@@ -20,6 +20,10 @@ Kernels::Kernels(Device::Impl& dev) : pipelines(dev) {
   interpolate_forward = add(pipelines, shaders::interpolate_forward());
   interpolate_backward = add(pipelines, shaders::interpolate_backward());
   fixed_point_finish = add(pipelines, shaders::fixed_point_finish());
+  antialias_pairs = add(pipelines, shaders::antialias_pairs());
+  antialias_forward = add(pipelines, shaders::antialias_forward());
+  antialias_backward = add(pipelines, shaders::antialias_backward());
+  antialias_finish = add(pipelines, shaders::antialias_finish());
 }
 
 VkPipeline Kernels::raster_small(int small_box) {

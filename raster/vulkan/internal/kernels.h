@@ -21,6 +21,7 @@ struct Kernels {
   PipelineSet pipelines;
   VkPipeline project, raster_large, resolve;
   VkPipeline interpolate_forward, interpolate_backward, fixed_point_finish;
+  VkPipeline antialias_pairs, antialias_forward, antialias_backward, antialias_finish;
 
  private:
   std::map<int, VkPipeline> small_;

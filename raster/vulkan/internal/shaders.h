@@ -19,5 +19,9 @@ Spirv resolve();
 Spirv interpolate_forward();
 Spirv interpolate_backward();
 Spirv fixed_point_finish();
+Spirv antialias_pairs();
+Spirv antialias_forward();
+Spirv antialias_backward();
+Spirv antialias_finish();
 
 }  // namespace gr::vulkan::shaders
