@@ -51,14 +51,17 @@ struct Frame::State {
   State(Device::Impl& dev, Kernels& k)
       : dev(dev), k(k), raster_set(dev, k.pipelines), forward_set(dev, k.pipelines), backward_set(dev, k.pipelines),
         aa_forward_set(dev, k.pipelines), aa_backward_set(dev, k.pipelines), timestamps(dev, 8),
-        aa_forward_times(dev, 5), aa_backward_times(dev, 6) {}
+        interpolate_times(dev, 4), interpolate_backward_times(dev, 6), aa_forward_times(dev, 5),
+        aa_backward_times(dev, 6) {}
 
   Device::Impl& dev;
   Kernels& k;
   Buffer buffers[kRoles];
   Buffer upload, download;
   DescriptorSet raster_set, forward_set, backward_set, aa_forward_set, aa_backward_set;
-  Timestamps timestamps, aa_forward_times, aa_backward_times;
+  // One pool per call, sized to the stamps it writes (reading a stamp never
+  // written would wait forever).
+  Timestamps timestamps, interpolate_times, interpolate_backward_times, aa_forward_times, aa_backward_times;
   // What the last rasterize and interpolate were given.
   int width = 0, height = 0;
   std::int64_t num_vertices = 0, num_tris = 0;
@@ -227,21 +230,21 @@ GpuTimes Frame::interpolate(const float* attr, std::int64_t channels, bool persp
                              static_cast<std::int32_t>(s.num_tris), static_cast<std::int32_t>(channels),
                              0, perspective ? 1 : 0, s.y_up ? 1 : 0};
   s.dev.run([&](VkCommandBuffer cb) {
-    s.timestamps.reset(cb);
-    s.timestamps.stamp(cb, 0);
+    s.interpolate_times.reset(cb);
+    s.interpolate_times.stamp(cb, 0);
     copy(cb, s.upload.handle(), 0, s[kAttr].handle(), 0, attr_bytes);
     barrier(cb);
-    s.timestamps.stamp(cb, 1);
+    s.interpolate_times.stamp(cb, 1);
     s.use(cb, set);
     if (channels > 0) dispatch(cb, s.k, s.k.interpolate_forward, &push, s.pixels(), 256);
     barrier(cb);
-    s.timestamps.stamp(cb, 2);
+    s.interpolate_times.stamp(cb, 2);
     if (out) copy(cb, s[kInterpolated].handle(), 0, s.download.handle(), 0, out_bytes);
     barrier(cb);
-    s.timestamps.stamp(cb, 3);
+    s.interpolate_times.stamp(cb, 3);
   });
   if (out && out_bytes) std::memcpy(out, s.download.mapped(), out_bytes);
-  return s.timestamps.read();
+  return s.interpolate_times.read();
 }
 
 GpuTimes Frame::interpolate_backward(const float* grad_out, float* grad_attr, float* grad_clip, float* grad_uv) {
@@ -269,11 +272,11 @@ GpuTimes Frame::interpolate_backward(const float* grad_out, float* grad_attr, fl
   const FinishPush finish{static_cast<std::int32_t>(sums), static_cast<std::int32_t>(N * C),
                           static_cast<std::int32_t>(px), {}};
   s.dev.run([&](VkCommandBuffer cb) {
-    s.timestamps.reset(cb);
-    s.timestamps.stamp(cb, 0);
+    s.interpolate_backward_times.reset(cb);
+    s.interpolate_backward_times.stamp(cb, 0);
     copy(cb, s.upload.handle(), 0, s[kGradOut].handle(), 0, grad_bytes);
     barrier(cb);
-    s.timestamps.stamp(cb, 1);
+    s.interpolate_backward_times.stamp(cb, 1);
     vkCmdFillBuffer(cb, s[kSums].handle(), 0, sums * sizeof(std::int64_t), 0u);
     vkCmdFillBuffer(cb, s[kLargest].handle(), 0, 2 * sizeof(std::uint64_t), 0u);
     barrier(cb);
@@ -282,15 +285,15 @@ GpuTimes Frame::interpolate_backward(const float* grad_out, float* grad_attr, fl
       push.pass = pass;
       dispatch(cb, s.k, s.k.interpolate_backward, &push, px, 256);
       barrier(cb);
-      s.timestamps.stamp(cb, 2 + pass);
+      s.interpolate_backward_times.stamp(cb, 2 + pass);
     }
     dispatch(cb, s.k, s.k.fixed_point_finish, &finish, static_cast<std::int64_t>(sums), 256);
     barrier(cb);
-    s.timestamps.stamp(cb, 4);
+    s.interpolate_backward_times.stamp(cb, 4);
     copy(cb, s[kFinished].handle(), 0, s.download.handle(), 0, sums * sizeof(float));
     copy(cb, s[kGradUv].handle(), 0, s.download.handle(), sums * sizeof(float), uv_bytes);
     barrier(cb);
-    s.timestamps.stamp(cb, 5);
+    s.interpolate_backward_times.stamp(cb, 5);
   });
   const float* got = static_cast<const float*>(s.download.mapped());
   if (grad_attr)
@@ -301,7 +304,7 @@ GpuTimes Frame::interpolate_backward(const float* grad_out, float* grad_attr, fl
     const float* g = got + sums;
     for (std::int64_t i = 0; i < 2 * px; ++i) grad_uv[i] += g[i];
   }
-  return s.timestamps.read();
+  return s.interpolate_backward_times.read();
 }
 
 GpuTimes Frame::antialias(const float* image, int channels, float* out) {

@@ -203,6 +203,16 @@ TEST_CASE("GPU antialias and its adjoint are the same bits every run and accumul
   for (std::size_t i = 0; i < grad_clip.size(); ++i) REQUIRE(grad_clip[i] == 1.0f + first.grad_clip[i]);
 }
 
+TEST_CASE("GPU antialias reports its passes' times", "[vulkan]") {
+  if (!shared_gpu() || shared_gpu()->info().timestamp_period_ns <= 0.0) return;
+  const Scene s = random_soup(50, 3);
+  vulkan::Frame frame(shared_gpu());
+  frame.rasterize(s.params(32, 32));
+  const std::vector<float> image = random_values(32 * 32 * 2, 1), grad = random_values(32 * 32 * 2, 2);
+  CHECK(frame.antialias(image.data(), 2).pass_ms.size() == 2);
+  CHECK(frame.antialias_backward(grad.data(), nullptr, nullptr).pass_ms.size() == 3);
+}
+
 TEST_CASE("GPU antialias refuses to run before rasterize and its adjoint before antialias", "[vulkan]") {
   if (!shared_gpu()) return;
   vulkan::Frame frame(shared_gpu());
