@@ -3,16 +3,24 @@
 #include "raster/vulkan/frame.h"
 
 #include <cstring>
+#include <limits>
 #include <string>
+#include <vector>
 
 #include "autodiff/error.h"
+#include "raster/antialias.h"
 #include "raster/vulkan/internal/buffer.h"
 #include "raster/vulkan/internal/kernels.h"
 
 namespace gr::vulkan {
 namespace {
 
+// Bytes of one antialias pair slot (struct Pair, antialias_common.glsl): t, a, b.
+constexpr std::size_t kPairBytes = 16;
+
 // Workgroups of raster_large; their invocations take the listed chunks in turn.
+// Timestamps of the call that stamps the most (rasterize).
+constexpr std::uint32_t kMaxTimestamps = 8;
 constexpr std::uint32_t kLargeWorkgroups = 1024;
 
 struct RasterPush {
@@ -24,8 +32,11 @@ struct InterpolatePush {
 struct FinishPush {
   std::int32_t count, split, pixels, pad[5];
 };
+struct AntialiasPush {
+  std::int32_t width, height, num_vertices, num_tris, channels, pass, y_up, pad;
+};
 static_assert(sizeof(RasterPush) == kPushBytes && sizeof(InterpolatePush) == kPushBytes &&
-                  sizeof(FinishPush) == kPushBytes,
+                  sizeof(FinishPush) == kPushBytes && sizeof(AntialiasPush) == kPushBytes,
               "push constant blocks");
 
 // The frame's buffers by role (device-local), and two host-visible staging buffers.
@@ -34,6 +45,7 @@ enum Role {
   kAttr, kInterpolated, kGradOut, kGradUv,  // interpolate
   kSums, kLargest, kFinished,  // an adjoint's fixed-point sums, their scales, the result
   kGradUvIn, kGradDepthIn,  // rasterize_backward's incoming gradients
+  kNeighbour, kAaImage, kAaOut, kAaPairs, kAaGradOut, kAaGradImage, kAaSums, kAaLargest, kAaGradClip,  // antialias
   kRoles
 };
 
@@ -42,13 +54,14 @@ enum Role {
 struct Frame::State {
   State(Device::Impl& dev, Kernels& k)
       : dev(dev), k(k), raster_set(dev, k.pipelines), forward_set(dev, k.pipelines), backward_set(dev, k.pipelines),
-        raster_backward_set(dev, k.pipelines), timestamps(dev, 8) {}
+        raster_backward_set(dev, k.pipelines), aa_forward_set(dev, k.pipelines), aa_backward_set(dev, k.pipelines),
+        timestamps(dev, kMaxTimestamps) {}
 
   Device::Impl& dev;
   Kernels& k;
   Buffer buffers[kRoles];
   Buffer upload, download;
-  DescriptorSet raster_set, forward_set, backward_set, raster_backward_set;
+  DescriptorSet raster_set, forward_set, backward_set, raster_backward_set, aa_forward_set, aa_backward_set;
   Timestamps timestamps;
   // What the last rasterize and interpolate were given.
   int width = 0, height = 0;
@@ -56,6 +69,10 @@ struct Frame::State {
   bool y_up = false, rasterized = false;
   std::int64_t channels = -1;
   bool perspective = true;
+  int aa_channels = -1;  // of the last antialias (-1: none since the last rasterize)
+  // The triangles the device's edge topology (kNeighbour) is for, once topology_ready.
+  std::vector<std::int32_t> tris;
+  bool topology_ready = false;
 
   Buffer& operator[](Role r) { return buffers[r]; }
   std::int64_t pixels() const { return static_cast<std::int64_t>(width) * height; }
@@ -65,10 +82,30 @@ struct Frame::State {
     for (const auto& [binding, role] : bindings) handles[binding] = buffers[role].handle();
     return set.bind(handles);
   }
+  // Keeps the host copy of the triangles; the topology is stale when they changed.
+  void note_triangles(const std::int32_t* t, std::int64_t num_tris) {
+    const std::size_t n = static_cast<std::size_t>(3 * num_tris);
+    if (tris.size() == n && (n == 0 || std::memcmp(tris.data(), t, n * sizeof(std::int32_t)) == 0)) return;
+    tris.assign(t, t + n);
+    topology_ready = false;
+  }
   void use(VkCommandBuffer cb, VkDescriptorSet set) {
     vkCmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_COMPUTE, k.pipelines.layout(), 0, 1, &set, 0, nullptr);
   }
 };
+
+namespace {
+
+// EdgeTopology::neighbour of the frame's triangles as int32 (3n + k' or < 0).
+std::vector<std::int32_t> neighbours_of(const std::vector<std::int32_t>& tris) {
+  const std::int64_t num_tris = static_cast<std::int64_t>(tris.size() / 3);
+  if (3 * num_tris > std::numeric_limits<std::int32_t>::max())
+    throw ValueError("vulkan antialias: too many triangles for 32-bit edge indices (" + std::to_string(num_tris) + ")");
+  const raster::EdgeTopology topo = raster::build_edge_topology(tris.data(), num_tris);
+  return std::vector<std::int32_t>(topo.neighbour.begin(), topo.neighbour.end());
+}
+
+}  // namespace
 
 Frame::Frame(std::shared_ptr<Device> device) : device_(std::move(device)) {
   if (!device_) throw ValueError("vulkan Frame: no device");
@@ -98,6 +135,8 @@ GpuTimes Frame::rasterize(const raster::RasterParams<float>& p, const GpuRasterO
   s.num_tris = p.num_tris;
   s.y_up = options.y_up;
   s.channels = -1;
+  s.aa_channels = -1;
+  s.note_triangles(p.tris, p.num_tris);
   const std::size_t px = static_cast<std::size_t>(s.pixels());
   const std::size_t clip_bytes = static_cast<std::size_t>(p.num_vertices) * 4 * sizeof(float);
   const std::size_t tri_bytes = static_cast<std::size_t>(p.num_tris) * 3 * sizeof(std::int32_t);
@@ -125,7 +164,7 @@ GpuTimes Frame::rasterize(const raster::RasterParams<float>& p, const GpuRasterO
                   p.settings.cull == raster::Cull::Back ? 1 : p.settings.cull == raster::Cull::Front ? -1 : 0,
                   0, options.y_up ? 1 : 0, 0};
   s.dev.run([&](VkCommandBuffer cb) {
-    s.timestamps.reset(cb);
+    s.timestamps.reset(cb, 8);
     s.timestamps.stamp(cb, 0);
     copy(cb, s.upload.handle(), 0, s[kClip].handle(), 0, clip_bytes);
     copy(cb, s.upload.handle(), clip_bytes, s[kTris].handle(), 0, tri_bytes);
@@ -192,7 +231,7 @@ GpuTimes Frame::interpolate(const float* attr, std::int64_t channels, bool persp
                              static_cast<std::int32_t>(s.num_tris), static_cast<std::int32_t>(channels),
                              0, perspective ? 1 : 0, s.y_up ? 1 : 0};
   s.dev.run([&](VkCommandBuffer cb) {
-    s.timestamps.reset(cb);
+    s.timestamps.reset(cb, 4);
     s.timestamps.stamp(cb, 0);
     copy(cb, s.upload.handle(), 0, s[kAttr].handle(), 0, attr_bytes);
     barrier(cb);
@@ -234,7 +273,7 @@ GpuTimes Frame::interpolate_backward(const float* grad_out, float* grad_attr, fl
   const FinishPush finish{static_cast<std::int32_t>(sums), static_cast<std::int32_t>(N * C),
                           static_cast<std::int32_t>(px), {}};
   s.dev.run([&](VkCommandBuffer cb) {
-    s.timestamps.reset(cb);
+    s.timestamps.reset(cb, 6);
     s.timestamps.stamp(cb, 0);
     copy(cb, s.upload.handle(), 0, s[kGradOut].handle(), 0, grad_bytes);
     barrier(cb);
@@ -269,6 +308,109 @@ GpuTimes Frame::interpolate_backward(const float* grad_out, float* grad_attr, fl
   return s.timestamps.read();
 }
 
+GpuTimes Frame::antialias(const float* image, int channels, float* out) {
+  State& s = *state_;
+  if (!s.rasterized) throw ValueError("vulkan antialias: the frame has no G-buffer (call rasterize first)");
+  if (channels < 1) throw ValueError("vulkan antialias: channels must be at least 1, got " + std::to_string(channels));
+  std::lock_guard<std::mutex> lock(s.dev.mutex);
+  s.aa_channels = -1;
+  const std::size_t px = static_cast<std::size_t>(s.pixels());
+  const std::size_t image_bytes = px * static_cast<std::size_t>(channels) * sizeof(float);
+  // The topology only when the triangles changed since it was uploaded.
+  const std::vector<std::int32_t> neighbours = s.topology_ready ? std::vector<std::int32_t>() : neighbours_of(s.tris);
+  const std::size_t neighbour_bytes = neighbours.size() * sizeof(std::int32_t);
+  s.reserve(kAaImage, image_bytes);
+  s.reserve(kAaOut, image_bytes);
+  s.reserve(kAaPairs, 2 * px * kPairBytes);
+  if (!s.topology_ready) s.reserve(kNeighbour, neighbour_bytes);
+  s.upload.reserve(s.dev, image_bytes + neighbour_bytes, true);
+  s.download.reserve(s.dev, out ? image_bytes : 0, true);
+  std::memcpy(s.upload.mapped(), image, image_bytes);
+  if (neighbour_bytes) std::memcpy(static_cast<char*>(s.upload.mapped()) + image_bytes, neighbours.data(), neighbour_bytes);
+  // Bindings (antialias_common.glsl): 0 clip, 1 tris, 2 verts, 3 tri_id, 4 depth, 5 neighbours, 6 image,
+  // 7 pairs, 9 out.
+  const VkDescriptorSet set = s.bind(s.aa_forward_set, {{0, kClip}, {1, kTris}, {2, kVerts}, {3, kTriId}, {4, kDepth},
+                                                        {5, kNeighbour}, {6, kAaImage}, {7, kAaPairs}, {9, kAaOut}});
+  const AntialiasPush push{s.width, s.height, static_cast<std::int32_t>(s.num_vertices),
+                           static_cast<std::int32_t>(s.num_tris), channels, 0, s.y_up ? 1 : 0, 0};
+  s.dev.run([&](VkCommandBuffer cb) {
+    Timestamps& ts = s.timestamps;
+    ts.reset(cb, 5);
+    ts.stamp(cb, 0);
+    copy(cb, s.upload.handle(), 0, s[kAaImage].handle(), 0, image_bytes);
+    copy(cb, s.upload.handle(), image_bytes, s[kNeighbour].handle(), 0, neighbour_bytes);
+    barrier(cb);
+    ts.stamp(cb, 1);
+    s.use(cb, set);
+    dispatch(cb, s.k, s.k.antialias_pairs, &push, s.pixels(), 256);
+    barrier(cb);
+    ts.stamp(cb, 2);
+    dispatch(cb, s.k, s.k.antialias_forward, &push, s.pixels(), 256);
+    barrier(cb);
+    ts.stamp(cb, 3);
+    if (out) copy(cb, s[kAaOut].handle(), 0, s.download.handle(), 0, image_bytes);
+    barrier(cb);
+    ts.stamp(cb, 4);
+  });
+  s.topology_ready = true;
+  s.aa_channels = channels;
+  if (out) std::memcpy(out, s.download.mapped(), image_bytes);
+  return s.timestamps.read();
+}
+
+GpuTimes Frame::antialias_backward(const float* grad_out, float* grad_image, float* grad_clip) {
+  State& s = *state_;
+  if (s.aa_channels < 0) throw ValueError("vulkan antialias_backward: the frame has no antialias to differentiate");
+  std::lock_guard<std::mutex> lock(s.dev.mutex);
+  const std::int64_t N = s.num_vertices, C = s.aa_channels, px = s.pixels();
+  const std::size_t image_bytes = static_cast<std::size_t>(px * C) * sizeof(float);
+  const std::size_t clip_bytes = static_cast<std::size_t>(N) * 4 * sizeof(float);
+  s.reserve(kAaGradOut, image_bytes);
+  s.reserve(kAaGradImage, image_bytes);
+  s.reserve(kAaSums, static_cast<std::size_t>(N) * 2 * sizeof(std::int64_t));
+  s.reserve(kAaLargest, sizeof(std::uint64_t));
+  s.reserve(kAaGradClip, clip_bytes);
+  s.upload.reserve(s.dev, image_bytes, true);
+  s.download.reserve(s.dev, image_bytes + clip_bytes, true);
+  std::memcpy(s.upload.mapped(), grad_out, image_bytes);
+  // Bindings: 0 clip, 2 verts, 3 grad_out, 4 grad_image, 5 screen sums, 6 image, 7 pairs, 8 largest, 9 grad_clip.
+  const VkDescriptorSet set =
+      s.bind(s.aa_backward_set, {{0, kClip}, {2, kVerts}, {3, kAaGradOut}, {4, kAaGradImage}, {5, kAaSums},
+                                 {6, kAaImage}, {7, kAaPairs}, {8, kAaLargest}, {9, kAaGradClip}});
+  AntialiasPush push{s.width, s.height, static_cast<std::int32_t>(N), static_cast<std::int32_t>(s.num_tris),
+                     static_cast<std::int32_t>(C), 0, s.y_up ? 1 : 0, 0};
+  s.dev.run([&](VkCommandBuffer cb) {
+    Timestamps& ts = s.timestamps;
+    ts.reset(cb, 6);
+    ts.stamp(cb, 0);
+    copy(cb, s.upload.handle(), 0, s[kAaGradOut].handle(), 0, image_bytes);
+    vkCmdFillBuffer(cb, s[kAaSums].handle(), 0, static_cast<std::size_t>(N) * 2 * sizeof(std::int64_t), 0u);
+    vkCmdFillBuffer(cb, s[kAaLargest].handle(), 0, sizeof(std::uint64_t), 0u);
+    barrier(cb);
+    ts.stamp(cb, 1);
+    s.use(cb, set);
+    for (std::int32_t pass = 0; pass < 2; ++pass) {
+      push.pass = pass;
+      dispatch(cb, s.k, s.k.antialias_backward, &push, px, 256);
+      barrier(cb);
+      ts.stamp(cb, 2 + pass);
+    }
+    dispatch(cb, s.k, s.k.antialias_finish, &push, N, 256);
+    barrier(cb);
+    ts.stamp(cb, 4);
+    copy(cb, s[kAaGradImage].handle(), 0, s.download.handle(), 0, image_bytes);
+    copy(cb, s[kAaGradClip].handle(), 0, s.download.handle(), image_bytes, clip_bytes);
+    barrier(cb);
+    ts.stamp(cb, 5);
+  });
+  const float* got = static_cast<const float*>(s.download.mapped());
+  if (grad_image)
+    for (std::int64_t i = 0; i < px * C; ++i) grad_image[i] += got[i];
+  if (grad_clip)
+    for (std::int64_t i = 0; i < N * 4; ++i) grad_clip[i] += got[px * C + i];
+  return s.timestamps.read();
+}
+
 GpuTimes Frame::rasterize_backward(const float* grad_uv, const float* grad_depth, float* grad_clip) {
   State& s = *state_;
   if (!s.rasterized) throw ValueError("vulkan rasterize_backward: the frame has no G-buffer (call rasterize first)");
@@ -293,7 +435,7 @@ GpuTimes Frame::rasterize_backward(const float* grad_uv, const float* grad_depth
   RasterPush push{s.width, s.height, static_cast<std::int32_t>(N), static_cast<std::int32_t>(s.num_tris), 0, 0,
                   s.y_up ? 1 : 0, grad_depth ? 1 : 0};
   s.dev.run([&](VkCommandBuffer cb) {
-    s.timestamps.reset(cb);
+    s.timestamps.reset(cb, 6);
     s.timestamps.stamp(cb, 0);
     copy(cb, s.upload.handle(), 0, s[kGradUvIn].handle(), 0, uv_bytes);
     copy(cb, s.upload.handle(), uv_bytes, s[kGradDepthIn].handle(), 0, depth_bytes);

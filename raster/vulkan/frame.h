@@ -10,7 +10,10 @@
 // ulp of float); the adjoint's sums are taken in 64-bit fixed point (exact
 // and order-independent, so bit-identical run to run; resolution about
 // 2^-61 x pixels x the largest contribution), within 1e-12 of the CPU's
-// double sums relative to the largest gradient.
+// double sums relative to the largest gradient. antialias gives the CPU
+// kernel's pairs (the same silhouette walk in double) and blends, bit for
+// bit; its adjoint sums the edge vertices' screen gradients in fixed point
+// (the same resolution) before the projection adjoint.
 //
 // A Frame is used by one thread at a time; Frames on one device share its
 // queue (calls are serialized).
@@ -52,6 +55,20 @@ class Frame {
   // coverage) for grad_uv (H x W x 2) and grad_depth (H x W, may be null),
   // ACCUMULATED (+=) into grad_clip (N x 4). pass_ms: magnitudes, sums, finish.
   GpuTimes rasterize_backward(const float* grad_uv, const float* grad_depth, float* grad_clip);
+
+  // antialias_forward (raster/antialias.h) of image (H x W x channels) over
+  // the last rasterize's G-buffer, clip positions and triangles; out (H x W x
+  // channels) if not null. The edge topology (build_edge_topology of the
+  // triangles, no welding) is built on the host and uploaded on the first
+  // call after a rasterize whose triangles differ from the last ones; else
+  // the device's copy is reused. The pairs stay on the device for the
+  // adjoint. pass_ms: pairs, blend.
+  GpuTimes antialias(const float* image, int channels, float* out = nullptr);
+
+  // The adjoint of the last antialias for grad_out (H x W x channels),
+  // ACCUMULATED (+=) into grad_image (H x W x channels) and grad_clip (N x 4),
+  // each may be null. pass_ms: image gradient and magnitudes, sums, finish.
+  GpuTimes antialias_backward(const float* grad_out, float* grad_image, float* grad_clip);
 
  private:
   struct State;

@@ -2,6 +2,9 @@
 #include "raster/vulkan/internal/kernels.h"
 
 #include <memory>
+#include <string>
+
+#include "autodiff/error.h"
 
 namespace gr::vulkan {
 
@@ -22,6 +25,10 @@ Kernels::Kernels(Device::Impl& dev) : pipelines(dev) {
   fixed_point_finish = add(pipelines, shaders::fixed_point_finish());
   rasterize_backward = add(pipelines, shaders::rasterize_backward());
   rasterize_backward_finish = add(pipelines, shaders::rasterize_backward_finish());
+  antialias_pairs = add(pipelines, shaders::antialias_pairs());
+  antialias_forward = add(pipelines, shaders::antialias_forward());
+  antialias_backward = add(pipelines, shaders::antialias_backward());
+  antialias_finish = add(pipelines, shaders::antialias_finish());
 }
 
 VkPipeline Kernels::raster_small(int small_box) {
@@ -56,11 +63,11 @@ void dispatch(VkCommandBuffer cb, const Kernels& k, VkPipeline pipeline, const v
   vkCmdDispatch(cb, x, y, 1);
 }
 
-Timestamps::Timestamps(Device::Impl& dev, std::uint32_t count) : dev_(dev), count_(count) {
+Timestamps::Timestamps(Device::Impl& dev, std::uint32_t capacity) : dev_(dev), capacity_(capacity) {
   if (dev.info.timestamp_period_ns <= 0.0) return;
   VkQueryPoolCreateInfo qi{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
   qi.queryType = VK_QUERY_TYPE_TIMESTAMP;
-  qi.queryCount = count;
+  qi.queryCount = capacity;
   check(vkCreateQueryPool(dev.device, &qi, nullptr, &pool_), "vkCreateQueryPool");
 }
 
@@ -68,18 +75,21 @@ Timestamps::~Timestamps() {
   if (pool_) vkDestroyQueryPool(dev_.device, pool_, nullptr);
 }
 
-void Timestamps::reset(VkCommandBuffer cb) {
-  if (pool_) vkCmdResetQueryPool(cb, pool_, 0, count_);
+void Timestamps::reset(VkCommandBuffer cb, std::uint32_t count) {
+  if (count > capacity_) throw Error("vulkan: " + std::to_string(count) + " timestamps asked of a pool of " +
+                                     std::to_string(capacity_));
+  count_ = count;
+  if (pool_) vkCmdResetQueryPool(cb, pool_, 0, capacity_);
 }
 
 void Timestamps::stamp(VkCommandBuffer cb, std::uint32_t i) {
-  if (pool_) vkCmdWriteTimestamp(cb, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, pool_, i);
+  if (pool_ && i < count_) vkCmdWriteTimestamp(cb, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, pool_, i);
 }
 
 GpuTimes Timestamps::read() const {
   GpuTimes t;
   std::vector<std::uint64_t> ts(count_);
-  if (!pool_ || vkGetQueryPoolResults(dev_.device, pool_, 0, count_, ts.size() * sizeof(std::uint64_t), ts.data(),
+  if (!pool_ || count_ < 3 || vkGetQueryPoolResults(dev_.device, pool_, 0, count_, ts.size() * sizeof(std::uint64_t), ts.data(),
                                       sizeof(std::uint64_t), VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT) !=
                     VK_SUCCESS)
     return t;

@@ -22,6 +22,7 @@ struct Kernels {
   VkPipeline project, raster_large, resolve;
   VkPipeline interpolate_forward, interpolate_backward, fixed_point_finish;
   VkPipeline rasterize_backward, rasterize_backward_finish;
+  VkPipeline antialias_pairs, antialias_forward, antialias_backward, antialias_finish;
 
  private:
   std::map<int, VkPipeline> small_;
@@ -38,24 +39,25 @@ void barrier(VkCommandBuffer cb);
 void dispatch(VkCommandBuffer cb, const Kernels& k, VkPipeline pipeline, const void* push, std::int64_t items,
               std::uint32_t local);
 
-// Timestamps of one submission: stamp(i) after the work recorded so far;
-// read() converts them into GpuTimes (upload = 0..1, kernels = 1..n-2 with
-// a pass per step, download = n-2..n-1).
+// Timestamps of one submission: reset(cb, n) before stamping 0..n-1 (every
+// one of them: reading a stamp never written waits forever), stamp(i) after
+// the work recorded so far; read() converts them into GpuTimes (upload =
+// 0..1, kernels = 1..n-2 with a pass per step, download = n-2..n-1).
 class Timestamps {
  public:
-  Timestamps(Device::Impl& dev, std::uint32_t count);
+  Timestamps(Device::Impl& dev, std::uint32_t capacity);
   ~Timestamps();
   Timestamps(const Timestamps&) = delete;
   Timestamps& operator=(const Timestamps&) = delete;
 
-  void reset(VkCommandBuffer cb);
+  void reset(VkCommandBuffer cb, std::uint32_t count);
   void stamp(VkCommandBuffer cb, std::uint32_t i);
   GpuTimes read() const;
 
  private:
   Device::Impl& dev_;
   VkQueryPool pool_ = VK_NULL_HANDLE;
-  std::uint32_t count_;
+  std::uint32_t capacity_, count_ = 0;
 };
 
 // Records a copy of `bytes` (if any) between two buffers.

@@ -21,5 +21,9 @@ Spirv interpolate_backward();
 Spirv fixed_point_finish();
 Spirv rasterize_backward();
 Spirv rasterize_backward_finish();
+Spirv antialias_pairs();
+Spirv antialias_forward();
+Spirv antialias_backward();
+Spirv antialias_finish();
 
 }  // namespace gr::vulkan::shaders

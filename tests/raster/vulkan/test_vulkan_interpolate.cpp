@@ -161,6 +161,16 @@ TEST_CASE("GPU interpolate's adjoint is the same bits every run and accumulates"
   for (std::size_t i = 0; i < grad_attr.size(); ++i) REQUIRE(grad_attr[i] == 1.0f + first.grad_attr[i]);
 }
 
+TEST_CASE("GPU interpolate reports its passes' times", "[vulkan]") {
+  if (!shared_gpu() || shared_gpu()->info().timestamp_period_ns <= 0.0) return;
+  const Scene s = random_soup(50, 3);
+  vulkan::Frame frame(shared_gpu());
+  frame.rasterize(s.params(32, 32));
+  const std::vector<float> attr = random_values(s.clip.size() / 4 * 2, 1), grad = random_values(32 * 32 * 2, 2);
+  CHECK(frame.interpolate(attr.data(), 2).pass_ms.size() == 1);
+  CHECK(frame.interpolate_backward(grad.data(), nullptr, nullptr, nullptr).pass_ms.size() == 3);
+}
+
 TEST_CASE("GPU interpolate refuses to run before rasterize and its adjoint before interpolate", "[vulkan]") {
   if (!shared_gpu()) return;
   vulkan::Frame frame(shared_gpu());

@@ -107,3 +107,13 @@ TEST_CASE("GPU rasterize adjoint is the same bits every run and accumulates", "[
   frame.rasterize_backward(g.uv.data(), g.depth.data(), grad.data());
   for (std::size_t i = 0; i < grad.size(); ++i) REQUIRE(grad[i] == 2.0f + first[i]);
 }
+
+TEST_CASE("GPU rasterize and its adjoint report their passes' times", "[vulkan]") {
+  if (!shared_gpu() || shared_gpu()->info().timestamp_period_ns <= 0.0) return;
+  const Scene s = random_soup(50, 3);
+  vulkan::Frame frame(shared_gpu());
+  CHECK(frame.rasterize(s.params(32, 32)).pass_ms.size() == 5);
+  const std::vector<float> grad = random_values(32 * 32 * 2, 2);
+  std::vector<float> grad_clip(s.clip.size());
+  CHECK(frame.rasterize_backward(grad.data(), nullptr, grad_clip.data()).pass_ms.size() == 3);
+}
