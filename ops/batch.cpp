@@ -53,13 +53,8 @@ struct GradOf {
   T* at(const PerImage& in, std::int64_t b) {
     return in.shared ? parts[b].data<T>() : total.data<T>() + b * in.rows * in.cols;
   }
-  template <class T>
   Tensor finish() {
-    T* out = total.data<T>();
-    for (const Tensor& part : parts) {
-      const T* p = part.data<T>();
-      for (std::int64_t i = 0; i < total.numel(); ++i) out[i] += p[i];
-    }
+    for (const Tensor& part : parts) detail::add_image_gradient(total, part);
     return total;
   }
 };
@@ -81,6 +76,18 @@ void check_batched_gbuffer(const GBuffer& g, std::int64_t images, const Tensor& 
 }  // namespace
 
 namespace detail {
+
+void add_image_gradient(Tensor& total, const Tensor& part) {
+  if (!total.defined()) return;
+  dispatch_float(total.dtype(), "add_image_gradient", [&](auto tag) {
+    using T = decltype(tag);
+    T* to = total.data<T>();
+    const T* from = part.data<T>();
+    parallel_for(0, total.numel(), kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
+      for (std::int64_t k = lo; k < hi; ++k) to[k] += from[k];
+    });
+  });
+}
 
 ImageBatch check_instanced(const Tensor& clip, const Tensor& triangles, const RasterizeOptions& options,
                            const std::string& op) {
@@ -173,7 +180,7 @@ GBuffer rasterize_images(const Tensor& clip, const Tensor& triangles, const Imag
           raster::rasterize_backward(p, tri_id.data<std::int32_t>() + b * P, uv_grad.data<T>() + 2 * b * P,
                                      g_depth.defined() ? g_depth.data<T>() + b * P : nullptr, g.at<T>(in, b));
         });
-        ctx.accumulate(0, g.finish<T>());
+        ctx.accumulate(0, g.finish());
       });
     });
   }
@@ -257,8 +264,8 @@ Tensor interpolate_batch(const Tensor& attributes, const Tensor& clip, const GBu
                  if (g_uv.defined()) g.uv = g_uv.data<T>() + 2 * b * P;
                  raster::interpolate_backward(params(tag, a, c, b), ctx.grad_output().data<T>() + b * P * a.cols, g);
                });
-               if (ctx.needs_grad(0)) ctx.accumulate(0, g_attr.finish<T>());
-               if (ctx.needs_grad(1)) ctx.accumulate(1, g_clip.finish<T>());
+               if (ctx.needs_grad(0)) ctx.accumulate(0, g_attr.finish());
+               if (ctx.needs_grad(1)) ctx.accumulate(1, g_clip.finish());
                if (g_uv.defined()) ctx.accumulate(2, g_uv);
              });
            });
@@ -345,7 +352,7 @@ Tensor antialias_batch(const Tensor& image, const GBuffer& gbuffer, const Tensor
                    for (std::int64_t i = 0; i < 4 * N; ++i) g.clip[i] = static_cast<T>(boost * g.clip[i]);
                });
                if (g_image.defined()) ctx.accumulate(0, g_image);
-               if (ctx.needs_grad(1)) ctx.accumulate(1, g_clip.finish<T>());
+               if (ctx.needs_grad(1)) ctx.accumulate(1, g_clip.finish());
              });
            });
   }

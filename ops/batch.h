@@ -59,6 +59,12 @@ void for_each_image(std::int64_t images, F body) {
   });
 }
 
+// total += part, elementwise, for a gradient the images share (range mode's
+// positions, a shared attribute or texture): adding the images' parts one
+// after the other in image order gives the sum separate calls would
+// accumulate, for any thread count. Nothing when total is undefined.
+void add_image_gradient(Tensor& total, const Tensor& part);
+
 // What a checked batched rasterize draws: instanced (clip [B, N, 4], every
 // image all triangles) or range mode (clip [N, 4] shared, image b the
 // triangles first .. first + count - 1).

@@ -59,13 +59,11 @@ struct FusedRows::Instr {
 
 // ---------------------------------------------------------------- compile
 
-std::shared_ptr<const FusedRows> FusedRows::compile(const FusionTrace& trace, const std::vector<Tensor>& rows,
-                                                    const std::vector<Tensor>& shared, const Tensor& result,
-                                                    const std::vector<bool>& rows_grad, const std::vector<bool>& shared_grad) {
-  if (rows.empty() || !result.defined() || !is_floating(result.dtype())) return nullptr;
-  const std::int64_t P = rows[0].size(0);
-  // The lanes: every axis of a row input but its last ([P] for [P, C], [P, W]
-  // for an image's [P, W, C]); values with a last axis share them.
+namespace {
+
+// The lanes: every axis of a row input but its last ([P] for [P, C], [P, W]
+// for an image's [P, W, C]); values with a last axis share them.
+std::vector<std::int64_t> lane_dims_of(const std::vector<Tensor>& rows, std::int64_t P) {
   std::vector<std::int64_t> lane_dims{P};
   for (const Tensor& t : rows)
     if (t.defined() && t.rank() >= 2) {
@@ -73,26 +71,34 @@ std::shared_ptr<const FusedRows> FusedRows::compile(const FusionTrace& trace, co
       lane_dims.assign(d.begin(), d.end() - 1);
       break;
     }
-  std::int64_t lanes = 1;
-  for (std::int64_t d : lane_dims) lanes *= d;
-  // More lanes than a constant may have elements: a tensor derived from the
-  // rows by an op the trace does not know can never pass for a constant.
-  if (P < 1 || lanes <= kMaxConstant) return nullptr;
-  auto prog = std::make_shared<FusedRows>();
-  FusedRows& p = *prog;
-  p.dtype_ = result.dtype();
-  p.lanes_per_row_ = lanes / P;
-  std::unordered_map<const TensorImpl*, int> ids;
-  std::unordered_set<const TensorImpl*> opaque;  // seen but not replayable: using it fails the compile
+  return lane_dims;
+}
 
-  auto add_varying = [&](int rank, int width) {
+int width_of(const Tensor& t) { return t.rank() == 1 ? 1 : int(t.size(-1)); }
+int rank_of(const Tensor& t) { return t.rank() == 1 ? 1 : 2; }
+bool is_unary(FusedOp op) { return op == FusedOp::Neg || op == FusedOp::Pow || op == FusedOp::Normalize; }
+
+}  // namespace
+
+// compile's working state: the program being built, the lanes' shape, and the
+// traced tensors seen so far, as values (ids) or as not replayable (opaque:
+// using one fails the step).
+struct FusedRows::Compiler {
+  FusedRows& p;
+  std::int64_t P;
+  std::vector<std::int64_t> lane_dims;
+  std::unordered_map<const TensorImpl*, int> ids;
+  std::unordered_set<const TensorImpl*> opaque;
+
+  int add_varying(int rank, int width) {
     Value v;
     v.varying = true, v.rank = rank, v.width = width, v.array = p.arena_arrays_;
     p.arena_arrays_ += width;
     p.values_.push_back(v);
     return int(p.values_.size()) - 1;
-  };
-  auto add_uniform = [&](const Tensor& t) {
+  }
+
+  int add_uniform(const Tensor& t) {
     Value v;
     v.width = int(t.numel()), v.array = std::int64_t(p.uniforms_.size());
     dispatch_float(t.dtype(), "map_rows", [&](auto tag) {
@@ -101,46 +107,50 @@ std::shared_ptr<const FusedRows> FusedRows::compile(const FusionTrace& trace, co
     });
     p.values_.push_back(v);
     return int(p.values_.size()) - 1;
-  };
+  }
+
   // [P] (one lane per row only) or the lanes' shape and a last axis.
-  auto row_shaped = [&](const Tensor& t) {
+  bool row_shaped(const Tensor& t) const {
     if (t.dtype() != p.dtype_ || t.rank() < 1 || t.size(0) != P) return false;
     if (t.rank() == 1) return p.lanes_per_row_ == 1;
     const std::vector<std::int64_t> d = t.shape().dims();
     return std::vector<std::int64_t>(d.begin(), d.end() - 1) == lane_dims && d.back() >= 1 &&
            d.back() <= kMaxArenaBytes;
-  };
-  auto width_of = [](const Tensor& t) { return t.rank() == 1 ? 1 : int(t.size(-1)); };
-  auto rank_of = [](const Tensor& t) { return t.rank() == 1 ? 1 : 2; };
-
-  for (std::size_t i = 0; i < rows.size(); ++i) {
-    const Tensor& t = rows[i];
-    int id = -1;
-    if (row_shaped(t)) {
-      id = add_varying(rank_of(t), width_of(t));
-      p.values_[id].needs_grad = rows_grad[i];
-      ids[t.impl()] = id;
-    } else {
-      opaque.insert(t.impl());
-    }
-    p.row_values_.push_back(id);
   }
-  for (std::size_t j = 0; j < shared.size(); ++j) {
-    const Tensor& t = shared[j];
-    p.shared_shapes_.push_back(t.defined() ? t.shape() : Shape());
-    int id = -1;
-    if (t.defined() && t.dtype() == p.dtype_ && t.rank() <= 1 && t.numel() >= 1) {
-      id = add_uniform(t);
-      p.values_[id].needs_grad = shared_grad[j];
-      ids[t.impl()] = id;
-    } else if (t.defined()) {
-      opaque.insert(t.impl());
+
+  // The inputs' values: rows of the lanes' shape vary per lane, small shared
+  // tensors are uniform; any other input is opaque.
+  void add_inputs(const std::vector<Tensor>& rows, const std::vector<Tensor>& shared,
+                  const std::vector<bool>& rows_grad, const std::vector<bool>& shared_grad) {
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+      const Tensor& t = rows[i];
+      int id = -1;
+      if (row_shaped(t)) {
+        id = add_varying(rank_of(t), width_of(t));
+        p.values_[id].needs_grad = rows_grad[i];
+        ids[t.impl()] = id;
+      } else {
+        opaque.insert(t.impl());
+      }
+      p.row_values_.push_back(id);
     }
-    p.shared_values_.push_back(id);
+    for (std::size_t j = 0; j < shared.size(); ++j) {
+      const Tensor& t = shared[j];
+      p.shared_shapes_.push_back(t.defined() ? t.shape() : Shape());
+      int id = -1;
+      if (t.defined() && t.dtype() == p.dtype_ && t.rank() <= 1 && t.numel() >= 1) {
+        id = add_uniform(t);
+        p.values_[id].needs_grad = shared_grad[j];
+        ids[t.impl()] = id;
+      } else if (t.defined()) {
+        opaque.insert(t.impl());
+      }
+      p.shared_values_.push_back(id);
+    }
   }
 
   // The value an operand refers to: known, or a small constant f captured; -1 if neither.
-  auto lookup = [&](const Tensor& t) {
+  int lookup(const Tensor& t) {
     if (!t.defined()) return -1;
     const auto it = ids.find(t.impl());
     if (it != ids.end()) return it->second;
@@ -148,10 +158,11 @@ std::shared_ptr<const FusedRows> FusedRows::compile(const FusionTrace& trace, co
         t.numel() > kMaxConstant)
       return -1;
     return ids[t.impl()] = add_uniform(t);
-  };
+  }
+
   // How an operand is read at `components` components of a result of rank
   // out_rank: whole, spread (a column or a scalar) or not at all (-1).
-  auto operand = [&](int id, int out_rank, int components) -> Operand {
+  Operand operand(int id, int out_rank, int components) const {
     if (id < 0) return {};
     const Value& v = p.values_[id];
     if (v.varying) {
@@ -162,18 +173,17 @@ std::shared_ptr<const FusedRows> FusedRows::compile(const FusionTrace& trace, co
     if (v.width == 1) return {id, true};
     if (out_rank == 2 && v.width == components) return {id, false};
     return {};
-  };
+  }
 
-  for (const TracedStep& s : trace.steps) {
-    const Tensor& out = s.out;
-    const bool unary = s.op == FusedOp::Neg || s.op == FusedOp::Pow || s.op == FusedOp::Normalize;
-    Instr in;
+  // Step s's op and operands into `in`; false if the interpreter cannot replay it.
+  bool instruction(const TracedStep& s, Instr& in) {
+    const bool unary = is_unary(s.op);
     in.op = s.op;
     in.param = s.param;
     const int ida = lookup(s.a), idb = unary ? -1 : lookup(s.b);
-    const bool shaped = row_shaped(out);
+    const bool shaped = row_shaped(s.out);
     bool ok = shaped && ida >= 0 && (unary || idb >= 0);
-    const int out_rank = shaped ? rank_of(out) : 0, out_width = shaped ? width_of(out) : 0;
+    const int out_rank = shaped ? rank_of(s.out) : 0, out_width = shaped ? width_of(s.out) : 0;
     if (ok) {
       if (s.op == FusedOp::Dot) {
         in.components = int(s.a.size(-1));
@@ -191,55 +201,91 @@ std::shared_ptr<const FusedRows> FusedRows::compile(const FusionTrace& trace, co
       // At least one operand has rows (ops on shared values alone are not replayed).
       ok = ok && (p.values_[in.a.value].varying || (!unary && p.values_[in.b.value].varying));
     }
-    if (!ok) {
-      opaque.insert(out.impl());
-      continue;
+    return ok;
+  }
+
+  // Step s as an instruction writing a new value, or its result opaque.
+  void add_step(const TracedStep& s) {
+    Instr in;
+    if (!instruction(s, in)) {
+      opaque.insert(s.out.impl());
+      return;
     }
-    in.out = add_varying(out_rank, out_width);
+    const bool unary = is_unary(s.op);
+    in.out = add_varying(rank_of(s.out), width_of(s.out));
     Value& o = p.values_[in.out];
     o.produced = true;
     o.needs_grad = p.values_[in.a.value].needs_grad || (!unary && p.values_[in.b.value].needs_grad);
     if (s.op == FusedOp::Normalize) o.aux = p.arena_arrays_++;
-    ids[out.impl()] = in.out;
+    ids[s.out.impl()] = in.out;
     p.instrs_.push_back(in);
   }
 
-  const auto it = ids.find(result.impl());
-  if (it == ids.end() || !p.values_[it->second].produced) return nullptr;
-  p.result_ = it->second;
-
   // Liveness (what the result depends on) and, in reverse order, which values
-  // receive a gradient and which contribution to each comes first.
-  p.values_[p.result_].live = true;
-  for (auto i = p.instrs_.rbegin(); i != p.instrs_.rend(); ++i)
-    if (p.values_[i->out].live) {
-      p.values_[i->a.value].live = true;
-      if (i->b.value >= 0) p.values_[i->b.value].live = true;
+  // receive a gradient (returned) and which contribution to each comes first.
+  std::vector<bool> mark_backward() {
+    p.values_[p.result_].live = true;
+    for (auto i = p.instrs_.rbegin(); i != p.instrs_.rend(); ++i)
+      if (p.values_[i->out].live) {
+        p.values_[i->a.value].live = true;
+        if (i->b.value >= 0) p.values_[i->b.value].live = true;
+      }
+    std::vector<bool> has_grad(p.values_.size(), false);
+    has_grad[p.result_] = p.values_[p.result_].needs_grad;
+    for (auto i = p.instrs_.rbegin(); i != p.instrs_.rend(); ++i) {
+      i->backward = has_grad[i->out] && p.values_[i->out].live;
+      if (!i->backward) continue;
+      auto take = [&](const Operand& o, bool& first) {
+        if (o.value < 0 || !p.values_[o.value].needs_grad) return;
+        first = !has_grad[o.value];
+        has_grad[o.value] = true;
+      };
+      take(i->a, i->a_first);
+      take(i->b, i->b_first);
     }
-  std::vector<bool> has_grad(p.values_.size(), false);
-  has_grad[p.result_] = p.values_[p.result_].needs_grad;
-  for (auto i = p.instrs_.rbegin(); i != p.instrs_.rend(); ++i) {
-    i->backward = has_grad[i->out] && p.values_[i->out].live;
-    if (!i->backward) continue;
-    auto take = [&](const Operand& o, bool& first) {
-      if (o.value < 0 || !p.values_[o.value].needs_grad) return;
-      first = !has_grad[o.value];
-      has_grad[o.value] = true;
-    };
-    take(i->a, i->a_first);
-    take(i->b, i->b_first);
+    return has_grad;
   }
-  for (std::size_t v = 0; v < p.values_.size(); ++v) {
-    if (!has_grad[v]) continue;
-    Value& val = p.values_[v];
-    if (val.varying) {
-      val.grad = p.arena_arrays_;
-      p.arena_arrays_ += val.width;
-    } else {
-      val.grad = p.partial_arrays_;
-      p.partial_arrays_ += val.width;
+
+  // Gradient arrays for the values that receive one: lane arrays for varying
+  // values, double partial-sum arrays for shared ones.
+  void place_gradients(const std::vector<bool>& has_grad) {
+    for (std::size_t v = 0; v < p.values_.size(); ++v) {
+      if (!has_grad[v]) continue;
+      Value& val = p.values_[v];
+      if (val.varying) {
+        val.grad = p.arena_arrays_;
+        p.arena_arrays_ += val.width;
+      } else {
+        val.grad = p.partial_arrays_;
+        p.partial_arrays_ += val.width;
+      }
     }
   }
+};
+
+std::shared_ptr<const FusedRows> FusedRows::compile(const FusionTrace& trace, const std::vector<Tensor>& rows,
+                                                    const std::vector<Tensor>& shared, const Tensor& result,
+                                                    const std::vector<bool>& rows_grad, const std::vector<bool>& shared_grad) {
+  if (rows.empty() || !result.defined() || !is_floating(result.dtype())) return nullptr;
+  const std::int64_t P = rows[0].size(0);
+  std::vector<std::int64_t> lane_dims = lane_dims_of(rows, P);
+  std::int64_t lanes = 1;
+  for (std::int64_t d : lane_dims) lanes *= d;
+  // More lanes than a constant may have elements: a tensor derived from the
+  // rows by an op the trace does not know can never pass for a constant.
+  if (P < 1 || lanes <= kMaxConstant) return nullptr;
+  auto prog = std::make_shared<FusedRows>();
+  FusedRows& p = *prog;
+  p.dtype_ = result.dtype();
+  p.lanes_per_row_ = lanes / P;
+
+  Compiler c{p, P, std::move(lane_dims), {}, {}};
+  c.add_inputs(rows, shared, rows_grad, shared_grad);
+  for (const TracedStep& s : trace.steps) c.add_step(s);
+  const auto it = c.ids.find(result.impl());
+  if (it == c.ids.end() || !p.values_[it->second].produced) return nullptr;
+  p.result_ = it->second;
+  c.place_gradients(c.mark_backward());
   // Each thread keeps its lane arrays between calls: rows too wide for that run per block.
   if (p.arena_arrays_ * kLanes * std::int64_t(dtype_size(p.dtype_)) > kMaxArenaBytes) return nullptr;
   return prog;

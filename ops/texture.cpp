@@ -1,8 +1,11 @@
 // Tape op over raster::texture_forward / texture_backward (and mip_build for
-// trilinear filtering).
+// trilinear filtering): the arguments checked, the mip levels prepared, the
+// images' lookups run and their adjoint recorded.
 #include "ops/texture.h"
 
+#include <array>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "autodiff/tape.h"
@@ -34,28 +37,40 @@ struct Batch {
   std::int64_t texture_of(std::int64_t b) const { return textures == 1 ? 0 : b; }
 };
 
+// One call's lookups as the kernels see them: the inputs they read (uv_dx and
+// uv_dy for the mipmapped filters only; the gradients of those come through
+// the LOD), mip levels 1.. of each texture, and how samples meet textures.
+struct Lookups {
+  Tensor tex, uv, dx, dy, bias;
+  Tensor pyramid;  // [textures, upper]: the user's levels or the built ones; undefined with one level
+  bool user_pyramid = false;
+  raster::MipLayout layout;
+  TextureOptions options;
+  Batch batch;
+  std::int64_t upper = 0;  // values in levels 1.. of one texture
+};
+
 // The kernel's view of image b of one call.
 template <class T>
-raster::TextureParams<T> params(const Tensor& tex, const Tensor& uv, const Tensor& uv_dx, const Tensor& uv_dy,
-                                const Tensor& bias, const Tensor& pyramid, bool user_pyramid,
-                                const raster::MipLayout& layout, const TextureOptions& o, const Batch& batch,
-                                std::int64_t b) {
-  const std::int64_t C = tex.size(tex.rank() - 1), S = batch.samples, t = batch.texture_of(b);
+raster::TextureParams<T> params(const Lookups& l, std::int64_t b) {
+  const Tensor& tex = l.tex;
+  const raster::MipLayout& layout = l.layout;
+  const std::int64_t C = tex.size(tex.rank() - 1), S = l.batch.samples, t = l.batch.texture_of(b);
   const std::int64_t base = std::int64_t(layout.levels[0].height) * layout.levels[0].width * C;
   raster::TextureParams<T> p;
   p.tex = tex.data<T>() + t * base;
-  p.pyramid = pyramid.defined() ? pyramid.data<T>() + t * (layout.total_texels * C - base) : nullptr;
-  p.user_pyramid = user_pyramid;
+  p.pyramid = l.pyramid.defined() ? l.pyramid.data<T>() + t * (layout.total_texels * C - base) : nullptr;
+  p.user_pyramid = l.user_pyramid;
   p.layout = layout;
   p.channels = C;
-  p.uv = uv.data<T>() + 2 * S * b;
-  p.uv_dx = uv_dx.defined() ? uv_dx.data<T>() + 2 * S * b : nullptr;
-  p.uv_dy = uv_dy.defined() ? uv_dy.data<T>() + 2 * S * b : nullptr;
-  p.mip_level_bias = bias.defined() ? bias.data<T>() + S * b : nullptr;
+  p.uv = l.uv.data<T>() + 2 * S * b;
+  p.uv_dx = l.dx.defined() ? l.dx.data<T>() + 2 * S * b : nullptr;
+  p.uv_dy = l.dy.defined() ? l.dy.data<T>() + 2 * S * b : nullptr;
+  p.mip_level_bias = l.bias.defined() ? l.bias.data<T>() + S * b : nullptr;
   p.num_samples = S;
-  p.filter = o.filter;
-  p.wrap = o.wrap;
-  p.lod_rule = o.lod_rule;
+  p.filter = l.options.filter;
+  p.wrap = l.options.wrap;
+  p.lod_rule = l.options.lod_rule;
   return p;
 }
 
@@ -90,26 +105,29 @@ void check_mip_stack(const std::vector<Tensor>& mip, const Tensor& tex, const ra
   }
 }
 
-}  // namespace
+// ---------------------------------------------------------------- forward
 
-Tensor texture(const Tensor& tex, const Tensor& uv, const TextureOptions& options, const Tensor& uv_dx,
-               const Tensor& uv_dy, const Tensor& mip_level_bias, const std::vector<Tensor>& mip) {
-  // Arguments.
+// tex: float, [Ht, Wt, C] or [B, Ht, Wt, C], no side above kMaxTextureSize.
+void check_tex(const Tensor& tex) {
   detail::check_float(tex, "texture", "tex");
-  const bool per_image = tex.rank() == 4;  // a texture per image (or one shared: B = 1)
-  if (!(tex.rank() == 3 || per_image) || tex.numel() < 1)
+  if (!(tex.rank() == 3 || tex.rank() == 4) || tex.numel() < 1)
     throw ShapeError("texture: argument 'tex' must have shape [Ht, Wt, C] or [B, Ht, Wt, C] with every size >= 1, "
                      "got " + tex.describe());
-  const std::int64_t th = tex.size(tex.rank() - 3), tw = tex.size(tex.rank() - 2), C = tex.size(tex.rank() - 1);
+  const std::int64_t th = tex.size(tex.rank() - 3), tw = tex.size(tex.rank() - 2);
   if (th > kMaxTextureSize || tw > kMaxTextureSize)
     throw ValueError("texture: argument 'tex' " + tex.describe() + " is larger than " +
                      std::to_string(kMaxTextureSize) + " texels per side");
+}
+
+// uv: tex's dtype, [..., 2] ([B, ..., 2] with a texture per image, B agreeing
+// with tex's unless that is 1); returns how the samples meet the textures.
+Batch check_uv(const Tensor& uv, const Tensor& tex) {
   detail::check_float(uv, "texture", "uv");
   detail::check_same_dtype(uv, tex, "texture", "uv", "tex");
   if (uv.rank() < 1 || uv.size(uv.rank() - 1) != 2)
     throw ShapeError("texture: argument 'uv' must have shape [..., 2], got " + uv.describe());
   Batch batch;
-  if (per_image) {
+  if (tex.rank() == 4) {  // a texture per image (or one shared: B = 1)
     if (uv.rank() < 2)
       throw ShapeError("texture: argument 'uv' must have shape [B, ..., 2] with a texture per image, got " +
                        uv.describe());
@@ -121,6 +139,14 @@ Tensor texture(const Tensor& tex, const Tensor& uv, const TextureOptions& option
                        " images (B must agree, or tex's be 1)");
   }
   batch.samples = batch.images == 0 ? 0 : uv.numel() / 2 / batch.images;
+  return batch;
+}
+
+// What sets the level of detail: max_mip_level, uv_dx and uv_dy (needed by
+// the mipmapped filters) and mip_level_bias (mipmapped only, uv's shape
+// without its last axis).
+void check_lod_inputs(const TextureOptions& options, const Tensor& uv, const Tensor& uv_dx, const Tensor& uv_dy,
+                      const Tensor& mip_level_bias) {
   if (options.max_mip_level < -1)
     throw ValueError("texture: options.max_mip_level must be >= -1 (-1 = all levels), got " +
                      std::to_string(options.max_mip_level));
@@ -138,41 +164,177 @@ Tensor texture(const Tensor& tex, const Tensor& uv, const TextureOptions& option
     dims.pop_back();
     detail::check_shape(mip_level_bias, Shape(dims), "texture", "mip_level_bias");
   }
+}
+
+// Mip levels 1.. of each texture, [textures, upper]: the user's, copied into
+// one buffer, or box-filtered from tex; undefined for a single level.
+Tensor mip_pyramid(const Lookups& l, const std::vector<Tensor>& mip) {
+  if (l.user_pyramid) {
+    NoGradGuard no_grad;
+    std::vector<Tensor> rows;
+    for (const Tensor& level : mip)
+      rows.push_back(reshape(level.detach(), {l.batch.textures, level.numel() / l.batch.textures}));
+    return concat(rows, 1);
+  }
+  if (l.layout.count() == 1) return Tensor();
+  const Tensor& tex = l.tex;
+  const std::int64_t th = tex.size(tex.rank() - 3), tw = tex.size(tex.rank() - 2), C = tex.size(tex.rank() - 1);
+  Tensor pyramid = Tensor::empty({l.batch.textures, l.upper}, tex.dtype());
+  dispatch_float(tex.dtype(), "texture", [&](auto tag) {
+    using T = decltype(tag);
+    detail::for_each_image(l.batch.textures, [&](std::int64_t t) {
+      raster::mip_build(tex.data<T>() + t * th * tw * C, C, l.layout, pyramid.data<T>() + t * l.upper);
+    });
+  });
+  return pyramid;
+}
+
+// The checked arguments as the kernels read them: NaN / Inf refused, the mip
+// layout, the user's mip stack checked, and the mip levels.
+Lookups prepare_lookups(const Tensor& tex, const Tensor& uv, const TextureOptions& options, const Tensor& uv_dx,
+                        const Tensor& uv_dy, const Tensor& mip_level_bias, const std::vector<Tensor>& mip,
+                        const Batch& batch) {
+  const bool trilinear = raster::mipmapped(options.filter);
+  Lookups l;
+  l.tex = tex;
+  l.uv = uv;
   // The kernel reads these (trilinear only); their gradients come through the LOD.
-  const Tensor dx = trilinear ? uv_dx.detach() : Tensor(), dy = trilinear ? uv_dy.detach() : Tensor();
-  const Tensor bias = mip_level_bias.defined() ? mip_level_bias.detach() : Tensor();
-  if (per_image) {
+  l.dx = trilinear ? uv_dx.detach() : Tensor();
+  l.dy = trilinear ? uv_dy.detach() : Tensor();
+  l.bias = mip_level_bias.defined() ? mip_level_bias.detach() : Tensor();
+  if (tex.rank() == 4) {
     // Here, not in the kernel, so that the element named is the tensor's (the
     // kernel sees one image's slice).
     detail::check_finite(tex, "texture", "tex");
     detail::check_finite(uv, "texture", "uv");
-    for (auto [t, name] : {std::pair{&dx, "uv_dx"}, {&dy, "uv_dy"}, {&bias, "mip_level_bias"}})
+    for (auto [t, name] : {std::pair{&l.dx, "uv_dx"}, {&l.dy, "uv_dy"}, {&l.bias, "mip_level_bias"}})
       if (t->defined()) detail::check_finite(*t, "texture", name);
   }
-  const bool user_pyramid = !mip.empty();
-  const int max_level = !trilinear ? 0 : user_pyramid ? static_cast<int>(mip.size()) : options.max_mip_level;
-  const raster::MipLayout layout = raster::mip_layout(static_cast<int>(th), static_cast<int>(tw), max_level);
-  if (user_pyramid) check_mip_stack(mip, tex, layout, options);
+  const std::int64_t th = tex.size(tex.rank() - 3), tw = tex.size(tex.rank() - 2), C = tex.size(tex.rank() - 1);
+  l.user_pyramid = !mip.empty();
+  const int max_level = !trilinear ? 0 : l.user_pyramid ? static_cast<int>(mip.size()) : options.max_mip_level;
+  l.layout = raster::mip_layout(static_cast<int>(th), static_cast<int>(tw), max_level);
+  if (l.user_pyramid) check_mip_stack(mip, tex, l.layout, options);
+  l.options = options;
+  l.batch = batch;
+  l.upper = (l.layout.total_texels - th * tw) * C;
+  l.pyramid = mip_pyramid(l, mip);
+  return l;
+}
 
-  // Mip levels 1.. of each texture (trilinear: the user's, copied into one
-  // buffer, or built), [textures, upper texels * C]; then the lookups.
-  Tensor pyramid;
-  const std::int64_t upper = (layout.total_texels - th * tw) * C;
-  if (user_pyramid) {
-    NoGradGuard no_grad;
-    std::vector<Tensor> rows;
-    for (const Tensor& level : mip)
-      rows.push_back(reshape(level.detach(), {batch.textures, level.numel() / batch.textures}));
-    pyramid = concat(rows, 1);
-  } else if (layout.count() > 1) {
-    pyramid = Tensor::empty({batch.textures, upper}, tex.dtype());
-    dispatch_float(tex.dtype(), "texture", [&](auto tag) {
-      using T = decltype(tag);
-      detail::for_each_image(batch.textures, [&](std::int64_t t) {
-        raster::mip_build(tex.data<T>() + t * th * tw * C, C, layout, pyramid.data<T>() + t * upper);
-      });
+// out = every image's lookups, images in parallel; uv_jacobian (when defined)
+// = their d out/d(u, v).
+void run_lookups(const Lookups& l, Tensor& out, Tensor& uv_jacobian) {
+  const std::int64_t S = l.batch.samples, C = l.tex.size(l.tex.rank() - 1);
+  dispatch_float(l.tex.dtype(), "texture", [&](auto tag) {
+    using T = decltype(tag);
+    detail::for_each_image(l.batch.images, [&](std::int64_t b) {
+      raster::texture_forward(params<T>(l, b), out.data<T>() + b * S * C,
+                              uv_jacobian.defined() ? uv_jacobian.data<T>() + b * S * 2 * C : nullptr);
     });
+  });
+}
+
+// ---------------------------------------------------------------- adjoint
+
+// The adjoint's gradient buffers: of tex, uv, uv_dx, uv_dy and mip_level_bias
+// (those that need one; nearest: none for uv), and of the user's levels laid
+// out as the pyramid ([textures, upper]).
+struct GradBuffers {
+  std::array<Tensor, 5> inputs;
+  Tensor levels;
+};
+
+GradBuffers grad_buffers(const AdjointContext& ctx, const Lookups& l) {
+  GradBuffers g;
+  const Tensor* shape_of[5] = {&l.tex, &l.uv, &l.dx, &l.dy, &l.bias};
+  for (std::size_t i = 0; i < 5; ++i)
+    if (ctx.needs_grad(i) && !(i == 1 && l.options.filter == Filter::Nearest))
+      g.inputs[i] = Tensor::zeros(shape_of[i]->shape(), shape_of[i]->dtype());
+  const int user_levels = l.layout.count() - 1;
+  bool levels_need_grad = false;
+  for (int lv = 0; l.user_pyramid && lv < user_levels; ++lv) levels_need_grad |= ctx.needs_grad(5 + lv);
+  if (levels_need_grad) g.levels = Tensor::zeros(l.pyramid.shape(), l.pyramid.dtype());
+  return g;
+}
+
+// Image b's adjoint; its texture gradients go to g_tex / g_levels at texture t's offset.
+template <class T>
+void image_backward(const Tensor& grad_out, const Lookups& l, const Tensor& uv_jacobian, GradBuffers& g,
+                    std::int64_t b, std::int64_t t, Tensor& g_tex, Tensor& g_levels) {
+  const std::int64_t S = l.batch.samples, texels = l.tex.numel() / l.batch.textures;
+  const std::int64_t C = l.tex.size(l.tex.rank() - 1);
+  auto ptr = [](Tensor& x, std::int64_t offset) { return x.defined() ? x.data<T>() + offset : nullptr; };
+  raster::TextureGrads<T> grads;
+  grads.tex = ptr(g_tex, t * texels);
+  grads.uv = ptr(g.inputs[1], 2 * S * b);
+  grads.uv_dx = ptr(g.inputs[2], 2 * S * b);
+  grads.uv_dy = ptr(g.inputs[3], 2 * S * b);
+  grads.mip_level_bias = ptr(g.inputs[4], S * b);
+  grads.pyramid = ptr(g_levels, t * l.upper);
+  raster::texture_backward(params<T>(l, b), grad_out.data<T>() + b * S * C, grads,
+                           uv_jacobian.defined() ? uv_jacobian.data<T>() + b * S * 2 * C : nullptr);
+}
+
+// Every image's adjoint: images in parallel, each into its slices; but a
+// texture shared by several images collects their gradients, each image's on
+// its own and added in image order (each lookup is parallel inside), as
+// separate calls' would sum.
+template <class T>
+void images_backward(const Tensor& grad_out, const Lookups& l, const Tensor& uv_jacobian, GradBuffers& g) {
+  Tensor& g_tex = g.inputs[0];
+  const bool shared = l.batch.textures < l.batch.images && (g_tex.defined() || g.levels.defined());
+  if (!shared) {
+    detail::for_each_image(l.batch.images, [&](std::int64_t b) {
+      image_backward<T>(grad_out, l, uv_jacobian, g, b, l.batch.texture_of(b), g_tex, g.levels);
+    });
+    return;
   }
+  for (std::int64_t b = 0; b < l.batch.images; ++b) {
+    Tensor part_tex = g_tex.defined() ? Tensor::zeros(g_tex.shape(), g_tex.dtype()) : Tensor();
+    Tensor part_levels = g.levels.defined() ? Tensor::zeros(g.levels.shape(), g.levels.dtype()) : Tensor();
+    image_backward<T>(grad_out, l, uv_jacobian, g, b, 0, part_tex, part_levels);
+    detail::add_image_gradient(g_tex, part_tex);
+    detail::add_image_gradient(g.levels, part_levels);
+  }
+}
+
+// The buffers to the inputs' gradients; level l's columns of the levels'
+// gradient to mip[l].
+void accumulate_grads(AdjointContext& ctx, const Lookups& l, const GradBuffers& g) {
+  for (std::size_t i = 0; i < 5; ++i)
+    if (g.inputs[i].defined()) ctx.accumulate(i, g.inputs[i]);
+  const int user_levels = l.layout.count() - 1;
+  std::int64_t column = 0;
+  for (int lv = 0; g.levels.defined() && lv < user_levels; ++lv) {
+    const raster::MipLevel& level = l.layout.levels[lv + 1];
+    const std::int64_t values = std::int64_t(level.height) * level.width * l.tex.size(l.tex.rank() - 1);
+    if (ctx.needs_grad(5 + lv))
+      ctx.accumulate(5 + lv, reshape(slice(g.levels, 1, column, column + values), level_shape(l.tex, level).dims()));
+    column += values;
+  }
+}
+
+void texture_adjoint(AdjointContext& ctx, const Lookups& l, const Tensor& uv_jacobian) {
+  if (!ctx.grad_output().defined()) return;
+  GradBuffers g = grad_buffers(ctx, l);
+  dispatch_float(l.tex.dtype(), "texture", [&](auto tag) {
+    images_backward<decltype(tag)>(ctx.grad_output(), l, uv_jacobian, g);
+  });
+  accumulate_grads(ctx, l, g);
+}
+
+}  // namespace
+
+Tensor texture(const Tensor& tex, const Tensor& uv, const TextureOptions& options, const Tensor& uv_dx,
+               const Tensor& uv_dy, const Tensor& mip_level_bias, const std::vector<Tensor>& mip) {
+  check_tex(tex);
+  const Batch batch = check_uv(uv, tex);
+  check_lod_inputs(options, uv, uv_dx, uv_dy, mip_level_bias);
+  Lookups lookups = prepare_lookups(tex, uv, options, uv_dx, uv_dy, mip_level_bias, mip, batch);
+
+  const bool trilinear = raster::mipmapped(options.filter);
+  const std::int64_t C = tex.size(tex.rank() - 1);
   std::vector<std::int64_t> out_dims = uv.shape().dims();
   out_dims.back() = C;
   Tensor out = Tensor::empty(Shape(out_dims), tex.dtype());
@@ -184,87 +346,14 @@ Tensor texture(const Tensor& tex, const Tensor& uv, const TextureOptions& option
   Tensor uv_jacobian;
   if (recording && uv.requires_grad() && options.filter == Filter::Bilinear)
     uv_jacobian = Tensor::empty({batch.images * batch.samples * 2 * C}, tex.dtype());
-  dispatch_float(tex.dtype(), "texture", [&](auto tag) {
-    using T = decltype(tag);
-    detail::for_each_image(batch.images, [&](std::int64_t b) {
-      raster::texture_forward(params<T>(tex, uv, dx, dy, bias, pyramid, user_pyramid, layout, options, batch, b),
-                              out.data<T>() + b * batch.samples * C,
-                              uv_jacobian.defined() ? uv_jacobian.data<T>() + b * batch.samples * 2 * C : nullptr);
-    });
-  });
+  run_lookups(lookups, out, uv_jacobian);
 
   if (recording) {
-    record("texture", inputs, {&out},
-           [tex = tex.detach(), uv = uv.detach(), dx, dy, bias, pyramid, user_pyramid, layout, options, batch,
-            upper, uv_jacobian](AdjointContext& ctx) {
-             if (!ctx.grad_output().defined()) return;
-             // Gradient buffers of the inputs that need one (nearest: none for uv).
-             std::vector<Tensor> g(5);
-             const Tensor* shape_of[5] = {&tex, &uv, &dx, &dy, &bias};
-             for (std::size_t i = 0; i < 5; ++i)
-               if (ctx.needs_grad(i) && !(i == 1 && options.filter == Filter::Nearest))
-                 g[i] = Tensor::zeros(shape_of[i]->shape(), shape_of[i]->dtype());
-             const int user_levels = layout.count() - 1;
-             bool levels_need_grad = false;
-             for (int l = 0; user_pyramid && l < user_levels; ++l) levels_need_grad |= ctx.needs_grad(5 + l);
-             Tensor g_pyramid = levels_need_grad ? Tensor::zeros(pyramid.shape(), pyramid.dtype()) : Tensor();
-             // A texture shared by several images collects their gradients.
-             const bool shared = batch.textures < batch.images && (g[0].defined() || g_pyramid.defined());
-             dispatch_float(tex.dtype(), "texture", [&](auto tag) {
-               using T = decltype(tag);
-               const std::int64_t S = batch.samples, texels = tex.numel() / batch.textures;
-               auto ptr = [&](Tensor& t, std::int64_t offset) { return t.defined() ? t.data<T>() + offset : nullptr; };
-               // Image b's lookup, its texture gradients into g_tex / g_pyr (offset by its texture).
-               auto image = [&](std::int64_t b, Tensor& g_tex, Tensor& g_pyr) {
-                 const std::int64_t t = shared ? 0 : batch.texture_of(b);
-                 raster::TextureGrads<T> grads;
-                 grads.tex = ptr(g_tex, t * texels);
-                 grads.uv = ptr(g[1], 2 * S * b);
-                 grads.uv_dx = ptr(g[2], 2 * S * b);
-                 grads.uv_dy = ptr(g[3], 2 * S * b);
-                 grads.mip_level_bias = ptr(g[4], S * b);
-                 grads.pyramid = ptr(g_pyr, t * upper);
-                 const std::int64_t C = tex.size(tex.rank() - 1);
-                 raster::texture_backward(
-                     params<T>(tex, uv, dx, dy, bias, pyramid, user_pyramid, layout, options, batch, b),
-                     ctx.grad_output().data<T>() + b * S * C, grads,
-                     uv_jacobian.defined() ? uv_jacobian.data<T>() + b * S * 2 * C : nullptr);
-               };
-               if (!shared) {
-                 detail::for_each_image(batch.images, [&](std::int64_t b) { image(b, g[0], g_pyramid); });
-                 return;
-               }
-               // Each image's gradient on its own, added in image order (each
-               // lookup is parallel inside), as separate calls' would sum.
-               auto add = [](Tensor& total, const Tensor& part) {
-                 if (!total.defined()) return;
-                 T* to = total.data<T>();
-                 const T* from = part.data<T>();
-                 parallel_for(0, total.numel(), kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
-                   for (std::int64_t k = lo; k < hi; ++k) to[k] += from[k];
-                 });
-               };
-               for (std::int64_t b = 0; b < batch.images; ++b) {
-                 Tensor part_tex = g[0].defined() ? Tensor::zeros(g[0].shape(), g[0].dtype()) : Tensor();
-                 Tensor part_pyr = g_pyramid.defined() ? Tensor::zeros(g_pyramid.shape(), g_pyramid.dtype()) : Tensor();
-                 image(b, part_tex, part_pyr);
-                 add(g[0], part_tex);
-                 add(g_pyramid, part_pyr);
-               }
-             });
-             for (std::size_t i = 0; i < 5; ++i)
-               if (g[i].defined()) ctx.accumulate(i, g[i]);
-             // Level l's columns of the pyramid gradient go to mip[l].
-             std::int64_t column = 0;
-             for (int l = 0; levels_need_grad && l < user_levels; ++l) {
-               const raster::MipLevel& lv = layout.levels[l + 1];
-               const std::int64_t values = std::int64_t(lv.height) * lv.width * tex.size(tex.rank() - 1);
-               if (ctx.needs_grad(5 + l))
-                 ctx.accumulate(5 + l,
-                                reshape(slice(g_pyramid, 1, column, column + values), level_shape(tex, lv).dims()));
-               column += values;
-             }
-           });
+    lookups.tex = tex.detach();
+    lookups.uv = uv.detach();
+    record("texture", inputs, {&out}, [l = std::move(lookups), uv_jacobian](AdjointContext& ctx) {
+      texture_adjoint(ctx, l, uv_jacobian);
+    });
   }
   return out;
 }

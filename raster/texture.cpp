@@ -172,6 +172,12 @@ template <class T, bool kDerivatives>
   return t;
 }
 
+// Texels of level 0 (the texture itself).
+template <class T>
+std::int64_t base_texel_count(const TextureParams<T>& p) {
+  return std::int64_t(p.layout.levels[0].height) * p.layout.levels[0].width;
+}
+
 // Texel `index` of the all-levels buffer: level 0 from tex, the rest from pyramid.
 template <class T>
 inline const T* texel(const TextureParams<T>& p, std::int64_t index, std::int64_t base_texels) {
@@ -246,7 +252,7 @@ template <class T>
 void texture_forward(const TextureParams<T>& p, T* out, T* uv_jacobian) {
   check_params(p, "texture");
   const std::int64_t C = p.channels;
-  const std::int64_t base_texels = std::int64_t(p.layout.levels[0].height) * p.layout.levels[0].width;
+  const std::int64_t base_texels = base_texel_count(p);
   // A NaN texel would turn every sample whose footprint touches it (and, through
   // the mip pyramid, whole regions of coarser levels) into NaN.
   detail::check_finite(p.tex, base_texels * C, "tex", "texture");
@@ -326,6 +332,251 @@ inline bool live(const T* g, std::int64_t C) {
     if (g[c] != T(0)) return true;
   return false;
 }
+
+// The gradients one backward call writes: nullptr where the caller asks for
+// none or the filter gives none (nearest: uv, piecewise constant; uv_dx, uv_dy
+// and the bias only through trilinear's LOD; the user's levels only when
+// mipmapped).
+template <class T>
+struct WantedGrads {
+  T* tex;
+  T* uv;
+  T* uv_dx;
+  T* uv_dy;
+  T* bias;
+  T* pyramid;
+  bool lod;     // uv_dx, uv_dy or the bias
+  bool texels;  // tex or the user's levels: taps are filed and scattered
+};
+
+template <class T>
+WantedGrads<T> wanted_grads(const TextureParams<T>& p, const TextureGrads<T>& grads) {
+  const bool trilinear = p.filter == Filter::Trilinear;
+  WantedGrads<T> w;
+  w.tex = grads.tex;
+  w.uv = p.filter == Filter::Nearest ? nullptr : grads.uv;
+  w.uv_dx = trilinear ? grads.uv_dx : nullptr;
+  w.uv_dy = trilinear ? grads.uv_dy : nullptr;
+  w.bias = trilinear ? grads.mip_level_bias : nullptr;
+  w.pyramid = mipmapped(p.filter) && p.user_pyramid ? grads.pyramid : nullptr;
+  w.lod = w.uv_dx || w.uv_dy || w.bias;
+  w.texels = w.tex || w.pyramid;
+  return w;
+}
+
+// The adjoint's samples in chunks, each in blocks of kBlock (one task each):
+// uv and LOD gradients and taps in parallel, every tap filed under its texel
+// band (gradients_and_taps); then one task per band adds its taps, block after
+// block (scatter). Each texel so sees its adds in sample order whatever the
+// number of bands or threads.
+template <class T>
+struct TapPass {
+  const TextureParams<T>& p;
+  const T* grad_out;
+  const T* uv_jacobian;
+  WantedGrads<T> want;
+  std::int64_t C, base_texels;
+  bool reads_texels;  // the uv gradient (without the Jacobian) or the LOD gradients read texels
+  Bands bands;
+  std::int64_t chunk, bucket_size;
+  TapEntry<T>* entries;  // [block][band][bucket_size], valid when want.texels
+  std::int32_t* count;   // [block][band]
+
+  // Sizes the chunks and (texel gradients wanted) the buckets of one chunk.
+  TapPass(const TextureParams<T>& params, const T* g, const T* jacobian, const WantedGrads<T>& w,
+          std::int64_t acc_texels, TapBuckets<T>& buckets)
+      : p(params), grad_out(g), uv_jacobian(jacobian), want(w), C(params.channels) {
+    base_texels = base_texel_count(p);
+    reads_texels = (want.uv && !uv_jacobian) || want.lod;
+    const int stride = p.filter == Filter::Nearest ? 1 : p.filter == Filter::Trilinear ? kMaxTaps : 4;
+    bands = texel_bands(acc_texels, std::min(num_threads(), 16));
+    chunk = std::max<std::int64_t>(kBlock, kChunkTimesBands / bands.count / kBlock * kBlock);
+    const std::int64_t blocks_per_chunk = (std::min(p.num_samples, chunk) + kBlock - 1) / kBlock;
+    bucket_size = kBlock * stride;
+    if (want.texels) {
+      buckets.entries.resize(static_cast<std::size_t>(blocks_per_chunk * bands.count * bucket_size));
+      buckets.count.resize(static_cast<std::size_t>(blocks_per_chunk * bands.count));
+    }
+    entries = buckets.entries.data();
+    count = buckets.count.data();
+  }
+
+  // dL/du = g . d out/du (likewise v), from the forward's Jacobian.
+  [[gnu::always_inline]] inline void uv_grad_from_jacobian(std::int64_t s, const T* g) const {
+    const T* ju = uv_jacobian + s * 2 * C;
+    want.uv[2 * s] += static_cast<T>(dot_channels(g, ju, C));
+    want.uv[2 * s + 1] += static_cast<T>(dot_channels(g, ju + C, C));
+  }
+
+  // dL/du = g . sum_t dw_t/du texel_t (likewise v).
+  [[gnu::always_inline]] inline void uv_grad_from_texels(std::int64_t s, const T* g, const Taps& t, int nt) const {
+    double gu = 0.0, gv = 0.0;
+    for (int k = 0; k < nt; ++k) {
+      const double d = dot_channels(g, texel(p, t.index[k], base_texels), C);
+      gu += t.dw_du[k] * d;
+      gv += t.dw_dv[k] * d;
+    }
+    want.uv[2 * s] += static_cast<T>(gu);
+    want.uv[2 * s + 1] += static_cast<T>(gv);
+  }
+
+  // dL/dlod = g . sum_t (dw_t/dlod) texel_t, then through the LOD to the bias,
+  // uv_dx and uv_dy (a trilinear sample whose LOD is not clamped).
+  [[gnu::always_inline]] inline void lod_grads(std::int64_t s, const T* g, const Taps& t, int nt) const {
+    double g_lod = 0.0;
+    for (int k = 0; k < nt; ++k) g_lod += t.dw_dlod[k] * dot_channels(g, texel(p, t.index[k], base_texels), C);
+    if (want.bias) want.bias[s] += static_cast<T>(g_lod);
+    const MipLevel& base = p.layout.levels[0];
+    const Lod l = compute_lod(p.uv_dx[2 * s], p.uv_dx[2 * s + 1], p.uv_dy[2 * s], p.uv_dy[2 * s + 1], base.width,
+                              base.height, p.layout.count(), 0.0, p.lod_rule);
+    // k = dL/dlod dlod/drho2 * 2 = dL/dlod / (rho2 ln 2); dA/d(du/dx) = 2 a_x W, dC/d(du/dx) = b_x W, ...
+    const double k = g_lod / (l.rho2 * std::log(2.0));
+    if (want.uv_dx && (l.pA != 0.0 || l.pC != 0.0)) {
+      want.uv_dx[2 * s] += static_cast<T>(k * (l.pA * l.ax + 0.5 * l.pC * l.bx) * base.width);
+      want.uv_dx[2 * s + 1] += static_cast<T>(k * (l.pA * l.ay + 0.5 * l.pC * l.by) * base.height);
+    }
+    if (want.uv_dy && (l.pB != 0.0 || l.pC != 0.0)) {
+      want.uv_dy[2 * s] += static_cast<T>(k * (l.pB * l.bx + 0.5 * l.pC * l.ax) * base.width);
+      want.uv_dy[2 * s + 1] += static_cast<T>(k * (l.pB * l.by + 0.5 * l.pC * l.ay) * base.height);
+    }
+  }
+
+  // Files tap (texel, w) of sample s under its texel band in block j's buckets
+  // (chunk from c0).
+  [[gnu::always_inline]] inline void file_tap(std::int32_t* counts, std::int64_t c0, std::int64_t j, std::int64_t s,
+                                              std::int64_t texel, double w) const {
+    const std::int64_t band = texel >> bands.shift;
+    entries[(j * bands.count + band) * bucket_size + counts[band]++] = {
+        static_cast<std::uint32_t>(texel), static_cast<T>(w), static_cast<std::uint8_t>(s - c0 - j * kBlock)};
+  }
+
+  // Bilinear that reads no texel (the uv gradient from the forward's Jacobian,
+  // or none): the taps need no prefetch group and stay in registers.
+  void jacobian_block(std::int64_t c0, std::int64_t j, std::int64_t s_end, std::int32_t* counts) const {
+    for (std::int64_t s = c0 + j * kBlock; s < s_end; ++s) {
+      const T* g = grad_out + s * C;
+      if (!live(g, C)) continue;
+      if (want.uv) uv_grad_from_jacobian(s, g);
+      if (!want.texels) continue;
+      Taps t;
+      bilinear_taps<false>(p.layout.levels[0], p.uv[2 * s], p.uv[2 * s + 1], p.v_down, 1.0, p.wrap, t);
+      for (int k = 0; k < 4; ++k) file_tap(counts, c0, j, s, t.index[k], t.w[k]);
+    }
+  }
+
+  // Taps of kAhead samples first, their texels prefetched, so that the texel
+  // reads after them overlap instead of waiting one by one. Bilinear (the
+  // common filter) gets its own instance, with a constant tap count.
+  template <bool kBilinear>
+  void prefetched_block(std::int64_t c0, std::int64_t j, std::int64_t s_end, std::int32_t* counts) const {
+    for (std::int64_t s0 = c0 + j * kBlock; s0 < s_end; s0 += kAhead) {
+      const int n = static_cast<int>(std::min<std::int64_t>(kAhead, s_end - s0));
+      Taps taps[kAhead];
+      bool is_live[kAhead];
+      for (int i = 0; i < n; ++i) {
+        is_live[i] = live(grad_out + (s0 + i) * C, C);
+        if (!is_live[i]) continue;
+        if constexpr (kBilinear) {
+          const double u = p.uv[2 * (s0 + i)], v = p.uv[2 * (s0 + i) + 1];
+          if (reads_texels)  // the weights' uv derivatives are needed
+            bilinear_taps<true>(p.layout.levels[0], u, v, p.v_down, 1.0, p.wrap, taps[i]);
+          else
+            bilinear_taps<false>(p.layout.levels[0], u, v, p.v_down, 1.0, p.wrap, taps[i]);
+        } else
+          taps[i] = sample_taps<T, true>(p, s0 + i);
+        if (reads_texels)
+          for (int k = 0; k < (kBilinear ? 4 : taps[i].n); ++k)
+            __builtin_prefetch(texel(p, taps[i].index[k], base_texels));
+      }
+      for (int i = 0; i < n; ++i) {
+        if (!is_live[i]) continue;
+        const std::int64_t s = s0 + i;
+        const Taps& t = taps[i];
+        const int nt = kBilinear ? 4 : t.n;
+        const T* g = grad_out + s * C;
+        if (!kBilinear && want.lod && t.lod_free) lod_grads(s, g, t, nt);
+        if (want.uv && uv_jacobian)
+          uv_grad_from_jacobian(s, g);
+        else if (want.uv)
+          uv_grad_from_texels(s, g, t, nt);
+        if (!want.texels) continue;
+        for (int k = 0; k < nt; ++k) file_tap(counts, c0, j, s, t.index[k], t.w[k]);
+      }
+    }
+  }
+
+  // Block j of the chunk [c0, c1): its uv and LOD gradients, and its taps filed.
+  template <bool kBilinear>
+  void tap_block(std::int64_t c0, std::int64_t c1, std::int64_t j) const {
+    std::int32_t* counts = want.texels ? &count[j * bands.count] : nullptr;
+    if (counts) std::fill(counts, counts + bands.count, 0);
+    const std::int64_t s_end = std::min(c1, c0 + (j + 1) * kBlock);
+    if constexpr (kBilinear) {
+      if (!reads_texels) {
+        jacobian_block(c0, j, s_end, counts);
+        return;
+      }
+    }
+    prefetched_block<kBilinear>(c0, j, s_end, counts);
+  }
+
+  // Every block of the chunk [c0, c1), blocks in parallel.
+  void gradients_and_taps(std::int64_t c0, std::int64_t c1) const {
+    const std::int64_t blocks = (c1 - c0 + kBlock - 1) / kBlock;
+    parallel_for(0, blocks, 1, [&](std::int64_t j0, std::int64_t j1) {
+      for (std::int64_t j = j0; j < j1; ++j) {
+        if (p.filter == Filter::Bilinear)
+          tap_block<true>(c0, c1, j);
+        else
+          tap_block<false>(c0, c1, j);
+      }
+    });
+  }
+
+  // dL/d texel_t += w_t g for the chunk [c0, c1)'s taps: each band's task
+  // walks its buckets block by block. sums: grad_tex (T) or the level sums (double).
+  template <class A>
+  void scatter(A* sums, std::int64_t c0, std::int64_t c1) const {
+    const std::int64_t blocks = (c1 - c0 + kBlock - 1) / kBlock;
+    parallel_for(0, bands.count, 1, [&](std::int64_t b0, std::int64_t b1) {
+      for (std::int64_t b = b0; b < b1; ++b)
+        for (std::int64_t j = 0; j < blocks; ++j) {
+          const TapEntry<T>* e = &entries[(j * bands.count + b) * bucket_size];
+          const std::int32_t n = count[j * bands.count + b];
+          for (std::int32_t q = 0; q < n; ++q) {
+            if (q + kScatterAhead < n) __builtin_prefetch(sums + e[q + kScatterAhead].texel * C, 1);
+            auto* a = sums + e[q].texel * C;
+            const T* g = grad_out + (c0 + j * kBlock + e[q].sample) * C;
+            const double w = e[q].w;
+            for (std::int64_t c = 0; c < C; ++c) a[c] += w * g[c];
+          }
+        }
+    });
+  }
+};
+
+// The level sums (acc, every level's texel gradients in double) to the
+// gradients: the user's levels keep their own; the built pyramid's go down to
+// level 0; then level 0's into grad_tex.
+template <class T>
+void add_level_sums(const TextureParams<T>& p, const WantedGrads<T>& want, int levels_used, std::int64_t acc_texels,
+                    double* acc) {
+  const std::int64_t C = p.channels;
+  const std::int64_t base_texels = base_texel_count(p);
+  if (p.user_pyramid) {
+    if (want.pyramid)
+      parallel_for(base_texels * C, acc_texels * C, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
+        for (std::int64_t k = lo; k < hi; ++k) want.pyramid[k - base_texels * C] += static_cast<T>(acc[k]);
+      });
+  } else if (levels_used > 1) {
+    mip_backward(C, p.layout, acc);  // every level's gradient down to level 0
+  }
+  if (!want.tex) return;
+  parallel_for(0, base_texels * C, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
+    for (std::int64_t k = lo; k < hi; ++k) want.tex[k] += static_cast<T>(acc[k]);
+  });
+}
+
 }  // namespace
 
 template <class T>
@@ -334,197 +585,36 @@ void texture_backward(const TextureParams<T>& p, const T* grad_out, const Textur
   check_params(p, "texture backward");
   if (uv_jacobian && p.filter != Filter::Bilinear)
     throw ValueError("texture backward: the uv Jacobian is saved for the bilinear filter only");
-  T* grad_tex = grads.tex;
-  T* grad_uv = p.filter == Filter::Nearest ? nullptr : grads.uv;  // nearest: piecewise constant in uv
-  const bool trilinear = p.filter == Filter::Trilinear;
-  T* grad_dx = trilinear ? grads.uv_dx : nullptr;
-  T* grad_dy = trilinear ? grads.uv_dy : nullptr;
-  T* grad_bias = trilinear ? grads.mip_level_bias : nullptr;
-  const bool lod_grads = grad_dx || grad_dy || grad_bias;
-  T* grad_pyramid = mipmapped(p.filter) && p.user_pyramid ? grads.pyramid : nullptr;
-  if (!grad_tex && !grad_uv && !lod_grads && !grad_pyramid) return;
-  const std::int64_t C = p.channels, S = p.num_samples;
-  const std::int64_t base_texels = std::int64_t(p.layout.levels[0].height) * p.layout.levels[0].width;
-  const int levels_used = mipmapped(p.filter) ? p.layout.count() : 1;
+  const WantedGrads<T> want = wanted_grads(p, grads);
+  if (!want.texels && !want.uv && !want.lod) return;
 
   // Texel gradients: level 0 alone straight into grad_tex (summed in T); with
-  // mip levels, every level's in double, then down the pyramid.
-  const bool texels = grad_tex || grad_pyramid;
-  const bool direct = levels_used == 1 && grad_tex;
-  const bool reads_texels = (grad_uv && !uv_jacobian) || lod_grads;
+  // mip levels, every level's in double (acc), then down the pyramid.
+  const int levels_used = mipmapped(p.filter) ? p.layout.count() : 1;
+  const bool direct = levels_used == 1 && want.tex;
+  const std::int64_t base_texels = base_texel_count(p);
+  const std::int64_t acc_texels = levels_used == 1 ? base_texels : p.layout.total_texels;
   Tensor scratch;
   double* acc = nullptr;
-  if (texels && !direct) {
+  if (want.texels && !direct) {
     // Through the storage cache: no fresh pages in an optimization loop.
-    scratch = Tensor::zeros({p.layout.total_texels * C}, DType::Float64);
+    scratch = Tensor::zeros({p.layout.total_texels * p.channels}, DType::Float64);
     acc = scratch.data<double>();
   }
-
-  // Samples in chunks, each in blocks of kBlock (one task each):
-  // uv gradients and taps in parallel, every tap filed under its texel band;
-  // then one task per band adds its taps, block after block. Each texel so
-  // sees its adds in sample order whatever the number of bands or threads.
-  const int stride = p.filter == Filter::Nearest ? 1 : p.filter == Filter::Trilinear ? kMaxTaps : 4;
-  const std::int64_t acc_texels = levels_used == 1 ? base_texels : p.layout.total_texels;
-  const Bands bands = texel_bands(acc_texels, std::min(num_threads(), 16));
-  const std::int64_t chunk = std::max<std::int64_t>(kBlock, kChunkTimesBands / bands.count / kBlock * kBlock);
-  const std::int64_t blocks_per_chunk = (std::min(S, chunk) + kBlock - 1) / kBlock;
   // Pooled, so an optimization loop does not fault in fresh pages every call.
   auto lease = g_bucket_pool<T>.take();
-  std::vector<TapEntry<T>>& entries = lease->entries;
-  std::vector<std::int32_t>& count = lease->count;
-  const std::int64_t bucket_size = kBlock * stride;
-  if (texels) {
-    entries.resize(static_cast<std::size_t>(blocks_per_chunk * bands.count * bucket_size));
-    count.resize(static_cast<std::size_t>(blocks_per_chunk * bands.count));
-  }
+  const TapPass<T> pass(p, grad_out, uv_jacobian, want, acc_texels, *lease);
 
-  for (std::int64_t c0 = 0; c0 < S; c0 += chunk) {
-    const std::int64_t c1 = std::min(S, c0 + chunk);
-    const std::int64_t blocks = (c1 - c0 + kBlock - 1) / kBlock;
-    // dL/du = g . d out/du (likewise v), from the forward's Jacobian.
-    auto uv_grad_from_jacobian = [&](std::int64_t s, const T* g) {
-      const T* ju = uv_jacobian + s * 2 * C;
-      grad_uv[2 * s] += static_cast<T>(dot_channels(g, ju, C));
-      grad_uv[2 * s + 1] += static_cast<T>(dot_channels(g, ju + C, C));
-    };
-    // Files tap (texel, w) of sample s under its texel band in block j's buckets.
-    auto file_tap = [&](std::int32_t* counts, std::int64_t j, std::int64_t s, std::int64_t texel, double w) {
-      const std::int64_t band = texel >> bands.shift;
-      entries[(j * bands.count + band) * bucket_size + counts[band]++] = {
-          static_cast<std::uint32_t>(texel), static_cast<T>(w), static_cast<std::uint8_t>(s - c0 - j * kBlock)};
-    };
-    // Taps of kAhead samples first, their texels prefetched, so that the texel
-    // reads after them overlap instead of waiting one by one. Bilinear (the
-    // common filter) gets its own instance, with a constant tap count.
-    auto tap_block = [&](auto bilinear, std::int64_t j) {
-      constexpr bool kBilinear = decltype(bilinear)::value;
-      std::int32_t* counts = texels ? &count[j * bands.count] : nullptr;
-      if (counts) std::fill(counts, counts + bands.count, 0);
-      const std::int64_t s_end = std::min(c1, c0 + (j + 1) * kBlock);
-      if constexpr (kBilinear) {
-        if (!reads_texels) {
-          // The forward saved the uv Jacobian: no texel is read, so the taps
-          // need no prefetch group and stay in registers.
-          for (std::int64_t s = c0 + j * kBlock; s < s_end; ++s) {
-            const T* g = grad_out + s * C;
-            if (!live(g, C)) continue;
-            if (grad_uv) uv_grad_from_jacobian(s, g);
-            if (!texels) continue;
-            Taps t;
-            bilinear_taps<false>(p.layout.levels[0], p.uv[2 * s], p.uv[2 * s + 1], p.v_down, 1.0, p.wrap, t);
-            for (int k = 0; k < 4; ++k) file_tap(counts, j, s, t.index[k], t.w[k]);
-          }
-          return;
-        }
-      }
-      for (std::int64_t s0 = c0 + j * kBlock; s0 < s_end; s0 += kAhead) {
-        const int n = static_cast<int>(std::min<std::int64_t>(kAhead, s_end - s0));
-        Taps taps[kAhead];
-        bool is_live[kAhead];
-        for (int i = 0; i < n; ++i) {
-          is_live[i] = live(grad_out + (s0 + i) * C, C);
-          if (!is_live[i]) continue;
-          if constexpr (kBilinear) {
-            const double u = p.uv[2 * (s0 + i)], v = p.uv[2 * (s0 + i) + 1];
-            if (reads_texels)  // the weights' uv derivatives are needed
-              bilinear_taps<true>(p.layout.levels[0], u, v, p.v_down, 1.0, p.wrap, taps[i]);
-            else
-              bilinear_taps<false>(p.layout.levels[0], u, v, p.v_down, 1.0, p.wrap, taps[i]);
-          } else
-            taps[i] = sample_taps<T, true>(p, s0 + i);
-          if (reads_texels)
-            for (int k = 0; k < (kBilinear ? 4 : taps[i].n); ++k)
-              __builtin_prefetch(texel(p, taps[i].index[k], base_texels));
-        }
-        for (int i = 0; i < n; ++i) {
-          if (!is_live[i]) continue;
-          const std::int64_t s = s0 + i;
-          const Taps& t = taps[i];
-          const int nt = kBilinear ? 4 : t.n;
-          const T* g = grad_out + s * C;
-          if (!kBilinear && lod_grads && t.lod_free) {
-            // dL/dlod = g . sum_t (dw_t/dlod) texel_t, then through the LOD.
-            double g_lod = 0.0;
-            for (int k = 0; k < nt; ++k) g_lod += t.dw_dlod[k] * dot_channels(g, texel(p, t.index[k], base_texels), C);
-            if (grad_bias) grad_bias[s] += static_cast<T>(g_lod);
-            const MipLevel& base = p.layout.levels[0];
-            const Lod l = compute_lod(p.uv_dx[2 * s], p.uv_dx[2 * s + 1], p.uv_dy[2 * s], p.uv_dy[2 * s + 1],
-                                      base.width, base.height, p.layout.count(), 0.0, p.lod_rule);
-            // k = dL/dlod dlod/drho2 * 2 = dL/dlod / (rho2 ln 2); dA/d(du/dx) = 2 a_x W, dC/d(du/dx) = b_x W, ...
-            const double k = g_lod / (l.rho2 * std::log(2.0));
-            if (grad_dx && (l.pA != 0.0 || l.pC != 0.0)) {
-              grad_dx[2 * s] += static_cast<T>(k * (l.pA * l.ax + 0.5 * l.pC * l.bx) * base.width);
-              grad_dx[2 * s + 1] += static_cast<T>(k * (l.pA * l.ay + 0.5 * l.pC * l.by) * base.height);
-            }
-            if (grad_dy && (l.pB != 0.0 || l.pC != 0.0)) {
-              grad_dy[2 * s] += static_cast<T>(k * (l.pB * l.bx + 0.5 * l.pC * l.ax) * base.width);
-              grad_dy[2 * s + 1] += static_cast<T>(k * (l.pB * l.by + 0.5 * l.pC * l.ay) * base.height);
-            }
-          }
-          if (grad_uv && uv_jacobian) {
-            uv_grad_from_jacobian(s, g);
-          } else if (grad_uv) {
-            // dL/du = g . sum_t dw_t/du texel_t (likewise v).
-            double gu = 0.0, gv = 0.0;
-            for (int k = 0; k < nt; ++k) {
-              const double d = dot_channels(g, texel(p, t.index[k], base_texels), C);
-              gu += t.dw_du[k] * d;
-              gv += t.dw_dv[k] * d;
-            }
-            grad_uv[2 * s] += static_cast<T>(gu);
-            grad_uv[2 * s + 1] += static_cast<T>(gv);
-          }
-          if (!texels) continue;
-          for (int k = 0; k < nt; ++k) file_tap(counts, j, s, t.index[k], t.w[k]);
-        }
-      }
-    };
-    parallel_for(0, blocks, 1, [&](std::int64_t j0, std::int64_t j1) {
-      for (std::int64_t j = j0; j < j1; ++j) {
-        if (p.filter == Filter::Bilinear)
-          tap_block(std::true_type{}, j);
-        else
-          tap_block(std::false_type{}, j);
-      }
-    });
-    if (!texels) continue;
-    // dL/d texel_t += w_t g: each band's task walks its buckets block by block.
-    auto scatter = [&](auto* sums) {
-      parallel_for(0, bands.count, 1, [&](std::int64_t b0, std::int64_t b1) {
-        for (std::int64_t b = b0; b < b1; ++b)
-          for (std::int64_t j = 0; j < blocks; ++j) {
-            const TapEntry<T>* e = &entries[(j * bands.count + b) * bucket_size];
-            const std::int32_t n = count[j * bands.count + b];
-            for (std::int32_t q = 0; q < n; ++q) {
-              if (q + kScatterAhead < n) __builtin_prefetch(sums + e[q + kScatterAhead].texel * C, 1);
-              auto* a = sums + e[q].texel * C;
-              const T* g = grad_out + (c0 + j * kBlock + e[q].sample) * C;
-              const double w = e[q].w;
-              for (std::int64_t c = 0; c < C; ++c) a[c] += w * g[c];
-            }
-          }
-      });
-    };
+  for (std::int64_t c0 = 0; c0 < p.num_samples; c0 += pass.chunk) {
+    const std::int64_t c1 = std::min(p.num_samples, c0 + pass.chunk);
+    pass.gradients_and_taps(c0, c1);
+    if (!want.texels) continue;
     if (direct)
-      scatter(grad_tex);
+      pass.scatter(want.tex, c0, c1);
     else
-      scatter(acc);
+      pass.scatter(acc, c0, c1);
   }
-  if (!texels || direct) return;
-  if (p.user_pyramid) {
-    // The user's levels keep their own gradients.
-    if (grad_pyramid)
-      parallel_for(base_texels * C, acc_texels * C, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
-        for (std::int64_t k = lo; k < hi; ++k) grad_pyramid[k - base_texels * C] += static_cast<T>(acc[k]);
-      });
-  } else if (levels_used > 1) {
-    mip_backward(C, p.layout, acc);  // every level's gradient down to level 0
-  }
-  if (!grad_tex) return;
-  parallel_for(0, base_texels * C, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
-    for (std::int64_t k = lo; k < hi; ++k) grad_tex[k] += static_cast<T>(acc[k]);
-  });
+  if (want.texels && !direct) add_level_sums(p, want, levels_used, acc_texels, acc);
 }
 
 #define GR_INSTANTIATE(T)                                                   \
