@@ -10,12 +10,14 @@
 //                          small_box: GpuRasterOptions::small_box (tuning).
 //   BM_CpuRasterize/mesh/threads: the CPU kernel on the same scene, for the
 //                          side-by-side figure.
-//   BM_GpuChain/mesh:      rasterize, interpolate (3 channels), then the
-//                          adjoints of interpolate and rasterize, on one
-//                          vulkan::Frame: iteration time = the four calls'
-//                          compute passes; counters transfers_ms (their
-//                          uploads and downloads) and host_ms.
-//   BM_CpuChain/mesh/threads: the same four CPU kernels.
+//   BM_GpuChain/mesh:      nvdiffrast's "rasterize + interpolate + antialias,
+//                          forward + backward": rasterize, interpolate (3
+//                          channels), antialias, then the adjoints of antialias,
+//                          interpolate and rasterize, on one vulkan::Frame:
+//                          iteration time = the six calls' compute passes;
+//                          counters transfers_ms (their uploads and downloads),
+//                          host_ms, and each call's passes (*_ms).
+//   BM_CpuChain/mesh/threads: the same six CPU kernels.
 // The device is Device::open()'s choice (GRADRASTER_VULKAN_DEVICE selects).
 #include <benchmark/benchmark.h>
 
@@ -29,6 +31,7 @@
 #include "mesh_framing.h"
 #include "raster/obj_io.h"
 #include "raster/procedural.h"
+#include "raster/antialias.h"
 #include "raster/interpolate.h"
 #include "raster/rasterize.h"
 #include "raster/vulkan/frame.h"
@@ -133,29 +136,37 @@ void BM_GpuChain(benchmark::State& state) {
     return;
   }
   const Scene& scene = mesh_scene(state.range(0) == 0 ? 0 : 2);
-  const std::int64_t N = scene.clip.size(0);
+  const std::int64_t N = scene.clip.size(0), px = std::int64_t(kSize) * kSize;
   const ChainInputs in(N);
   gr::vulkan::Frame frame(shared_device());
-  std::vector<float> grad_attr(N * 3), grad_clip(N * 4), grad_uv(std::size_t(kSize) * kSize * 2);
-  double transfers = 0.0, host_ms = 0.0;
+  std::vector<float> grad_attr(N * 3), grad_clip(N * 4), grad_uv(px * 2), grad_image(px * 3);
+  const char* names[6] = {"rasterize_ms", "interpolate_ms", "antialias_ms", "antialias_bwd_ms", "interpolate_bwd_ms",
+                          "rasterize_bwd_ms"};
+  double transfers = 0.0, host_ms = 0.0, per_call[6] = {};
   for (auto _ : state) {
     const auto start = std::chrono::steady_clock::now();
     std::fill(grad_uv.begin(), grad_uv.end(), 0.0f);
-    const gr::vulkan::GpuTimes t[4] = {
-        frame.rasterize(scene.params()), frame.interpolate(in.attr.data(), 3, true, nullptr),
-        frame.interpolate_backward(in.grad_out.data(), grad_attr.data(), grad_clip.data(), grad_uv.data()),
-        frame.rasterize_backward(grad_uv.data(), nullptr, grad_clip.data())};
+    std::fill(grad_image.begin(), grad_image.end(), 0.0f);
+    gr::vulkan::GpuTimes t[6];
+    t[0] = frame.rasterize(scene.params());
+    t[1] = frame.interpolate(in.attr.data(), 3, true, nullptr);
+    t[2] = frame.antialias(nullptr, 3, nullptr);
+    t[3] = frame.antialias_backward(in.grad_out.data(), grad_image.data(), grad_clip.data());
+    t[4] = frame.interpolate_backward(grad_image.data(), grad_attr.data(), grad_clip.data(), grad_uv.data());
+    t[5] = frame.rasterize_backward(grad_uv.data(), nullptr, grad_clip.data());
     host_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     double kernels = 0.0;
-    for (const auto& ti : t) {
-      kernels += ti.kernels_ms;
-      transfers += ti.upload_ms + ti.download_ms;
+    for (int i = 0; i < 6; ++i) {
+      kernels += t[i].kernels_ms;
+      per_call[i] += t[i].kernels_ms;
+      transfers += t[i].upload_ms + t[i].download_ms;
     }
     state.SetIterationTime(kernels * 1e-3);
   }
   const double n = static_cast<double>(state.iterations());
   state.counters["transfers_ms"] = transfers / n;
   state.counters["host_ms"] = host_ms / n;
+  for (int i = 0; i < 6; ++i) state.counters[names[i]] = per_call[i] / n;
   state.counters["triangles"] = static_cast<double>(scene.tris.size(0));
   state.SetLabel(device()->info().name);
 }
@@ -163,26 +174,42 @@ void BM_GpuChain(benchmark::State& state) {
 void BM_CpuChain(benchmark::State& state) {
   const Scene& scene = mesh_scene(state.range(0) == 0 ? 0 : 2);
   gr::set_num_threads(static_cast<int>(state.range(1)));
-  const std::int64_t N = scene.clip.size(0);
+  const std::int64_t N = scene.clip.size(0), M = scene.tris.size(0), px = std::int64_t(kSize) * kSize;
   const ChainInputs in(N);
   GBuffer g;
-  std::vector<float> out(std::size_t(kSize) * kSize * 3), grad_attr(N * 3), grad_clip(N * 4),
-      grad_uv(std::size_t(kSize) * kSize * 2);
+  std::vector<float> out(px * 3), aa(px * 3), grad_attr(N * 3), grad_clip(N * 4), grad_uv(px * 2), grad_image(px * 3);
+  const gr::raster::EdgeTopology topology = gr::raster::build_edge_topology(scene.tris.data<std::int32_t>(), M);
   gr::raster::InterpolateParams<float> ip;
   ip.attr = in.attr.data();
   ip.num_vertices = N;
   ip.channels = 3;
   ip.clip = scene.clip.data<float>();
   ip.tris = scene.tris.data<std::int32_t>();
-  ip.num_tris = scene.tris.size(0);
+  ip.num_tris = M;
   ip.tri_id = g.id.data();
   ip.uv = g.uv.data();
   ip.width = ip.height = kSize;
+  gr::raster::AntialiasParams<float> ap;
+  ap.image = out.data();
+  ap.channels = 3;
+  ap.width = ap.height = kSize;
+  ap.tri_id = g.id.data();
+  ap.depth = g.depth.data();
+  ap.clip = ip.clip;
+  ap.num_vertices = N;
+  ap.tris = ip.tris;
+  ap.num_tris = M;
+  ap.topology = &topology;
+  std::vector<gr::raster::AntialiasPair> pairs;
   for (auto _ : state) {
     std::fill(grad_uv.begin(), grad_uv.end(), 0.0f);
+    std::fill(grad_image.begin(), grad_image.end(), 0.0f);
+    pairs.clear();
     gr::raster::rasterize_forward(scene.params(), g.id.data(), g.uv.data(), g.depth.data());
     gr::raster::interpolate_forward(ip, out.data());
-    gr::raster::interpolate_backward(ip, in.grad_out.data(), {grad_attr.data(), grad_clip.data(), grad_uv.data()});
+    gr::raster::antialias_forward(ap, aa.data(), &pairs);
+    gr::raster::antialias_backward(ap, pairs, in.grad_out.data(), {grad_image.data(), grad_clip.data()});
+    gr::raster::interpolate_backward(ip, grad_image.data(), {grad_attr.data(), grad_clip.data(), grad_uv.data()});
     gr::raster::rasterize_backward(scene.params(), g.id.data(), grad_uv.data(), static_cast<const float*>(nullptr),
                                    grad_clip.data());
   }

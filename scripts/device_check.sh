@@ -15,20 +15,24 @@ bin=.devcarry/build/bench
   date -u; nproc; lscpu | grep -m1 'Model name'
   nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader 2>&1
 } | tee "$out/machine.txt"
+# NVIDIA's Vulkan driver loads through glvnd: unpack Debian's loader and glvnd
+# libraries, fetched into .gl/ by device_pack.sh (the image has none).
+for f in .gl/*.deb; do [[ -f $f ]] && dpkg -x "$f" /; done
+ldconfig
 # The loader finds NVIDIA's driver through its ICD file; where the image keeps it elsewhere, name it.
 for f in /usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json; do
   [[ -f $f ]] && export VK_DRIVER_FILES=$f VK_ICD_FILENAMES=$f
 done
-if ! "$bin/vulkan_tests" '[vulkan]' > "$out/vulkan_tests.txt" 2>&1 || grep -q 'no Vulkan device' "$out/vulkan_tests.txt"; then
+if ! timeout 120 "$bin/vulkan_tests" '[vulkan]' > "$out/vulkan_tests.txt" 2>&1 || grep -q 'no Vulkan device' "$out/vulkan_tests.txt"; then
   for f in /usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json /usr/share/vulkan/icd.d/nvidia_icd.json \
            /etc/vulkan/icd.d/nvidia_icd.json; do
     [[ -f $f ]] && export VK_DRIVER_FILES=$f VK_ICD_FILENAMES=$f && break
   done
   echo "retrying with VK_DRIVER_FILES=${VK_DRIVER_FILES:-none}" | tee -a "$out/machine.txt"
-  "$bin/vulkan_tests" '[vulkan]' > "$out/vulkan_tests.txt" 2>&1
+  timeout 120 "$bin/vulkan_tests" '[vulkan]' > "$out/vulkan_tests.txt" 2>&1
 fi
 tail -3 "$out/vulkan_tests.txt"
-"$bin/bench_gpu_rasterize" --benchmark_min_time=0.1 --benchmark_repetitions=5 \
+timeout 300 "$bin/bench_gpu_rasterize" --benchmark_min_time=0.1 --benchmark_repetitions=5 \
   --benchmark_report_aggregates_only=true --benchmark_out="$out/gpu_rasterize.json" 2>&1 | tee "$out/gpu_rasterize.txt" |
   grep -E 'median|Benchmark|rror'
 bench/fit_threads.sh .devcarry/build 512 12 "$rounds" 1 4 8 16 2>&1 | tee "$out/fit_threads.txt"

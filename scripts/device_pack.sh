@@ -3,7 +3,8 @@
 # "Measuring on a GPU") into .devcarry/ (git-ignored): a portable x86-64-v3
 # build of gradraster-fit, bench_gpu_rasterize and the [vulkan] tests, the
 # shared libraries they load (TBB, Google Benchmark, tinyobjloader, stb, the
-# Vulkan loader) and the glmark2 bunny. Usage: scripts/device_pack.sh [build dir]
+# Vulkan loader) and the glmark2 bunny; and into .gl/ Debian's Vulkan loader
+# and glvnd packages. Run it with `carry: [".devcarry", ".gl"]`. Usage: scripts/device_pack.sh [build dir]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=${1:-/tmp/gradraster-devbuild}
@@ -22,5 +23,11 @@ for lib in libtbb.so.12 libbenchmark.so.1debian libtinyobjloader.so.2rc10 libstb
   cp -L "/lib/x86_64-linux-gnu/$lib" .devcarry/lib/
 done
 cp /usr/share/glmark2/models/bunny.obj .devcarry/
-grep -qx '/.devcarry/' .git/info/exclude 2>/dev/null || echo '/.devcarry/' >> .git/info/exclude
+# Debian's Vulkan loader and glvnd, unpacked there by device_check.sh (NVIDIA's
+# driver needs glvnd's libraries, which the GPU image lacks).
+rm -rf .gl && mkdir -p .gl /tmp/amd64/partial
+apt_amd64=(-oAPT::Architecture=amd64 -oAPT::Architectures=amd64 -oDir::State::Lists=/tmp/amd64)
+apt-get "${apt_amd64[@]}" update > /dev/null
+(cd .gl && apt-get "${apt_amd64[@]}" download libvulkan1 libegl1 libglvnd0 libopengl0 libgl1 libglx0 libgles2)
+for d in /.devcarry/ /.gl/; do grep -qx "$d" .git/info/exclude 2>/dev/null || echo "$d" >> .git/info/exclude; done
 du -sh .devcarry

@@ -312,10 +312,16 @@ GpuTimes Frame::antialias(const float* image, int channels, float* out) {
   State& s = *state_;
   if (!s.rasterized) throw ValueError("vulkan antialias: the frame has no G-buffer (call rasterize first)");
   if (channels < 1) throw ValueError("vulkan antialias: channels must be at least 1, got " + std::to_string(channels));
+  if (!image && s.channels != channels)
+    throw ValueError("vulkan antialias: no image given, and the last interpolate's output has " +
+                     (s.channels < 0 ? std::string("not been made") : std::to_string(s.channels) + " channels") +
+                     ", not " + std::to_string(channels));
   std::lock_guard<std::mutex> lock(s.dev.mutex);
   s.aa_channels = -1;
   const std::size_t px = static_cast<std::size_t>(s.pixels());
   const std::size_t image_bytes = px * static_cast<std::size_t>(channels) * sizeof(float);
+  // No image: the last interpolate's output, copied on the device.
+  const std::size_t upload_image = image ? image_bytes : 0;
   // The topology only when the triangles changed since it was uploaded.
   const std::vector<std::int32_t> neighbours = s.topology_ready ? std::vector<std::int32_t>() : neighbours_of(s.tris);
   const std::size_t neighbour_bytes = neighbours.size() * sizeof(std::int32_t);
@@ -323,10 +329,10 @@ GpuTimes Frame::antialias(const float* image, int channels, float* out) {
   s.reserve(kAaOut, image_bytes);
   s.reserve(kAaPairs, 2 * px * kPairBytes);
   if (!s.topology_ready) s.reserve(kNeighbour, neighbour_bytes);
-  s.upload.reserve(s.dev, image_bytes + neighbour_bytes, true);
+  s.upload.reserve(s.dev, upload_image + neighbour_bytes, true);
   s.download.reserve(s.dev, out ? image_bytes : 0, true);
-  std::memcpy(s.upload.mapped(), image, image_bytes);
-  if (neighbour_bytes) std::memcpy(static_cast<char*>(s.upload.mapped()) + image_bytes, neighbours.data(), neighbour_bytes);
+  if (upload_image) std::memcpy(s.upload.mapped(), image, upload_image);
+  if (neighbour_bytes) std::memcpy(static_cast<char*>(s.upload.mapped()) + upload_image, neighbours.data(), neighbour_bytes);
   // Bindings (antialias_common.glsl): 0 clip, 1 tris, 2 verts, 3 tri_id, 4 depth, 5 neighbours, 6 image,
   // 7 pairs, 9 out.
   const VkDescriptorSet set = s.bind(s.aa_forward_set, {{0, kClip}, {1, kTris}, {2, kVerts}, {3, kTriId}, {4, kDepth},
@@ -337,8 +343,11 @@ GpuTimes Frame::antialias(const float* image, int channels, float* out) {
     Timestamps& ts = s.timestamps;
     ts.reset(cb, 5);
     ts.stamp(cb, 0);
-    copy(cb, s.upload.handle(), 0, s[kAaImage].handle(), 0, image_bytes);
-    copy(cb, s.upload.handle(), image_bytes, s[kNeighbour].handle(), 0, neighbour_bytes);
+    if (image)
+      copy(cb, s.upload.handle(), 0, s[kAaImage].handle(), 0, image_bytes);
+    else
+      copy(cb, s[kInterpolated].handle(), 0, s[kAaImage].handle(), 0, image_bytes);
+    copy(cb, s.upload.handle(), upload_image, s[kNeighbour].handle(), 0, neighbour_bytes);
     barrier(cb);
     ts.stamp(cb, 1);
     s.use(cb, set);

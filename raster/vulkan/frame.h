@@ -62,7 +62,8 @@ class Frame {
   // triangles, no welding) is built on the host and uploaded on the first
   // call after a rasterize whose triangles differ from the last ones; else
   // the device's copy is reused. The pairs stay on the device for the
-  // adjoint. pass_ms: pairs, blend.
+  // adjoint. image null: the last interpolate's output, which stays on the
+  // device (its channel count must be `channels`). pass_ms: pairs, blend.
   GpuTimes antialias(const float* image, int channels, float* out = nullptr);
 
   // The adjoint of the last antialias for grad_out (H x W x channels),

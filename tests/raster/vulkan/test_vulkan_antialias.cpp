@@ -227,3 +227,18 @@ TEST_CASE("GPU antialias refuses to run before rasterize and its adjoint before 
   frame.rasterize(s.params(8, 8));  // a new G-buffer: the old antialias is gone
   REQUIRE_THROWS_WITH(frame.antialias_backward(grad.data(), nullptr, nullptr), Catch::Contains("no antialias"));
 }
+
+TEST_CASE("GPU antialias of the interpolated image left on the device equals antialias of it uploaded", "[vulkan]") {
+  if (!shared_gpu()) return;
+  const Scene s = perspective(make_torus(30, 15), 1.0, 2.2);
+  const std::int64_t N = static_cast<std::int64_t>(s.clip.size() / 4);
+  const std::vector<float> attr = random_values(N * 3, 4);
+  vulkan::Frame frame(shared_gpu());
+  frame.rasterize(s.params(48, 40));
+  std::vector<float> image(48 * 40 * 3), from_host(image.size()), on_device(image.size());
+  frame.interpolate(attr.data(), 3, true, image.data());
+  frame.antialias(image.data(), 3, from_host.data());
+  frame.antialias(nullptr, 3, on_device.data());
+  REQUIRE(std::memcmp(from_host.data(), on_device.data(), image.size() * sizeof(float)) == 0);
+  REQUIRE_THROWS_WITH(frame.antialias(nullptr, 2), Catch::Contains("3 channels"));
+}
