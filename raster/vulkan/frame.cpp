@@ -377,7 +377,7 @@ GpuTimes Frame::antialias_backward(const float* grad_out, float* grad_image, flo
   s.reserve(kAaGradOut, image_bytes);
   s.reserve(kAaGradImage, image_bytes);
   s.reserve(kAaSums, static_cast<std::size_t>(N) * 2 * sizeof(std::int64_t));
-  s.reserve(kAaLargest, sizeof(std::uint64_t));
+  s.reserve(kAaLargest, 2 * sizeof(std::uint64_t));  // fixed_point.glsl reads two slots
   s.reserve(kAaGradClip, clip_bytes);
   s.upload.reserve(s.dev, image_bytes, true);
   s.download.reserve(s.dev, image_bytes + clip_bytes, true);
@@ -394,7 +394,7 @@ GpuTimes Frame::antialias_backward(const float* grad_out, float* grad_image, flo
     ts.stamp(cb, 0);
     copy(cb, s.upload.handle(), 0, s[kAaGradOut].handle(), 0, image_bytes);
     vkCmdFillBuffer(cb, s[kAaSums].handle(), 0, static_cast<std::size_t>(N) * 2 * sizeof(std::int64_t), 0u);
-    vkCmdFillBuffer(cb, s[kAaLargest].handle(), 0, sizeof(std::uint64_t), 0u);
+    vkCmdFillBuffer(cb, s[kAaLargest].handle(), 0, 2 * sizeof(std::uint64_t), 0u);
     barrier(cb);
     ts.stamp(cb, 1);
     s.use(cb, set);

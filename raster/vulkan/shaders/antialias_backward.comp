@@ -77,7 +77,8 @@ void clip_gradient(int s, int shift) {
   add_screen(b, 1, gby, shift);
 }
 
-void main() {
+// This invocation's contributions (pass 0: their magnitudes; pass 1: their sums).
+void contribute() {
   int p = linear_id();
   int pixels = P.width * P.height;
   if (p >= pixels) return;
@@ -86,4 +87,9 @@ void main() {
   int shift = P.pass == 0 ? 0 : fixed_point_shift(0, 2 * pixels);
   clip_gradient(2 * p, shift);
   clip_gradient(2 * p + 1, shift);
+}
+
+void main() {
+  contribute();
+  if (P.pass == 0) publish_magnitudes();
 }

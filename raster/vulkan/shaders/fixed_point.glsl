@@ -13,10 +13,21 @@
 // of a non-negative double order as unsigned integers).
 layout(std430, binding = 8) buffer MaxBuf { uint64_t largest[]; };
 
+// Each invocation keeps the largest of its own contributions per tensor and
+// publishes it once, with an atomic only where it exceeds what the slot
+// already holds: an atomic max per contribution on one address serialized
+// millions of atomics (the interpolate adjoint took 3.7 ms on an H200).
+uint64_t own_largest[2] = uint64_t[2](uint64_t(0), uint64_t(0));
+
 void note_magnitude(int tensor, double x) {
   uvec2 b = unpackDouble2x32(abs(x));
   uint64_t bits = (uint64_t(b.y) << 32) | uint64_t(b.x);
-  if ((b.y & 0x7ff00000u) != 0x7ff00000u) atomicMax(largest[tensor], bits);
+  if ((b.y & 0x7ff00000u) != 0x7ff00000u && bits > own_largest[tensor]) own_largest[tensor] = bits;
+}
+
+void publish_magnitudes() {
+  for (int t = 0; t < 2; ++t)
+    if (own_largest[t] > largest[t]) atomicMax(largest[t], own_largest[t]);
 }
 
 // S for tensor `tensor` with at most `count` contributions per element.

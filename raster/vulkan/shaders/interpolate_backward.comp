@@ -28,7 +28,8 @@ void add_clip(int vertex, int col, double x) {
     atomicAdd(sums[P.num_vertices * P.channels + vertex * 4 + col], to_fixed(x, clip_shift));
 }
 
-void main() {
+// This invocation's contributions (pass 0: their magnitudes; pass 1: their sums).
+void contribute() {
   int p = linear_id();
   if (p >= P.width * P.height) return;
   int C = P.channels;
@@ -110,4 +111,9 @@ void main() {
     grad_uv[2 * p] = float(gu);
     grad_uv[2 * p + 1] = float(gv);
   }
+}
+
+void main() {
+  contribute();
+  if (P.pass == 0) publish_magnitudes();
 }

@@ -128,7 +128,8 @@ void homogeneous_form(ivec3 tri, double px, double py, double gu, double gv, dou
   }
 }
 
-void main() {
+// This invocation's contributions (pass 0: their magnitudes; pass 1: their sums).
+void contribute() {
   int p = linear_id();
   if (p >= P.width * P.height) return;
   int id = tri_id[p];
@@ -145,4 +146,9 @@ void main() {
     homogeneous_form(tri, px, py, gu, gv, gd);
   else
     screen_form(tri, px, py, gu, gv, gd);
+}
+
+void main() {
+  contribute();
+  if (P.pass == 0) publish_magnitudes();
 }
