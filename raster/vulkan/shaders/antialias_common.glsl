@@ -1,6 +1,6 @@
 // Shared by the antialias shaders: the CPU kernel's silhouette pairs
 // (raster/antialias.cpp, raster/surface_walk.cpp), expression for expression
-// in double (the rules of raster_common.glsl: `precise`, div_rn, finiteness
+// in double (the rules of exact_math.glsl: `precise`, div_rn, finiteness
 // on the bits). Pixel pairs are stored per pixel p, two slots: 2p for
 // (p, p + 1) and 2p + 1 for (p, p + W); the CPU's pair order (row-major by the
 // top/left pixel, horizontal before vertical) is the slots' order.
@@ -40,37 +40,8 @@ layout(std430, binding = 0) readonly buffer ClipBuf { float clip[]; };
 layout(std430, binding = 2) readonly buffer VertBuf { Vert verts[]; };
 layout(std430, binding = 6) readonly buffer ImageBuf { float image[]; };
 
-int linear_id() {
-  return int(gl_GlobalInvocationID.x + gl_GlobalInvocationID.y * gl_NumWorkGroups.x * gl_WorkGroupSize.x);
-}
-
-bool finite_bits(double x) { return (unpackDouble2x32(x).y & 0x7ff00000u) != 0x7ff00000u; }
-
-// a / b rounded to nearest (as in raster_common.glsl).
-double div_rn(double a, double b) {
-  precise double y = 1.0 / b;
-  precise double e = fma(-b, y, 1.0);
-  y = fma(e, y, y);
-  precise double q = a * y;
-  precise double r = fma(-b, q, a);
-  precise double res = fma(r, y, q);
-  if (!finite_bits(res) || !finite_bits(y) || a == 0.0) res = a / b;
-  return res;
-}
-
-// detail::safe_inv: 1 / (x + copysign(1e-30, x)).
-double safe_inv(double x) {
-  bool negative = (unpackDouble2x32(x).y & 0x80000000u) != 0u;
-  precise double d = x + (negative ? -1e-30 : 1e-30);
-  return div_rn(1.0, d);
-}
-
-// Clip coordinates as the rasterizer saw them (y negated with y_up).
-dvec4 clip_of(int i) {
-  dvec4 c = dvec4(clip[4 * i], clip[4 * i + 1], clip[4 * i + 2], clip[4 * i + 3]);
-  if (P.y_up != 0) c.y = -c.y;
-  return c;
-}
+#include "exact_math.glsl"
+#include "clip_of.glsl"
 
 bool in_front(int i) { return (verts[i].flags & 1u) != 0u; }
 dvec2 screen_of(int i) { return dvec2(verts[i].sx, verts[i].sy); }

@@ -16,24 +16,6 @@ layout(std430, binding = 7) writeonly buffer PairBuf { Pair pairs[]; };
 
 const int kMaxWalk = 16;  // interior edges crossed at most (surface_walk.h)
 
-// Homogeneous screen vertex V = (W/2 (x + w), H/2 (w - y), w).
-dvec3 homogeneous(int i) {
-  dvec4 c = clip_of(i);
-  precise double hx = (0.5 * double(P.width)) * (c.x + c.w);
-  precise double hy = (0.5 * double(P.height)) * (c.w - c.y);
-  return dvec3(hx, hy, c.w);
-}
-dvec3 hcross(dvec3 a, dvec3 b) {
-  precise double x = a.y * b.z - a.z * b.y;
-  precise double y = a.z * b.x - a.x * b.z;
-  precise double w = a.x * b.y - a.y * b.x;
-  return dvec3(x, y, w);
-}
-double hdot(dvec3 a, dvec3 b) {
-  precise double d = (a.x * b.x + a.y * b.y) + a.z * b.z;
-  return d;
-}
-
 // Side of the line a-b on which the triangle a, b, o lies: -sign det[Va, Vb, Vo].
 int surface_side(int a, int b, int o) {
   double d = hdot(hcross(homogeneous(a), homogeneous(b)), homogeneous(o));

@@ -22,51 +22,11 @@ layout(std430, binding = 2) readonly buffer AttrBuf { float attr[]; };
 layout(std430, binding = 3) readonly buffer TriIdBuf { int tri_id[]; };
 layout(std430, binding = 4) readonly buffer UvBuf { float uv[]; };
 
-int linear_id() {
-  return int(gl_GlobalInvocationID.x + gl_GlobalInvocationID.y * gl_NumWorkGroups.x * gl_WorkGroupSize.x);
-}
-
-bool finite_bits(double x) { return (unpackDouble2x32(x).y & 0x7ff00000u) != 0x7ff00000u; }
-
-// a / b rounded to nearest (as in raster_common.glsl).
-double div_rn(double a, double b) {
-  precise double y = 1.0 / b;
-  precise double e = fma(-b, y, 1.0);
-  y = fma(e, y, y);
-  precise double q = a * y;
-  precise double r = fma(-b, q, a);
-  precise double res = fma(r, y, q);
-  if (!finite_bits(res) || !finite_bits(y) || a == 0.0) res = a / b;
-  return res;
-}
-
-// detail::safe_inv: 1 / (x + copysign(1e-30, x)).
-double safe_inv(double x) {
-  bool negative = (unpackDouble2x32(x).y & 0x80000000u) != 0u;
-  precise double d = x + (negative ? -1e-30 : 1e-30);
-  return div_rn(1.0, d);
-}
-
-// Clip coordinates as the rasterizer saw them (y negated with y_up).
-dvec4 clip_of(int i) {
-  dvec4 c = dvec4(clip[4 * i], clip[4 * i + 1], clip[4 * i + 2], clip[4 * i + 3]);
-  if (P.y_up != 0) c.y = -c.y;
-  return c;
-}
+#include "exact_math.glsl"
+#include "clip_of.glsl"
 
 // Behind the near plane for the weights (kMinFrontW in raster/interpolate.cpp).
 bool behind_near_plane(dvec4 c) { return !(c.w > 1e-14 && c.z >= -c.w); }
-
-dvec3 hcross(dvec3 a, dvec3 b) {
-  precise double x = a.y * b.z - a.z * b.y;
-  precise double y = a.z * b.x - a.x * b.z;
-  precise double w = a.x * b.y - a.y * b.x;
-  return dvec3(x, y, w);
-}
-double hdot(dvec3 a, dvec3 b) {
-  precise double d = (a.x * b.x + a.y * b.y) + a.z * b.z;
-  return d;
-}
 
 // One covered pixel's weights and what the adjoint needs of them.
 struct Weights {
@@ -103,11 +63,9 @@ Weights pixel_weights(ivec3 tri, int p) {
   if (behind_near_plane(c[0]) || behind_near_plane(c[1]) || behind_near_plane(c[2])) {
     // q_k = F_k / D, F_k = e . (V_k+1 x V_k+2), D = V_0 . (V_1 x V_2).
     pw.from_clip = true;
-    for (int k = 0; k < 3; ++k) {
-      precise double hx = (0.5 * double(P.width)) * (c[k].x + c[k].w);
-      precise double hy = (0.5 * double(P.height)) * (c[k].w - c[k].y);
-      pw.V[k] = dvec3(hx, hy, c[k].w);
-    }
+    pw.V[0] = homogeneous(tri.x);
+    pw.V[1] = homogeneous(tri.y);
+    pw.V[2] = homogeneous(tri.z);
     pw.inv_d = safe_inv(hdot(pw.V[0], hcross(pw.V[1], pw.V[2])));
     pw.e = dvec3(double(p % P.width) + 0.5, double(p / P.width) + 0.5, 1.0);
     for (int k = 0; k < 3; ++k) {

@@ -1,15 +1,7 @@
 // Shared by the rasterizer's compute shaders: the CPU kernels' projection,
 // triangle classification and watertight edge setup (raster/rasterize_setup.cpp),
-// expression for expression in double precision, so that every coverage and
-// depth decision, and so every triangle id, is the CPU's.
-//
-// Bit-exactness rules (docs/gpu.md):
-// - every double expression is `precise` (no fused multiply-add the CPU does
-//   not do: the CPU build uses -ffp-contract=off);
-// - division goes through div_rn (correctly rounded whatever the driver's
-//   double division gives);
-// - finiteness and signed zeros are decided on the bits, not with isinf/isnan
-//   (which a driver may assume away).
+// expression for expression in double precision (exact_math.glsl's rules),
+// so that every coverage and depth decision, and so every triangle id, is the CPU's.
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
 
 layout(push_constant) uniform Params {
@@ -38,67 +30,13 @@ layout(std430, binding = 0) readonly buffer ClipBuf { float clip[]; };
 layout(std430, binding = 1) readonly buffer TriBuf { int tris[]; };
 layout(std430, binding = 2) buffer VertBuf { Vert verts[]; };
 
-// The invocation's index over a dispatch that may be 2-D (x up to 65535
-// workgroups, rows of those in y) for sizes beyond one dimension's limit.
-int linear_id() {
-  return int(gl_GlobalInvocationID.x + gl_GlobalInvocationID.y * gl_NumWorkGroups.x * gl_WorkGroupSize.x);
-}
-
-// detail::safe_inv: 1 / (x + copysign(1e-30, x)).
-double safe_inv(double x);
-
-bool finite_bits(double x) { return (unpackDouble2x32(x).y & 0x7ff00000u) != 0x7ff00000u; }
-
-// a / b rounded to nearest: one Newton step on the reciprocal, then
-// Markstein's correction (the quotient is exact to the last bit for normal
-// operands; the CPU's IEEE division gives the same).
-double div_rn(double a, double b) {
-  precise double y = 1.0 / b;
-  precise double e = fma(-b, y, 1.0);
-  y = fma(e, y, y);
-  precise double q = a * y;
-  precise double r = fma(-b, q, a);
-  precise double res = fma(r, y, q);
-  // Non-finite or zero operands: the plain quotient (inf, nan, 0 as IEEE says).
-  if (!finite_bits(res) || !finite_bits(y) || a == 0.0) res = a / b;
-  return res;
-}
-
-double safe_inv(double x) {
-  bool negative = (unpackDouble2x32(x).y & 0x80000000u) != 0u;
-  precise double d = x + (negative ? -1e-30 : 1e-30);
-  return div_rn(1.0, d);
-}
-
-// Clip coordinates (x, y, z, w) of vertex i in double (exact from float);
-// with y_up, y is negated (exact), so row 0 is the bottom row.
-dvec4 clip_of(int i) {
-  dvec4 c = dvec4(clip[4 * i], clip[4 * i + 1], clip[4 * i + 2], clip[4 * i + 3]);
-  if (P.y_up != 0) c.y = -c.y;
-  return c;
-}
+#include "exact_math.glsl"
+#include "clip_of.glsl"
 
 ivec3 tri_of(int t) { return ivec3(tris[3 * t], tris[3 * t + 1], tris[3 * t + 2]); }
 bool in_front(int i) { return (verts[i].flags & 1u) != 0u; }
 dvec2 screen_of(int i) { return dvec2(verts[i].sx, verts[i].sy); }
 
-// Homogeneous screen vertex V = (W/2 (x + w), H/2 (w - y), w).
-dvec3 homogeneous(int i) {
-  dvec4 c = clip_of(i);
-  precise double hx = (0.5 * double(P.width)) * (c.x + c.w);
-  precise double hy = (0.5 * double(P.height)) * (c.w - c.y);
-  return dvec3(hx, hy, c.w);
-}
-dvec3 hcross(dvec3 a, dvec3 b) {
-  precise double x = a.y * b.z - a.z * b.y;
-  precise double y = a.z * b.x - a.x * b.z;
-  precise double w = a.x * b.y - a.y * b.x;
-  return dvec3(x, y, w);
-}
-double hdot(dvec3 a, dvec3 b) {
-  precise double d = (a.x * b.x + a.y * b.y) + a.z * b.z;
-  return d;
-}
 
 // One edge, normalized so that e > 0 is inside; e == 0 is inside when tie.
 // mu: the weight of the opposite vertex is e * mu; mz: depth term e * mz.

@@ -1,10 +1,12 @@
 // Scenes shared by the GPU tests: float32 clip-space triangle soups (some
-// crossing the near plane), pixel-centre grids and meshes in perspective, and
-// the shared device (null, with a warning saying why, when there is none).
+// crossing the near plane), pixel-centre grids and meshes in perspective; the
+// shared device (null, with a warning saying why, when there is none); random
+// inputs and the error measure the GPU is held to.
 #pragma once
 
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
 #include <random>
@@ -86,6 +88,25 @@ inline Scene perspective(const Mesh& m, double scale, double distance) {
   const std::int32_t* t = m.triangles.data<std::int32_t>();
   s.tris.assign(t, t + 3 * m.num_triangles());
   return s;
+}
+
+// n values uniform in [-1, 1).
+inline std::vector<float> random_values(std::size_t n, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> d(-1.f, 1.f);
+  std::vector<float> v(n);
+  for (float& x : v) x = d(rng);
+  return v;
+}
+
+// max |a - b| / max |b| (0 when both are all zeros).
+inline double relative_error(const std::vector<float>& a, const std::vector<float>& b) {
+  double diff = 0.0, scale = 0.0;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    diff = std::max(diff, std::abs(double(a[i]) - double(b[i])));
+    scale = std::max(scale, std::abs(double(b[i])));
+  }
+  return scale > 0.0 ? diff / scale : diff;
 }
 
 }  // namespace gr::testing

@@ -36,14 +36,6 @@ struct Result {
   std::size_t blended = 0;  // CPU only: the pairs blended
 };
 
-std::vector<float> random_values(std::size_t n, unsigned seed) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<float> d(-1.f, 1.f);
-  std::vector<float> v(n);
-  for (float& x : v) x = d(rng);
-  return v;
-}
-
 std::int64_t vertices(const Case& c) { return static_cast<std::int64_t>(c.scene.clip.size() / 4); }
 std::int64_t values(const Case& c) { return std::int64_t(c.W) * c.H * c.C; }
 
@@ -88,16 +80,6 @@ Result on_gpu(vulkan::Frame& frame, const Case& c, const std::vector<float>& ima
   frame.antialias(image.data(), c.C, r.out.data());
   frame.antialias_backward(grad_out.data(), r.grad_image.data(), r.grad_clip.data());
   return r;
-}
-
-// max |a - b| / max |b| (0 when both are all zeros).
-double relative_error(const std::vector<float>& a, const std::vector<float>& b) {
-  double diff = 0.0, scale = 0.0;
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    diff = std::max(diff, std::abs(double(a[i]) - double(b[i])));
-    scale = std::max(scale, std::abs(double(b[i])));
-  }
-  return scale > 0.0 ? diff / scale : diff;
 }
 
 bool any_nonzero(const std::vector<float>& v) {

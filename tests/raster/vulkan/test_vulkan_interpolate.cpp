@@ -34,14 +34,6 @@ struct Result {
   std::vector<float> out, grad_attr, grad_clip, grad_uv;
 };
 
-std::vector<float> random_values(std::size_t n, unsigned seed) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<float> d(-1.f, 1.f);
-  std::vector<float> v(n);
-  for (float& x : v) x = d(rng);
-  return v;
-}
-
 // The CPU kernels on the CPU's G-buffer (with y_up: of the clip with y negated).
 Result on_cpu(const Case& c, const std::vector<float>& attr, const std::vector<float>& grad_out) {
   const std::int64_t N = static_cast<std::int64_t>(c.scene.clip.size() / 4), px = std::int64_t(c.W) * c.H;
@@ -84,16 +76,6 @@ Result on_gpu(vulkan::Frame& frame, const Case& c, const std::vector<float>& att
   frame.interpolate(attr.data(), c.C, c.perspective, r.out.data());
   frame.interpolate_backward(grad_out.data(), r.grad_attr.data(), r.grad_clip.data(), r.grad_uv.data());
   return r;
-}
-
-// max |a - b| / max |b| (0 when both are all zeros).
-double relative_error(const std::vector<float>& a, const std::vector<float>& b) {
-  double diff = 0.0, scale = 0.0;
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    diff = std::max(diff, std::abs(double(a[i]) - double(b[i])));
-    scale = std::max(scale, std::abs(double(b[i])));
-  }
-  return scale > 0.0 ? diff / scale : diff;
 }
 
 void require_close(const Result& gpu, const Result& cpu) {

@@ -21,14 +21,6 @@ using namespace gr::testing;
 
 namespace {
 
-std::vector<float> random_values(std::size_t n, unsigned seed) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<float> d(-1.f, 1.f);
-  std::vector<float> v(n);
-  for (float& x : v) x = d(rng);
-  return v;
-}
-
 struct Grads {
   std::vector<float> uv, depth;
 };
@@ -56,15 +48,6 @@ std::vector<float> on_gpu(vulkan::Frame& frame, const Scene& s, int W, int H, bo
   std::vector<float> grad(s.clip.size(), 0.0f);
   frame.rasterize_backward(g.uv.data(), with_depth ? g.depth.data() : nullptr, grad.data());
   return grad;
-}
-
-double relative_error(const std::vector<float>& a, const std::vector<float>& b) {
-  double diff = 0.0, scale = 0.0;
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    diff = std::max(diff, std::abs(double(a[i]) - double(b[i])));
-    scale = std::max(scale, std::abs(double(b[i])));
-  }
-  return scale > 0.0 ? diff / scale : diff;
 }
 
 void check_scene(const Scene& s, int W, int H, bool y_up, unsigned seed) {
