@@ -92,6 +92,28 @@ struct Frame::State {
   void use(VkCommandBuffer cb, VkDescriptorSet set) {
     vkCmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_COMPUTE, k.pipelines.layout(), 0, 1, &set, 0, nullptr);
   }
+  // The adjoints' passes (fixed_point.glsl), after stamp 1: zero `count`
+  // fixed-point sums and the two largest magnitudes; `pipeline` over the
+  // pixels with pass 0 (magnitudes), then 1 (sums); `finish` over
+  // `finish_items`. Stamps 2, 3 and 4 after them.
+  template <class Push, class FinishPush>
+  void fixed_point_passes(VkCommandBuffer cb, VkDescriptorSet set, Role sums, std::size_t count, Role largest,
+                          VkPipeline pipeline, Push push, VkPipeline finish, const FinishPush& finish_push,
+                          std::int64_t finish_items) {
+    vkCmdFillBuffer(cb, buffers[sums].handle(), 0, count * sizeof(std::int64_t), 0u);
+    vkCmdFillBuffer(cb, buffers[largest].handle(), 0, 2 * sizeof(std::uint64_t), 0u);
+    barrier(cb);
+    use(cb, set);
+    for (std::int32_t pass = 0; pass < 2; ++pass) {
+      push.pass = pass;
+      dispatch(cb, k, pipeline, &push, pixels(), 256);
+      barrier(cb);
+      timestamps.stamp(cb, 2 + pass);
+    }
+    dispatch(cb, k, finish, &finish_push, finish_items, 256);
+    barrier(cb);
+    timestamps.stamp(cb, 4);
+  }
 };
 
 namespace {
@@ -278,19 +300,8 @@ GpuTimes Frame::interpolate_backward(const float* grad_out, float* grad_attr, fl
     copy(cb, s.upload.handle(), 0, s[kGradOut].handle(), 0, grad_bytes);
     barrier(cb);
     s.timestamps.stamp(cb, 1);
-    vkCmdFillBuffer(cb, s[kSums].handle(), 0, sums * sizeof(std::int64_t), 0u);
-    vkCmdFillBuffer(cb, s[kLargest].handle(), 0, 2 * sizeof(std::uint64_t), 0u);
-    barrier(cb);
-    s.use(cb, set);
-    for (std::int32_t pass = 0; pass < 2; ++pass) {
-      push.pass = pass;
-      dispatch(cb, s.k, s.k.interpolate_backward, &push, px, 256);
-      barrier(cb);
-      s.timestamps.stamp(cb, 2 + pass);
-    }
-    dispatch(cb, s.k, s.k.fixed_point_finish, &finish, static_cast<std::int64_t>(sums), 256);
-    barrier(cb);
-    s.timestamps.stamp(cb, 4);
+    s.fixed_point_passes(cb, set, kSums, sums, kLargest, s.k.interpolate_backward, push, s.k.fixed_point_finish,
+                         finish, static_cast<std::int64_t>(sums));
     copy(cb, s[kFinished].handle(), 0, s.download.handle(), 0, sums * sizeof(float));
     copy(cb, s[kGradUv].handle(), 0, s.download.handle(), sums * sizeof(float), uv_bytes);
     barrier(cb);
@@ -393,20 +404,10 @@ GpuTimes Frame::antialias_backward(const float* grad_out, float* grad_image, flo
     ts.reset(cb, 6);
     ts.stamp(cb, 0);
     copy(cb, s.upload.handle(), 0, s[kAaGradOut].handle(), 0, image_bytes);
-    vkCmdFillBuffer(cb, s[kAaSums].handle(), 0, static_cast<std::size_t>(N) * 2 * sizeof(std::int64_t), 0u);
-    vkCmdFillBuffer(cb, s[kAaLargest].handle(), 0, 2 * sizeof(std::uint64_t), 0u);
     barrier(cb);
     ts.stamp(cb, 1);
-    s.use(cb, set);
-    for (std::int32_t pass = 0; pass < 2; ++pass) {
-      push.pass = pass;
-      dispatch(cb, s.k, s.k.antialias_backward, &push, px, 256);
-      barrier(cb);
-      ts.stamp(cb, 2 + pass);
-    }
-    dispatch(cb, s.k, s.k.antialias_finish, &push, N, 256);
-    barrier(cb);
-    ts.stamp(cb, 4);
+    s.fixed_point_passes(cb, set, kAaSums, static_cast<std::size_t>(N) * 2, kAaLargest, s.k.antialias_backward, push,
+                         s.k.antialias_finish, push, N);
     copy(cb, s[kAaGradImage].handle(), 0, s.download.handle(), 0, image_bytes);
     copy(cb, s[kAaGradClip].handle(), 0, s.download.handle(), image_bytes, clip_bytes);
     barrier(cb);
@@ -450,19 +451,8 @@ GpuTimes Frame::rasterize_backward(const float* grad_uv, const float* grad_depth
     copy(cb, s.upload.handle(), uv_bytes, s[kGradDepthIn].handle(), 0, depth_bytes);
     barrier(cb);
     s.timestamps.stamp(cb, 1);
-    vkCmdFillBuffer(cb, s[kSums].handle(), 0, sums * sizeof(std::int64_t), 0u);
-    vkCmdFillBuffer(cb, s[kLargest].handle(), 0, 2 * sizeof(std::uint64_t), 0u);
-    barrier(cb);
-    s.use(cb, set);
-    for (std::int32_t pass = 0; pass < 2; ++pass) {
-      push.pass = pass;
-      dispatch(cb, s.k, s.k.rasterize_backward, &push, px, 256);
-      barrier(cb);
-      s.timestamps.stamp(cb, 2 + pass);
-    }
-    dispatch(cb, s.k, s.k.rasterize_backward_finish, &push, N, 256);
-    barrier(cb);
-    s.timestamps.stamp(cb, 4);
+    s.fixed_point_passes(cb, set, kSums, sums, kLargest, s.k.rasterize_backward, push, s.k.rasterize_backward_finish,
+                         push, N);
     copy(cb, s[kFinished].handle(), 0, s.download.handle(), 0, out_bytes);
     barrier(cb);
     s.timestamps.stamp(cb, 5);

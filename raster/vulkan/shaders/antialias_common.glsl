@@ -17,15 +17,7 @@ layout(push_constant) uniform Params {
   int pad;
 } P;
 
-// Per vertex, as project.comp wrote it (raster_common.glsl): screen x, y,
-// z_ndc, flags (bit 0: in front of the near plane, so the screen position is valid).
-struct Vert {
-  double sx;
-  double sy;
-  double zn;
-  uint flags;
-  uint pad;
-};
+#include "vert.glsl"
 
 // A blended pair: the silhouette edge a-b crossed at t along the segment from
 // the inside centre to the outside centre. a < 0: no blend. b's bit 31 is set

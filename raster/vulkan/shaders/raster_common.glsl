@@ -16,15 +16,7 @@ layout(push_constant) uniform Params {
   int flags;   // rasterize_backward: bit 0 set when grad_depth is given
 } P;
 
-// Per vertex, written by project.comp: screen x, y, z_ndc (valid when
-// in front) and flags: bit 0 in front, bits 1..7 the frustum outcode.
-struct Vert {
-  double sx;
-  double sy;
-  double zn;
-  uint flags;
-  uint pad;
-};
+#include "vert.glsl"
 
 layout(std430, binding = 0) readonly buffer ClipBuf { float clip[]; };
 layout(std430, binding = 1) readonly buffer TriBuf { int tris[]; };
