@@ -9,6 +9,7 @@
 
 #include "autodiff/error.h"
 #include "raster/antialias.h"
+#include "raster/rasterize_setup.h"
 #include "raster/vulkan/internal/buffer.h"
 #include "raster/vulkan/internal/kernels.h"
 
@@ -127,6 +128,35 @@ std::vector<std::int32_t> neighbours_of(const std::vector<std::int32_t>& tris) {
   return std::vector<std::int32_t>(topo.neighbour.begin(), topo.neighbour.end());
 }
 
+// What the shaders index with 32-bit ints: 4 N clip values, 3 M indices,
+// H W C image values.
+constexpr std::int64_t kMaxIndex = std::numeric_limits<std::int32_t>::max();
+
+// The checks the CPU ops make (ops/check.h), here at the Frame's boundary:
+// the shaders trust them.
+void check_raster_params(const raster::RasterParams<float>& p) {
+  const char* op = "vulkan rasterize";
+  const std::int64_t W = p.settings.width, H = p.settings.height;
+  if (W < 1 || H < 1 || W > 16384 || H > 16384 || W * H > (std::int64_t(1) << 28))
+    throw ValueError(std::string(op) + ": image size " + std::to_string(W) + " x " + std::to_string(H) +
+                     " is outside 1..16384 per side (at most 2^28 pixels)");
+  if (p.num_vertices < 0 || p.num_tris < 0 || 4 * p.num_vertices > kMaxIndex || 3 * p.num_tris > kMaxIndex)
+    throw ValueError(std::string(op) + ": " + std::to_string(p.num_vertices) + " vertices and " +
+                     std::to_string(p.num_tris) + " triangles: the GPU path takes at most " +
+                     std::to_string(kMaxIndex / 4) + " and " + std::to_string(kMaxIndex / 3));
+  if ((p.num_vertices > 0 && !p.clip) || (p.num_tris > 0 && !p.tris))
+    throw ValueError(std::string(op) + ": clip or triangles missing");
+  raster::detail::check_triangles(p.tris, p.num_tris, p.num_vertices, op);
+  raster::detail::check_finite(p.clip, 4 * p.num_vertices, "clip", op);
+}
+
+// An image of `channels` per pixel must be indexable too.
+void check_channels(std::int64_t channels, std::int64_t pixels, const char* op) {
+  if (channels < 0 || (channels > 0 && pixels * channels > kMaxIndex))
+    throw ValueError(std::string(op) + ": " + std::to_string(channels) + " channels of " + std::to_string(pixels) +
+                     " pixels: at most " + std::to_string(kMaxIndex) + " values on the GPU path");
+}
+
 }  // namespace
 
 Frame::Frame(std::shared_ptr<Device> device) : device_(std::move(device)) {
@@ -148,6 +178,7 @@ GpuTimes Frame::rasterize(const raster::RasterParams<float>& p, const GpuRasterO
     throw ValueError("vulkan rasterize: depth peeling (floor_id, floor_z) is not on the GPU yet");
   if (options.small_box < 1)
     throw ValueError("vulkan rasterize: small_box must be at least 1, got " + std::to_string(options.small_box));
+  check_raster_params(p);
   State& s = *state_;
   std::lock_guard<std::mutex> lock(s.dev.mutex);
   s.rasterized = false;
@@ -235,7 +266,8 @@ GpuTimes Frame::rasterize(const raster::RasterParams<float>& p, const GpuRasterO
 GpuTimes Frame::interpolate(const float* attr, std::int64_t channels, bool perspective, float* out) {
   State& s = *state_;
   if (!s.rasterized) throw ValueError("vulkan interpolate: the frame has no G-buffer (call rasterize first)");
-  if (channels < 0) throw ValueError("vulkan interpolate: negative channel count " + std::to_string(channels));
+  check_channels(channels, s.pixels(), "vulkan interpolate");
+  if (!attr && s.num_vertices * channels > 0) throw ValueError("vulkan interpolate: attr is missing");
   std::lock_guard<std::mutex> lock(s.dev.mutex);
   s.channels = channels;
   s.perspective = perspective;
@@ -273,6 +305,7 @@ GpuTimes Frame::interpolate(const float* attr, std::int64_t channels, bool persp
 GpuTimes Frame::interpolate_backward(const float* grad_out, float* grad_attr, float* grad_clip, float* grad_uv) {
   State& s = *state_;
   if (s.channels < 0) throw ValueError("vulkan interpolate_backward: the frame has no interpolate to differentiate");
+  if (!grad_out) throw ValueError("vulkan interpolate_backward: grad_out is missing");
   std::lock_guard<std::mutex> lock(s.dev.mutex);
   const std::int64_t N = s.num_vertices, C = s.channels, px = s.pixels();
   const std::size_t grad_bytes = static_cast<std::size_t>(px * C) * sizeof(float);
@@ -323,6 +356,7 @@ GpuTimes Frame::antialias(const float* image, int channels, float* out) {
   State& s = *state_;
   if (!s.rasterized) throw ValueError("vulkan antialias: the frame has no G-buffer (call rasterize first)");
   if (channels < 1) throw ValueError("vulkan antialias: channels must be at least 1, got " + std::to_string(channels));
+  check_channels(channels, s.pixels(), "vulkan antialias");
   if (!image && s.channels != channels)
     throw ValueError("vulkan antialias: no image given, and the last interpolate's output has " +
                      (s.channels < 0 ? std::string("not been made") : std::to_string(s.channels) + " channels") +
@@ -381,6 +415,7 @@ GpuTimes Frame::antialias(const float* image, int channels, float* out) {
 GpuTimes Frame::antialias_backward(const float* grad_out, float* grad_image, float* grad_clip) {
   State& s = *state_;
   if (s.aa_channels < 0) throw ValueError("vulkan antialias_backward: the frame has no antialias to differentiate");
+  if (!grad_out) throw ValueError("vulkan antialias_backward: grad_out is missing");
   std::lock_guard<std::mutex> lock(s.dev.mutex);
   const std::int64_t N = s.num_vertices, C = s.aa_channels, px = s.pixels();
   const std::size_t image_bytes = static_cast<std::size_t>(px * C) * sizeof(float);
@@ -424,6 +459,7 @@ GpuTimes Frame::antialias_backward(const float* grad_out, float* grad_image, flo
 GpuTimes Frame::rasterize_backward(const float* grad_uv, const float* grad_depth, float* grad_clip) {
   State& s = *state_;
   if (!s.rasterized) throw ValueError("vulkan rasterize_backward: the frame has no G-buffer (call rasterize first)");
+  if (!grad_uv) throw ValueError("vulkan rasterize_backward: grad_uv is missing");
   std::lock_guard<std::mutex> lock(s.dev.mutex);
   const std::int64_t N = s.num_vertices, px = s.pixels();
   const std::size_t uv_bytes = static_cast<std::size_t>(px) * 2 * sizeof(float);

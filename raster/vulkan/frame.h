@@ -37,6 +37,9 @@ class Frame {
 
   // rasterize_forward (raster/vulkan/rasterize.h); the G-buffer stays on the
   // device and is downloaded into the arrays given (each may be null).
+  // Checks p as the CPU op does (ValueError / IndexError naming the problem):
+  // image size, indices in range, finite clip; and what the shaders' 32-bit
+  // indices allow (at most 2^31 / 4 vertices, 2^31 / 3 triangles).
   // pass_ms: clear, project, depth pass, id pass, resolve.
   GpuTimes rasterize(const raster::RasterParams<float>& p, const GpuRasterOptions& options = {},
                      std::int32_t* tri_id = nullptr, float* uv = nullptr, float* depth = nullptr);

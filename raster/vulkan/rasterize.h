@@ -24,7 +24,7 @@ struct GpuRasterOptions {
   int small_box = 64;
 };
 
-// p is trusted as for the CPU kernel (the op validates); peeling fields must be null.
+// p is checked as the CPU op checks it (Frame::rasterize); peeling fields must be null.
 // times->pass_ms: clear, project, depth (pass 0), id (pass 1), resolve.
 void rasterize_forward(Device& device, const raster::RasterParams<float>& p, std::int32_t* tri_id,
                        float* uv, float* depth, const GpuRasterOptions& options = {},

@@ -190,3 +190,26 @@ TEST_CASE("Device::open says why when GRADRASTER_VULKAN_DEVICE names no device",
   CHECK(none == nullptr);
   CHECK_THAT(why, Catch::Contains("no such device 7f3a") && Catch::Contains(gpu()->info().name));
 }
+
+TEST_CASE("the GPU rasterizer refuses bad input with an error naming it", "[vulkan]") {
+  if (!gpu()) return;
+  Scene s = random_soup(4, 8);
+  GBuffer g(8, 8);
+  auto call = [&](const RasterParams<float>& p) {
+    vulkan::rasterize_forward(*gpu(), p, g.id.data(), g.uv.data(), g.depth.data());
+  };
+  s.tris[5] = 12;  // 12 vertices: indices 0..11
+  REQUIRE_THROWS_WITH(call(s.params(8, 8)), Catch::Contains("tris[1][2] = 12"));
+  s.tris[5] = -1;
+  REQUIRE_THROWS_AS(call(s.params(8, 8)), IndexError);
+  s.tris[5] = 5;
+  s.clip[6] = std::nanf("");
+  REQUIRE_THROWS_WITH(call(s.params(8, 8)), Catch::Contains("clip[6] is NaN or Inf"));
+  s.clip[6] = 0.5f;
+  REQUIRE_THROWS_WITH(call(s.params(0, 8)), Catch::Contains("image size"));
+  REQUIRE_THROWS_WITH(call(s.params(16385, 8)), Catch::Contains("image size"));
+  RasterParams<float> huge = s.params(8, 8);
+  huge.num_tris = std::int64_t(1) << 30;
+  REQUIRE_THROWS_WITH(call(huge), Catch::Contains("triangles"));
+  call(s.params(8, 8));  // and the device still works
+}
