@@ -1,6 +1,8 @@
 // Tape op over raster::rasterize_forward / rasterize_backward.
 #include "ops/rasterize.h"
 
+#include <type_traits>
+
 #include "autodiff/tape.h"
 #include "ops/check.h"
 #include "raster/triangle_groups.h"
@@ -44,6 +46,10 @@ GBuffer rasterize_layer(const Tensor& clip, const Tensor& triangles, const Raste
     raster::RasterParams<T> p = params<T>(clip, triangles, settings);
     p.floor_id = floor_id;
     p.floor_z = floor_z;
+    if constexpr (std::is_same_v<T, float>)
+      if (options.backend && !key_depth &&
+          options.backend->rasterize_forward(p, gb.tri_id.data<std::int32_t>(), gb.uv.data<T>(), gb.depth.data<T>()))
+        return;
     raster::rasterize_forward(p, gb.tri_id.data<std::int32_t>(), gb.uv.data<T>(), gb.depth.data<T>(), &gb.stats,
                               key_depth);
   });

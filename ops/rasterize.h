@@ -10,6 +10,7 @@
 #include <memory>
 
 #include "autodiff/tensor.h"
+#include "raster/backend.h"
 #include "raster/rasterize.h"
 
 namespace gr {
@@ -21,6 +22,10 @@ struct RasterizeOptions {
   int height = 0;
   Cull cull = Cull::None;  // front face = counter-clockwise in NDC
   bool front_to_back = false;  // work order only; same G-buffer (raster::RasterSettings)
+  // Where the forward runs (null: the CPU), e.g. gr::vulkan::raster_backend(device)
+  // for float32 clip positions: the same G-buffer bit for bit, and the same
+  // adjoint (on the CPU). GBuffer::stats stays zero when a backend ran it.
+  std::shared_ptr<const raster::RasterBackend> backend = nullptr;
 };
 
 // Per-pixel results, row 0 at the top.

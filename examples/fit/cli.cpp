@@ -40,6 +40,8 @@ std::string usage(const std::string& program) {
     << "  --seed N             pose mode: the pose and its start error; --fit-camera: the camera errors\n"
     << "                       (default 1)\n"
     << "  --profile            print the loop's wall time per phase, in ms per iteration\n"
+    << "  --device cpu|vulkan  where the G-buffers are made (default cpu); vulkan: the first GPU\n"
+    << "                       (GRADRASTER_VULKAN_DEVICE picks one by name), the same results\n"
     << "  --help               this message\n"
     << "Writes snapshot_NNNN.png (target | current | |difference|, one row per view), loss.png and\n"
     << "fitted.obj (pose mode: posed.obj; with --fit texture also fitted.mtl, fitted_texture.png).\n"
@@ -64,6 +66,9 @@ CommandLine parse_command_line(const std::vector<std::string>& args) {
     else if (flag == "--out" || flag == "--mesh" || flag == "--texture") {
       if (v.empty()) fail(flag, flag == "--out" ? "expected a folder" : "expected a file name");
       (flag == "--out" ? o.out_dir : flag == "--mesh" ? o.mesh_path : o.texture_path) = v;
+    } else if (flag == "--device") {
+      if (v != "cpu" && v != "vulkan") fail(flag, "expected cpu or vulkan, got " + gr::cli::quoted(v));
+      cl.device = v;
     } else if (flag == "--mode") {
       if (v != "shape" && v != "pose") fail(flag, "expected shape or pose, got " + gr::cli::quoted(v));
       o.mode = v == "shape" ? Mode::Shape : Mode::Pose;
@@ -74,7 +79,7 @@ CommandLine parse_command_line(const std::vector<std::string>& args) {
     }
   };
   const gr::cli::Flags flags{{"--iterations", "--size", "--views", "--threads", "--seed", "--out", "--mesh",
-                              "--texture", "--mode", "--fit", "--subdivisions"},
+                              "--texture", "--mode", "--fit", "--subdivisions", "--device"},
                              {"--fit-camera", "--profile"}};
   try {
     std::set<std::string> seen;

@@ -13,6 +13,7 @@ struct CommandLine {
   enum class Action { Run, Help, Error } action = Action::Run;
   FitOptions options;
   bool profile = false;  // --profile: print where the loop's time went
+  std::string device = "cpu";  // --device: where the G-buffers are made (cpu or vulkan)
   std::string error;  // for Action::Error
 };
 

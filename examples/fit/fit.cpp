@@ -36,6 +36,13 @@ using namespace gr;
 
 namespace {
 
+// The views' rasterize options: size x size, on the chosen backend.
+RasterizeOptions raster_options(const FitOptions& options) {
+  RasterizeOptions raster{options.size, options.size};
+  raster.backend = options.raster_backend;
+  return raster;
+}
+
 using Clock = std::chrono::steady_clock;
 constexpr double kPi = 3.14159265358979323846;
 
@@ -167,12 +174,12 @@ struct Targets {
   std::vector<Tensor> images, coverage, rgba;
 };
 
-Targets render_targets(const Scene& scene, int size) {
+Targets render_targets(const Scene& scene, const RasterizeOptions& raster) {
   NoGradGuard no_grad;
   Targets targets;
   for (const Camera& camera : scene.cameras) {
     const Render r = render(scene.reference, scene.reference.positions, scene.reference_material,
-                            matmul(camera.projection, camera.view), camera.light, scene.background, size);
+                            matmul(camera.projection, camera.view), camera.light, scene.background, raster);
     targets.images.push_back(r.image());
     targets.coverage.push_back(r.coverage);
     targets.rgba.push_back(r.rgba);
@@ -292,8 +299,9 @@ struct ViewLoss {
 
 // The image only when asked (for a snapshot).
 ViewLoss render_view(const Scene& scene, const Targets& targets, const Surface& surface,
-                     const Tensor& view_projection, int size, std::size_t v, bool with_iou, bool with_image) {
-  const Render r = render(scene.start, surface, view_projection, scene.cameras[v].light, scene.background, size);
+                     const Tensor& view_projection, const RasterizeOptions& raster, std::size_t v, bool with_iou,
+                     bool with_image) {
+  const Render r = render(scene.start, surface, view_projection, scene.cameras[v].light, scene.background, raster);
   // Colour MSE plus the alpha masks' MSE: a flap of the surface that takes
   // the background's colour is invisible to the first term, not the second.
   const double views = double(scene.cameras.size());
@@ -313,14 +321,14 @@ struct ViewsLoss {
 };
 
 ViewsLoss render_views(const Scene& scene, const Targets& targets, const Tensor& positions, const Material& material,
-                       const CameraCorrections& cameras, int size) {
+                       const CameraCorrections& cameras, const RasterizeOptions& raster) {
   NoGradGuard no_grad;
   const Surface shared = surface(scene.start, positions, material);
   const int views = static_cast<int>(scene.cameras.size());
   std::vector<ViewLoss> each(static_cast<std::size_t>(views));
   parallel_tasks(views, [&](int v) {
     NoGradGuard no_grad_here;  // grad mode is per thread
-    each[v] = render_view(scene, targets, shared, cameras.view_projection(v), size, v, true, true);
+    each[v] = render_view(scene, targets, shared, cameras.view_projection(v), raster, v, true, true);
   });
   ViewsLoss out;
   for (const ViewLoss& view : each) {
@@ -378,7 +386,8 @@ FitResult run_shape(const FitOptions& options, std::ostream& log) {
 
   FitResult result = describe_run(Mode::Shape, scene, mesh, iterations);
 
-  const Targets targets = render_targets(scene, options.size);
+  const RasterizeOptions raster = raster_options(options);
+  const Targets targets = render_targets(scene, raster);
   const SmoothedPositions smoothed(mesh, options.smoothing_passes);
   const FittedAppearance appearance = grey_appearance(options, mesh);
   const CameraCorrections cameras(options, scene);
@@ -436,7 +445,7 @@ FitResult run_shape(const FitOptions& options, std::ostream& log) {
         ScopedTape tape;
         const std::vector<Tensor> leaves = view_grads.view_leaves();
         const ViewLoss view = render_view(scene, targets, shared.as_surface(leaves), view_projection(v, leaves),
-                                          options.size, v, it == 0, run.wants_snapshot(it));
+                                          raster, v, it == 0, run.wants_snapshot(it));
         backward(view.loss);
         view_grads.take(v, leaves, {view.loss.item(), view.iou});
         images[v] = view.image;
@@ -459,7 +468,7 @@ FitResult run_shape(const FitOptions& options, std::ostream& log) {
       const Surface now = shared.as_surface(shared.leaves());
       for (int v = 0; v < views; ++v)
         if (!images[v].defined())
-          images[v] = render_view(scene, targets, now, cameras.view_projection(v), options.size, v, false, true).image;
+          images[v] = render_view(scene, targets, now, cameras.view_projection(v), raster, v, false, true).image;
       run.snapshot(it, targets.images, images);
     }
     phases.mark("snapshots (hand-off)");
@@ -484,7 +493,7 @@ FitResult run_shape(const FitOptions& options, std::ostream& log) {
   {
     NoGradGuard no_grad;
     positions = smoothed.evaluate();
-    const ViewsLoss final_views = render_views(scene, targets, positions, appearance.material, cameras, options.size);
+    const ViewsLoss final_views = render_views(scene, targets, positions, appearance.material, cameras, raster);
     result.losses.push_back(final_views.loss);
     result.final_iou = final_views.iou;
     run.snapshot(iterations, targets.images, final_views.images);
@@ -540,10 +549,11 @@ FitResult run_pose(const FitOptions& options, std::ostream& log) {
     rigid_error(rigid(q, t), true_pose, degrees, distance);
   };
 
+  const RasterizeOptions raster = raster_options(options);
   Render target;
   {
     NoGradGuard no_grad;
-    target = render(mesh, posed(true_pose), scene.reference_material, vp, camera.light, scene.background, options.size);
+    target = render(mesh, posed(true_pose), scene.reference_material, vp, camera.light, scene.background, raster);
   }
   pose_error(result.initial_rotation_error, result.initial_translation_error);
 
@@ -554,7 +564,7 @@ FitResult run_pose(const FitOptions& options, std::ostream& log) {
   for (int it = 0; it < iterations; ++it) {
     optimizer.set_lr(options.pose_lr * std::pow(0.1, double(it) / iterations));
     const Render r = render(mesh, posed(rigid(q, t)), scene.reference_material, vp, camera.light, scene.background,
-                            options.size);
+                            raster);
     if (it == 0) result.initial_iou = coverage_iou(r.coverage, target.coverage);
     const Tensor image = r.image();
     const Tensor loss = mean(pow(image - target_image, 2.0));
@@ -572,7 +582,7 @@ FitResult run_pose(const FitOptions& options, std::ostream& log) {
   {
     NoGradGuard no_grad;
     const Render r = render(mesh, posed(rigid(q, t)), scene.reference_material, vp, camera.light, scene.background,
-                            options.size);
+                            raster);
     result.losses.push_back(mse(r.image(), target_image));
     result.final_iou = coverage_iou(r.coverage, target.coverage);
     run.snapshot(iterations, {target_image}, {r.image()});

@@ -20,6 +20,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <iosfwd>
 #include <string>
 #include <vector>
@@ -27,6 +28,7 @@
 #include "autodiff/tensor.h"
 #include "autodiff/view_gradients.h"
 #include "examples/fit/phase_times.h"
+#include "raster/backend.h"
 
 namespace fit {
 
@@ -48,6 +50,9 @@ struct FitOptions {
   int start_subdivisions = 4;      // start icosphere: 20 * 4^s triangles
   int reference_subdivisions = 0;  // built-in reference icosphere; 0: 5 (shape), 4 (pose renders it every step)
   int texture_size = 128;          // fitted texture: texture_size x 2 texture_size
+  // Where the views' G-buffers are made (null: the CPU); the results are the
+  // same bits either way (raster/backend.h).
+  std::shared_ptr<const gr::raster::RasterBackend> raster_backend = nullptr;
   // Adam learning rates (one parameter group each), decayed geometrically to 10% over the run.
   double position_lr = 0.02;
   double colour_lr = 0.03;

@@ -14,6 +14,9 @@
 #include "examples/fit/snapshot.h"
 #include "autodiff/parallel.h"
 #include "raster/temporaries.h"
+#ifdef GRADRASTER_HAS_VULKAN
+#include "raster/vulkan/backend.h"
+#endif
 #ifdef GRADRASTER_FIT_MPI
 #include "examples/fit/mpi_main.h"
 #endif
@@ -49,6 +52,20 @@ int run(int argc, char** argv, const fit::Job& job) {
     if (job.root) std::cerr << program << ": --mode pose fits one view; run it without mpirun\n";
     return 2;
   }
+  if (cl.device == "vulkan") {
+#ifdef GRADRASTER_HAS_VULKAN
+    std::string why;
+    std::shared_ptr<gr::vulkan::Device> device = gr::vulkan::Device::open(&why);
+    if (!device) {
+      if (job.root) std::cerr << program << ": --device vulkan: " << why << "\n";
+      return 1;
+    }
+    o.raster_backend = gr::vulkan::raster_backend(device);
+#else
+    if (job.root) std::cerr << program << ": --device vulkan: this build has no GPU path (built without Vulkan)\n";
+    return 2;
+#endif
+  }
   const bool pose = o.mode == fit::Mode::Pose;
   const int iterations =
       o.iterations > 0 ? o.iterations : pose ? fit::kDefaultPoseIterations : fit::kDefaultShapeIterations;
@@ -64,6 +81,7 @@ int run(int argc, char** argv, const fit::Job& job) {
               << (o.appearance == fit::Appearance::Texture ? "a texture" : "vertex colours")
               << (o.fit_camera ? ", a rigid correction per camera" : "")
               << ". The loss is the MSE of colour and alpha mask over all pixels;\nantialiasing gives silhouette edges their gradient.\n";
+  if (o.raster_backend) out << "G-buffers on " << o.raster_backend->name() << "\n";
   try {
     if (!job.root) {  // no outputs, no progress: the root has them
       o.write_outputs = false;

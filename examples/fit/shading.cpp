@@ -52,9 +52,10 @@ Surface surface(const SurfaceMesh& mesh, const Tensor& positions, const Material
 }
 
 Render render(const SurfaceMesh& mesh, const Surface& surface, const Tensor& view_projection, const Tensor& light,
-              const Tensor& background, int size) {
+              const Tensor& background, const RasterizeOptions& raster) {
+  const int size = raster.width;
   const Tensor clip = transform_points(surface.vertices, view_projection);  // [R, 4]
-  const GBuffer gb = rasterize(clip, mesh.triangles, {size, size});
+  const GBuffer gb = rasterize(clip, mesh.triangles, raster);
 
   Tensor albedo;  // [H, W, 3]
   if (surface.texture.defined()) {
@@ -81,8 +82,8 @@ Render render(const SurfaceMesh& mesh, const Surface& surface, const Tensor& vie
 }
 
 Render render(const SurfaceMesh& mesh, const Tensor& positions, const Material& material, const Tensor& view_projection,
-              const Tensor& light, const Tensor& background, int size) {
-  return render(mesh, surface(mesh, positions, material), view_projection, light, background, size);
+              const Tensor& light, const Tensor& background, const RasterizeOptions& raster) {
+  return render(mesh, surface(mesh, positions, material), view_projection, light, background, raster);
 }
 
 }  // namespace fit

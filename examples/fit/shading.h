@@ -11,9 +11,11 @@
 
 #include "autodiff/tensor.h"
 #include "examples/fit/geometry.h"
+#include "ops/rasterize.h"
 
 namespace fit {
 
+using gr::RasterizeOptions;
 using gr::Tensor;
 
 // Where the surface colour comes from: vertex colours (one per point) or a
@@ -65,12 +67,13 @@ struct Surface {
 Surface surface(const SurfaceMesh& mesh, const Tensor& positions, const Material& material);
 
 // view_projection [4, 4], light [3] (unit, towards the light), background [3]
-// -> a size x size render of `surface`.
+// -> a raster.width x raster.height render of `surface` (square: the
+// targets' and the snapshots' images are).
 Render render(const SurfaceMesh& mesh, const Surface& surface, const Tensor& view_projection, const Tensor& light,
-              const Tensor& background, int size);
+              const Tensor& background, const RasterizeOptions& raster);
 
 // One view straight from the positions: render(mesh, surface(mesh, positions, material), ...).
 Render render(const SurfaceMesh& mesh, const Tensor& positions, const Material& material, const Tensor& view_projection,
-              const Tensor& light, const Tensor& background, int size);
+              const Tensor& light, const Tensor& background, const RasterizeOptions& raster);
 
 }  // namespace fit

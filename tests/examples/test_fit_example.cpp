@@ -311,7 +311,8 @@ TEST_CASE("fit example: flags parse, and bad flags are errors", "[examples][fit]
   using Action = fit::CommandLine::Action;
   const fit::CommandLine ok = fit::parse_command_line(
       {"--iterations", "12", "--size=64", "--views", "3", "--out", "x", "--threads", "1", "--seed", "5", "--mesh", "m.obj",
-       "--texture", "t.png", "--mode", "pose", "--fit", "texture", "--fit-camera", "--subdivisions", "2"});
+       "--texture", "t.png", "--mode", "pose", "--fit", "texture", "--fit-camera", "--subdivisions", "2",
+       "--device", "vulkan"});
   REQUIRE(ok.action == Action::Run);
   CHECK(ok.options.iterations == 12);
   CHECK(ok.options.size == 64);
@@ -325,14 +326,17 @@ TEST_CASE("fit example: flags parse, and bad flags are errors", "[examples][fit]
   CHECK(ok.options.appearance == fit::Appearance::Texture);
   CHECK(ok.options.fit_camera);
   CHECK(ok.options.start_subdivisions == 2);
+  CHECK(ok.device == "vulkan");
   const fit::CommandLine defaults = fit::parse_command_line({});
   CHECK(defaults.options.mode == fit::Mode::Shape);
   CHECK(defaults.options.appearance == fit::Appearance::Colours);
   CHECK_FALSE(defaults.options.fit_camera);
+  CHECK(defaults.device == "cpu");
   CHECK(fit::parse_command_line({}).action == Action::Run);
   CHECK(fit::parse_command_line({"--help"}).action == Action::Help);
   for (const std::vector<std::string>& bad : std::vector<std::vector<std::string>>{
            {"--iterations", "0"}, {"--size", "12abc"}, {"--views"}, {"--frobnicate", "1"}, {"stray"}, {"--threads", "-1"},
-           {"--mode", "walk"}, {"--fit", "normals"}, {"--fit-camera=1"}, {"--texture"}, {"--subdivisions", "9"}})
+           {"--mode", "walk"}, {"--fit", "normals"}, {"--fit-camera=1"}, {"--texture"}, {"--subdivisions", "9"},
+           {"--device", "cuda"}})
     CHECK(fit::parse_command_line(bad).action == Action::Error);
 }

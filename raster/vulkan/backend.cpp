@@ -1,0 +1,32 @@
+// The Vulkan RasterBackend: rasterize_forward through the device's own Frame.
+#include "raster/vulkan/backend.h"
+
+#include "autodiff/error.h"
+#include "raster/vulkan/rasterize.h"
+
+namespace gr::vulkan {
+namespace {
+
+class VulkanBackend : public raster::RasterBackend {
+ public:
+  explicit VulkanBackend(std::shared_ptr<Device> device) : device_(std::move(device)) {}
+  std::string name() const override { return "vulkan: " + device_->info().name; }
+  bool rasterize_forward(const raster::RasterParams<float>& p, std::int32_t* tri_id, float* uv,
+                         float* depth) const override {
+    if (p.floor_id || p.floor_z) return false;
+    vulkan::rasterize_forward(*device_, p, tri_id, uv, depth);
+    return true;
+  }
+
+ private:
+  std::shared_ptr<Device> device_;
+};
+
+}  // namespace
+
+std::shared_ptr<const raster::RasterBackend> raster_backend(std::shared_ptr<Device> device) {
+  if (!device) throw ValueError("vulkan raster_backend: no device");
+  return std::make_shared<VulkanBackend>(std::move(device));
+}
+
+}  // namespace gr::vulkan

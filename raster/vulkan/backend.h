@@ -1,0 +1,15 @@
+// A Vulkan device as a raster::RasterBackend: the ops' rasterize runs its
+// forward there for float32 clip positions without a peeling floor (the
+// rest stays on the CPU), with the same G-buffer bit for bit.
+#pragma once
+
+#include <memory>
+
+#include "raster/backend.h"
+#include "raster/vulkan/device.h"
+
+namespace gr::vulkan {
+
+std::shared_ptr<const raster::RasterBackend> raster_backend(std::shared_ptr<Device> device);
+
+}  // namespace gr::vulkan
