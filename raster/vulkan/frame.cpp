@@ -20,12 +20,12 @@ namespace {
 constexpr std::size_t kPairBytes = 16;
 
 // Workgroups of raster_large; their invocations take the listed chunks in turn.
+constexpr std::uint32_t kLargeWorkgroups = 1024;
 // Timestamps of the call that stamps the most (rasterize).
 constexpr std::uint32_t kMaxTimestamps = 8;
-constexpr std::uint32_t kLargeWorkgroups = 1024;
 
 struct RasterPush {
-  std::int32_t width, height, num_vertices, num_tris, cull, pass, y_up, pad;
+  std::int32_t width, height, num_vertices, num_tris, cull, pass, y_up, flags;
 };
 struct InterpolatePush {
   std::int32_t width, height, num_vertices, num_tris, channels, pass, perspective, y_up;
@@ -44,9 +44,9 @@ static_assert(sizeof(RasterPush) == kPushBytes && sizeof(InterpolatePush) == kPu
 enum Role {
   kClip, kTris, kVerts, kKeys, kIds, kLarge, kTriId, kUv, kDepth,  // mesh and G-buffer
   kAttr, kInterpolated, kGradOut, kGradUv,  // interpolate
-  kSums, kLargest, kFinished,  // an adjoint's fixed-point sums, their scales, the result
+  kSums, kLargest, kFinished,  // an adjoint's fixed-point sums, their scales, its result
   kGradUvIn, kGradDepthIn,  // rasterize_backward's incoming gradients
-  kNeighbour, kAaImage, kAaOut, kAaPairs, kAaGradOut, kAaGradImage, kAaSums, kAaLargest, kAaGradClip,  // antialias
+  kNeighbour, kAaImage, kAaOut, kAaPairs, kAaGradOut, kAaGradImage,  // antialias
   kRoles
 };
 
@@ -422,16 +422,16 @@ GpuTimes Frame::antialias_backward(const float* grad_out, float* grad_image, flo
   const std::size_t clip_bytes = static_cast<std::size_t>(N) * 4 * sizeof(float);
   s.reserve(kAaGradOut, image_bytes);
   s.reserve(kAaGradImage, image_bytes);
-  s.reserve(kAaSums, static_cast<std::size_t>(N) * 2 * sizeof(std::int64_t));
-  s.reserve(kAaLargest, 2 * sizeof(std::uint64_t));  // fixed_point.glsl reads two slots
-  s.reserve(kAaGradClip, clip_bytes);
+  s.reserve(kSums, static_cast<std::size_t>(N) * 2 * sizeof(std::int64_t));
+  s.reserve(kLargest, 2 * sizeof(std::uint64_t));  // fixed_point.glsl reads two slots
+  s.reserve(kFinished, clip_bytes);
   s.upload.reserve(s.dev, image_bytes, true);
   s.download.reserve(s.dev, image_bytes + clip_bytes, true);
   std::memcpy(s.upload.mapped(), grad_out, image_bytes);
   // Bindings: 0 clip, 2 verts, 3 grad_out, 4 grad_image, 5 screen sums, 6 image, 7 pairs, 8 largest, 9 grad_clip.
   const VkDescriptorSet set =
-      s.bind(s.aa_backward_set, {{0, kClip}, {2, kVerts}, {3, kAaGradOut}, {4, kAaGradImage}, {5, kAaSums},
-                                 {6, kAaImage}, {7, kAaPairs}, {8, kAaLargest}, {9, kAaGradClip}});
+      s.bind(s.aa_backward_set, {{0, kClip}, {2, kVerts}, {3, kAaGradOut}, {4, kAaGradImage}, {5, kSums},
+                                 {6, kAaImage}, {7, kAaPairs}, {8, kLargest}, {9, kFinished}});
   AntialiasPush push{s.width, s.height, static_cast<std::int32_t>(N), static_cast<std::int32_t>(s.num_tris),
                      static_cast<std::int32_t>(C), 0, s.y_up ? 1 : 0, 0};
   s.dev.run([&](VkCommandBuffer cb) {
@@ -441,10 +441,10 @@ GpuTimes Frame::antialias_backward(const float* grad_out, float* grad_image, flo
     copy(cb, s.upload.handle(), 0, s[kAaGradOut].handle(), 0, image_bytes);
     barrier(cb);
     ts.stamp(cb, 1);
-    s.fixed_point_passes(cb, set, kAaSums, static_cast<std::size_t>(N) * 2, kAaLargest, s.k.antialias_backward, push,
+    s.fixed_point_passes(cb, set, kSums, static_cast<std::size_t>(N) * 2, kLargest, s.k.antialias_backward, push,
                          s.k.antialias_finish, push, N);
     copy(cb, s[kAaGradImage].handle(), 0, s.download.handle(), 0, image_bytes);
-    copy(cb, s[kAaGradClip].handle(), 0, s.download.handle(), image_bytes, clip_bytes);
+    copy(cb, s[kFinished].handle(), 0, s.download.handle(), image_bytes, clip_bytes);
     barrier(cb);
     ts.stamp(cb, 5);
   });
