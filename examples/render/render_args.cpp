@@ -71,6 +71,7 @@ std::string usage() {
                          [--mvp "16 column-major floats" | --eye x,y,z [--target x,y,z] [--up x,y,z] [--fov DEG]]
                          [--out image.png] [--out-triid FILE] [--out-depth FILE]
                          [--cull none|back|front] [--flat] [--subdiv S] [--threads N] [--repeat N]
+                         [--device cpu|vulkan]
 
 Rasterizes a mesh with gradraster (float32, OpenGL clip conventions) and writes
 a Lambert-shaded PNG and/or the raw G-buffer.
@@ -106,6 +107,8 @@ Options
   --flat              face normals even where the mesh has vertex normals
   --threads N         worker threads (0 = all hardware threads, the default)
   --repeat N          rasterize N times and print rasterize_ms=<median> (rasterize only)
+  --device cpu|vulkan where the G-buffer is made (default cpu); vulkan: the first GPU
+                      (GRADRASTER_VULKAN_DEVICE picks one by name), the same bits
   --help              this text
 
 stdout: one line of mesh/camera facts, one line of rasterizer statistics, and
@@ -186,6 +189,11 @@ RenderArgs parse_args(const std::vector<std::string>& args) {
        }},
       {"--threads", [&](const std::string& f, const std::string& v) { a.threads = parse_int(f, v, 0, 1024); }},
       {"--repeat", [&](const std::string& f, const std::string& v) { a.repeat = parse_int(f, v, 1, 100000); }},
+      {"--device",
+       [&](const std::string& f, const std::string& v) {
+         if (v != "cpu" && v != "vulkan") fail(f, "expected cpu or vulkan, got " + quoted(v));
+         a.vulkan = v == "vulkan";
+       }},
   };
 
   cli::Flags flags{{}, {"--flat"}};

@@ -50,6 +50,7 @@ struct RenderArgs {
   bool flat = false;          // shade with face normals even if the mesh has vertex normals
   std::optional<int> threads; // 0 = all hardware threads
   int repeat = 0;             // 0: no timing line
+  bool vulkan = false;        // --device vulkan: the G-buffer on a Vulkan device
 };
 
 // The --help text.

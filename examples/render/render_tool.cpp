@@ -29,9 +29,24 @@
 #include "raster/mesh_framing.h"
 #include "raster/obj_io.h"
 #include "raster/procedural.h"
+#ifdef GRADRASTER_HAS_VULKAN
+#include "raster/vulkan/backend.h"
+#endif
 
 namespace gr::render_tool {
 namespace {
+
+// --device vulkan: Device::open's choice; a usage error when there is none.
+std::shared_ptr<const raster::RasterBackend> vulkan_backend() {
+#ifdef GRADRASTER_HAS_VULKAN
+  std::string why;
+  std::shared_ptr<vulkan::Device> device = vulkan::Device::open(&why);
+  if (!device) throw cli::UsageError("--device vulkan: " + why);
+  return vulkan::raster_backend(device);
+#else
+  throw cli::UsageError("--device vulkan: this build has no GPU path (built without Vulkan)");
+#endif
+}
 
 using Vec3 = std::array<double, 3>;
 
@@ -315,7 +330,8 @@ int render(const RenderArgs& a, std::ostream& out, std::ostream& err) {
   check_finite_camera(a, m, clip);
 
   // Rasterize (timed alone when --repeat is given).
-  const RasterizeOptions options{a.width, a.height, a.cull};
+  RasterizeOptions options{a.width, a.height, a.cull};
+  if (a.vulkan) options.backend = vulkan_backend();
   GBuffer gb;
   std::vector<double> ms;
   for (int i = 0; i < std::max(a.repeat, 1); ++i) {
@@ -334,10 +350,13 @@ int render(const RenderArgs& a, std::ostream& out, std::ostream& err) {
   std::int64_t covered = 0;
   const std::int32_t* id = gb.tri_id.data<std::int32_t>();
   for (std::int64_t p = 0; p < gb.tri_id.numel(); ++p) covered += id[p] != 0;
-  out << "triangles_in=" << s.triangles_in << " rasterized=" << s.rasterized << " clipped_near=" << s.clipped_near
-      << " culled_outside=" << s.culled_outside << " culled_zero_area=" << s.culled_zero_area
-      << " culled_face=" << s.culled_face << " culled_no_pixel=" << s.culled_no_pixel
-      << " covered_pixels=" << covered << "\n";
+  if (options.backend)  // a device counts no triangle classes
+    out << "device=\"" << options.backend->name() << "\" covered_pixels=" << covered << "\n";
+  else
+    out << "triangles_in=" << s.triangles_in << " rasterized=" << s.rasterized << " clipped_near=" << s.clipped_near
+        << " culled_outside=" << s.culled_outside << " culled_zero_area=" << s.culled_zero_area
+        << " culled_face=" << s.culled_face << " culled_no_pixel=" << s.culled_no_pixel
+        << " covered_pixels=" << covered << "\n";
   if (a.repeat > 0) out << "rasterize_ms=" << std::fixed << std::setprecision(3) << median(ms) << "\n";
   out.flush();
 

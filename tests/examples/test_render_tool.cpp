@@ -250,6 +250,7 @@ TEST_CASE("render tool: bad arguments exit with 2 and a message naming the flag,
       {{"--cull", "sideways"}, false, "--cull"},
       {{"--threads", "-1"}, false, "--threads"},
       {{"--repeat", "0"}, false, "--repeat"},
+      {{"--device", "cuda"}, false, "--device"},
       {{"--repeat"}, false, "--repeat"},  // missing value
       {{"--subdiv", "9"}, false, "--subdiv"},
       {{"--flat=yes"}, false, "--flat"},

@@ -1,13 +1,18 @@
 // A Vulkan device as the ops' execution context (raster/vulkan/backend.h):
 // rasterize with RasterizeOptions::backend gives the CPU op's G-buffer and
-// gradients bit for bit, and the fit example with its G-buffers on the GPU
-// (gradraster-fit --device vulkan) gives the CPU run's loss and IoU exactly.
+// gradients bit for bit, the fit example with its G-buffers on the GPU
+// (gradraster-fit --device vulkan) gives the CPU run's loss and IoU exactly,
+// and gradraster-render --device vulkan writes the CPU run's files byte for byte.
 #include <catch2/catch.hpp>
 
 #include <cstring>
+#include <fstream>
+#include <iterator>
 #include <sstream>
+#include <string>
 
 #include "examples/fit/fit.h"
+#include "examples/render/render_tool.h"
 #include "ops/ops.h"
 #include "raster/procedural.h"
 #include "raster/vulkan/backend.h"
@@ -70,4 +75,31 @@ TEST_CASE("the fit example with its G-buffers on the GPU gives the CPU run's los
   CHECK(gpu.final_loss == cpu.final_loss);
   CHECK(gpu.final_iou == cpu.final_iou);
   CHECK(gpu.losses == cpu.losses);
+}
+
+TEST_CASE("gradraster-render --device vulkan writes the CPU run's image and G-buffer byte for byte", "[vulkan]") {
+  if (!shared_gpu()) return;
+  TempDir dir;
+  auto run = [&](const std::string& device) {
+    std::ostringstream out, err;
+    const int code = render_tool::run_render_tool(
+        {"--builtin", "torus", "--width", "80", "--height", "60", "--eye", "0.5,1.5,2.5", "--out",
+         dir.file(device + ".png"), "--out-triid", dir.file(device + ".tri"), "--out-depth", dir.file(device + ".depth"),
+         "--device", device},
+        out, err);
+    INFO(err.str());
+    REQUIRE(code == 0);
+    return out.str();
+  };
+  auto bytes = [&](const std::string& name) {
+    std::ifstream f(dir.file(name), std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(f), {});
+  };
+  run("cpu");
+  CHECK(run("vulkan").find("device=\"vulkan: ") != std::string::npos);
+  for (const char* ext : {".png", ".tri", ".depth"}) {
+    INFO(ext);
+    CHECK(bytes(std::string("vulkan") + ext) == bytes(std::string("cpu") + ext));
+    CHECK(!bytes(std::string("cpu") + ext).empty());
+  }
 }
