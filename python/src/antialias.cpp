@@ -1,6 +1,7 @@
 #include "python/src/antialias.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <string>
@@ -13,26 +14,37 @@ namespace gr::python {
 namespace {
 
 // Our antialias kernel reads an int32 id image and a depth image: both are
-// taken from rast's channels 3 and 2 (one pass over the G-buffer).
+// taken from rast's channels 3 and 2 (one pass over the G-buffer, which also
+// checks the ids: false when one is not an integer in [0, triangles]; a bad
+// id becomes 0, and the caller throws check_rast_ids's error).
 template <class T>
-void split_rast(const T* rast, std::int64_t pixels, std::vector<std::int32_t>* tri_id, std::vector<T>* depth) {
+bool split_rast(const T* rast, std::int64_t pixels, std::int64_t triangles, std::vector<std::int32_t>* tri_id,
+                std::vector<T>* depth) {
   tri_id->resize(static_cast<std::size_t>(pixels));
   depth->resize(static_cast<std::size_t>(pixels));
+  const T top = static_cast<T>(triangles);
+  bool ok = true;
   for (std::int64_t q = 0; q < pixels; ++q) {
-    (*tri_id)[q] = static_cast<std::int32_t>(rast[4 * q + 3]);
+    const T id = rast[4 * q + 3];
+    const bool good = (id >= 0) & (id <= top) & (id == std::floor(id));
+    ok &= good;
+    (*tri_id)[q] = good ? static_cast<std::int32_t>(id) : 0;
     (*depth)[q] = rast[4 * q + 2];
   }
+  return ok;
 }
 
-// Image b's kernel inputs, its ids, depths and flipped positions in s.
+// Image b's kernel inputs, its ids, depths and flipped positions in s;
+// *ids_ok: whether its ids are valid (split_rast).
 template <class T>
 raster::AntialiasParams<T> image_params(ImageScratch& s, const Mesh& mesh, const Topology& topology,
-                                        const Array& color, const Array& rast, std::int64_t b) {
+                                        const Array& color, const Array& rast, std::int64_t b, bool* ids_ok) {
   const int height = static_cast<int>(color.size(1)), width = static_cast<int>(color.size(2));
   const std::int64_t channels = color.size(3);
   const std::int64_t pixels = static_cast<std::int64_t>(height) * width;
   copy_flipped(mesh.positions<T>(b), mesh.vertices, &s.buffer<T>(ImageScratch::kClip));
-  split_rast(rast.in<T>() + 4 * pixels * b, pixels, &s.tri_id, &s.buffer<T>(ImageScratch::kDepth));
+  *ids_ok = split_rast(rast.in<T>() + 4 * pixels * b, pixels, mesh.triangles, &s.tri_id,
+                       &s.buffer<T>(ImageScratch::kDepth));
   raster::AntialiasParams<T> p;
   p.image = color.in<T>() + pixels * channels * b;
   p.channels = static_cast<int>(channels);
@@ -112,11 +124,14 @@ std::shared_ptr<AntialiasState> antialias_forward(Context& ctx, const pybind11::
   ctx.reserve(mesh.images);
   dispatch(mesh.f64, [&](auto tag) {
     using T = decltype(tag);
-    check_rast_ids(rast.in<T>(), mesh.images * pixels, mesh.triangles, "rast", op);
+    std::atomic<bool> bad_ids{false};
     for_each_image(mesh.images, [&](std::int64_t b) {
-      const auto p = image_params<T>(ctx.image(b), mesh, topology, color, rast, b);
+      bool ids_ok = true;
+      const auto p = image_params<T>(ctx.image(b), mesh, topology, color, rast, b, &ids_ok);
+      if (!ids_ok) return bad_ids.store(true);
       raster::blend_boundaries_forward(visibility, p, out.out<T>() + pixels * channels * b, &state->pairs[b]);
     });
+    if (bad_ids) check_rast_ids(rast.in<T>(), mesh.images * pixels, mesh.triangles, "rast", op);  // throws
   });
   return state;
 }
@@ -153,12 +168,14 @@ void antialias_backward(Context& ctx, const pybind11::object& pos, const pybind1
   ctx.reserve(mesh.images);
   dispatch(mesh.f64, [&](auto tag) {
     using T = decltype(tag);
-    check_rast_ids(rast.in<T>(), mesh.images * pixels, mesh.triangles, "rast", op);
+    std::atomic<bool> bad_ids{false};
     // Per image: the colour gradient in place, the position gradient in the
     // image's buffer (scaled by the boost), then added as rasterize's is.
     for_each_image(mesh.images, [&](std::int64_t b) {
       ImageScratch& s = ctx.image(b);
-      const auto p = image_params<T>(s, mesh, topology, color, rast, b);
+      bool ids_ok = true;
+      const auto p = image_params<T>(s, mesh, topology, color, rast, b, &ids_ok);
+      if (!ids_ok) return bad_ids.store(true);
       std::vector<T>& grad = s.buffer<T>(ImageScratch::kGrad);
       raster::AntialiasGrads<T> g;
       if (grad_color) g.image = grad_color.out<T>() + pixels * channels * b;
@@ -171,6 +188,7 @@ void antialias_backward(Context& ctx, const pybind11::object& pos, const pybind1
       for (T& v : grad) v = static_cast<T>(pos_gradient_boost * v);
       if (mesh.instanced) add_flipped(grad.data(), mesh.vertices, grad_pos.out<T>() + mesh.pos_offset(b));
     });
+    if (bad_ids) check_rast_ids(rast.in<T>(), mesh.images * pixels, mesh.triangles, "rast", op);  // throws
     if (grad_pos && !mesh.instanced)
       for (std::int64_t b = 0; b < mesh.images; ++b)
         add_flipped(ctx.image(b).buffer<T>(ImageScratch::kGrad).data(), mesh.vertices, grad_pos.out<T>());

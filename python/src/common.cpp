@@ -1,5 +1,6 @@
 #include "python/src/common.h"
 
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <string>
@@ -120,6 +121,19 @@ void add_flipped(const T* grad, std::int64_t vertices, T* grad_pos) {
 
 template <class T>
 void check_rast_ids(const T* rast, std::int64_t pixels, std::int64_t triangles, const char* what, const char* op) {
+  // A branch-free pass over the ids (vectorized, in parallel) says whether
+  // any is bad; only then the pass below finds the first.
+  const T top = static_cast<T>(triangles);
+  std::atomic<bool> bad{false};
+  parallel_for(0, pixels, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
+    bool ok = true;
+    for (std::int64_t q = lo; q < hi; ++q) {
+      const T id = rast[4 * q + 3];
+      ok &= (id >= 0) & (id <= top) & (id == std::floor(id));
+    }
+    if (!ok) bad.store(true, std::memory_order_relaxed);
+  });
+  if (!bad.load()) return;
   for (std::int64_t q = 0; q < pixels; ++q) {
     const T id = rast[4 * q + 3];
     if (!(id >= 0 && id <= static_cast<T>(triangles) && id == std::floor(id)))

@@ -152,6 +152,16 @@ def test_backward_passes_check_the_values_they_index_with(scene):
     with pytest.raises(IndexError, match="interpolate backward"):
         _core.interpolate_backward(pos[0], bad, tri, None, [], torch.ones(1, 8, 8, 4, dtype=F64), None,
                                    torch.zeros(4, 4, dtype=F64), None, None, 1)
+    topology = _core.build_topology(tri, 4, 'antialias')
+    color = torch.rand(1, 8, 8, 3, dtype=F64)
+    with pytest.raises(IndexError, match=r"antialias: rast\[..., 3\] .* at pixel 27"):
+        _core.antialias_forward(_core.Context(), pos, tri, [], topology, color, bad, torch.empty_like(color), False, 1)
+    state = _core.antialias_forward(_core.Context(), pos, tri, [], topology, color, rast, torch.empty_like(color),
+                                    False, 1)
+    bad[0, 3, 3, 3] = 0.5  # not an integer
+    with pytest.raises(IndexError, match="antialias backward: .* is 0.5"):
+        _core.antialias_backward(_core.Context(), pos, tri, [], topology, state, color, bad, torch.ones_like(color),
+                                 torch.zeros_like(color), torch.zeros_like(pos), 1.0, 1)
     bad_tri = tri.clone()
     bad_tri[1, 1] = 9
     with pytest.raises(IndexError, match="rasterize backward"):
