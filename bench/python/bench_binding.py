@@ -57,24 +57,21 @@ class Direct:
         self.color, self.image = torch.empty(1, SIZE, SIZE, 3), torch.empty(1, SIZE, SIZE, 3)
         self.g_color, self.g_rast = torch.empty_like(self.color), torch.empty_like(self.rast)
         self.g_attr, self.g_clip = torch.empty_like(attr), torch.empty_like(clip)
-        self.mesh = _core.Mesh(False, clip.data_ptr(), 1, clip.shape[1], True, tri.data_ptr(), tri.shape[0], [])
-        self.topology = _core.build_topology(tri.data_ptr(), tri.shape[0])
-        self.args = _core.InterpolateArgs(False, attr.data_ptr(), 1, attr.shape[1], 3, tri.data_ptr(), tri.shape[0],
-                                          self.rast.data_ptr(), 0, 1, SIZE, SIZE, [])
+        self.topology = _core.build_topology(tri, -1, 'antialias_construct_topology_hash')
 
     def __call__(self, threads):
-        p = lambda t: t.data_ptr()
-        _core.rasterize_forward(self.ctx, self.mesh, SIZE, SIZE, p(self.rast), p(self.db), None, threads)
-        _core.interpolate_forward(self.args, p(self.color), 0, threads)
-        state = _core.antialias_forward(self.aa_ctx, self.mesh, self.topology, p(self.color), 3, SIZE, SIZE,
-                                        p(self.rast), p(self.image), threads)
+        clip, tri, attr = self.clip, self.tri, self.attr
+        _core.rasterize_forward(self.ctx, clip, tri, [], self.rast, self.db, None, threads)
+        _core.interpolate_forward(attr, self.rast, tri, None, [], self.color, None, threads)
+        state = _core.antialias_forward(self.aa_ctx, clip, tri, [], self.topology, self.color, self.rast, self.image,
+                                        False, threads)
         for t in (self.g_color, self.g_rast, self.g_attr, self.g_clip):
             t.zero_()
-        _core.antialias_backward(self.aa_ctx, self.mesh, self.topology, state, p(self.color), 3, SIZE, SIZE,
-                                 p(self.rast), p(self.weight), p(self.g_color), p(self.g_clip), 1.0, threads)
-        _core.interpolate_backward(self.args, p(self.g_color), 0, p(self.g_attr), p(self.g_rast), 0, threads)
-        _core.rasterize_backward(self.ctx, self.mesh, SIZE, SIZE, p(self.rast), p(self.g_rast), 0, p(self.g_clip),
-                                 threads)
+        _core.antialias_backward(self.aa_ctx, clip, tri, [], self.topology, state, self.color, self.rast, self.weight,
+                                 self.g_color, self.g_clip, 1.0, threads)
+        _core.interpolate_backward(attr, self.rast, tri, None, [], self.g_color, None, self.g_attr, self.g_rast, None,
+                                   threads)
+        _core.rasterize_backward(self.ctx, clip, tri, [], self.rast, self.g_rast, None, self.g_clip, threads)
         return self.g_clip
 
 

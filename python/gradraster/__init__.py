@@ -17,5 +17,6 @@ def write_png(path, image):
         a = a[:, :, None]
     if a.ndim != 3 or not 1 <= a.shape[2] <= 4 or a.shape[0] < 1 or a.shape[1] < 1:
         raise ValueError(f"write_png: 'image' must be [H, W] or [H, W, C] with C in 1..4, got shape {list(a.shape)}")
-    a = np.ascontiguousarray(a)
-    _core.write_png(str(path), a.ctypes.data, a.shape[0], a.shape[1], a.shape[2])
+    if not (a.flags.c_contiguous and a.flags.writeable):  # numpy exports DLPack from writeable arrays only
+        a = np.array(a, order='C')
+    _core.write_png(str(path), a)

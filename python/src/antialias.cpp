@@ -1,6 +1,9 @@
 #include "python/src/antialias.h"
 
 #include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdint>
 #include <string>
 
 #include "autodiff/error.h"
@@ -11,26 +14,39 @@ namespace gr::python {
 namespace {
 
 // Our antialias kernel reads an int32 id image and a depth image: both are
-// taken from rast's channels 3 and 2 (one pass over the G-buffer).
+// taken from rast's channels 3 and 2 (one pass over the G-buffer, which also
+// checks the ids: false when one is not an integer in [0, triangles]; a bad
+// id becomes 0, and the caller throws check_rast_ids's error).
 template <class T>
-void split_rast(const T* rast, std::int64_t pixels, std::vector<std::int32_t>* tri_id, std::vector<T>* depth) {
+bool split_rast(const T* rast, std::int64_t pixels, std::int64_t triangles, std::vector<std::int32_t>* tri_id,
+                std::vector<T>* depth) {
   tri_id->resize(static_cast<std::size_t>(pixels));
   depth->resize(static_cast<std::size_t>(pixels));
+  const T top = static_cast<T>(triangles);
+  bool ok = true;
   for (std::int64_t q = 0; q < pixels; ++q) {
-    (*tri_id)[q] = static_cast<std::int32_t>(rast[4 * q + 3]);
+    const T id = rast[4 * q + 3];
+    const bool good = (id >= 0) & (id <= top) & (id == std::floor(id));
+    ok &= good;
+    (*tri_id)[q] = good ? static_cast<std::int32_t>(id) : 0;
     (*depth)[q] = rast[4 * q + 2];
   }
+  return ok;
 }
 
-// Image b's kernel inputs, its ids, depths and flipped positions in s.
+// Image b's kernel inputs, its ids, depths and flipped positions in s;
+// *ids_ok: whether its ids are valid (split_rast).
 template <class T>
-raster::AntialiasParams<T> image_params(ImageScratch& s, const Mesh& mesh, const Topology& topology, Address color,
-                                        Address rast, std::int64_t channels, int height, int width, std::int64_t b) {
+raster::AntialiasParams<T> image_params(ImageScratch& s, const Mesh& mesh, const Topology& topology,
+                                        const Array& color, const Array& rast, std::int64_t b, bool* ids_ok) {
+  const int height = static_cast<int>(color.size(1)), width = static_cast<int>(color.size(2));
+  const std::int64_t channels = color.size(3);
   const std::int64_t pixels = static_cast<std::int64_t>(height) * width;
-  copy_flipped(at<const T>(mesh.pos) + mesh.pos_offset(b), mesh.vertices, &s.buffer<T>(ImageScratch::kClip));
-  split_rast(at<const T>(rast) + 4 * pixels * b, pixels, &s.tri_id, &s.buffer<T>(ImageScratch::kDepth));
+  copy_flipped(mesh.positions<T>(b), mesh.vertices, &s.buffer<T>(ImageScratch::kClip));
+  *ids_ok = split_rast(rast.in<T>() + 4 * pixels * b, pixels, mesh.triangles, &s.tri_id,
+                       &s.buffer<T>(ImageScratch::kDepth));
   raster::AntialiasParams<T> p;
-  p.image = at<const T>(color) + pixels * channels * b;
+  p.image = color.in<T>() + pixels * channels * b;
   p.channels = static_cast<int>(channels);
   p.width = width;
   p.height = height;
@@ -38,17 +54,36 @@ raster::AntialiasParams<T> image_params(ImageScratch& s, const Mesh& mesh, const
   p.depth = s.buffer<T>(ImageScratch::kDepth).data();
   p.clip = s.buffer<T>(ImageScratch::kClip).data();
   p.num_vertices = mesh.vertices;
-  p.tris = at<const std::int32_t>(mesh.tri);
+  p.tris = mesh.tris();
   p.num_tris = mesh.triangles;
   p.topology = &topology.edges;
   return p;
 }
 
+// The shapes both directions read: color [images, H, W, C] (C >= 1) and rast
+// [images, H, W, 4], of pos's dtype.
+void check_shapes(const Mesh& mesh, const Array& color, const Array& rast, const char* op) {
+  color.required().same_elem(mesh.pos).rank({4});
+  check_rast_shape(rast, mesh.images, mesh.pos.elem(), op);
+  color.shape({rast.size(0), rast.size(1), rast.size(2), -1}, "[minibatch_size, height, width, channels] as 'rast'");
+  if (color.size(3) < 1 || color.size(3) > INT32_MAX)
+    throw ValueError(std::string(op) + ": 'color' needs 1.." + std::to_string(INT32_MAX) + " channels, got " +
+                     std::to_string(color.size(3)));
+}
+
+void check_topology(const Topology& topology, const Mesh& mesh, const char* op) {
+  if (topology.triangles != mesh.triangles)
+    throw ValueError(std::string(op) + ": 'topology_hash' was built for " + std::to_string(topology.triangles) +
+                     " triangles but 'tri' has " + std::to_string(mesh.triangles));
+}
+
 }  // namespace
 
-std::shared_ptr<Topology> build_topology(Address tri, std::int64_t triangles, std::int64_t vertices,
-                                         const std::string& op) {
-  const auto* t = at<const std::int32_t>(tri);
+std::shared_ptr<Topology> build_topology(const pybind11::object& tri_, std::int64_t vertices, const std::string& op) {
+  const Array tri(tri_, op, "tri");
+  tri.elem_in({Elem::I32}).rank({2}).shape({-1, 3}, "[num_triangles, 3]");
+  const std::int64_t triangles = tri.size(0);
+  const std::int32_t* t = tri.in<std::int32_t>();
   if (vertices >= 0) {
     raster::detail::check_triangles(t, triangles, vertices, op.c_str());
   } else {
@@ -64,59 +99,99 @@ std::shared_ptr<Topology> build_topology(Address tri, std::int64_t triangles, st
   return topology;
 }
 
-std::shared_ptr<AntialiasState> antialias_forward(Context& ctx, const Mesh& mesh, const Topology& topology,
-                                                  Address color, std::int64_t channels, int height, int width,
-                                                  Address rast, Address out, bool visibility, int threads) {
-  KernelCall call(threads);
+std::shared_ptr<AntialiasState> antialias_forward(Context& ctx, const pybind11::object& pos,
+                                                  const pybind11::object& tri, Ranges ranges, const Topology& topology,
+                                                  const pybind11::object& color_, const pybind11::object& rast_,
+                                                  const pybind11::object& out_, bool visibility, int threads) {
   const char* op = visibility ? "visibility_antialias" : "antialias";
+  const Mesh mesh(pos, tri, std::move(ranges), op);
+  const Array color(color_, op, "color"), rast(rast_, op, "rast"), out(out_, op, "out");
+  check_shapes(mesh, color, rast, op);
+  out.same_elem(color).shape(color.shape());
+  check_disjoint(op, {&out}, {&mesh.pos, &mesh.tri, &color, &rast});
+  KernelCall call(threads);
   check_mesh(mesh, op);
-  if (topology.triangles != mesh.triangles)
-    throw ValueError(std::string(op) + ": 'topology_hash' was built for " + std::to_string(topology.triangles) +
-                     " triangles but 'tri' has " + std::to_string(mesh.triangles));
-  const std::int64_t pixels = static_cast<std::int64_t>(height) * width;
+  check_topology(topology, mesh, op);
+  const std::int64_t pixels = color.size(1) * color.size(2), channels = color.size(3);
   auto state = std::make_shared<AntialiasState>();
   state->pairs.resize(static_cast<std::size_t>(mesh.images));
+  state->height = color.size(1);
+  state->width = color.size(2);
+  state->channels = channels;
+  state->vertices = mesh.vertices;
+  state->triangles = mesh.triangles;
+  state->visibility = visibility;
   ctx.reserve(mesh.images);
   dispatch(mesh.f64, [&](auto tag) {
     using T = decltype(tag);
-    check_rast_ids(at<const T>(rast), mesh.images * pixels, mesh.triangles, "rast", op);
+    std::atomic<bool> bad_ids{false};
     for_each_image(mesh.images, [&](std::int64_t b) {
-      const auto p = image_params<T>(ctx.image(b), mesh, topology, color, rast, channels, height, width, b);
-      raster::blend_boundaries_forward(visibility, p, at<T>(out) + pixels * channels * b, &state->pairs[b]);
+      bool ids_ok = true;
+      const auto p = image_params<T>(ctx.image(b), mesh, topology, color, rast, b, &ids_ok);
+      if (!ids_ok) return bad_ids.store(true);
+      raster::blend_boundaries_forward(visibility, p, out.out<T>() + pixels * channels * b, &state->pairs[b]);
     });
+    if (bad_ids) check_rast_ids(rast.in<T>(), mesh.images * pixels, mesh.triangles, "rast", op);  // throws
   });
   return state;
 }
 
-void antialias_backward(Context& ctx, const Mesh& mesh, const Topology& topology, const AntialiasState& state,
-                        Address color, std::int64_t channels, int height, int width, Address rast,
-                        Address grad_out, Address grad_color, Address grad_pos, double pos_gradient_boost,
-                        int threads) {
+void antialias_backward(Context& ctx, const pybind11::object& pos, const pybind11::object& tri, Ranges ranges,
+                        const Topology& topology, const AntialiasState& state, const pybind11::object& color_,
+                        const pybind11::object& rast_, const pybind11::object& grad_out_,
+                        const pybind11::object& grad_color_, const pybind11::object& grad_pos_,
+                        double pos_gradient_boost, int threads) {
+  const char* op = state.visibility ? "visibility_antialias backward" : "antialias backward";
+  const Mesh mesh(pos, tri, std::move(ranges), op);
+  const Array color(color_, op, "color"), rast(rast_, op, "rast"), grad_out(grad_out_, op, "grad_out"),
+      grad_color(grad_color_, op, "grad_color", true), grad_pos(grad_pos_, op, "grad_pos", true);
+  check_shapes(mesh, color, rast, op);
+  // The pairs index the forward's pixels, channels and vertices.
+  if (static_cast<std::int64_t>(state.pairs.size()) != mesh.images || state.height != color.size(1) ||
+      state.width != color.size(2) || state.channels != color.size(3) || state.vertices != mesh.vertices ||
+      state.triangles != mesh.triangles)
+    throw ValueError(std::string(op) + ": the state is of a forward call with " + std::to_string(state.pairs.size()) +
+                     " images of " + std::to_string(state.height) + " x " + std::to_string(state.width) + " x " +
+                     std::to_string(state.channels) + ", " + std::to_string(state.vertices) + " vertices and " +
+                     std::to_string(state.triangles) + " triangles; these inputs differ");
+  if (!std::isfinite(pos_gradient_boost))
+    throw ValueError(std::string(op) + ": 'pos_gradient_boost' must be a finite number, got " +
+                     std::to_string(pos_gradient_boost));
+  grad_out.same_elem(color).shape(color.shape());
+  grad_color.same_elem(color).shape(color.shape());
+  grad_pos.same_elem(mesh.pos).shape(mesh.pos.shape());
+  check_disjoint(op, {&grad_color, &grad_pos}, {&mesh.pos, &mesh.tri, &color, &rast, &grad_out});
   KernelCall call(threads);
-  const std::int64_t pixels = static_cast<std::int64_t>(height) * width;
+  check_mesh(mesh, op);
+  check_topology(topology, mesh, op);
+  const std::int64_t pixels = color.size(1) * color.size(2), channels = color.size(3);
   ctx.reserve(mesh.images);
   dispatch(mesh.f64, [&](auto tag) {
     using T = decltype(tag);
+    std::atomic<bool> bad_ids{false};
     // Per image: the colour gradient in place, the position gradient in the
     // image's buffer (scaled by the boost), then added as rasterize's is.
     for_each_image(mesh.images, [&](std::int64_t b) {
       ImageScratch& s = ctx.image(b);
-      const auto p = image_params<T>(s, mesh, topology, color, rast, channels, height, width, b);
+      bool ids_ok = true;
+      const auto p = image_params<T>(s, mesh, topology, color, rast, b, &ids_ok);
+      if (!ids_ok) return bad_ids.store(true);
       std::vector<T>& grad = s.buffer<T>(ImageScratch::kGrad);
       raster::AntialiasGrads<T> g;
-      if (grad_color) g.image = at<T>(grad_color) + pixels * channels * b;
+      if (grad_color) g.image = grad_color.out<T>() + pixels * channels * b;
       if (grad_pos) {
         grad.assign(4 * static_cast<std::size_t>(mesh.vertices), T(0));
         g.clip = grad.data();
       }
-      raster::blend_boundaries_backward(p, state.pairs[b], at<const T>(grad_out) + pixels * channels * b, g);
+      raster::blend_boundaries_backward(p, state.pairs[b], grad_out.in<T>() + pixels * channels * b, g);
       if (!grad_pos) return;
       for (T& v : grad) v = static_cast<T>(pos_gradient_boost * v);
-      if (mesh.instanced) add_flipped(grad.data(), mesh.vertices, at<T>(grad_pos) + mesh.pos_offset(b));
+      if (mesh.instanced) add_flipped(grad.data(), mesh.vertices, grad_pos.out<T>() + mesh.pos_offset(b));
     });
+    if (bad_ids) check_rast_ids(rast.in<T>(), mesh.images * pixels, mesh.triangles, "rast", op);  // throws
     if (grad_pos && !mesh.instanced)
       for (std::int64_t b = 0; b < mesh.images; ++b)
-        add_flipped(ctx.image(b).buffer<T>(ImageScratch::kGrad).data(), mesh.vertices, at<T>(grad_pos));
+        add_flipped(ctx.image(b).buffer<T>(ImageScratch::kGrad).data(), mesh.vertices, grad_pos.out<T>());
   });
 }
 

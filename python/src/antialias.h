@@ -23,25 +23,31 @@ struct Topology {
   raster::EdgeTopology edges;
   std::int64_t triangles = 0;
 };
-std::shared_ptr<Topology> build_topology(Address tri, std::int64_t triangles, std::int64_t vertices,
-                                         const std::string& op);
+std::shared_ptr<Topology> build_topology(const pybind11::object& tri, std::int64_t vertices, const std::string& op);
 
 // What the backward needs: per image, the blended pixel pairs (of
-// visibility_antialias when `visibility`).
+// visibility_antialias when `visibility`), and the sizes they index.
 struct AntialiasState {
   std::vector<raster::BlendedPairs> pairs;
+  std::int64_t height = 0, width = 0, channels = 0, vertices = 0, triangles = 0;
+  bool visibility = false;
 };
 
-// color, out: [images, H, W, C]; rast: the G-buffer for mesh. visibility:
-// visibility_antialias instead of antialias.
-std::shared_ptr<AntialiasState> antialias_forward(Context& ctx, const Mesh& mesh, const Topology& topology,
-                                                  Address color, std::int64_t channels, int height, int width,
-                                                  Address rast, Address out, bool visibility, int threads);
-// Accumulates into grad_color (zeroed, or 0) and grad_pos (zeroed, or 0);
-// the position gradient is multiplied by pos_gradient_boost.
-void antialias_backward(Context& ctx, const Mesh& mesh, const Topology& topology, const AntialiasState& state,
-                        Address color, std::int64_t channels, int height, int width, Address rast,
-                        Address grad_out, Address grad_color, Address grad_pos, double pos_gradient_boost,
-                        int threads);
+// pos, tri, ranges: a Mesh (range mode: one range per image of rast).
+// color, out: [images, H, W, C] of pos's dtype, C >= 1; rast: the G-buffer
+// [images, H, W, 4] for the mesh. visibility: visibility_antialias instead
+// of antialias.
+std::shared_ptr<AntialiasState> antialias_forward(Context& ctx, const pybind11::object& pos,
+                                                  const pybind11::object& tri, Ranges ranges, const Topology& topology,
+                                                  const pybind11::object& color, const pybind11::object& rast,
+                                                  const pybind11::object& out, bool visibility, int threads);
+// The forward's inputs and state; grad_out: color's shape. Accumulates into
+// grad_color (zeroed, color's shape, or None) and grad_pos (zeroed, pos's
+// shape, or None); the position gradient is multiplied by pos_gradient_boost.
+void antialias_backward(Context& ctx, const pybind11::object& pos, const pybind11::object& tri, Ranges ranges,
+                        const Topology& topology, const AntialiasState& state, const pybind11::object& color,
+                        const pybind11::object& rast, const pybind11::object& grad_out,
+                        const pybind11::object& grad_color, const pybind11::object& grad_pos,
+                        double pos_gradient_boost, int threads);
 
 }  // namespace gr::python

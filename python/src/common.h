@@ -1,7 +1,10 @@
 // Shared pieces of the Python binding (gradraster._core). The Python layer
-// (python/gradraster/torch/ops.py) checks types, devices, dtypes, layouts
-// and shapes and passes each tensor's data_ptr(); the functions here check
-// values (indices, ids, finiteness), convert nvdiffrast's conventions and run
+// (python/gradraster/torch/ops.py) passes tensors (detached torch tensors),
+// which the functions here take as typed views (python/src/array.h) and
+// check themselves: element types, layouts and shapes when the call starts
+// (with the GIL), then values (indices, ids, finiteness) inside the kernel
+// call. ops.py repeats some checks for nvdiffrast's error messages, but no
+// check lives only there. Then they convert nvdiffrast's conventions and run
 // the raster/ kernels directly on the tensors' memory.
 #pragma once
 
@@ -13,19 +16,23 @@
 
 #include <pybind11/pybind11.h>
 
+#include "python/src/array.h"
+
 namespace gr::python {
 
-// A tensor's memory as the Python layer passes it (0 = absent).
-using Address = std::uintptr_t;
-template <class T>
-T* at(Address a) {
-  return reinterpret_cast<T*>(a);
-}
+// Pixels per side, the rasterizer's limit (raster::RasterSettings).
+constexpr std::int64_t kMaxSide = 16384;
+// float32 holds every triangle id + 1 exactly below this count.
+constexpr std::int64_t kMaxFloat32Ids = std::int64_t(1) << 24;
+
+// (first triangle, count) per image: nvdiffrast's range mode.
+using Ranges = std::vector<std::pair<std::int64_t, std::int64_t>>;
 
 // Runs a kernel call: holds the binding's lock (calls from several Python
 // threads run one at a time, as the thread setting is process-wide), sets
 // gradraster's thread count to `threads` when it changed, and releases the
-// GIL for the duration.
+// GIL for the duration. Declared after the call's Arrays, so it ends (the
+// GIL back) before they are released.
 class KernelCall {
  public:
   explicit KernelCall(int threads);
@@ -43,17 +50,27 @@ decltype(auto) dispatch(bool f64, F&& f) {
 }
 
 // A triangle mesh as rasterize, the peeler and antialias see it (nvdiffrast's
-// instanced or range mode). Built by the Python layer after its shape checks.
+// instanced or range mode), its shapes checked: pos [images, N, 4] float
+// (instanced; ranges empty) or [N, 4] (range mode; one range per image), tri
+// [M, 3] int32, float32 positions with fewer than 2^24 triangles. Values are
+// checked by check_mesh.
 struct Mesh {
+  Mesh(const pybind11::handle& pos, const pybind11::handle& tri, Ranges ranges, const char* op);
+
+  Array pos, tri;
   bool f64 = false;
-  Address pos = 0;             // [images, N, 4] (instanced) or [N, 4] (range mode)
   std::int64_t images = 0;     // minibatch size
   std::int64_t vertices = 0;   // N
   bool instanced = false;
-  Address tri = 0;             // [M, 3] int32
   std::int64_t triangles = 0;  // M
   // Range mode: (first triangle, count) per image; instanced: empty.
-  std::vector<std::pair<std::int64_t, std::int64_t>> ranges;
+  Ranges ranges;
+
+  template <class T>
+  const T* positions(std::int64_t b) const {
+    return pos.in<T>() + pos_offset(b);
+  }
+  const std::int32_t* tris() const { return tri.in<std::int32_t>(); }
 
   // Offset of image b's positions, in values.
   std::int64_t pos_offset(std::int64_t b) const { return instanced ? 4 * vertices * b : 0; }
@@ -83,6 +100,10 @@ template <class T>
 void copy_flipped(const T* pos, std::int64_t vertices, std::vector<T>* out);
 template <class T>
 void add_flipped(const T* grad, std::int64_t vertices, T* grad_pos);
+
+// rast: a [images, H, W, 4] G-buffer of elem's type (images < 0: any) with
+// H, W < 2^31 (ValueError, TypeError otherwise).
+void check_rast_shape(const Array& rast, std::int64_t images, Elem elem, const char* op);
 
 // Throws a gr::IndexError naming `what` if a pixel's id (channel 3 of an
 // nvdiffrast G-buffer) is not an integer in [0, triangles].

@@ -8,7 +8,7 @@
 
 namespace gr::python {
 
-// image: height x width x channels float32 (1-4 channels), values in [0, 1].
-void write_png(const std::string& path, Address image, std::int64_t height, std::int64_t width, std::int64_t channels);
+// image: [height, width, channels] float32 (1-4 channels), values in [0, 1].
+void write_png(const std::string& path, const pybind11::object& image);
 
 }  // namespace gr::python

@@ -1,5 +1,8 @@
 #include "python/src/interpolate.h"
 
+#include <string>
+
+#include "autodiff/error.h"
 #include "raster/barycentric_interpolate.h"
 #include "raster/rasterize_setup.h"
 
@@ -10,45 +13,105 @@ template <class T>
 raster::BarycentricInterpolateParams<T> image_params(const InterpolateArgs& a, std::int64_t b) {
   const std::int64_t pixels = a.height * a.width;
   raster::BarycentricInterpolateParams<T> p;
-  p.attr = at<const T>(a.attr) + (a.attr_images == 1 ? 0 : b * a.vertices * a.channels);
+  p.attr = a.attr.in<T>() + (a.attr_images == 1 ? 0 : b * a.vertices * a.channels);
   p.num_vertices = a.vertices;
   p.channels = a.channels;
-  p.tris = at<const std::int32_t>(a.tri);
+  p.tris = a.tri.in<std::int32_t>();
   p.num_tris = a.triangles;
-  p.rast = at<const T>(a.rast) + 4 * pixels * b;
+  p.rast = a.rast.in<T>() + 4 * pixels * b;
   p.pixels = pixels;
   if (a.rast_db && !a.diff.empty()) {
-    p.rast_db = at<const T>(a.rast_db) + 4 * pixels * b;
+    p.rast_db = a.rast_db.in<T>() + 4 * pixels * b;
     p.diff = a.diff.data();
     p.num_diff = static_cast<std::int64_t>(a.diff.size());
   }
   return p;
 }
 
+// The values the kernels index with: tri's indices, rast's ids.
+template <class T>
+void check_values(const InterpolateArgs& a, const char* op) {
+  raster::detail::check_triangles(a.tri.in<std::int32_t>(), a.triangles, a.vertices, op);
+  check_rast_ids(a.rast.in<T>(), a.images * a.height * a.width, a.triangles, "rast", op);
+}
+
 }  // namespace
 
-void interpolate_forward(const InterpolateArgs& a, Address out, Address out_da, int threads) {
-  KernelCall call(threads);
-  raster::detail::check_triangles(at<const std::int32_t>(a.tri), a.triangles, a.vertices, "interpolate");
-  const std::int64_t pixels = a.height * a.width;
+InterpolateArgs::InterpolateArgs(const pybind11::object& attr_, const pybind11::object& rast_,
+                                 const pybind11::object& tri_, const pybind11::object& rast_db_,
+                                 std::vector<std::int32_t> diff_, const char* op)
+    : attr(attr_, op, "attr"), rast(rast_, op, "rast"), tri(tri_, op, "tri"), rast_db(rast_db_, op, "rast_db", true),
+      diff(std::move(diff_)) {
+  rast.floating();
+  check_rast_shape(rast, -1, rast.elem(), op);
+  attr.same_elem(rast).rank({2, 3});
+  tri.elem_in({Elem::I32}).rank({2}).shape({-1, 3}, "[num_triangles, 3]");
+  images = rast.size(0);
+  height = rast.size(1);
+  width = rast.size(2);
+  attr_images = attr.dim() == 3 ? attr.size(0) : 1;
+  if (attr_images != 1 && attr_images != images)
+    throw ValueError(std::string(op) + ": 'attr' has minibatch size " + std::to_string(attr_images) +
+                     " but 'rast' has " + std::to_string(images) + " (broadcast needs 1)");
+  vertices = attr.size(-2);
+  channels = attr.size(-1);
+  triangles = tri.size(0);
+  rast_db.same_elem(rast).shape(rast.shape());
+  for (std::int32_t d : diff)
+    if (d < 0 || d >= channels)
+      throw ValueError(std::string(op) + ": 'diff_attrs' index " + std::to_string(d) + " is outside 0.." +
+                       std::to_string(channels - 1) + " (attr has " + std::to_string(channels) + " attributes)");
+  if (!diff.empty()) rast_db.required("'diff_attrs' needs it (the second output of rasterize)");
+}
+
+void interpolate_forward(const pybind11::object& attr, const pybind11::object& rast, const pybind11::object& tri,
+                         const pybind11::object& rast_db, std::vector<std::int32_t> diff, const pybind11::object& out_,
+                         const pybind11::object& out_da_, int threads) {
+  const char* op = "interpolate";
+  const InterpolateArgs a(attr, rast, tri, rast_db, std::move(diff), op);
   const std::int64_t K = static_cast<std::int64_t>(a.diff.size());
-  dispatch(a.f64, [&](auto tag) {
+  const Array out(out_, op, "out"), out_da(out_da_, op, "out_da", true);
+  out.same_elem(a.rast).shape({a.images, a.height, a.width, a.channels});
+  if (K) out_da.required("the derivatives of 'diff_attrs' go there");
+  if (!K && out_da) throw ValueError(std::string(op) + ": 'out_da' is given but 'diff_attrs' is empty");
+  out_da.same_elem(a.rast).shape({a.images, a.height, a.width, 2 * K});
+  check_disjoint(op, {&out, &out_da}, {&a.attr, &a.rast, &a.tri, &a.rast_db});
+  KernelCall call(threads);
+  const std::int64_t pixels = a.height * a.width;
+  dispatch(a.rast.elem() == Elem::F64, [&](auto tag) {
     using T = decltype(tag);
-    check_rast_ids(at<const T>(a.rast), a.images * pixels, a.triangles, "rast", "interpolate");
+    check_values<T>(a, op);
     for_each_image(a.images, [&](std::int64_t b) {
-      raster::barycentric_interpolate_forward(image_params<T>(a, b), at<T>(out) + b * pixels * a.channels,
-                                              out_da ? at<T>(out_da) + b * pixels * 2 * K : nullptr);
+      raster::barycentric_interpolate_forward(image_params<T>(a, b), out.out<T>() + b * pixels * a.channels,
+                                              out_da ? out_da.out<T>() + b * pixels * 2 * K : nullptr);
     });
   });
 }
 
-void interpolate_backward(const InterpolateArgs& a, Address grad_out, Address grad_da, Address grad_attr,
-                          Address grad_rast, Address grad_db, int threads) {
+void interpolate_backward(const pybind11::object& attr, const pybind11::object& rast, const pybind11::object& tri,
+                          const pybind11::object& rast_db, std::vector<std::int32_t> diff,
+                          const pybind11::object& grad_out_, const pybind11::object& grad_da_,
+                          const pybind11::object& grad_attr_, const pybind11::object& grad_rast_,
+                          const pybind11::object& grad_db_, int threads) {
+  const char* op = "interpolate backward";
+  const InterpolateArgs a(attr, rast, tri, rast_db, std::move(diff), op);
+  const std::int64_t K = static_cast<std::int64_t>(a.diff.size());
+  const Array grad_out(grad_out_, op, "grad_out"), grad_da(grad_da_, op, "grad_da", true),
+      grad_attr(grad_attr_, op, "grad_attr", true), grad_rast(grad_rast_, op, "grad_rast", true),
+      grad_db(grad_db_, op, "grad_db", true);
+  grad_out.same_elem(a.rast).shape({a.images, a.height, a.width, a.channels});
+  if (!K && grad_da) throw ValueError(std::string(op) + ": 'grad_da' is given but 'diff_attrs' is empty");
+  grad_da.same_elem(a.rast).shape({a.images, a.height, a.width, 2 * K});
+  grad_attr.same_elem(a.rast).shape(a.attr.shape());
+  grad_rast.same_elem(a.rast).shape(a.rast.shape());
+  if (grad_db && !a.rast_db) throw ValueError(std::string(op) + ": 'grad_db' is given but 'rast_db' is not");
+  grad_db.same_elem(a.rast).shape(a.rast.shape());
+  check_disjoint(op, {&grad_attr, &grad_rast, &grad_db}, {&a.attr, &a.rast, &a.tri, &a.rast_db, &grad_out, &grad_da});
   KernelCall call(threads);
   const std::int64_t pixels = a.height * a.width;
-  const std::int64_t K = static_cast<std::int64_t>(a.diff.size());
-  dispatch(a.f64, [&](auto tag) {
+  dispatch(a.rast.elem() == Elem::F64, [&](auto tag) {
     using T = decltype(tag);
+    check_values<T>(a, op);
     // A broadcast attr's gradient: one buffer per image, summed in image order.
     const bool shared = grad_attr && a.attr_images == 1 && a.images > 1;
     const std::int64_t attr_values = a.vertices * a.channels;
@@ -59,17 +122,17 @@ void interpolate_backward(const InterpolateArgs& a, Address grad_out, Address gr
         parts[b].assign(static_cast<std::size_t>(attr_values), T(0));
         g.attr = parts[b].data();
       } else if (grad_attr) {
-        g.attr = at<T>(grad_attr) + (a.attr_images == 1 ? 0 : b * attr_values);
+        g.attr = grad_attr.out<T>() + (a.attr_images == 1 ? 0 : b * attr_values);
       }
-      if (grad_rast) g.rast = at<T>(grad_rast) + 4 * pixels * b;
-      if (grad_db && a.rast_db) g.rast_db = at<T>(grad_db) + 4 * pixels * b;
-      raster::barycentric_interpolate_backward(image_params<T>(a, b), at<const T>(grad_out) + b * pixels * a.channels,
-                                               grad_da ? at<const T>(grad_da) + b * pixels * 2 * K : nullptr, g);
+      if (grad_rast) g.rast = grad_rast.out<T>() + 4 * pixels * b;
+      if (grad_db) g.rast_db = grad_db.out<T>() + 4 * pixels * b;
+      raster::barycentric_interpolate_backward(image_params<T>(a, b), grad_out.in<T>() + b * pixels * a.channels,
+                                               grad_da ? grad_da.in<T>() + b * pixels * 2 * K : nullptr, g);
     });
     if (shared) {
       std::vector<std::vector<T>*> order;
       for (auto& part : parts) order.push_back(&part);
-      add_in_image_order(order, attr_values, at<T>(grad_attr));
+      add_in_image_order(order, attr_values, grad_attr.out<T>());
     }
   });
 }

@@ -8,24 +8,33 @@
 
 namespace gr::python {
 
+// The inputs of one call, viewed and checked: rast [images, H, W, 4] float;
+// attr [N, C] or [attr_images, N, C] of rast's dtype (attr_images 1 =
+// broadcast, or images); tri [M, 3] int32; rast_db None or rast's shape;
+// diff: channels in [0, C) to differentiate (rast_db required for any).
 struct InterpolateArgs {
-  bool f64 = false;
-  Address attr = 0;               // [attr_images, N, C] (attr_images 1 = broadcast)
+  InterpolateArgs(const pybind11::object& attr, const pybind11::object& rast, const pybind11::object& tri,
+                  const pybind11::object& rast_db, std::vector<std::int32_t> diff, const char* op);
+  Array attr, rast, tri, rast_db;
   std::int64_t attr_images = 1;
   std::int64_t vertices = 0, channels = 0;
-  Address tri = 0;                // [M, 3] int32
   std::int64_t triangles = 0;
-  Address rast = 0;               // [images, H, W, 4]
-  Address rast_db = 0;            // same shape or 0
   std::int64_t images = 0, height = 0, width = 0;
   std::vector<std::int32_t> diff;  // channels to differentiate
 };
 
-// out: [images, H, W, C]; out_da: [images, H, W, 2 diff] or 0.
-void interpolate_forward(const InterpolateArgs& a, Address out, Address out_da, int threads);
-// Accumulates into grad_attr (attr's shape, zeroed; 0 = not needed),
-// grad_rast and grad_db (zeroed, or 0). grad_da may be 0.
-void interpolate_backward(const InterpolateArgs& a, Address grad_out, Address grad_da, Address grad_attr,
-                          Address grad_rast, Address grad_db, int threads);
+// out: [images, H, W, C]; out_da: [images, H, W, 2 len(diff)], required
+// with diff, else None.
+void interpolate_forward(const pybind11::object& attr, const pybind11::object& rast, const pybind11::object& tri,
+                         const pybind11::object& rast_db, std::vector<std::int32_t> diff, const pybind11::object& out,
+                         const pybind11::object& out_da, int threads);
+// grad_out: out's shape; grad_da: out_da's shape or None. Accumulates into
+// grad_attr, grad_rast and grad_db (zeroed, shaped like attr, rast, rast_db;
+// each None when not needed).
+void interpolate_backward(const pybind11::object& attr, const pybind11::object& rast, const pybind11::object& tri,
+                          const pybind11::object& rast_db, std::vector<std::int32_t> diff,
+                          const pybind11::object& grad_out, const pybind11::object& grad_da,
+                          const pybind11::object& grad_attr, const pybind11::object& grad_rast,
+                          const pybind11::object& grad_db, int threads);
 
 }  // namespace gr::python

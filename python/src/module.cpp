@@ -1,7 +1,9 @@
-// gradraster._core: the C++ side of gradraster.torch. Functions take tensor
-// addresses (data_ptr) from the Python layer, which checks types and shapes;
-// gr errors become Python exceptions (ValueError, IndexError, TypeError,
-// OSError, MemoryError, RuntimeError) with gradraster's message.
+// gradraster._core: the C++ side of gradraster.torch. Functions take tensors
+// (objects exporting DLPack: detached torch tensors, numpy arrays) and view
+// and check them themselves (python/src/array.h), holding them until the
+// kernels are done; gr errors become Python exceptions (ValueError,
+// IndexError, TypeError, OSError, MemoryError, RuntimeError) with
+// gradraster's message.
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
@@ -48,12 +50,6 @@ PYBIND11_MODULE(_core, m) {
   m.def("keep_freed_memory", &gr::tune_malloc);
   m.attr("MAX_THREADS") = gr::kMaxThreads;
 
-  py::class_<Mesh>(m, "Mesh")
-      .def(py::init([](bool f64, Address pos, std::int64_t images, std::int64_t vertices, bool instanced, Address tri,
-                       std::int64_t triangles, std::vector<std::pair<std::int64_t, std::int64_t>> ranges) {
-        return Mesh{f64, pos, images, vertices, instanced, tri, triangles, std::move(ranges)};
-      }));
-
   py::class_<Context>(m, "Context")
       .def(py::init<>())
       // A context whose rasterizer runs on a Vulkan device (Device::open's
@@ -87,51 +83,45 @@ PYBIND11_MODULE(_core, m) {
       false;
 #endif
   py::class_<PeelState>(m, "PeelState").def(py::init<>()).def_readonly("layers", &PeelState::layers);
-  m.def("rasterize_forward", &rasterize_forward);
-  m.def("rasterize_backward", &rasterize_backward);
+  m.def("rasterize_forward", &rasterize_forward, py::arg("ctx"), py::arg("pos"), py::arg("tri"), py::arg("ranges"),
+        py::arg("rast"), py::arg("rast_db"), py::arg("peel"), py::arg("threads"));
+  m.def("rasterize_backward", &rasterize_backward, py::arg("ctx"), py::arg("pos"), py::arg("tri"),
+        py::arg("ranges"), py::arg("rast"), py::arg("grad_rast"), py::arg("grad_db"), py::arg("grad_pos"),
+        py::arg("threads"));
 
-  py::class_<InterpolateArgs>(m, "InterpolateArgs")
-      .def(py::init([](bool f64, Address attr, std::int64_t attr_images, std::int64_t vertices, std::int64_t channels,
-                       Address tri, std::int64_t triangles, Address rast, Address rast_db, std::int64_t images,
-                       std::int64_t height, std::int64_t width, std::vector<std::int32_t> diff) {
-        return InterpolateArgs{f64,  attr,    attr_images, vertices, channels, tri,           triangles,
-                               rast, rast_db, images,      height,   width,    std::move(diff)};
-      }));
-  m.def("interpolate_forward", &interpolate_forward);
-  m.def("interpolate_backward", &interpolate_backward);
+  m.def("interpolate_forward", &interpolate_forward, py::arg("attr"), py::arg("rast"), py::arg("tri"),
+        py::arg("rast_db"), py::arg("diff"), py::arg("out"), py::arg("out_da"), py::arg("threads"));
+  m.def("interpolate_backward", &interpolate_backward, py::arg("attr"), py::arg("rast"), py::arg("tri"),
+        py::arg("rast_db"), py::arg("diff"), py::arg("grad_out"), py::arg("grad_da"), py::arg("grad_attr"),
+        py::arg("grad_rast"), py::arg("grad_db"), py::arg("threads"));
 
   py::class_<Topology, std::shared_ptr<Topology>>(m, "Topology").def_readonly("triangles", &Topology::triangles);
   py::class_<AntialiasState, std::shared_ptr<AntialiasState>>(m, "AntialiasState");
-  m.def("build_topology", &build_topology);
-  m.def("antialias_forward", &antialias_forward);
-  m.def("antialias_backward", &antialias_backward);
+  m.def("build_topology", &build_topology, py::arg("tri"), py::arg("vertices"), py::arg("op"));
+  m.def("antialias_forward", &antialias_forward, py::arg("ctx"), py::arg("pos"), py::arg("tri"), py::arg("ranges"),
+        py::arg("topology"), py::arg("color"), py::arg("rast"), py::arg("out"), py::arg("visibility"),
+        py::arg("threads"));
+  m.def("antialias_backward", &antialias_backward, py::arg("ctx"), py::arg("pos"), py::arg("tri"),
+        py::arg("ranges"), py::arg("topology"), py::arg("state"), py::arg("color"), py::arg("rast"),
+        py::arg("grad_out"), py::arg("grad_color"), py::arg("grad_pos"), py::arg("pos_gradient_boost"),
+        py::arg("threads"));
 
-  py::class_<TextureArgs>(m, "TextureArgs")
+  py::class_<TextureMode>(m, "TextureMode")
       .def(py::init<>())
-      .def_readwrite("f64", &TextureArgs::f64)
-      .def_readwrite("tex", &TextureArgs::tex)
-      .def_readwrite("tex_images", &TextureArgs::tex_images)
-      .def_readwrite("height", &TextureArgs::height)
-      .def_readwrite("width", &TextureArgs::width)
-      .def_readwrite("channels", &TextureArgs::channels)
-      .def_readwrite("pyramid", &TextureArgs::pyramid)
-      .def_readwrite("levels", &TextureArgs::levels)
-      .def_readwrite("user", &TextureArgs::user)
-      .def_readwrite("uv", &TextureArgs::uv)
-      .def_readwrite("uv_dx", &TextureArgs::uv_dx)
-      .def_readwrite("uv_dy", &TextureArgs::uv_dy)
-      .def_readwrite("bias", &TextureArgs::bias)
-      .def_readwrite("images", &TextureArgs::images)
-      .def_readwrite("samples", &TextureArgs::samples)
-      .def_readwrite("filter", &TextureArgs::filter)
-      .def_readwrite("wrap", &TextureArgs::wrap)
-      .def_readwrite("cube", &TextureArgs::cube)
-      .def_readwrite("uv_da", &TextureArgs::uv_da)
-      .def_readwrite("uv_jacobian", &TextureArgs::uv_jacobian);
+      .def_readwrite("levels", &TextureMode::levels)
+      .def_readwrite("user", &TextureMode::user)
+      .def_readwrite("filter", &TextureMode::filter)
+      .def_readwrite("wrap", &TextureMode::wrap)
+      .def_readwrite("cube", &TextureMode::cube);
   m.def("mip_sizes", &mip_sizes);
-  m.def("mip_build", &mip_build);
-  m.def("texture_forward", &texture_forward);
-  m.def("texture_backward", &texture_backward);
+  m.def("mip_build", &mip_build, py::arg("mode"), py::arg("tex"), py::arg("pyramid"), py::arg("threads"));
+  m.def("texture_forward", &texture_forward, py::arg("mode"), py::arg("tex"), py::arg("uv"), py::arg("uv_dx"),
+        py::arg("uv_dy"), py::arg("bias"), py::arg("pyramid"), py::arg("out"), py::arg("uv_jacobian"),
+        py::arg("threads"));
+  m.def("texture_backward", &texture_backward, py::arg("mode"), py::arg("tex"), py::arg("uv"), py::arg("uv_dx"),
+        py::arg("uv_dy"), py::arg("bias"), py::arg("pyramid"), py::arg("uv_jacobian"), py::arg("grad_out"),
+        py::arg("grad_tex"), py::arg("grad_uv"), py::arg("grad_uv_dx"), py::arg("grad_uv_dy"), py::arg("grad_bias"),
+        py::arg("grad_pyramid"), py::arg("threads"));
 
-  m.def("write_png", &write_png);
+  m.def("write_png", &write_png, py::arg("path"), py::arg("image"));
 }

@@ -49,10 +49,21 @@ bool rasterize_on_gpu(Context& ctx, const raster::RasterParams<T>& p, const T* p
 
 }  // namespace
 
-void rasterize_forward(Context& ctx, const Mesh& mesh, int height, int width, Address rast, Address db,
-                       PeelState* peel, int threads) {
+void rasterize_forward(Context& ctx, const pybind11::object& pos, const pybind11::object& tri, Ranges ranges,
+                       const pybind11::object& rast_, const pybind11::object& db_, PeelState* peel, int threads) {
+  const char* op = "rasterize";
+  const Mesh mesh(pos, tri, std::move(ranges), op);
+  const Array rast(rast_, op, "rast"), db(db_, op, "rast_db", true);
+  check_rast_shape(rast, mesh.images, mesh.pos.elem(), op);
+  const std::int64_t H = rast.size(1), W = rast.size(2);
+  if (H < 1 || H > kMaxSide || W < 1 || W > kMaxSide)
+    throw ValueError(std::string(op) + ": the resolution " + std::to_string(H) + " x " + std::to_string(W) +
+                     " (height x width of 'rast') is outside 1..16384");
+  db.same_elem(rast).shape(rast.shape());
+  check_disjoint(op, {&rast, &db}, {&mesh.pos, &mesh.tri});
+  const int height = static_cast<int>(H), width = static_cast<int>(W);
   KernelCall call(threads);
-  check_mesh(mesh, "rasterize");
+  check_mesh(mesh, op);
   const std::int64_t pixels = static_cast<std::int64_t>(height) * width;
   if (peel && peel->floor_id.empty()) {
     peel->floor_id.assign(static_cast<std::size_t>(mesh.images * pixels), 0);
@@ -71,7 +82,7 @@ void rasterize_forward(Context& ctx, const Mesh& mesh, int height, int width, Ad
     for_each_image(mesh.images, [&](std::int64_t b) {
       ImageScratch& s = ctx.image(b);
       std::vector<T>& clip = s.buffer<T>(ImageScratch::kClip);
-      copy_flipped(at<const T>(mesh.pos) + mesh.pos_offset(b), mesh.vertices, &clip);
+      copy_flipped(mesh.positions<T>(b), mesh.vertices, &clip);
       s.tri_id.resize(static_cast<std::size_t>(pixels));
       s.buffer<T>(ImageScratch::kUv).resize(2 * static_cast<std::size_t>(pixels));
       s.buffer<T>(ImageScratch::kDepth).resize(static_cast<std::size_t>(pixels));
@@ -80,7 +91,7 @@ void rasterize_forward(Context& ctx, const Mesh& mesh, int height, int width, Ad
       raster::RasterParams<T> p;
       p.clip = clip.data();
       p.num_vertices = mesh.vertices;
-      p.tris = at<const std::int32_t>(mesh.tri) + 3 * first;
+      p.tris = mesh.tris() + 3 * first;
       p.num_tris = count;
       p.settings.width = width;
       p.settings.height = height;
@@ -88,7 +99,7 @@ void rasterize_forward(Context& ctx, const Mesh& mesh, int height, int width, Ad
         p.floor_id = peel->floor_id.data() + b * pixels;
         p.floor_z = peel->floor_z.data() + b * pixels;
       }
-      if (!rasterize_on_gpu(ctx, p, at<const T>(mesh.pos) + mesh.pos_offset(b), peel != nullptr, s))
+      if (!rasterize_on_gpu(ctx, p, mesh.positions<T>(b), peel != nullptr, s))
         raster::rasterize_forward(p, s.tri_id.data(), s.buffer<T>(ImageScratch::kUv).data(),
                                   s.buffer<T>(ImageScratch::kDepth).data(), nullptr,
                                   peel ? s.key_depth.data() : nullptr);
@@ -96,40 +107,50 @@ void rasterize_forward(Context& ctx, const Mesh& mesh, int height, int width, Ad
         std::copy(s.tri_id.begin(), s.tri_id.end(), peel->floor_id.begin() + b * pixels);
         std::copy(s.key_depth.begin(), s.key_depth.end(), peel->floor_z.begin() + b * pixels);
       }
-      raster::BarycentricGBufferParams<T> g{p.clip, mesh.vertices, at<const std::int32_t>(mesh.tri), mesh.triangles,
-                                           width, height};
-      raster::barycentric_gbuffer_forward(g, s.tri_id.data(), first, at<T>(rast) + 4 * pixels * b,
-                                          db ? at<T>(db) + 4 * pixels * b : nullptr);
+      raster::BarycentricGBufferParams<T> g{p.clip, mesh.vertices, mesh.tris(), mesh.triangles, width, height};
+      raster::barycentric_gbuffer_forward(g, s.tri_id.data(), first, rast.out<T>() + 4 * pixels * b,
+                                          db ? db.out<T>() + 4 * pixels * b : nullptr);
     });
   });
   if (peel) ++peel->layers;
 }
 
-void rasterize_backward(Context& ctx, const Mesh& mesh, int height, int width, Address rast, Address grad_rast,
-                        Address grad_db, Address grad_pos, int threads) {
+void rasterize_backward(Context& ctx, const pybind11::object& pos, const pybind11::object& tri, Ranges ranges,
+                        const pybind11::object& rast_, const pybind11::object& grad_rast_,
+                        const pybind11::object& grad_db_, const pybind11::object& grad_pos_, int threads) {
+  const char* op = "rasterize backward";
+  const Mesh mesh(pos, tri, std::move(ranges), op);
+  const Array rast(rast_, op, "rast"), grad_rast(grad_rast_, op, "grad_rast"), grad_db(grad_db_, op, "grad_db", true),
+      grad_pos(grad_pos_, op, "grad_pos");
+  check_rast_shape(rast, mesh.images, mesh.pos.elem(), op);
+  grad_rast.same_elem(rast).shape(rast.shape());
+  grad_db.same_elem(rast).shape(rast.shape());
+  grad_pos.same_elem(mesh.pos).shape(mesh.pos.shape());
+  check_disjoint(op, {&grad_pos}, {&mesh.pos, &mesh.tri, &rast, &grad_rast, &grad_db});
+  const int height = static_cast<int>(rast.size(1)), width = static_cast<int>(rast.size(2));
   KernelCall call(threads);
+  check_mesh(mesh, op);
   const std::int64_t pixels = static_cast<std::int64_t>(height) * width;
   ctx.reserve(mesh.images);
   dispatch(mesh.f64, [&](auto tag) {
     using T = decltype(tag);
+    check_rast_ids(rast.in<T>(), mesh.images * pixels, mesh.triangles, "rast", op);
     // Each image's gradient in its own buffer; instanced images own their
     // positions, range-mode images share them and are summed in image order.
     for_each_image(mesh.images, [&](std::int64_t b) {
       ImageScratch& s = ctx.image(b);
       std::vector<T>& clip = s.buffer<T>(ImageScratch::kClip);
       std::vector<T>& grad = s.buffer<T>(ImageScratch::kGrad);
-      copy_flipped(at<const T>(mesh.pos) + mesh.pos_offset(b), mesh.vertices, &clip);
+      copy_flipped(mesh.positions<T>(b), mesh.vertices, &clip);
       grad.assign(4 * static_cast<std::size_t>(mesh.vertices), T(0));
-      raster::BarycentricGBufferParams<T> g{clip.data(), mesh.vertices, at<const std::int32_t>(mesh.tri),
-                                           mesh.triangles, width, height};
-      raster::barycentric_gbuffer_backward(g, at<const T>(rast) + 4 * pixels * b,
-                                           at<const T>(grad_rast) + 4 * pixels * b,
-                                           grad_db ? at<const T>(grad_db) + 4 * pixels * b : nullptr, grad.data());
-      if (mesh.instanced) add_flipped(grad.data(), mesh.vertices, at<T>(grad_pos) + mesh.pos_offset(b));
+      raster::BarycentricGBufferParams<T> g{clip.data(), mesh.vertices, mesh.tris(), mesh.triangles, width, height};
+      raster::barycentric_gbuffer_backward(g, rast.in<T>() + 4 * pixels * b, grad_rast.in<T>() + 4 * pixels * b,
+                                           grad_db ? grad_db.in<T>() + 4 * pixels * b : nullptr, grad.data());
+      if (mesh.instanced) add_flipped(grad.data(), mesh.vertices, grad_pos.out<T>() + mesh.pos_offset(b));
     });
     if (!mesh.instanced)
       for (std::int64_t b = 0; b < mesh.images; ++b)
-        add_flipped(ctx.image(b).buffer<T>(ImageScratch::kGrad).data(), mesh.vertices, at<T>(grad_pos));
+        add_flipped(ctx.image(b).buffer<T>(ImageScratch::kGrad).data(), mesh.vertices, grad_pos.out<T>());
   });
 }
 

@@ -48,13 +48,16 @@ struct Context {
   }
 };
 
-// rast, db: images x H x W x 4 (db may be 0). With a peel state, each image
-// draws only what lies behind the state's key, which is then advanced.
-void rasterize_forward(Context& ctx, const Mesh& mesh, int height, int width, Address rast, Address db,
-                       PeelState* peel, int threads);
+// pos, tri, ranges: a Mesh. rast, db (None: not wanted): [images, H, W, 4]
+// of pos's dtype, 1 <= H, W <= 16384 (the resolution). With a peel state,
+// each image draws only what lies behind the state's key, which is then
+// advanced.
+void rasterize_forward(Context& ctx, const pybind11::object& pos, const pybind11::object& tri, Ranges ranges,
+                       const pybind11::object& rast, const pybind11::object& db, PeelState* peel, int threads);
 // grad_pos (zeroed by the caller, pos's shape) += the adjoint for the
-// coverage in rast; grad_db may be 0.
-void rasterize_backward(Context& ctx, const Mesh& mesh, int height, int width, Address rast, Address grad_rast,
-                        Address grad_db, Address grad_pos, int threads);
+// coverage in rast; grad_rast: rast's shape; grad_db: None or rast's shape.
+void rasterize_backward(Context& ctx, const pybind11::object& pos, const pybind11::object& tri, Ranges ranges,
+                        const pybind11::object& rast, const pybind11::object& grad_rast,
+                        const pybind11::object& grad_db, const pybind11::object& grad_pos, int threads);
 
 }  // namespace gr::python

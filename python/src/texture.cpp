@@ -1,25 +1,105 @@
 #include "python/src/texture.h"
 
+#include <string>
+
+#include "autodiff/error.h"
 #include "raster/cube_texture.h"
 #include "raster/mipmap.h"
+#include "raster/rasterize_setup.h"
 #include "raster/texture.h"
 
 namespace gr::python {
+
 namespace {
+constexpr std::int64_t kMaxTextureSide = 32768;
+using Objects = const pybind11::object&;
+}  // namespace
 
-raster::MipLayout layout_of(const TextureArgs& a) {
-  return raster::mip_layout(a.height, a.width, a.levels - 1);
+struct TextureArgs {
+  TextureArgs(const TextureMode& mode, Objects tex, Objects uv, Objects uv_dx, Objects uv_dy, Objects bias,
+              Objects pyramid, Objects uv_jacobian, const char* op, bool lookups);
+
+  TextureMode mode;
+  Array tex, pyramid, uv, uv_dx, uv_dy, bias, uv_jacobian;
+  std::int64_t tex_images = 1;  // 1 = broadcast over the minibatch
+  int height = 0, width = 0;
+  std::int64_t channels = 0;
+  raster::MipLayout layout;
+  std::int64_t images = 0, samples = 0;
+
+  bool f64() const { return tex.elem() == Elem::F64; }
+  // Values of one texture image (2D, or 6 faces), of its levels 1.., of one
+  // image's samples.
+  std::int64_t texture_values() const { return (mode.cube ? 6 : 1) * height * width * channels; }
+  std::int64_t pyramid_values() const {
+    const std::int64_t base = static_cast<std::int64_t>(layout.levels[0].height) * layout.levels[0].width;
+    return (mode.cube ? 6 : 1) * (layout.total_texels - base) * channels;
+  }
+};
+
+TextureArgs::TextureArgs(const TextureMode& mode_, Objects tex_, Objects uv_, Objects uv_dx_, Objects uv_dy_,
+                         Objects bias_, Objects pyramid_, Objects uv_jacobian_, const char* op, bool lookups)
+    : mode(mode_),
+      tex(tex_, op, "tex"),
+      pyramid(pyramid_, op, "pyramid", true),
+      uv(uv_, op, "uv", !lookups),
+      uv_dx(uv_dx_, op, mode_.cube ? "uv_da" : "uv_dx", true),
+      uv_dy(uv_dy_, op, "uv_dy", true),
+      bias(bias_, op, "mip_level_bias", true),
+      uv_jacobian(uv_jacobian_, op, "uv_jacobian", true) {
+  const std::string o(op);
+  if (mode.filter < 0 || mode.filter > 3)
+    throw ValueError(o + ": filter " + std::to_string(mode.filter) + " is not 0..3");
+  if (mode.wrap < 0 || mode.wrap > 3) throw ValueError(o + ": wrap " + std::to_string(mode.wrap) + " is not 0..3");
+  tex.floating();
+  if (mode.cube) {
+    tex.rank({5}).shape({-1, 6, -1, -1, -1}, "[minibatch_size, 6, size, size, channels]");
+    if (tex.size(2) != tex.size(3))
+      throw ValueError(o + ": the cube map 'tex' " + shape_string(tex.shape()) + " has faces that are not square");
+  } else {
+    tex.rank({4});
+  }
+  for (std::int64_t s : tex.shape())
+    if (s < 1) throw ValueError(o + ": 'tex' " + shape_string(tex.shape()) + " has a size below 1");
+  if (tex.size(-3) > kMaxTextureSide || tex.size(-2) > kMaxTextureSide)
+    throw ValueError(o + ": 'tex' sides must be at most " + std::to_string(kMaxTextureSide) + ", got " +
+                     shape_string(tex.shape()));
+  tex_images = tex.size(0);
+  height = static_cast<int>(tex.size(-3));
+  width = static_cast<int>(tex.size(-2));
+  channels = tex.size(-1);
+  const int chain = raster::mip_layout(height, width, -1).count();
+  if (mode.levels < 1 || mode.levels > chain)
+    throw ValueError(o + ": " + std::to_string(mode.levels) + " mip levels; a " + std::to_string(height) + " x " +
+                     std::to_string(width) + " texture has 1.." + std::to_string(chain));
+  if (mode.user && (mode.cube || mode.levels < 2))
+    throw ValueError(o + ": a user mip stack needs a 2D texture and at least 2 levels");
+  layout = raster::mip_layout(height, width, mode.levels - 1);
+  if (mode.levels > 1) pyramid.required("the mip stack of levels 1..");
+  if (mode.levels == 1 && pyramid) throw ValueError(o + ": 'pyramid' is given for one mip level");
+  pyramid.same_elem(tex).shape({tex_images, pyramid_values() / channels, channels});
+  if (!lookups) {
+    for (const Array* a : {&uv, &uv_dx, &uv_dy, &bias, &uv_jacobian})
+      if (*a) throw ValueError(o + ": '" + a->name() + "' is given without lookups");
+    return;
+  }
+  uv.same_elem(tex).rank({4}).shape({-1, -1, -1, mode.cube ? 3 : 2});
+  images = uv.size(0);
+  samples = uv.size(1) * uv.size(2);
+  if (tex_images != 1 && tex_images != images)
+    throw ValueError(o + ": 'tex' has minibatch size " + std::to_string(tex_images) + " but 'uv' has " +
+                     std::to_string(images) + " (broadcast needs 1)");
+  const std::int64_t B = images, h = uv.size(1), w = uv.size(2);
+  uv_dx.same_elem(tex).shape({B, h, w, mode.cube ? 6 : 2});
+  if (mode.cube && uv_dy) throw ValueError(o + ": 'uv_dy' is given for a cube map (its uv_da is 'uv_dx')");
+  uv_dy.same_elem(tex).shape({B, h, w, 2});
+  bias.same_elem(tex).shape({B, h, w});
+  if (uv_jacobian && (mode.cube || mode.filter != 1))
+    throw ValueError(o + ": 'uv_jacobian' is kept for the bilinear filter of a 2D texture only");
+  uv_jacobian.same_elem(tex).shape({B, h, w, 2, channels});
 }
 
-std::int64_t upper_texels(const raster::MipLayout& layout) {
-  return layout.total_texels - static_cast<std::int64_t>(layout.levels[0].height) * layout.levels[0].width;
-}
-
-// Values of one texture image: 2D, or 6 faces for a cube map.
-std::int64_t texture_values(const TextureArgs& a) { return (a.cube ? 6 : 1) * a.height * a.width * a.channels; }
-std::int64_t pyramid_values(const TextureArgs& a, const raster::MipLayout& layout) {
-  return (a.cube ? 6 : 1) * upper_texels(layout) * a.channels;
-}
+namespace {
 
 // raster::Filter -> raster::CubeFilter.
 raster::CubeFilter cube_filter(int filter) {
@@ -33,114 +113,151 @@ raster::CubeFilter cube_filter(int filter) {
 }
 
 template <class T>
-raster::CubeTextureParams<T> cube_params(const TextureArgs& a, const raster::MipLayout& layout, std::int64_t b) {
+raster::CubeTextureParams<T> cube_params(const TextureArgs& a, std::int64_t b) {
   const std::int64_t t = a.tex_images == 1 ? 0 : b;
   raster::CubeTextureParams<T> p;
-  p.faces = at<const T>(a.tex) + t * texture_values(a);
-  if (a.pyramid) p.pyramid = at<const T>(a.pyramid) + t * pyramid_values(a, layout);
-  p.layout = layout;
+  p.faces = a.tex.in<T>() + t * a.texture_values();
+  if (a.pyramid) p.pyramid = a.pyramid.in<T>() + t * a.pyramid_values();
+  p.layout = a.layout;
   p.channels = a.channels;
-  p.dir = at<const T>(a.uv) + 3 * a.samples * b;
-  if (a.uv_da) p.dir_da = at<const T>(a.uv_da) + 6 * a.samples * b;
-  if (a.bias) p.mip_level_bias = at<const T>(a.bias) + a.samples * b;
+  p.dir = a.uv.in<T>() + 3 * a.samples * b;
+  if (a.uv_dx) p.dir_da = a.uv_dx.in<T>() + 6 * a.samples * b;
+  if (a.bias) p.mip_level_bias = a.bias.in<T>() + a.samples * b;
   p.num_samples = a.samples;
-  p.filter = cube_filter(a.filter);
+  p.filter = cube_filter(a.mode.filter);
   return p;
 }
 
 template <class T>
-raster::TextureParams<T> image_params(const TextureArgs& a, const raster::MipLayout& layout, std::int64_t b) {
+raster::TextureParams<T> image_params(const TextureArgs& a, std::int64_t b) {
   const std::int64_t t = a.tex_images == 1 ? 0 : b;
   raster::TextureParams<T> p;
-  p.tex = at<const T>(a.tex) + t * texture_values(a);
-  if (a.pyramid) p.pyramid = at<const T>(a.pyramid) + t * pyramid_values(a, layout);
-  p.user_pyramid = a.user;
-  p.layout = layout;
+  p.tex = a.tex.in<T>() + t * a.texture_values();
+  if (a.pyramid) p.pyramid = a.pyramid.in<T>() + t * a.pyramid_values();
+  p.user_pyramid = a.mode.user;
+  p.layout = a.layout;
   p.channels = a.channels;
-  p.uv = at<const T>(a.uv) + 2 * a.samples * b;
-  if (a.uv_dx) p.uv_dx = at<const T>(a.uv_dx) + 2 * a.samples * b;
-  if (a.uv_dy) p.uv_dy = at<const T>(a.uv_dy) + 2 * a.samples * b;
-  if (a.bias) p.mip_level_bias = at<const T>(a.bias) + a.samples * b;
+  p.uv = a.uv.in<T>() + 2 * a.samples * b;
+  if (a.uv_dx) p.uv_dx = a.uv_dx.in<T>() + 2 * a.samples * b;
+  if (a.uv_dy) p.uv_dy = a.uv_dy.in<T>() + 2 * a.samples * b;
+  if (a.bias) p.mip_level_bias = a.bias.in<T>() + a.samples * b;
   p.num_samples = a.samples;
-  p.filter = static_cast<raster::Filter>(a.filter);
-  p.wrap = static_cast<raster::Wrap>(a.wrap);
+  p.filter = static_cast<raster::Filter>(a.mode.filter);
+  p.wrap = static_cast<raster::Wrap>(a.mode.wrap);
   p.v_down = true;                            // nvdiffrast's texel rows
   p.lod_rule = raster::LodRule::MajorAxis;  // and its level of detail
   return p;
 }
 
+// Image b's part of the saved uv Jacobian, or null.
+template <class T>
+T* jacobian(const TextureArgs& a, std::int64_t b) {
+  return a.uv_jacobian ? a.uv_jacobian.out<T>() + b * a.samples * 2 * a.channels : nullptr;
+}
+
 }  // namespace
 
 std::vector<std::pair<int, int>> mip_sizes(int height, int width, int max_level) {
+  if (height < 1 || width < 1 || height > kMaxTextureSide || width > kMaxTextureSide)
+    throw ValueError("mip_sizes: a " + std::to_string(height) + " x " + std::to_string(width) +
+                     " texture is outside 1.." + std::to_string(kMaxTextureSide) + " per side");
   std::vector<std::pair<int, int>> sizes;
   for (const raster::MipLevel& l : raster::mip_layout(height, width, max_level).levels)
     sizes.emplace_back(l.height, l.width);
   return sizes;
 }
 
-void mip_build(const TextureArgs& a, int threads) {
+void mip_build(const TextureMode& mode, Objects tex, Objects pyramid, int threads) {
+  const TextureArgs a(mode, tex, pybind11::none(), pybind11::none(), pybind11::none(), pybind11::none(), pyramid,
+                      pybind11::none(), "texture_construct_mip", false);
+  a.pyramid.required("levels 1.. are written there");
+  check_disjoint("texture_construct_mip", {&a.pyramid}, {&a.tex});
   KernelCall call(threads);
-  const raster::MipLayout layout = layout_of(a);
-  dispatch(a.f64, [&](auto tag) {
+  dispatch(a.f64(), [&](auto tag) {
     using T = decltype(tag);
     for (std::int64_t t = 0; t < a.tex_images; ++t) {
-      const T* tex = at<const T>(a.tex) + t * texture_values(a);
-      T* pyramid = at<T>(a.pyramid) + t * pyramid_values(a, layout);
-      if (a.cube)
-        raster::cube_mip_build(tex, a.channels, layout, pyramid);
+      const T* base = a.tex.in<T>() + t * a.texture_values();
+      T* levels = a.pyramid.out<T>() + t * a.pyramid_values();
+      if (a.mode.cube)
+        raster::cube_mip_build(base, a.channels, a.layout, levels);
       else
-        raster::mip_build(tex, a.channels, layout, pyramid);
+        raster::mip_build(base, a.channels, a.layout, levels);
     }
   });
 }
 
-// Image b's part of the saved uv Jacobian, or null.
-template <class T>
-T* jacobian(const TextureArgs& a, std::int64_t b) {
-  return a.uv_jacobian ? at<T>(a.uv_jacobian) + b * a.samples * 2 * a.channels : nullptr;
-}
-
-void texture_forward(const TextureArgs& a, Address out, int threads) {
+void texture_forward(const TextureMode& mode, Objects tex, Objects uv, Objects uv_dx, Objects uv_dy, Objects bias,
+                     Objects pyramid, Objects out_, Objects uv_jacobian, int threads) {
+  const char* op = "texture";
+  const TextureArgs a(mode, tex, uv, uv_dx, uv_dy, bias, pyramid, uv_jacobian, op, true);
+  const Array out(out_, op, "out");
+  out.same_elem(a.tex).shape({a.images, a.uv.size(1), a.uv.size(2), a.channels});
+  check_disjoint(op, {&out, &a.uv_jacobian}, {&a.tex, &a.pyramid, &a.uv, &a.uv_dx, &a.uv_dy, &a.bias});
   KernelCall call(threads);
-  const raster::MipLayout layout = layout_of(a);
-  dispatch(a.f64, [&](auto tag) {
+  dispatch(a.f64(), [&](auto tag) {
     using T = decltype(tag);
     for_each_image(a.images, [&](std::int64_t b) {
-      T* o = at<T>(out) + b * a.samples * a.channels;
-      if (a.cube)
-        raster::cube_texture_forward(cube_params<T>(a, layout, b), o);
+      T* o = out.out<T>() + b * a.samples * a.channels;
+      if (a.mode.cube)
+        raster::cube_texture_forward(cube_params<T>(a, b), o);
       else
-        raster::texture_forward(image_params<T>(a, layout, b), o, jacobian<T>(a, b));
+        raster::texture_forward(image_params<T>(a, b), o, jacobian<T>(a, b));
     });
   });
 }
 
-void texture_backward(const TextureArgs& a, Address grad_out, Address grad_tex, Address grad_uv, Address grad_uv_dx,
-                      Address grad_uv_dy, Address grad_bias, Address grad_pyramid, int threads) {
+void texture_backward(const TextureMode& mode, Objects tex, Objects uv, Objects uv_dx, Objects uv_dy, Objects bias,
+                      Objects pyramid, Objects uv_jacobian, Objects grad_out_, Objects grad_tex_, Objects grad_uv_,
+                      Objects grad_uv_dx_, Objects grad_uv_dy_, Objects grad_bias_, Objects grad_pyramid_,
+                      int threads) {
+  const char* op = "texture backward";
+  const TextureArgs a(mode, tex, uv, uv_dx, uv_dy, bias, pyramid, uv_jacobian, op, true);
+  const Array grad_out(grad_out_, op, "grad_out"), grad_tex(grad_tex_, op, "grad_tex", true),
+      grad_uv(grad_uv_, op, "grad_uv", true), grad_uv_dx(grad_uv_dx_, op, "grad_uv_dx", true),
+      grad_uv_dy(grad_uv_dy_, op, "grad_uv_dy", true), grad_bias(grad_bias_, op, "grad_bias", true),
+      grad_pyramid(grad_pyramid_, op, "grad_pyramid", true);
+  grad_out.same_elem(a.tex).shape({a.images, a.uv.size(1), a.uv.size(2), a.channels});
+  // Each gradient is shaped like its input, which must be there.
+  const std::pair<const Array*, const Array*> grads[] = {{&grad_tex, &a.tex},       {&grad_uv, &a.uv},
+                                                         {&grad_uv_dx, &a.uv_dx},   {&grad_uv_dy, &a.uv_dy},
+                                                         {&grad_bias, &a.bias},     {&grad_pyramid, &a.pyramid}};
+  for (const auto& [g, input] : grads) {
+    if (*g && !*input)
+      throw ValueError(std::string(op) + ": '" + g->name() + "' is given but '" + input->name() + "' is not");
+    g->same_elem(a.tex).shape(input->shape());
+  }
+  if (grad_pyramid && !a.mode.user)
+    throw ValueError(std::string(op) + ": 'grad_pyramid' is for a user mip stack only");
+  check_disjoint(op, {&grad_tex, &grad_uv, &grad_uv_dx, &grad_uv_dy, &grad_bias, &grad_pyramid},
+                 {&a.tex, &a.pyramid, &a.uv, &a.uv_dx, &a.uv_dy, &a.bias, &a.uv_jacobian, &grad_out});
   KernelCall call(threads);
-  const raster::MipLayout layout = layout_of(a);
-  dispatch(a.f64, [&](auto tag) {
+  dispatch(a.f64(), [&](auto tag) {
     using T = decltype(tag);
+    // The texel addresses come from these (the forward checks them too).
+    raster::detail::check_finite(a.uv.in<T>(), a.uv.numel(), "uv", op);
+    if (a.uv_dx) raster::detail::check_finite(a.uv_dx.in<T>(), a.uv_dx.numel(), a.uv_dx.name().c_str(), op);
+    if (a.uv_dy) raster::detail::check_finite(a.uv_dy.in<T>(), a.uv_dy.numel(), "uv_dy", op);
+    if (a.bias) raster::detail::check_finite(a.bias.in<T>(), a.bias.numel(), "mip_level_bias", op);
     auto image = [&](std::int64_t b) {
       const std::int64_t t = a.tex_images == 1 ? 0 : b;
-      const T* g_out = at<const T>(grad_out) + b * a.samples * a.channels;
-      if (a.cube) {
+      const T* g_out = grad_out.in<T>() + b * a.samples * a.channels;
+      if (a.mode.cube) {
         raster::CubeTextureGrads<T> g;
-        if (grad_tex) g.faces = at<T>(grad_tex) + t * texture_values(a);
-        if (grad_uv) g.dir = at<T>(grad_uv) + 3 * a.samples * b;
-        if (grad_uv_dx) g.dir_da = at<T>(grad_uv_dx) + 6 * a.samples * b;  // the cube's uv_da gradient
-        if (grad_bias) g.mip_level_bias = at<T>(grad_bias) + a.samples * b;
-        raster::cube_texture_backward(cube_params<T>(a, layout, b), g_out, g);
+        if (grad_tex) g.faces = grad_tex.out<T>() + t * a.texture_values();
+        if (grad_uv) g.dir = grad_uv.out<T>() + 3 * a.samples * b;
+        if (grad_uv_dx) g.dir_da = grad_uv_dx.out<T>() + 6 * a.samples * b;  // the cube's uv_da gradient
+        if (grad_bias) g.mip_level_bias = grad_bias.out<T>() + a.samples * b;
+        raster::cube_texture_backward(cube_params<T>(a, b), g_out, g);
         return;
       }
       raster::TextureGrads<T> g;
-      if (grad_tex) g.tex = at<T>(grad_tex) + t * texture_values(a);
-      if (grad_uv) g.uv = at<T>(grad_uv) + 2 * a.samples * b;
-      if (grad_uv_dx) g.uv_dx = at<T>(grad_uv_dx) + 2 * a.samples * b;
-      if (grad_uv_dy) g.uv_dy = at<T>(grad_uv_dy) + 2 * a.samples * b;
-      if (grad_bias) g.mip_level_bias = at<T>(grad_bias) + a.samples * b;
-      if (grad_pyramid) g.pyramid = at<T>(grad_pyramid) + t * pyramid_values(a, layout);
-      raster::texture_backward(image_params<T>(a, layout, b), g_out, g, jacobian<T>(a, b));
+      if (grad_tex) g.tex = grad_tex.out<T>() + t * a.texture_values();
+      if (grad_uv) g.uv = grad_uv.out<T>() + 2 * a.samples * b;
+      if (grad_uv_dx) g.uv_dx = grad_uv_dx.out<T>() + 2 * a.samples * b;
+      if (grad_uv_dy) g.uv_dy = grad_uv_dy.out<T>() + 2 * a.samples * b;
+      if (grad_bias) g.mip_level_bias = grad_bias.out<T>() + a.samples * b;
+      if (grad_pyramid) g.pyramid = grad_pyramid.out<T>() + t * a.pyramid_values();
+      raster::texture_backward(image_params<T>(a, b), g_out, g, jacobian<T>(a, b));
     };
     // A broadcast texture collects every image's gradient: images in order
     // (each lookup parallel inside); otherwise images in parallel.

@@ -9,6 +9,9 @@ clip-space y = -1 (the bottom of the image), pixel centres at half-integers.
 
 Threads: each call runs on torch.get_num_threads() threads; results and
 gradients are bit-identical for any thread count.
+
+The checks here give nvdiffrast's error messages; _core checks every shape,
+dtype and layout again itself (python/src/array.h), so none lives only here.
 """
 import numbers
 
@@ -29,28 +32,15 @@ def _threads():
 
 
 # ----------------------------------------------------------------------------
-# Tensor addresses. _core reads tensors through raw addresses (data_ptr()),
-# and an address does not keep its tensor alive: the address of a temporary
-# (say, the copy contiguous() makes of an upstream gradient) points at freed
-# memory once that expression ends, before the kernel reads it (issue 30). So no
-# address for _core is taken anywhere but here: every function that calls
-# _core makes one `pins = _Pins()` local, and `pins(t)` returns t's address
-# and holds t until that function returns. Whatever a kernel reads therefore
-# outlives the call, temporaries written inline (`pins(dy.contiguous())`)
-# included.
+# Tensors for _core. _core takes tensors, never addresses: each function views
+# its tensor arguments through DLPack when the call starts and holds them
+# until its kernels are done, checking their device, dtype, layout and shapes
+# itself (python/src/array.h). Tensors that require grad do not export
+# DLPack, so they go as detached aliases of the same memory.
 
-class _Pins:
-    def __init__(self):
-        self._held = []
-
-    def __call__(self, t):
-        """t's address (0 for None); t stays alive as long as this object."""
-        if t is None:
-            return 0
-        if not t.is_contiguous():  # the kernels read dense row-major memory
-            raise RuntimeError("gradraster internal error: a non-contiguous tensor reached a kernel")
-        self._held.append(t)
-        return t.data_ptr()
+def _d(t):
+    """t, detached (None stays None): what _core takes."""
+    return None if t is None else t.detach()
 
 
 # ----------------------------------------------------------------------------
@@ -109,8 +99,9 @@ def _resolution(resolution):
     return int(h), int(w)
 
 
-def _mesh(pins, pos, tri, ranges, op):
-    """A _core.Mesh for nvdiffrast's instanced ([B, N, 4] pos) or range ([N, 4] pos + ranges) mode."""
+def _mesh(pos, tri, ranges, op):
+    """_core's mesh arguments (pos, tri, ranges) for nvdiffrast's instanced ([B, N, 4] pos) or range ([N, 4] pos +
+    ranges) mode."""
     _float('pos', pos, (2, 3))
     _tri(tri)
     if pos.shape[-1] != 4:
@@ -118,19 +109,17 @@ def _mesh(pins, pos, tri, ranges, op):
     if pos.dtype == torch.float32 and tri.shape[0] >= _MAX_FLOAT32_IDS:
         raise ValueError(f"{op}: {tri.shape[0]} triangles are more than float32 rast can number exactly "
                          f"({_MAX_FLOAT32_IDS - 1}); use float64")
-    f64 = pos.dtype == torch.float64
     if pos.dim() == 3:
         if pos.shape[0] < 1:
             raise ValueError(f"instanced mode - 'pos' must have shape [>0, num_vertices, 4], got {list(pos.shape)}")
-        return _core.Mesh(f64, pins(pos), pos.shape[0], pos.shape[1], True, pins(tri), tri.shape[0], [])
+        return _d(pos), _d(tri), []
     if ranges is None:
         raise ValueError("range mode - 'pos' is [num_vertices, 4], so 'ranges' [minibatch_size, 2] is required "
                          "(or give pos a minibatch axis: [1, num_vertices, 4])")
     _tensor('ranges', ranges, (2,), (torch.int32,))
     if ranges.shape[0] < 1 or ranges.shape[1] != 2:
         raise ValueError(f"range mode - 'ranges' must have shape [>0, 2], got {list(ranges.shape)}")
-    pairs = [tuple(r) for r in ranges.tolist()]
-    return _core.Mesh(f64, pins(pos), len(pairs), pos.shape[0], False, pins(tri), tri.shape[0], pairs)
+    return _d(pos), _d(tri), [tuple(r) for r in ranges.tolist()]
 
 
 # ----------------------------------------------------------------------------
@@ -218,13 +207,12 @@ class RasterizeGLContext(RasterizeCpuContext):
 class _RasterizeFunc(torch.autograd.Function):
     @staticmethod
     def forward(ctx, raster_ctx, pos, tri, resolution, ranges, grad_db, peel):
-        pins = _Pins()
-        mesh = _mesh(pins, pos, tri, ranges, 'rasterize')
+        mesh = _mesh(pos, tri, ranges, 'rasterize')
         h, w = resolution
         images = pos.shape[0] if pos.dim() == 3 else ranges.shape[0]
         rast = pos.new_empty((images, h, w, 4))
         db = torch.empty_like(rast)
-        _core.rasterize_forward(raster_ctx.cpp_wrapper, mesh, h, w, pins(rast), pins(db), peel, _threads())
+        _core.rasterize_forward(raster_ctx.cpp_wrapper, *mesh, rast, db, peel, _threads())
         ctx.save_for_backward(pos, tri, rast)
         ctx.raster_ctx, ctx.ranges, ctx.grad_db = raster_ctx, ranges, grad_db
         return rast, db
@@ -233,12 +221,10 @@ class _RasterizeFunc(torch.autograd.Function):
     @once_differentiable
     def backward(ctx, drast, ddb):
         pos, tri, rast = ctx.saved_tensors
-        pins = _Pins()
-        mesh = _mesh(pins, pos, tri, ctx.ranges, 'rasterize')
+        mesh = _mesh(pos, tri, ctx.ranges, 'rasterize')
         grad_pos = torch.zeros_like(pos)
-        _core.rasterize_backward(ctx.raster_ctx.cpp_wrapper, mesh, rast.shape[1], rast.shape[2], pins(rast),
-                                 pins(drast.contiguous()), pins(ddb.contiguous() if ctx.grad_db else None),
-                                 pins(grad_pos), _threads())
+        _core.rasterize_backward(ctx.raster_ctx.cpp_wrapper, *mesh, _d(rast), _d(drast.contiguous()),
+                                 _d(ddb.contiguous()) if ctx.grad_db else None, grad_pos, _threads())
         return None, grad_pos, None, None, None, None, None
 
 
@@ -293,7 +279,7 @@ class DepthPeeler:
         _check_context(glctx)
         if grad_db is not True and grad_db is not False:
             raise TypeError(f"'grad_db' must be True or False, got {grad_db!r}")
-        _mesh(_Pins(), pos, tri, ranges, 'DepthPeeler')
+        _mesh(pos, tri, ranges, 'DepthPeeler')
         self.raster_ctx, self.pos, self.tri = glctx, pos, tri
         self.resolution, self.ranges, self.grad_db = _resolution(resolution), ranges, grad_db
         self.state = None
@@ -346,7 +332,7 @@ def _diff_list(diff_attrs, channels):
     return out
 
 
-def _interpolate_args(pins, attr, rast, tri, rast_db, diff):
+def _interpolate_args(attr, rast, tri, rast_db, diff):
     _rast('rast', rast)
     _float('attr', attr, (2, 3), like=('rast', rast))
     _tri(tri)
@@ -357,21 +343,17 @@ def _interpolate_args(pins, attr, rast, tri, rast_db, diff):
         _float('rast_db', rast_db, (4,), like=('rast', rast))
         if rast_db.shape != rast.shape:
             raise ValueError(f"'rast_db' must have rast's shape {list(rast.shape)}, got {list(rast_db.shape)}")
-    attr_images = attr.shape[0] if attr.dim() == 3 else 1
-    n, c = attr.shape[-2:]
-    return _core.InterpolateArgs(attr.dtype == torch.float64, pins(attr), attr_images, n, c, pins(tri), tri.shape[0],
-                                 pins(rast), pins(rast_db), images, h, w, diff)
+    return _d(attr), _d(rast), _d(tri), _d(rast_db), diff
 
 
 class _InterpolateFunc(torch.autograd.Function):
     @staticmethod
     def forward(ctx, attr, rast, tri, rast_db, diff):
-        pins = _Pins()
-        args = _interpolate_args(pins, attr, rast, tri, rast_db, diff)
+        args = _interpolate_args(attr, rast, tri, rast_db, diff)
         images, h, w = rast.shape[:3]
         out = attr.new_empty((images, h, w, attr.shape[-1]))
         out_da = attr.new_empty((images, h, w, 2 * len(diff)))
-        _core.interpolate_forward(args, pins(out), pins(out_da) if diff else 0, _threads())
+        _core.interpolate_forward(*args, out, out_da if diff else None, _threads())
         ctx.save_for_backward(attr, rast, tri, rast_db)
         ctx.diff = diff
         return out, out_da
@@ -380,14 +362,13 @@ class _InterpolateFunc(torch.autograd.Function):
     @once_differentiable
     def backward(ctx, dy, dda):
         attr, rast, tri, rast_db = ctx.saved_tensors
-        pins = _Pins()
-        args = _interpolate_args(pins, attr, rast, tri, rast_db, ctx.diff)
+        args = _interpolate_args(attr, rast, tri, rast_db, ctx.diff)
         need_attr, need_rast, _, need_db, _ = ctx.needs_input_grad
         g_attr = torch.zeros_like(attr) if need_attr else None
         g_rast = torch.zeros_like(rast) if need_rast else None
         g_db = torch.zeros_like(rast_db) if need_db and rast_db is not None else None
-        _core.interpolate_backward(args, pins(dy.contiguous()), pins(dda.contiguous() if ctx.diff else None),
-                                   pins(g_attr), pins(g_rast), pins(g_db), _threads())
+        _core.interpolate_backward(*args, _d(dy.contiguous()), _d(dda.contiguous()) if ctx.diff else None, g_attr,
+                                   g_rast, g_db, _threads())
         return g_attr, g_rast, None, g_db, None
 
 
@@ -419,8 +400,7 @@ def antialias_construct_topology_hash(tri):
 def _topology(tri, vertices, op):
     """The adjacency of tri, its indices checked first (against `vertices`; -1: unknown, negatives only)."""
     _tri(tri)
-    pins = _Pins()
-    return _core.build_topology(pins(tri), tri.shape[0], vertices, op)
+    return _core.build_topology(_d(tri), vertices, op)
 
 
 def _check_antialias(color, rast, pos, tri):
@@ -439,11 +419,11 @@ def _check_antialias(color, rast, pos, tri):
         raise ValueError(f"'pos' must have shape [..., num_vertices, 4], got {list(pos.shape)}")
 
 
-def _antialias_mesh(pins, color, rast, pos, tri):
+def _antialias_mesh(color, rast, pos, tri):
+    """_core's mesh arguments (pos, tri, ranges): [N, 4] pos is shared by every image, as one range of all of tri."""
     _check_antialias(color, rast, pos, tri)
     images, instanced = rast.shape[0], pos.dim() == 3
-    return _core.Mesh(pos.dtype == torch.float64, pins(pos), images, pos.shape[-2], instanced, pins(tri),
-                      tri.shape[0], [] if instanced else [(0, tri.shape[0])] * images)
+    return _d(pos), _d(tri), [] if instanced else [(0, tri.shape[0])] * images
 
 
 # Scratch buffers of antialias (which takes no context); calls are serialized.
@@ -453,11 +433,10 @@ _ANTIALIAS_SCRATCH = _core.Context()
 class _AntialiasFunc(torch.autograd.Function):
     @staticmethod
     def forward(ctx, color, rast, pos, tri, topology, boost, visibility):
-        pins = _Pins()
-        mesh = _antialias_mesh(pins, color, rast, pos, tri)
+        mesh = _antialias_mesh(color, rast, pos, tri)
         out = torch.empty_like(color)
-        state = _core.antialias_forward(_ANTIALIAS_SCRATCH, mesh, topology, pins(color), color.shape[3], rast.shape[1],
-                                        rast.shape[2], pins(rast), pins(out), visibility, _threads())
+        state = _core.antialias_forward(_ANTIALIAS_SCRATCH, *mesh, topology, _d(color), _d(rast), out, visibility,
+                                        _threads())
         ctx.save_for_backward(color, rast, pos, tri)
         ctx.topology, ctx.state, ctx.boost = topology, state, boost
         return out
@@ -466,14 +445,12 @@ class _AntialiasFunc(torch.autograd.Function):
     @once_differentiable
     def backward(ctx, dy):
         color, rast, pos, tri = ctx.saved_tensors
-        pins = _Pins()
-        mesh = _antialias_mesh(pins, color, rast, pos, tri)
+        mesh = _antialias_mesh(color, rast, pos, tri)
         need_color, _, need_pos = ctx.needs_input_grad[:3]
         g_color = torch.zeros_like(color) if need_color else None
         g_pos = torch.zeros_like(pos) if need_pos else None
-        _core.antialias_backward(_ANTIALIAS_SCRATCH, mesh, ctx.topology, ctx.state, pins(color), color.shape[3],
-                                 rast.shape[1], rast.shape[2], pins(rast), pins(dy.contiguous()), pins(g_color),
-                                 pins(g_pos), ctx.boost, _threads())
+        _core.antialias_backward(_ANTIALIAS_SCRATCH, *mesh, ctx.topology, ctx.state, _d(color), _d(rast),
+                                 _d(dy.contiguous()), g_color, g_pos, ctx.boost, _threads())
         return g_color, None, g_pos, None, None, None, None
 
 
@@ -532,24 +509,13 @@ class TextureMip:
         self.tex_shape, self.pyramid, self.sizes, self.cube = tuple(tex.shape), pyramid, sizes, cube
 
 
-def _texture_args(pins, tex, uv, uv_dx, uv_dy, bias, pyramid, levels, user, filter_mode, boundary):
-    """boundary _CUBE: tex [B, 6, S, S, C], uv directions, uv_dx = uv_da ([..., 6]), uv_dy unused.
-    uv None: no lookups (building the mip stack)."""
-    a = _core.TextureArgs()
-    a.f64 = tex.dtype == torch.float64
-    a.cube = boundary == _CUBE
-    a.tex, a.tex_images, a.height, a.width, a.channels = pins(tex), tex.shape[0], tex.shape[-3], tex.shape[-2], \
-        tex.shape[-1]
-    a.pyramid = pins(pyramid)
-    a.levels, a.user = levels, user
-    a.uv, a.bias = pins(uv), pins(bias)
-    if a.cube:
-        a.uv_da = pins(uv_dx)
-    else:
-        a.uv_dx, a.uv_dy = pins(uv_dx), pins(uv_dy)
-    a.images, a.samples = (uv.shape[0], uv.shape[1] * uv.shape[2]) if uv is not None else (0, 0)
-    a.filter, a.wrap = filter_mode, boundary if not a.cube else 0
-    return a
+def _texture_mode(levels, user, filter_mode, boundary):
+    """boundary _CUBE: a cube map (tex [B, 6, S, S, C], uv directions, uv_dx = uv_da ([..., 6]), uv_dy None)."""
+    mode = _core.TextureMode()
+    mode.cube = boundary == _CUBE
+    mode.levels, mode.user = levels, user
+    mode.filter, mode.wrap = filter_mode, boundary if not mode.cube else 0
+    return mode
 
 
 def _pyramid_texels(sizes, cube):
@@ -581,9 +547,7 @@ def _check_prebuilt_mip(mip, tex):
 def _build_pyramid(tex, sizes, cube=False):
     texels = _pyramid_texels(sizes, cube)
     pyramid = tex.new_empty((tex.shape[0], texels, tex.shape[-1]))
-    pins = _Pins()
-    a = _texture_args(pins, tex, None, None, None, None, pyramid, len(sizes), False, 1, _CUBE if cube else 0)
-    _core.mip_build(a, _threads())
+    _core.mip_build(_texture_mode(len(sizes), False, 1, _CUBE if cube else 0), _d(tex), pyramid, _threads())
     return pyramid
 
 
@@ -598,15 +562,14 @@ class _TextureFunc(torch.autograd.Function):
                 tex.shape[-3], tex.shape[-2], levels - 1), boundary == _CUBE)
         else:
             pyramid = None
-        pins = _Pins()
-        a = _texture_args(pins, tex, uv, uv_dx, uv_dy, bias, pyramid, levels, user, filter_mode, boundary)
+        mode = _texture_mode(levels, user, filter_mode, boundary)
         out = tex.new_empty(uv.shape[:3] + (tex.shape[-1],))
         # Bilinear with a uv gradient: keep d out/d(u, v), so the backward reads no texel for it.
         jacobian = None
         if filter_mode == _FILTERS['linear'] and boundary != _CUBE and ctx.needs_input_grad[5]:
             jacobian = tex.new_empty(uv.shape[:3] + (2, tex.shape[-1]))
-            a.uv_jacobian = pins(jacobian)
-        _core.texture_forward(a, pins(out), _threads())
+        _core.texture_forward(mode, _d(tex), _d(uv), _d(uv_dx), _d(uv_dy), _d(bias), _d(pyramid), out, jacobian,
+                              _threads())
         ctx.save_for_backward(tex, uv, uv_dx, uv_dy, bias, pyramid, jacobian)
         ctx.filter_mode, ctx.boundary, ctx.levels, ctx.user = filter_mode, boundary, levels, user
         ctx.mip_shapes = [m.shape for m in mip_levels]
@@ -621,12 +584,9 @@ class _TextureFunc(torch.autograd.Function):
         g_tex, g_uv = zeros(tex, needs[4]), zeros(uv, needs[5] and ctx.filter_mode != 0)
         g_dx, g_dy, g_bias = zeros(uv_dx, needs[6]), zeros(uv_dy, needs[7]), zeros(bias, needs[8])
         g_pyr = zeros(pyramid, ctx.user and any(needs[9:]))
-        pins = _Pins()
-        a = _texture_args(pins, tex, uv, uv_dx, uv_dy, bias, pyramid, ctx.levels, ctx.user, ctx.filter_mode,
-                          ctx.boundary)
-        a.uv_jacobian = pins(jacobian)
-        _core.texture_backward(a, pins(dy.contiguous()), pins(g_tex), pins(g_uv), pins(g_dx), pins(g_dy),
-                               pins(g_bias), pins(g_pyr), _threads())
+        mode = _texture_mode(ctx.levels, ctx.user, ctx.filter_mode, ctx.boundary)
+        _core.texture_backward(mode, _d(tex), _d(uv), _d(uv_dx), _d(uv_dy), _d(bias), _d(pyramid), _d(jacobian),
+                               _d(dy.contiguous()), g_tex, g_uv, g_dx, g_dy, g_bias, g_pyr, _threads())
         g_levels, start = [], 0
         for shape in ctx.mip_shapes:
             n = shape[1] * shape[2]
