@@ -32,7 +32,10 @@ if ! timeout 120 "$bin/vulkan_tests" '[vulkan]' > "$out/vulkan_tests.txt" 2>&1 |
   timeout 120 "$bin/vulkan_tests" '[vulkan]' > "$out/vulkan_tests.txt" 2>&1
 fi
 tail -3 "$out/vulkan_tests.txt"
+# The SM clock before and after (an idle GPU runs slower; docs/gpu.md).
+nvidia-smi --query-gpu=clocks.sm,clocks.max.sm --format=csv,noheader 2>&1 | sed 's/^/clock before: /' | tee -a "$out/machine.txt"
 timeout 300 "$bin/bench_gpu_rasterize" --benchmark_min_time=0.1 --benchmark_repetitions=5 \
   --benchmark_report_aggregates_only=true --benchmark_out="$out/gpu_rasterize.json" 2>&1 | tee "$out/gpu_rasterize.txt" |
   grep -E 'median|Benchmark|rror'
+nvidia-smi --query-gpu=clocks.sm,clocks.max.sm --format=csv,noheader 2>&1 | sed 's/^/clock after: /' | tee -a "$out/machine.txt"
 bench/fit_threads.sh .devcarry/build 512 12 "$rounds" 1 4 8 16 2>&1 | tee "$out/fit_threads.txt"
