@@ -128,6 +128,12 @@ std::vector<std::int32_t> neighbours_of(const std::vector<std::int32_t>& tris) {
   return std::vector<std::int32_t>(topo.neighbour.begin(), topo.neighbour.end());
 }
 
+// dst[0, n) += src[0, n) when dst is given (the adjoints accumulate, as on the CPU).
+void add_to(float* dst, const float* src, std::int64_t n) {
+  if (dst)
+    for (std::int64_t i = 0; i < n; ++i) dst[i] += src[i];
+}
+
 // What the shaders index with 32-bit ints: 4 N clip values, 3 M indices,
 // H W C image values.
 constexpr std::int64_t kMaxIndex = std::numeric_limits<std::int32_t>::max();
@@ -217,8 +223,7 @@ GpuTimes Frame::rasterize(const raster::RasterParams<float>& p, const GpuRasterO
                   p.settings.cull == raster::Cull::Back ? 1 : p.settings.cull == raster::Cull::Front ? -1 : 0,
                   0, options.y_up ? 1 : 0, 0};
   s.dev.run([&](VkCommandBuffer cb) {
-    s.timestamps.reset(cb, 8);
-    s.timestamps.stamp(cb, 0);
+    s.timestamps.begin(cb, 8);
     copy(cb, s.upload.handle(), 0, s[kClip].handle(), 0, clip_bytes);
     copy(cb, s.upload.handle(), clip_bytes, s[kTris].handle(), 0, tri_bytes);
     barrier(cb);
@@ -285,8 +290,7 @@ GpuTimes Frame::interpolate(const float* attr, std::int64_t channels, bool persp
                              static_cast<std::int32_t>(s.num_tris), static_cast<std::int32_t>(channels),
                              0, perspective ? 1 : 0, s.y_up ? 1 : 0};
   s.dev.run([&](VkCommandBuffer cb) {
-    s.timestamps.reset(cb, 4);
-    s.timestamps.stamp(cb, 0);
+    s.timestamps.begin(cb, 4);
     copy(cb, s.upload.handle(), 0, s[kAttr].handle(), 0, attr_bytes);
     barrier(cb);
     s.timestamps.stamp(cb, 1);
@@ -328,8 +332,7 @@ GpuTimes Frame::interpolate_backward(const float* grad_out, float* grad_attr, fl
   const FinishPush finish{static_cast<std::int32_t>(sums), static_cast<std::int32_t>(N * C),
                           static_cast<std::int32_t>(px), {}};
   s.dev.run([&](VkCommandBuffer cb) {
-    s.timestamps.reset(cb, 6);
-    s.timestamps.stamp(cb, 0);
+    s.timestamps.begin(cb, 6);
     copy(cb, s.upload.handle(), 0, s[kGradOut].handle(), 0, grad_bytes);
     barrier(cb);
     s.timestamps.stamp(cb, 1);
@@ -341,14 +344,9 @@ GpuTimes Frame::interpolate_backward(const float* grad_out, float* grad_attr, fl
     s.timestamps.stamp(cb, 5);
   });
   const float* got = static_cast<const float*>(s.download.mapped());
-  if (grad_attr)
-    for (std::int64_t i = 0; i < N * C; ++i) grad_attr[i] += got[i];
-  if (grad_clip)
-    for (std::int64_t i = 0; i < N * 4; ++i) grad_clip[i] += got[N * C + i];
-  if (grad_uv) {
-    const float* g = got + sums;
-    for (std::int64_t i = 0; i < 2 * px; ++i) grad_uv[i] += g[i];
-  }
+  add_to(grad_attr, got, N * C);
+  add_to(grad_clip, got + N * C, N * 4);
+  add_to(grad_uv, got + sums, 2 * px);
   return s.timestamps.read();
 }
 
@@ -385,26 +383,24 @@ GpuTimes Frame::antialias(const float* image, int channels, float* out) {
   const AntialiasPush push{s.width, s.height, static_cast<std::int32_t>(s.num_vertices),
                            static_cast<std::int32_t>(s.num_tris), channels, 0, s.y_up ? 1 : 0, 0};
   s.dev.run([&](VkCommandBuffer cb) {
-    Timestamps& ts = s.timestamps;
-    ts.reset(cb, 5);
-    ts.stamp(cb, 0);
+    s.timestamps.begin(cb, 5);
     if (image)
       copy(cb, s.upload.handle(), 0, s[kAaImage].handle(), 0, image_bytes);
     else
       copy(cb, s[kInterpolated].handle(), 0, s[kAaImage].handle(), 0, image_bytes);
     copy(cb, s.upload.handle(), upload_image, s[kNeighbour].handle(), 0, neighbour_bytes);
     barrier(cb);
-    ts.stamp(cb, 1);
+    s.timestamps.stamp(cb, 1);
     s.use(cb, set);
     dispatch(cb, s.k, s.k.antialias_pairs, &push, s.pixels(), 256);
     barrier(cb);
-    ts.stamp(cb, 2);
+    s.timestamps.stamp(cb, 2);
     dispatch(cb, s.k, s.k.antialias_forward, &push, s.pixels(), 256);
     barrier(cb);
-    ts.stamp(cb, 3);
+    s.timestamps.stamp(cb, 3);
     if (out) copy(cb, s[kAaOut].handle(), 0, s.download.handle(), 0, image_bytes);
     barrier(cb);
-    ts.stamp(cb, 4);
+    s.timestamps.stamp(cb, 4);
   });
   s.topology_ready = true;
   s.aa_channels = channels;
@@ -435,24 +431,20 @@ GpuTimes Frame::antialias_backward(const float* grad_out, float* grad_image, flo
   AntialiasPush push{s.width, s.height, static_cast<std::int32_t>(N), static_cast<std::int32_t>(s.num_tris),
                      static_cast<std::int32_t>(C), 0, s.y_up ? 1 : 0, 0};
   s.dev.run([&](VkCommandBuffer cb) {
-    Timestamps& ts = s.timestamps;
-    ts.reset(cb, 6);
-    ts.stamp(cb, 0);
+    s.timestamps.begin(cb, 6);
     copy(cb, s.upload.handle(), 0, s[kAaGradOut].handle(), 0, image_bytes);
     barrier(cb);
-    ts.stamp(cb, 1);
+    s.timestamps.stamp(cb, 1);
     s.fixed_point_passes(cb, set, kSums, static_cast<std::size_t>(N) * 2, kLargest, s.k.antialias_backward, push,
                          s.k.antialias_finish, push, N);
     copy(cb, s[kAaGradImage].handle(), 0, s.download.handle(), 0, image_bytes);
     copy(cb, s[kFinished].handle(), 0, s.download.handle(), image_bytes, clip_bytes);
     barrier(cb);
-    ts.stamp(cb, 5);
+    s.timestamps.stamp(cb, 5);
   });
   const float* got = static_cast<const float*>(s.download.mapped());
-  if (grad_image)
-    for (std::int64_t i = 0; i < px * C; ++i) grad_image[i] += got[i];
-  if (grad_clip)
-    for (std::int64_t i = 0; i < N * 4; ++i) grad_clip[i] += got[px * C + i];
+  add_to(grad_image, got, px * C);
+  add_to(grad_clip, got + px * C, N * 4);
   return s.timestamps.read();
 }
 
@@ -481,8 +473,7 @@ GpuTimes Frame::rasterize_backward(const float* grad_uv, const float* grad_depth
   RasterPush push{s.width, s.height, static_cast<std::int32_t>(N), static_cast<std::int32_t>(s.num_tris), 0, 0,
                   s.y_up ? 1 : 0, grad_depth ? 1 : 0};
   s.dev.run([&](VkCommandBuffer cb) {
-    s.timestamps.reset(cb, 6);
-    s.timestamps.stamp(cb, 0);
+    s.timestamps.begin(cb, 6);
     copy(cb, s.upload.handle(), 0, s[kGradUvIn].handle(), 0, uv_bytes);
     copy(cb, s.upload.handle(), uv_bytes, s[kGradDepthIn].handle(), 0, depth_bytes);
     barrier(cb);
@@ -494,7 +485,7 @@ GpuTimes Frame::rasterize_backward(const float* grad_uv, const float* grad_depth
     s.timestamps.stamp(cb, 5);
   });
   const float* got = static_cast<const float*>(s.download.mapped());
-  for (std::int64_t i = 0; i < 4 * N; ++i) grad_clip[i] += got[i];
+  add_to(grad_clip, got, 4 * N);
   return s.timestamps.read();
 }
 

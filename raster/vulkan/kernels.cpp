@@ -75,11 +75,12 @@ Timestamps::~Timestamps() {
   if (pool_) vkDestroyQueryPool(dev_.device, pool_, nullptr);
 }
 
-void Timestamps::reset(VkCommandBuffer cb, std::uint32_t count) {
+void Timestamps::begin(VkCommandBuffer cb, std::uint32_t count) {
   if (count > capacity_) throw Error("vulkan: " + std::to_string(count) + " timestamps asked of a pool of " +
                                      std::to_string(capacity_));
   count_ = count;
   if (pool_) vkCmdResetQueryPool(cb, pool_, 0, capacity_);
+  stamp(cb, 0);
 }
 
 void Timestamps::stamp(VkCommandBuffer cb, std::uint32_t i) {

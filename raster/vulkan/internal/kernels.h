@@ -39,9 +39,9 @@ void barrier(VkCommandBuffer cb);
 void dispatch(VkCommandBuffer cb, const Kernels& k, VkPipeline pipeline, const void* push, std::int64_t items,
               std::uint32_t local);
 
-// Timestamps of one submission: reset(cb, n) before stamping 0..n-1 (every
-// one of them: reading a stamp never written waits forever), stamp(i) after
-// the work recorded so far; read() converts them into GpuTimes (upload =
+// Timestamps of one submission: begin(cb, n) resets the pool and writes
+// stamp 0; the call then writes every one of 1..n-1 (reading a stamp never
+// written waits forever), stamp(i) after the work recorded so far; read() converts them into GpuTimes (upload =
 // 0..1, kernels = 1..n-2 with a pass per step, download = n-2..n-1).
 class Timestamps {
  public:
@@ -50,7 +50,7 @@ class Timestamps {
   Timestamps(const Timestamps&) = delete;
   Timestamps& operator=(const Timestamps&) = delete;
 
-  void reset(VkCommandBuffer cb, std::uint32_t count);
+  void begin(VkCommandBuffer cb, std::uint32_t count);
   void stamp(VkCommandBuffer cb, std::uint32_t i);
   GpuTimes read() const;
 
