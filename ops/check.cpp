@@ -61,9 +61,7 @@ void check_finite(const Tensor& t, const std::string& op, const char* name) {
 }
 
 void check_image_size(std::int64_t width, std::int64_t height, const std::string& op) {
-  if (width < 1 || height < 1 || width > 16384 || height > 16384 || width * height > (std::int64_t(1) << 28))
-    throw ValueError(op + ": image size " + std::to_string(width) + " x " + std::to_string(height) +
-                     " is outside 1..16384 per side (at most 2^28 pixels)");
+  raster::detail::check_image_size(width, height, op.c_str());
 }
 
 void check_triangles(const Tensor& triangles, std::int64_t num_vertices, const std::string& op) {

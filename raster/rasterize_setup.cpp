@@ -41,6 +41,12 @@ std::int64_t first_bad(std::int64_t n, AnyBad any_bad, Bad bad) {
 
 }  // namespace
 
+void check_image_size(std::int64_t width, std::int64_t height, const char* op) {
+  if (width < 1 || height < 1 || width > 16384 || height > 16384 || width * height > (std::int64_t(1) << 28))
+    throw ValueError(std::string(op) + ": image size " + std::to_string(width) + " x " + std::to_string(height) +
+                     " is outside 1..16384 per side (at most 2^28 pixels)");
+}
+
 void check_triangles(const std::int32_t* tris, std::int64_t num_tris, std::int64_t num_vertices,
                      const char* op) {
   if (num_tris < 0 || num_vertices < 0)

@@ -17,6 +17,10 @@
 namespace gr::raster::detail {
 
 // Throws IndexError naming the triangle if an index is < 0 or >= num_vertices.
+// Throws ValueError unless 1 <= width, height <= 16384 and width * height <= 2^28
+// (RasterSettings' limits).
+void check_image_size(std::int64_t width, std::int64_t height, const char* op);
+
 void check_triangles(const std::int32_t* tris, std::int64_t num_tris, std::int64_t num_vertices,
                      const char* op);
 // Throws IndexError if some tri_id is < 0 or > num_tris.

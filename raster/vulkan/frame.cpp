@@ -142,10 +142,7 @@ constexpr std::int64_t kMaxIndex = std::numeric_limits<std::int32_t>::max();
 // the shaders trust them.
 void check_raster_params(const raster::RasterParams<float>& p) {
   const char* op = "vulkan rasterize";
-  const std::int64_t W = p.settings.width, H = p.settings.height;
-  if (W < 1 || H < 1 || W > 16384 || H > 16384 || W * H > (std::int64_t(1) << 28))
-    throw ValueError(std::string(op) + ": image size " + std::to_string(W) + " x " + std::to_string(H) +
-                     " is outside 1..16384 per side (at most 2^28 pixels)");
+  raster::detail::check_image_size(p.settings.width, p.settings.height, op);
   if (p.num_vertices < 0 || p.num_tris < 0 || 4 * p.num_vertices > kMaxIndex || 3 * p.num_tris > kMaxIndex)
     throw ValueError(std::string(op) + ": " + std::to_string(p.num_vertices) + " vertices and " +
                      std::to_string(p.num_tris) + " triangles: the GPU path takes at most " +
