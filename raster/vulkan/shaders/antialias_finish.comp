@@ -10,13 +10,6 @@ layout(local_size_x = 256) in;
 layout(std430, binding = 5) readonly buffer SumBuf { int64_t sums[]; };
 layout(std430, binding = 9) writeonly buffer GradClipBuf { float grad_clip[]; };
 
-// detail::finite_cast<float>: NaN to 0, clamped to float's finite range.
-float finite_float(double x) {
-  const double big = 3.4028234663852886e38;
-  if (!(x == x)) return 0.0;
-  return float(clamp(x, -big, big));
-}
-
 void main() {
   int i = linear_id();
   if (i >= P.num_vertices) return;

@@ -47,3 +47,12 @@ double hdot(dvec3 a, dvec3 b) {
   precise double d = (a.x * b.x + a.y * b.y) + a.z * b.z;
   return d;
 }
+
+// double -> float as the CPU kernels write their results: detail::finite_cast
+// (NaN to 0, clamped to float's finite range) and saturate<float> (clamped).
+const double kFloatMax = 3.4028234663852886e38;
+float finite_float(double x) {
+  if (!(x == x)) return 0.0;
+  return float(clamp(x, -kFloatMax, kFloatMax));
+}
+float saturate_float(double x) { return float(x > kFloatMax ? kFloatMax : x < -kFloatMax ? -kFloatMax : x); }

@@ -11,12 +11,6 @@ layout(local_size_x = 256) in;
 layout(std430, binding = 7) readonly buffer SumBuf { int64_t sums[]; };
 layout(std430, binding = 9) writeonly buffer OutBuf { float grad_clip[]; };
 
-float finite_float(double x) {
-  const double kMax = 3.4028234663852886e38;
-  if (!(x == x)) return 0.0;
-  return float(clamp(x, -kMax, kMax));
-}
-
 void main() {
   int i = linear_id();
   if (i >= P.num_vertices) return;

@@ -10,12 +10,6 @@ layout(std430, binding = 6) writeonly buffer TriIdOut { int tri_id[]; };
 layout(std430, binding = 7) writeonly buffer UvOut { float uv[]; };
 layout(std430, binding = 8) writeonly buffer DepthOut { float depth[]; };
 
-// x rounded to float, saturated at float's largest finite value (as the CPU's saturate<float>).
-float saturate_float(double x) {
-  const double kMax = 3.4028234663852886e38;
-  return float(x > kMax ? kMax : x < -kMax ? -kMax : x);
-}
-
 void main() {
   int p = linear_id();
   if (p >= P.width * P.height) return;
