@@ -188,7 +188,7 @@ Targets render_targets(const Scene& scene, const RasterizeOptions& raster) {
 }
 
 // Positions are free 3-D points: start + S^k(u) with one offset u per point
-// and S = I - L/2 (a half step towards the neighbours' mean), k =
+// and S = I + L/2 (L x = the neighbours' mean - x: a half step towards it), k =
 // smoothing_passes. S^k is invertible, so any positions can be reached, but a
 // gradient on one vertex moves its neighbourhood: a cheap stand-in for the
 // "large steps" preconditioner of Nicolet et al. 2021. Without it (k = 0) the
@@ -204,12 +204,12 @@ class SmoothedPositions {
 
   Tensor evaluate() const {
     Tensor x = offsets;
-    for (int k = 0; k < passes_; ++k) x = x - 0.5 * laplacian.apply(x);
+    for (int k = 0; k < passes_; ++k) x = x + 0.5 * laplacian.apply(x);
     return mesh_.positions + x;
   }
 
   Tensor offsets;  // the parameter u
-  const UniformLaplacian laplacian;
+  const MeshLaplacian laplacian;  // uniform
 
  private:
   const SurfaceMesh& mesh_;
@@ -475,7 +475,7 @@ FitResult run_shape(const FitOptions& options, std::ostream& log) {
 
     // The views' gradient and the Laplacian term, once: d/d offsets of
     // penalty(positions) + <surface(positions), dL/dsurface> (dL/dsurface held constant).
-    backward(options.laplacian_weight * decay * smoothed.laplacian.penalty(positions) + shared.pullback());
+    backward(options.laplacian_weight * decay * laplacian_penalty(smoothed.laplacian, positions) + shared.pullback());
     shared.zero_grad();
     phases.mark("Laplacian, smoothing, normals backward");
     adam.step();

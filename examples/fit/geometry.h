@@ -1,56 +1,23 @@
-// Differentiable mesh quantities for the fit example, written with tensor ops
-// so gradients reach the vertex positions: area-weighted vertex normals and a
-// uniform Laplacian smoothness penalty. Also the example's mesh type, which
-// keeps the positions being fitted (one row per distinct point) apart from
-// the vertices the rasterizer sees (split where the texture coordinates jump).
+// The fit example's mesh type, which keeps the positions being fitted (one
+// row per distinct point) apart from the vertices the rasterizer sees (split
+// where the texture coordinates jump), and its Laplacian smoothness penalty.
+// Vertex normals and the Laplacian itself are the library's (ops/mesh.h).
 #pragma once
 
 #include <cstdint>
-#include <memory>
-#include <vector>
 
 #include "autodiff/tensor.h"
 #include "ops/antialias.h"
+#include "ops/mesh.h"
 #include "raster/mesh.h"
 
 namespace fit {
 
 using gr::Tensor;
 
-// Vertex normals [N, 3] of positions [N, 3] and triangles [M, 3]: each
-// triangle's cross product (length = twice its area) is added to its three
-// corners with scatter_add, then normalized.
-Tensor vertex_normals(const Tensor& positions, const Tensor& triangles);
-
-// The uniform ("umbrella") Laplacian of a fixed triangle list:
-// L(p)_i = p_i - (1/deg_i) sum_{j in N(i)} p_j, N(i) the edge neighbours of
-// vertex i (an isolated vertex has L(p)_i = p_i). apply() is one recorded op,
-// a sparse product over the neighbour lists (CSR), in parallel over rows on
-// large meshes.
-class UniformLaplacian {
- public:
-  UniformLaplacian(const Tensor& triangles, std::int64_t num_vertices);
-  // L(p) for p [N, C] float32 or float64. Each neighbour sum runs in ascending
-  // neighbour order and is then scaled by 1/deg_i rounded to float32, so the
-  // result is the same for any thread count.
-  // dL/dp_j = g_j - sum_{i in N(j)} g_i / deg_i (L^T g: N is symmetric, the
-  // weights are not).
-  Tensor apply(const Tensor& positions) const;
-  // mean over vertices of |L(p)_i|^2: the smoothness penalty.
-  Tensor penalty(const Tensor& positions) const;
-
-  // The neighbour lists: vertex i's neighbours, ascending, are
-  // neighbours[start[i] .. start[i + 1]); inv_degree[i] = 1/deg_i (0 when isolated).
-  struct Adjacency {
-    std::vector<std::int64_t> start;
-    std::vector<std::int32_t> neighbours;
-    std::vector<float> inv_degree;
-  };
-
- private:
-  std::shared_ptr<const Adjacency> adjacency_;  // shared with recorded adjoints
-  std::int64_t num_vertices_;
-};
+// The fit's smoothness penalty: mean over points of |L p_i|^2, L the uniform
+// Laplacian (gr::MeshLaplacian; its sign does not matter here).
+Tensor laplacian_penalty(const gr::MeshLaplacian& laplacian, const Tensor& positions);
 
 // A triangle mesh as the fit example renders and optimizes it. `positions`
 // has one row per distinct point (welded), so a uv seam cannot tear open when

@@ -282,7 +282,7 @@ def vertex_normals(verts, faces, eps=1e-12):
     pointing to the side from which p0, p1, p2 appear counter-clockwise, the
     right-hand rule) is added to its three corners, and each sum s_i is
     divided by max(|s_i|, eps). A vertex of no face, or whose faces' normals
-    cancel, gets 0. Same as gradraster's fit example (examples/fit/geometry.h)
+    cancel, gets 0. Same as the C++ gr::vertex_normals (ops/mesh/vertex_normals.h)
     and PyTorch3D's Meshes.verts_normals_packed, except that PyTorch3D uses
     eps = 1e-6 (pass eps=1e-6 for its values on tiny meshes)."""
     faces = _check_mesh(verts, faces, 'vertex_normals')

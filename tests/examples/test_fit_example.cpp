@@ -229,12 +229,12 @@ TEST_CASE("fit example: the start sphere's uvs never jump across the seam inside
 TEST_CASE("fit example: the uniform Laplacian is zero on a flat grid and vertex normals point out of a sphere",
           "[examples][fit]") {
   const raster::Mesh plane = raster::make_plane(4, 4);
-  const fit::UniformLaplacian laplacian(plane.triangles, plane.num_vertices());
+  const gr::MeshLaplacian laplacian(plane.triangles, plane.num_vertices());
   const Tensor l = laplacian.apply(plane.positions);
   for (std::int64_t i = 0; i < plane.num_vertices(); ++i) CHECK(l.at({i, 2}) == 0.0);  // flat: no z offset
 
   const raster::Mesh sphere = raster::make_icosphere(2);
-  const Tensor n = fit::vertex_normals(sphere.positions, sphere.triangles);
+  const Tensor n = gr::vertex_normals(sphere.positions, sphere.triangles);
   for (std::int64_t i = 0; i < sphere.num_vertices(); ++i) {
     double along = 0;
     for (std::int64_t k = 0; k < 3; ++k) along += n.at({i, k}) * sphere.positions.at({i, k});
@@ -245,17 +245,17 @@ TEST_CASE("fit example: the uniform Laplacian is zero on a flat grid and vertex 
 TEST_CASE("fit example: gradients of vertex normals and of the Laplacian penalty match finite differences",
           "[examples][fit][gradcheck]") {
   const raster::Mesh mesh = raster::make_icosphere(0);
-  const fit::UniformLaplacian laplacian(mesh.triangles, mesh.num_vertices());
+  const gr::MeshLaplacian laplacian(mesh.triangles, mesh.num_vertices());
   Tensor p = gr::testing::random_input({mesh.num_vertices(), 3}, -0.05, 0.05, 7);
   {
     NoGradGuard no_grad;
     p = (p + cast(mesh.positions, DType::Float64)).copy().set_requires_grad();
   }
   gr::testing::require_gradcheck("vertex_normals", [&](const std::vector<Tensor>& in) {
-    return fit::vertex_normals(in[0], mesh.triangles);
+    return gr::vertex_normals(in[0], mesh.triangles);
   }, {p});
   gr::testing::require_gradcheck("laplacian penalty", [&](const std::vector<Tensor>& in) {
-    return laplacian.penalty(in[0]);
+    return fit::laplacian_penalty(laplacian, in[0]);
   }, {p});
 }
 
