@@ -161,3 +161,21 @@ TEST_CASE("LargeSteps: bad weights and values are refused naming the argument", 
   CHECK_THROWS_WITH(ls.from_differential(nan), Contains("LargeSteps::from_differential: u[3] is NaN"));
   CHECK_THROWS_AS(ls.to_differential(Tensor()), Error);
 }
+
+TEST_CASE("LargeSteps and MeshLaplacian: a mesh without faces gives M = I and L x = -x; without vertices, empty "
+          "results",
+          "[ops][mesh][large_steps]") {
+  const Tensor v = Tensor::uniform({5, 3}, -1, 1, 8, DType::Float64);
+  const Tensor none = Tensor::zeros({0, 3}, DType::Int32);
+  const LargeSteps ls(v, none, 7.0);
+  CHECK(same_bits(ls.to_differential(v), v));
+  CHECK(same_bits(ls.from_differential(v), v));
+  for (LaplacianMethod method : {LaplacianMethod::Uniform, LaplacianMethod::Cot})
+    CHECK(same_bits(MeshLaplacian(v, none, method).apply(v), neg(v)));
+  CHECK(MeshLaplacian(v, none, LaplacianMethod::CotCurv).apply(v).to_vector() == std::vector<double>(15, 0.0));
+  const Tensor empty = Tensor::zeros({0, 3}, DType::Float64);
+  const LargeSteps nothing(empty, none, 1.0);
+  CHECK(nothing.from_differential(empty).shape() == Shape{0, 3});
+  CHECK(nothing.to_differential(empty).shape() == Shape{0, 3});
+  CHECK(MeshLaplacian(none, 0).apply(empty).shape() == Shape{0, 3});
+}
