@@ -89,6 +89,7 @@ Tensor antialias(const Tensor& image, const GBuffer& gbuffer, const Tensor& clip
   // NaN/Inf clip rows are refused here, naming 'clip' (the default topology
   // below welds by clip rows).
   detail::check_finite(clip, op, "clip");
+  detail::check_gbuffer_source(gbuffer, clip, triangles, op);
   const double boost = options.pos_gradient_boost;
   if (!std::isfinite(boost))
     throw ValueError(op + ": option 'pos_gradient_boost' must be finite, got " + std::to_string(boost));

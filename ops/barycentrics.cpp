@@ -77,6 +77,7 @@ void check_inputs(const Tensor& clip, const Tensor& triangles, const GBuffer& gb
   detail::check_dtype(gb.tri_id, DType::Int32, op, "gbuffer.tri_id");
   if (gb.tri_id.rank() != 2) throw ShapeError(std::string(op) + ": gbuffer.tri_id must be [H, W], got " + gb.tri_id.describe());
   detail::check_tri_ids(gb.tri_id, triangles.size(0), op);
+  detail::check_gbuffer_source(gb, clip, triangles, op);
 }
 
 }  // namespace

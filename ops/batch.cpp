@@ -59,7 +59,7 @@ struct GradOf {
   }
 };
 
-void check_batched_gbuffer(const GBuffer& g, std::int64_t images, const Tensor& clip, std::int64_t triangles,
+void check_batched_gbuffer(const GBuffer& g, std::int64_t images, const Tensor& clip, const Tensor& triangles,
                            const std::string& op) {
   if (!g.tri_id.defined() || g.tri_id.dtype() != DType::Int32 || g.tri_id.rank() != 3 || g.tri_id.size(0) != images)
     throw ShapeError(op + ": argument 'gbuffer' has no [B, H, W] int32 tri_id with B = " + std::to_string(images) +
@@ -70,7 +70,8 @@ void check_batched_gbuffer(const GBuffer& g, std::int64_t images, const Tensor& 
       g.depth.shape() != Shape{images, h, w} || g.depth.dtype() != clip.dtype())
     throw ShapeError(op + ": gbuffer.uv " + g.uv.describe() + " or depth " + g.depth.describe() +
                      " does not match tri_id " + g.tri_id.describe() + " and the dtype of 'clip'");
-  detail::check_tri_ids(g.tri_id, triangles, op);
+  detail::check_tri_ids(g.tri_id, triangles.size(0), op);
+  detail::check_gbuffer_source(g, clip, triangles, op);
 }
 
 }  // namespace
@@ -126,6 +127,8 @@ GBuffer rasterize_images(const Tensor& clip, const Tensor& triangles, const Imag
   const PerImage positions{&clip, !batch.instanced, clip.size(clip.rank() - 2), 4};
   const raster::RasterSettings settings{o.width, o.height, o.cull, o.front_to_back};
   GBuffer gb;
+  gb.clip = clip;
+  gb.triangles = triangles;
   gb.tri_id = Tensor::empty({B, h, w}, DType::Int32);
   gb.uv = Tensor::empty({B, h, w, 2}, clip.dtype());
   gb.depth = Tensor::empty({B, h, w}, clip.dtype());
@@ -213,7 +216,7 @@ Tensor interpolate_batch(const Tensor& attributes, const Tensor& clip, const GBu
   if (pos.cols != 4) throw ShapeError(op + ": argument 'clip' must have 4 columns, got " + clip.describe());
   detail::check_same_dtype(attributes, clip, op, "attributes", "clip");
   detail::check_triangles(triangles, N, op);
-  check_batched_gbuffer(gbuffer, B, clip, triangles.size(0), op);
+  check_batched_gbuffer(gbuffer, B, clip, triangles, op);
   detail::check_finite(clip, op, "clip");
   detail::check_finite(attributes, op, "attributes");
   const std::int64_t C = attr.cols;
@@ -287,7 +290,7 @@ Tensor antialias_batch(const Tensor& image, const GBuffer& gbuffer, const Tensor
   if (pos.cols != 4) throw ShapeError(op + ": argument 'clip' must have 4 columns, got " + clip.describe());
   detail::check_same_dtype(image, clip, op, "image", "clip");
   detail::check_triangles(triangles, N, op);
-  check_batched_gbuffer(gbuffer, B, clip, triangles.size(0), op);
+  check_batched_gbuffer(gbuffer, B, clip, triangles, op);
   if (gbuffer.tri_id.size(1) != h || gbuffer.tri_id.size(2) != w)
     throw ShapeError(op + ": argument 'gbuffer' " + gbuffer.tri_id.describe() + " and 'image' " + image.describe() +
                      " differ in size");

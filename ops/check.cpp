@@ -3,6 +3,8 @@
 // ones, so the reported element never depends on the thread count.
 #include "ops/check.h"
 
+#include <cstring>
+
 #include "autodiff/error.h"
 #include "raster/rasterize_setup.h"
 
@@ -10,6 +12,14 @@ namespace gr::detail {
 namespace {
 
 std::string arg(const std::string& op, const char* name) { return op + ": argument '" + name + "' "; }
+
+// The same tensor, or one with the same shape, dtype and bits.
+bool same_values(const Tensor& a, const Tensor& b) {
+  if (a.same(b)) return true;
+  if (!a.defined() || !b.defined() || a.dtype() != b.dtype() || a.shape() != b.shape()) return false;
+  const std::size_t bytes = static_cast<std::size_t>(a.numel()) * dtype_size(a.dtype());
+  return bytes == 0 || std::memcmp(a.impl()->storage->data(), b.impl()->storage->data(), bytes) == 0;
+}
 
 }  // namespace
 
@@ -78,6 +88,19 @@ void check_clip_and_triangles(const Tensor& clip, const Tensor& triangles, const
 
 void check_tri_ids(const Tensor& tri_id, std::int64_t num_tris, const std::string& op) {
   raster::detail::check_tri_ids(tri_id.data<std::int32_t>(), tri_id.numel(), num_tris, op.c_str());
+}
+
+void check_gbuffer_source(const GBuffer& gbuffer, const Tensor& clip, const Tensor& triangles,
+                          const std::string& op) {
+  if (!gbuffer.clip.defined()) return;
+  if (!same_values(clip, gbuffer.clip))
+    throw ValueError(arg(op, "clip") + "is not the clip the G-buffer was rasterized from (" +
+                     gbuffer.clip.describe() + "), got " + clip.describe() +
+                     " with other values: pass the tensor given to rasterize");
+  if (!same_values(triangles, gbuffer.triangles))
+    throw ValueError(arg(op, "triangles") + "are not the triangles the G-buffer was rasterized from (" +
+                     gbuffer.triangles.describe() + "), got " + triangles.describe() +
+                     " with other values: pass the tensor given to rasterize");
 }
 
 }  // namespace gr::detail

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "autodiff/tensor.h"
+#include "ops/rasterize.h"
 
 namespace gr::detail {
 
@@ -37,6 +38,11 @@ void check_image_size(std::int64_t width, std::int64_t height, const std::string
 void check_triangles(const Tensor& triangles, std::int64_t num_vertices, const std::string& op);
 // clip: float [N, 4]; triangles as check_triangles with num_vertices = N.
 void check_clip_and_triangles(const Tensor& clip, const Tensor& triangles, const std::string& op);
+// ValueError unless clip and triangles are the ones `gbuffer` was rasterized
+// from (GBuffer::clip, ::triangles): the same tensors, or tensors of the same
+// shape, dtype and bits. Passes a hand-made GBuffer (no clip recorded).
+void check_gbuffer_source(const GBuffer& gbuffer, const Tensor& clip, const Tensor& triangles,
+                          const std::string& op);
 // tri_id: int32 [H, W] with every value in [0, num_tris] (IndexError naming the pixel).
 void check_tri_ids(const Tensor& tri_id, std::int64_t num_tris, const std::string& op);
 

@@ -34,6 +34,7 @@ void check_gbuffer(const GBuffer& gbuffer, const Tensor& clip, const Tensor& tri
     throw ShapeError("interpolate: gbuffer.uv " + gbuffer.uv.describe() + " does not match tri_id " +
                      gbuffer.tri_id.describe() + " and clip dtype");
   detail::check_tri_ids(gbuffer.tri_id, triangles.size(0), kOp);
+  detail::check_gbuffer_source(gbuffer, clip, triangles, kOp);
 }
 
 // Fragments are covered pixels: every tri_id in [1, M], every pixel_index in [0, W*H).
@@ -141,6 +142,14 @@ Tensor interpolate(const Tensor& attributes, const Tensor& clip, const GBuffer& 
   }
   return interpolate_items(attributes, clip, triangles, gbuffer.tri_id, gbuffer.uv, int(w), int(h), Tensor(),
                            options.perspective, background, {h, w, c}, gbuffer.groups);
+}
+
+Tensor interpolate(const Tensor& attributes, const GBuffer& gbuffer, const Tensor& triangles,
+                   const InterpolateOptions& options) {
+  if (!gbuffer.clip.defined())
+    throw ValueError("interpolate: argument 'gbuffer' does not record the clip positions it was rasterized from "
+                     "(pass the result of rasterize, or call interpolate(attributes, clip, gbuffer, triangles))");
+  return interpolate(attributes, gbuffer.clip, gbuffer, triangles, options);
 }
 
 Tensor interpolate(const Tensor& attributes, const Tensor& clip, const Fragments& fragments, const Tensor& triangles,

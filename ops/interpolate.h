@@ -13,6 +13,14 @@ struct InterpolateOptions {
   Tensor background;        // [C] value for background pixels; undefined = zeros
 };
 
+// attributes [N, C] and the G-buffer of rasterize(clip, triangles, ...) with
+// its triangles -> [H, W, C], nvdiffrast's argument order (attr, rast, tri).
+// The clip positions come from the G-buffer (GBuffer::clip), so they are the
+// rasterized ones by construction. The form below, which takes clip too, is
+// the same op; it refuses a clip or triangles other than the rasterized ones.
+Tensor interpolate(const Tensor& attributes, const GBuffer& gbuffer, const Tensor& triangles,
+                   const InterpolateOptions& options = {});
+
 // attributes [N, C], clip [N, 4] (its w column is the 1/w weight), the
 // G-buffer of rasterize(clip, triangles, ...) -> [H, W, C].
 // With lambda = (1-u-v, u, v), q_k = lambda_k / w_k, s = sum q_k:

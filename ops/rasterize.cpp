@@ -38,6 +38,8 @@ GBuffer rasterize_layer(const Tensor& clip, const Tensor& triangles, const Raste
   const raster::RasterSettings settings{options.width, options.height, options.cull, options.front_to_back};
   const std::int64_t h = options.height, w = options.width;
   GBuffer gb;
+  gb.clip = clip;
+  gb.triangles = triangles;
   gb.tri_id = Tensor::empty({h, w}, DType::Int32);
   gb.uv = Tensor::empty({h, w, 2}, clip.dtype());
   gb.depth = Tensor::empty({h, w}, clip.dtype());

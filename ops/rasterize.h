@@ -34,6 +34,12 @@ struct GBuffer {
   Tensor uv;      // [H, W, 2]: screen-space barycentrics (u, v) of vertices 1 and 2
   Tensor depth;   // [H, W]: z_ndc (raster::kBackgroundDepth on background)
   raster::RasterStats stats;
+  // The clip positions and triangles it was rasterized from, set by every op
+  // that makes a G-buffer. Ops that read it together with clip and triangles
+  // refuse others (detail::check_gbuffer_source), and interpolate(attributes,
+  // gbuffer, triangles) takes clip from here. Undefined in a hand-made GBuffer.
+  Tensor clip;
+  Tensor triangles;
   // Set when recorded: the pixels' grouping by triangle, made by the first
   // adjoint that needs it and reused by the others (raster/triangle_groups.h).
   std::shared_ptr<raster::TriangleGroups> groups;

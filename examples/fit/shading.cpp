@@ -64,9 +64,9 @@ Render render(const SurfaceMesh& mesh, const Surface& surface, const Tensor& vie
     options.filter = Filter::Trilinear;
     albedo = texture(surface.texture, uv.values, options, uv.d_dx, uv.d_dy);
   } else {
-    albedo = interpolate(surface.colours, clip, gb, mesh.triangles);
+    albedo = interpolate(surface.colours, gb, mesh.triangles);
   }
-  const Tensor normal = interpolate(surface.normals, clip, gb, mesh.triangles);
+  const Tensor normal = interpolate(surface.normals, gb, mesh.triangles);
 
   // Coverage from the triangle ids (no gradient); the background fills the rest.
   const Tensor covered = greater(cast(gb.tri_id, DType::Float32), Tensor::scalar(0.0));

@@ -55,7 +55,7 @@ Tensor view_projection() {
 Tensor render(const Scene& s, const Tensor& height, const Tensor& mvp, int size, bool visibility) {
   const Tensor clip = transform_points(s.base + s.lift * height, mvp);
   const GBuffer gb = rasterize(clip, s.triangles, {size, size});
-  const Tensor image = interpolate(s.colours, clip, gb, s.triangles);
+  const Tensor image = interpolate(s.colours, gb, s.triangles);
   if (visibility) {
     VisibilityAntialiasOptions options;
     options.topology = s.topology;

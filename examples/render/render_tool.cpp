@@ -232,7 +232,7 @@ Tensor shade(const raster::Mesh& mesh, const Tensor& clip, const GBuffer& gb, co
   Tensor smooth;  // [H, W, 3] perspective-correct vertex normals, if used
   std::vector<float> faces;
   if (mesh.has_normals() && !flat)
-    smooth = interpolate(mesh.normals, clip, gb, mesh.triangles);
+    smooth = interpolate(mesh.normals, gb, mesh.triangles);
   else
     faces = face_normals(mesh);
   const float* sn = smooth.defined() ? smooth.data<float>() : nullptr;

@@ -141,4 +141,10 @@ TEST_CASE("batch: bad batches are errors naming the argument", "[batch][errors]"
                     Catch::Contains("rasterize_batch or rasterize_ranges"));
   CHECK_THROWS_WITH(antialias_batch(Tensor::zeros({B, H, W - 1, 3}, DType::Float64), g, clip, tris),
                     Catch::Contains("differ in size"));
+  Tensor moved = clip.copy();
+  moved.data<double>()[0] += 0.25;
+  CHECK_THROWS_WITH(interpolate_batch(Tensor::zeros({6, 3}, DType::Float64), moved, g, tris),
+                    Catch::Contains("interpolate_batch: argument 'clip' is not the clip the G-buffer was rasterized from"));
+  CHECK_THROWS_WITH(antialias_batch(Tensor::zeros({B, H, W, 3}, DType::Float64), g, moved, tris),
+                    Catch::Contains("argument 'clip' is not the clip"));
 }

@@ -1,6 +1,7 @@
 #include <catch2/catch.hpp>
 
 #include <algorithm>
+#include <cmath>
 
 #include "ops/ops.h"
 #include "test_support.h"
@@ -79,7 +80,10 @@ TEST_CASE("interpolate op: vertices a denormal w from the eye plane give the w =
   for (const Tensor& t : {clip.grad(), attr.grad()})
     for (const double v : t.to_vector()) REQUIRE(std::isfinite(v));
   // Same weights as a vertex exactly on the eye plane, at the same pixels.
-  const Tensor at_zero = interpolate(attr.detach(), clip_with_w(0.0), gb, tris);
+  // (Other positions over this coverage: a G-buffer that records no clip.)
+  GBuffer coverage = gb;
+  coverage.clip = Tensor();
+  const Tensor at_zero = interpolate(attr.detach(), clip_with_w(0.0), coverage, tris);
   const std::vector<double> a = d.values.to_vector(), b = at_zero.to_vector();
   for (std::size_t i = 0; i < a.size(); ++i) REQUIRE(a[i] == Approx(b[i]).margin(1e-12));
 }
@@ -188,9 +192,61 @@ TEST_CASE("interpolate op: a G-buffer given a new tri_id after a backward never 
   std::copy(other.tri_id.data<std::int32_t>(), other.tri_id.data<std::int32_t>() + 16 * 20,
             gb.tri_id.data<std::int32_t>());
   gb.uv = other.uv;
+  gb.clip = moved;
   GBuffer fresh = gb;
   fresh.groups.reset();
   const std::vector<double> reused = attr_grad(gb, moved), ungrouped = attr_grad(fresh, moved);
   REQUIRE(std::any_of(ungrouped.begin(), ungrouped.end(), [](double x) { return x != 0.0; }));
   CHECK(reused == ungrouped);
+}
+
+TEST_CASE("interpolate op: the three-argument form takes clip from the G-buffer and gives the four-argument form's "
+          "values and gradients, bit for bit", "[ops][interpolate]") {
+  const Tensor tris = Tensor::from_vector<std::int32_t>({0, 1, 2, 3, 4, 5}, {2, 3});
+  const Tensor weights = random_input({16, 20, 3}, -1, 1, 53);
+  auto run = [&](bool from_gbuffer) {
+    Tensor clip = clip_of_two_triangles().set_requires_grad();
+    Tensor attr = random_input({6, 3}, -1, 1, 41).set_requires_grad();
+    const GBuffer gb = rasterize(clip, tris, {20, 16});
+    const Tensor out = from_gbuffer ? interpolate(attr, gb, tris) : interpolate(attr, clip, gb, tris);
+    backward(sum(out * weights));
+    return std::vector<std::vector<double>>{out.to_vector(), attr.grad().to_vector(), clip.grad().to_vector()};
+  };
+  const auto three = run(true), four = run(false);
+  REQUIRE(three == four);
+  double largest = 0;
+  for (const double g : three[2]) largest = std::max(largest, std::fabs(g));
+  REQUIRE(largest > 0);  // the clip gradient flows through the G-buffer's clip
+  const Tensor attr = random_input({6, 3}, -1, 1, 41);
+  const GBuffer gb = rasterize(clip_of_two_triangles(), tris, {20, 16});
+  require_gradcheck("interpolate(attributes, gbuffer, triangles)",
+                    [&](const Inputs& in) { return interpolate(in[0], gb, tris); }, {attr});
+}
+
+TEST_CASE("interpolate and antialias op: a clip or triangles other than the rasterized ones are refused, naming the "
+          "argument; a copy with the same values is accepted", "[ops][interpolate][antialias][errors]") {
+  const Tensor clip = clip_of_two_triangles();
+  const Tensor tris = Tensor::from_vector<std::int32_t>({0, 1, 2, 3, 4, 5}, {2, 3});
+  const GBuffer gb = rasterize(clip, tris, {8, 8});
+  const Tensor attr = Tensor::ones({6, 3}, DType::Float64);
+  const Tensor image = Tensor::ones({8, 8, 3}, DType::Float64);
+  CHECK_NOTHROW(interpolate(attr, clip.copy(), gb, tris.copy()));
+  CHECK_NOTHROW(antialias(image, gb, clip.copy(), tris.copy()));
+  Tensor moved = clip.copy();
+  moved.data<double>()[5] += 1e-9;
+  CHECK_THROWS_AS(interpolate(attr, moved, gb, tris), ValueError);
+  CHECK_THROWS_WITH(interpolate(attr, moved, gb, tris),
+                    Catch::Contains("'clip'") && Catch::Contains("not the clip the G-buffer was rasterized from"));
+  CHECK_THROWS_WITH(antialias(image, gb, moved, tris), Catch::Contains("antialias: argument 'clip'"));
+  const Tensor swapped = Tensor::from_vector<std::int32_t>({3, 4, 5, 0, 1, 2}, {2, 3});
+  CHECK_THROWS_WITH(interpolate(attr, clip, gb, swapped), Catch::Contains("'triangles'"));
+  CHECK_THROWS_WITH(antialias(image, gb, clip, swapped), Catch::Contains("'triangles'"));
+  CHECK_THROWS_WITH(interpolate_with_derivatives(attr, moved, gb, tris), Catch::Contains("'clip'"));
+  // A G-buffer that records no clip (made by hand, or cleared to evaluate an
+  // op at a fixed coverage) is read with whatever clip is given; the
+  // three-argument form then has no clip to take.
+  GBuffer fixed = gb;
+  fixed.clip = Tensor();
+  CHECK_NOTHROW(interpolate(attr, moved, fixed, tris));
+  CHECK_THROWS_WITH(interpolate(attr, fixed, tris), Catch::Contains("does not record the clip positions"));
 }
