@@ -47,8 +47,9 @@ def frame_with(n_dot, g, count=6):
 
 
 # ----------------------------------------------------------------------------
-# The independent reference table (tests/data/shading_reference/README in
-# /work/notes: one row per case, inputs then outputs, 17 digits)
+# The independent reference table (tests/data/shading_reference, written by
+# make_shading_reference.py there: one row per case, the function's name, its
+# inputs then its outputs, 17 significant digits; ARITY gives the sizes)
 
 ARITY = {  # name: (input sizes, output size)
     'srgb_to_linear': ([1], 1), 'linear_to_srgb': ([1], 1), 'lambert': ([3, 3, 3], 3),
