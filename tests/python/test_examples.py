@@ -10,7 +10,8 @@ EXAMPLES = os.path.join(os.path.dirname(__file__), '..', '..', 'examples', 'pyth
 
 @pytest.mark.parametrize('name, pngs', [('cube_fit', ['cube_fit.png']),
                                          ('texture_fit', ['texture_fit.png', 'texture_fit_texture.png']),
-                                         ('pose_fit', ['pose_fit.png'])])
+                                         ('pose_fit', ['pose_fit.png']),
+                                         ('ggx_fit', ['ggx_fit.png', 'ggx_fit_maps.png'])])
 def test_example_runs_prints_progress_and_writes_its_images(tmp_path, name, pngs):
     result = subprocess.run([sys.executable, os.path.join(EXAMPLES, name + '.py'), '--iterations', '3', '--size', '32',
                              '--out', str(tmp_path)], capture_output=True, text=True, timeout=300)
