@@ -16,7 +16,7 @@ LightSample directional_light(const Tensor& direction, const Tensor& radiance) {
   constexpr const char* op = "shading::directional_light";
   detail::check_vectors(direction, 3, op, "direction");
   gr::detail::check_float(radiance, op, "radiance");
-  detail::check_together(op, {{"direction", direction}, {"radiance", radiance}});
+  gr::detail::check_same_dtype(radiance, direction, op, "radiance", "direction");
   return {normalize(direction), radiance};
 }
 
@@ -25,9 +25,12 @@ LightSample point_light(const Tensor& light_position, const Tensor& intensity, c
   detail::check_vectors(light_position, 3, op, "light_position");
   gr::detail::check_float(intensity, op, "intensity");
   detail::check_vectors(position, 3, op, "position");
-  detail::check_together(op, {{"light_position", light_position}, {"intensity", intensity}, {"position", position}});
+  detail::check_together(op, {{"light_position", light_position}, {"position", position}});
+  gr::detail::check_same_dtype(intensity, light_position, op, "intensity", "light_position");
   const Tensor d = light_position - position;
-  return {normalize(d), intensity / maximum(dot(d, d), 1e-12)};
+  const Tensor squared_distance = maximum(dot(d, d), 1e-12);  // [..., 1]
+  detail::check_together(op, {{"|light_position - position|^2", squared_distance}, {"intensity", intensity}});
+  return {normalize(d), intensity / squared_distance};
 }
 
 Tensor environment_light(const Tensor& cube_map, const Tensor& direction, const CubeTextureOptions& options,

@@ -18,11 +18,13 @@ struct LightSample {
 };
 
 // A distant light: direction [..., 3] (towards the light, any length),
-// radiance [..., C] -> {normalize(direction), radiance} (radiance is passed on as is).
+// radiance [..., C] (any float tensor of direction's dtype) ->
+// {normalize(direction), radiance} (radiance is passed on as is).
 LightSample directional_light(const Tensor& direction, const Tensor& radiance);
 
 // A point light at light_position [..., 3] with intensity [..., C], seen from
-// surface points `position` [..., 3]: with d = light_position - position,
+// surface points `position` [..., 3] (the two broadcast; intensity broadcasts
+// against their [..., 1]): with d = light_position - position,
 //   {normalize(d), intensity / max(|d|^2, 1e-12)}   (inverse-square falloff).
 LightSample point_light(const Tensor& light_position, const Tensor& intensity, const Tensor& position);
 

@@ -252,6 +252,24 @@ TEST_CASE("cook_torrance: roughness below 0.03 shades as 0.03, above 1 as 1, and
     CHECK(c == 0.0);
 }
 
+TEST_CASE("cook_torrance: a view at or below the horizon is shaded with n.v = 1e-4, term by term as the spec "
+          "composes it",
+          "[ops][shading][brdf]") {
+  const Tensor n = normalize(vec3(0.1, 0.2, 1)), l = at_angle(n, vec3(1, 0, 0), 0.6);
+  const Tensor base = vec3(0.7, 0.4, 0.1), metallic = scalar_column(0.25);
+  const double alpha = 0.5 * 0.5;
+  for (double cos_v : {0.0, -0.3}) {
+    const Tensor v = at_angle(n, vec3(-1, 0.5, 0), cos_v), h = normalize(l + v);
+    const Tensor f0 = 0.04 * (1.0 - metallic) + base * metallic;
+    const Tensor f = shading::fresnel_schlick(maximum(dot(v, h), 0.0), f0);
+    const Tensor specular = f * shading::ggx_distribution(dot(n, h), vec({alpha})) *
+                            shading::smith_ggx_correlated(vec({1e-4}), dot(n, l), vec({alpha}));
+    const Tensor expected = ((1.0 - f) * (1.0 - metallic) * base / kPi + specular) * dot(n, l);
+    const Tensor got = shading::cook_torrance(base, metallic, scalar_column(0.5), n, l, v);
+    for (std::int64_t c = 0; c < 3; ++c) CHECK(got.at({0, c}) == Approx(expected.at({0, c})).epsilon(1e-14));
+  }
+}
+
 TEST_CASE("cook_torrance: gradients of every input match finite differences on random pixels",
           "[ops][shading][brdf][gradcheck]") {
   const Scene s = lit_scene(12, 0.2, 0.95, 50);
