@@ -25,6 +25,7 @@
 #include "ops/resample.h"
 #include "ops/map_rows.h"
 #include "ops/mesh.h"
+#include "ops/shading.h"
 #include "ops/shape_ops.h"
 #include "ops/soft_rasterize.h"
 #include "ops/ssr.h"

@@ -1,9 +1,10 @@
-// gradraster-shading-gallery: renders a UV sphere once and shades it four ways
-// with examples/shading/shading.h (Lambert | Blinn-Phong | normal-mapped
-// Blinn-Phong | SH sky/ground environment), side by side, into
-// OUT_DIR/shading_gallery.png (default OUT_DIR: out). The pipeline is the one
-// to copy: transform -> rasterize -> interpolate -> texture -> shade ->
-// composite. Everything is a tensor op, so the same code differentiates.
+// gradraster-shading-gallery: renders a UV sphere once and shades it five ways
+// with the library's shading functions (ops/shading.h, gr::shading): Lambert |
+// Blinn-Phong | normal-mapped Blinn-Phong | Cook-Torrance (GGX) | SH
+// sky/ground environment, side by side, into OUT_DIR/shading_gallery.png
+// (default OUT_DIR: out). The pipeline is the one to copy: transform ->
+// rasterize -> interpolate -> texture -> shade -> composite -> sRGB.
+// Everything is a tensor op, so the same code differentiates.
 #include <algorithm>
 #include <cmath>
 #include <exception>
@@ -13,7 +14,7 @@
 #include <vector>
 
 #include "examples/common/output_folder.h"
-#include "examples/shading/shading.h"
+#include "examples/shading/sky_ground.h"
 #include "ops/ops.h"
 #include "raster/image_io.h"
 #include "raster/procedural.h"
@@ -64,9 +65,9 @@ Tensor background() {
 }
 
 int run(const std::string& out_dir) {
-  // Scene: a UV sphere (positions, normals, uvs) and its tangents.
+  // Scene: a UV sphere (positions, normals, uvs) and its tangent frames [V, 4].
   const raster::Mesh mesh = raster::make_uv_sphere(64, 128);
-  const Tensor tangents = shading::vertex_tangents(mesh.positions, mesh.uvs, mesh.triangles);
+  const Tensor tangents = shading::vertex_tangents(mesh.positions, mesh.uvs, mesh.triangles, mesh.normals);
   const Tensor eye = vec3(0.0, 0.9, 3.9);
   const Tensor view = look_at(eye, vec3(0, 0, 0), vec3(0, 1, 0));
   const Tensor clip = transform_points(mesh.positions, matmul(perspective(36 * kPi / 180, 1.0, 0.1, 20.0), view));
@@ -75,16 +76,22 @@ int run(const std::string& out_dir) {
   const GBuffer gb = rasterize(clip, mesh.triangles, {kSize, kSize});
   const Tensor normal = normalize(interpolate(mesh.normals, clip, gb, mesh.triangles));  // [H, W, 3]
   const Tensor position = interpolate(mesh.positions, clip, gb, mesh.triangles);
-  const Tensor tangent = interpolate(tangents, clip, gb, mesh.triangles);
+  const Tensor tangent = interpolate(tangents, clip, gb, mesh.triangles);  // [H, W, 4]
   const InterpolatedWithDerivatives uv = interpolate_with_derivatives(mesh.uvs, clip, gb, mesh.triangles);
+  const Tensor view_dir = normalize(eye - position);
 
-  // Materials and lights.
+  // Materials and lights: a directional light of radiance pi (so Lambert's
+  // brightest value is the albedo) and a point light of the same radiance at
+  // about 5 units from the sphere.
   const Tensor albedo = vec3(0.80, 0.62, 0.50);
-  const Tensor specular = vec3(0.6, 0.6, 0.6);
+  const Tensor specular = vec3(0.2, 0.2, 0.2);
   const Tensor shininess = Tensor::scalar(40.0);
-  const Tensor light_dir = normalize(vec3(-0.6, 0.7, 0.6));
-  const Tensor light_pos = vec3(-3.0, 3.5, 3.5);
-  const Tensor sh = shading::sh_sky_ground(vec3(0, 1, 0), vec3(0.55, 0.72, 1.0), vec3(0.40, 0.28, 0.16));
+  const Tensor metallic = Tensor::scalar(0.0), roughness = Tensor::scalar(0.35);
+  const shading::LightSample sun = shading::directional_light(vec3(-0.6, 0.7, 0.6), vec3(kPi, kPi, kPi));
+  const shading::LightSample lamp = shading::point_light(vec3(-3.0, 3.5, 3.5), vec3(25 * kPi, 25 * kPi, 25 * kPi),
+                                                         position);
+  const Tensor sh =
+      shading_example::sh_sky_ground(vec3(0, 1, 0), vec3(0.55, 0.72, 1.0), vec3(0.40, 0.28, 0.16));
 
   // Normal mapping: a trilinear lookup of the tangent-space map, then perturb.
   TextureOptions tex_options;
@@ -93,29 +100,30 @@ int run(const std::string& out_dir) {
   const Tensor bumped = shading::perturb_normal(normal, tangent, texel);
 
   const std::vector<Tensor> shaded = {
-      shading::lambert(albedo, normal, light_dir),
-      shading::blinn_phong(albedo, normal, position, light_pos, eye, shininess, specular),
-      shading::blinn_phong(albedo, bumped, position, light_pos, eye, shininess, specular),
+      shading::lambert(albedo, normal, sun.direction) * sun.radiance,
+      shading::blinn_phong(albedo, specular, shininess, normal, lamp.direction, view_dir) * lamp.radiance,
+      shading::blinn_phong(albedo, specular, shininess, bumped, lamp.direction, view_dir) * lamp.radiance,
+      shading::cook_torrance(albedo, metallic, roughness, normal, lamp.direction, view_dir) * lamp.radiance,
       shading::sh_diffuse(albedo, normal, sh),
   };
 
   // Composite over the background where a triangle covers the pixel, then
-  // gamma-encode (linear -> display) and lay the panels out with gutters.
+  // encode to sRGB (linear -> display) and lay the panels out with gutters.
   const Tensor covered = reshape(greater(cast(gb.tri_id, DType::Float32), Tensor::scalar(0.0)), {kSize, kSize, 1});
   const Tensor bg = background();
   const Tensor gutter = Tensor::full({kSize, 4, 3}, 0.02);
   std::vector<Tensor> row;
   for (const Tensor& colour : shaded) {
     if (!row.empty()) row.push_back(gutter);
-    row.push_back(pow(clamp(where(covered, colour, bg), 0.0, 1.0), 1 / 2.2));
+    row.push_back(shading::linear_to_srgb(clamp(where(covered, colour, bg), 0.0, 1.0)));
   }
   cli::OutputFolder folder(out_dir);  // a failed or interrupted run leaves no new empty folder
   folder.create();
   const std::string path = (std::filesystem::path(out_dir) / "shading_gallery.png").string();
   raster::write_png(path, concat(row, 1));
   folder.keep();
-  std::cout << "wrote " << path << " (" << 4 * kSize + 12 << "x" << kSize
-            << "): Lambert | Blinn-Phong | normal-mapped Blinn-Phong | SH sky/ground\n";
+  std::cout << "wrote " << path << " (" << 5 * kSize + 16 << "x" << kSize
+            << "): Lambert | Blinn-Phong | normal-mapped Blinn-Phong | Cook-Torrance | SH sky/ground\n";
   return 0;
 }
 
@@ -126,8 +134,9 @@ int main(int argc, char** argv) {
   const std::string program = argc > 0 ? argv[0] : "gradraster-shading-gallery";
   const std::vector<std::string> args(argv + 1, argv + argc);
   const std::string usage = "usage: " + program + " [OUT_DIR]\n" +
-                            "Renders a sphere with four shaders (Lambert, Blinn-Phong, normal mapping, SH\n" +
-                            "environment) side by side into OUT_DIR/shading_gallery.png (default OUT_DIR: out).\n";
+                            "Renders a sphere with five shaders (Lambert, Blinn-Phong, normal mapping,\n" +
+                            "Cook-Torrance, SH environment) side by side into OUT_DIR/shading_gallery.png\n" +
+                            "(default OUT_DIR: out).\n";
   if (args.size() == 1 && (args[0] == "-h" || args[0] == "--help")) {
     std::cout << usage;
     return 0;
