@@ -74,9 +74,9 @@ int run(const std::string& out_dir) {
 
   // Rasterize once; interpolate everything the shaders need per pixel.
   const GBuffer gb = rasterize(clip, mesh.triangles, {kSize, kSize});
-  const Tensor normal = normalize(interpolate(mesh.normals, clip, gb, mesh.triangles));  // [H, W, 3]
-  const Tensor position = interpolate(mesh.positions, clip, gb, mesh.triangles);
-  const Tensor tangent = interpolate(tangents, clip, gb, mesh.triangles);  // [H, W, 4]
+  const Tensor normal = normalize(interpolate(mesh.normals, gb, mesh.triangles));  // [H, W, 3]
+  const Tensor position = interpolate(mesh.positions, gb, mesh.triangles);
+  const Tensor tangent = interpolate(tangents, gb, mesh.triangles);  // [H, W, 4]
   const InterpolatedWithDerivatives uv = interpolate_with_derivatives(mesh.uvs, clip, gb, mesh.triangles);
   const Tensor view_dir = normalize(eye - position);
 
