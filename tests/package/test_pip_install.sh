@@ -6,8 +6,9 @@
 # from another folder. Then `pip wheel` (reusing pip's CMake build) and that
 # wheel installed into a second venv. Checks that pip's build left the
 # source's build/ alone and nothing in python/, and that a wheel is portable
-# (GRADRASTER_NATIVE off) by default. No network. About 90 s on 2 cores cold,
-# 25 s when ccache has the objects.
+# (GRADRASTER_NATIVE off) by default. No network. Build jobs:
+# CMAKE_BUILD_PARALLEL_LEVEL (ctest sets 1). Cold, 2.5 CPU-minutes (about
+# 1.5 minutes on 2 idle cores); 30 s when ccache has the objects.
 # Usage: tests/package/test_pip_install.sh SOURCE_ROOT PYTHON VERSION VULKAN(ON|OFF)
 set -euo pipefail
 src="$(cd "$1" && pwd)"
