@@ -1,7 +1,8 @@
 # cmake --install: headers under include/gradraster (so "autodiff/tensor.h"
 # keeps working), the three libraries, a CMake package (find_package(gradraster)
 # gives gradraster::gradraster) and a pkg-config file. Everything here is in the
-# "dev" component; tests/package installs just that.
+# "dev" component; tests/package installs just that, then the "python" component
+# (the Python package, python/CMakeLists.txt).
 include(GNUInstallDirs)
 include(CMakePackageConfigHelpers)
 

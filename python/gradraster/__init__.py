@@ -3,7 +3,7 @@
 `import gradraster.torch as dr` gives nvdiffrast.torch's interface on the CPU
 (docs/python.md). `write_png(path, image)` writes an image for inspection.
 """
-__version__ = '0.1'
+from ._core import __version__  # the CMake project VERSION, compiled into the module
 
 
 def write_png(path, image):

@@ -49,6 +49,7 @@ PYBIND11_MODULE(_core, m) {
   // returns whether glibc's malloc is tuned (False with GRADRASTER_MALLOC_DEFAULTS=1).
   m.def("keep_freed_memory", &gr::tune_malloc);
   m.attr("MAX_THREADS") = gr::kMaxThreads;
+  m.attr("__version__") = GRADRASTER_VERSION;  // the CMake project VERSION (python/CMakeLists.txt)
 
   py::class_<Context>(m, "Context")
       .def(py::init<>())

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Installs the built library (the "dev" component) into a temporary prefix and
 # builds and runs a one-file consumer against it twice: with find_package and
-# with pkg-config. First the installed CMake package and .pc file must carry no
+# with pkg-config; with the Python module built, installs the "python"
+# component too and imports gradraster.torch from there. First the installed CMake package and .pc file must carry no
 # flag of the build machine (check_package_flags.sh), and that check must
 # reject a copy with -march=native put back. No network; a few seconds.
 # Usage: [CXX=...] [CONSUMER_CXXFLAGS=...] tests/package/test_install.sh BUILD_DIR SOURCE_ROOT
@@ -62,3 +63,19 @@ flags="$(PKG_CONFIG_PATH="$pc_dir" pkg-config --cflags --libs gradraster)"
 out="$("$tmp/pc-consumer")"
 [[ "$out" == "$expected" ]] || { echo "pkg-config consumer printed '$out'" >&2; exit 1; }
 echo "installed gradraster builds and runs with find_package and with pkg-config"
+
+# 3. Python, when the build has the module (ctest then sets GRADRASTER_PYTHON,
+# its interpreter, GRADRASTER_VERSION and GRADRASTER_HAS_VULKAN): the "python"
+# component, imported from another folder with PYTHONPATH=<prefix>/lib/pythonX.Y/site-packages
+# (docs/python.md). GRADRASTER_PYTHON_PRELOAD: the ASan runtime of a sanitizer build.
+if [[ -n "${GRADRASTER_PYTHON:-}" ]]; then
+  cmake --install "$build" --component python --prefix "$prefix" > "$tmp/install-python.log"
+  site="$prefix/lib/python$("$GRADRASTER_PYTHON" -c 'import sys; print("%d.%d" % sys.version_info[:2])')/site-packages"
+  [[ -f "$site/gradraster/torch/__init__.py" ]] || { echo "cmake --install put no gradraster package in $site" >&2; exit 1; }
+  python_env=(PYTHONPATH="$site")
+  if [[ -n "${GRADRASTER_PYTHON_PRELOAD:-}" ]]; then
+    python_env+=(LD_PRELOAD="$GRADRASTER_PYTHON_PRELOAD" ASAN_OPTIONS=detect_leaks=0)
+  fi
+  (cd "$tmp" && env "${python_env[@]}" "$GRADRASTER_PYTHON" "$src/tests/package/check_python_package.py" \
+     "$prefix" "$GRADRASTER_VERSION" "$GRADRASTER_HAS_VULKAN")
+fi
