@@ -27,6 +27,16 @@ struct RasterSettings {
   // holds. Same output bit for bit (the (depth, id) key decides, not the
   // order); it only changes the amount of work (see docs/rasterizer.md).
   bool front_to_back = false;
+  // Row 0 is the bottom row (nvdiffrast's and OpenGL's window convention): the
+  // viewport maps y_ndc = +1 to the top edge of row 0 instead of the image's
+  // last row. Precisely: every kernel computes on the clip positions with y
+  // negated and returns the y gradient negated back, so the result is bit for
+  // bit the y_up = false result on a y-negated copy of clip (docs/rasterizer.md).
+  // Screen y (pixel rows, the edge functions, 2A) is then measured from the
+  // bottom row, and `cull` judges the facing of the negated triangles (the
+  // mirror reverses the winding: Back then drops faces that are clockwise on
+  // screen, i.e. counter-clockwise in the caller's NDC).
+  bool y_up = false;
 };
 
 // Triangle counts from one rasterize_forward call (each triangle lands in
