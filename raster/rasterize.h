@@ -28,14 +28,13 @@ struct RasterSettings {
   // order); it only changes the amount of work (see docs/rasterizer.md).
   bool front_to_back = false;
   // Row 0 is the bottom row (nvdiffrast's and OpenGL's window convention): the
-  // viewport maps y_ndc = +1 to the top edge of row 0 instead of the image's
-  // last row. Precisely: every kernel computes on the clip positions with y
-  // negated and returns the y gradient negated back, so the result is bit for
-  // bit the y_up = false result on a y-negated copy of clip (docs/rasterizer.md).
-  // Screen y (pixel rows, the edge functions, 2A) is then measured from the
-  // bottom row, and `cull` judges the facing of the negated triangles (the
-  // mirror reverses the winding: Back then drops faces that are clockwise on
-  // screen, i.e. counter-clockwise in the caller's NDC).
+  // viewport is ys = H/2 (1 + y_ndc), so y_ndc = -1 is row 0's outer edge and
+  // y_ndc = +1 the last row's. Precisely: every kernel computes on the clip
+  // positions with y negated and returns the y gradient negated back, so the
+  // result is bit for bit the y_up = false result on a y-negated copy of clip
+  // (docs/rasterizer.md). `cull` judges the negated triangles, whose winding
+  // the mirror reverses: with y_up, Cull::Back drops the faces that are
+  // counter-clockwise in the caller's NDC, Cull::Front the clockwise ones.
   bool y_up = false;
 };
 
@@ -74,7 +73,7 @@ struct RasterParams {
 };
 
 // Writes tri_id (H*W), uv (H*W*2, interleaved u, v), depth (H*W); row-major,
-// row 0 at the top. Background: tri_id 0, uv (0, 0), depth kBackgroundDepth.
+// row 0 at the top (at the bottom with settings.y_up). Background: tri_id 0, uv (0, 0), depth kBackgroundDepth.
 // key_depth (optional, H*W): the winning depth in double, unrounded (for the
 // next peeling layer's floor_z); background pixels get +inf.
 template <class T>

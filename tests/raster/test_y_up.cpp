@@ -270,3 +270,18 @@ TEST_CASE("y_up: screen_to_clip_backward is y_up = false's on negated clip, its 
   REQUIRE(same_bits(up, negated_y(ref)));
   REQUIRE_FALSE(same_bits(up, plain));
 }
+
+TEST_CASE("y_up: culling judges the mirrored triangle, so Back drops faces counter-clockwise in NDC",
+          "[rasterize][y_up]") {
+  const Mesh ccw{{-0.5, -0.5, 0.0, 1.0, 0.8, -0.5, 0.0, 1.0, -0.5, 0.8, 0.0, 1.0}, {0, 1, 2}};
+  auto covered = [&](bool y_up, Cull cull) {
+    const GBuffer<double> g = rasterize(raster_params(ccw.clip, ccw, y_up, cull));
+    std::int64_t n = 0;
+    for (std::int32_t id : g.id) n += id != 0;
+    return n;
+  };
+  REQUIRE(covered(false, Cull::Back) > 100);  // OpenGL's front face
+  REQUIRE(covered(false, Cull::Front) == 0);
+  REQUIRE(covered(true, Cull::Back) == 0);
+  REQUIRE(covered(true, Cull::Front) == covered(false, Cull::Back));
+}
