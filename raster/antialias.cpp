@@ -156,7 +156,7 @@ void antialias_forward(const AntialiasParams<T>& prm, T* out, std::vector<Antial
   const EdgeTopology& topology = *prm.topology;
   const int W = prm.width, H = prm.height, C = prm.channels;
   const std::int64_t P = static_cast<std::int64_t>(W) * H;
-  const detail::Vertices v = detail::project_vertices(prm.clip, prm.num_vertices, W, H);
+  const detail::Vertices v = detail::project_vertices(prm.clip, prm.num_vertices, W, H, prm.y_up);
 
   // Unchanged pixels: a plain copy.
   parallel_for(0, P * C, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
@@ -219,6 +219,7 @@ void antialias_backward(const AntialiasParams<T>& prm, const std::vector<Antiali
 
   // Edge vertices: per-pair screen gradients in parallel ...
   const double hw = 0.5 * W, hh = 0.5 * H;
+  const bool y_up = prm.y_up;
   std::vector<double> contrib(static_cast<std::size_t>(4 * n_pairs), 0.0);
   std::vector<std::uint8_t> live(static_cast<std::size_t>(n_pairs), 0);
   parallel_for(0, n_pairs, 2048, [&](std::int64_t lo, std::int64_t hi) {
@@ -233,8 +234,9 @@ void antialias_backward(const AntialiasParams<T>& prm, const std::vector<Antiali
       // Screen positions exactly as the forward projected them.
       const T* ca = clip + 4 * static_cast<std::int64_t>(pr.a);
       const T* cb = clip + 4 * static_cast<std::int64_t>(pr.b);
-      const double sa[2] = {hw * (1.0 + double(ca[0]) / double(ca[3])), hh * (1.0 - double(ca[1]) / double(ca[3]))};
-      const double sb[2] = {hw * (1.0 + double(cb[0]) / double(cb[3])), hh * (1.0 - double(cb[1]) / double(cb[3]))};
+      const double ya = detail::seen_y(double(ca[1]), y_up), yb = detail::seen_y(double(cb[1]), y_up);
+      const double sa[2] = {hw * (1.0 + double(ca[0]) / double(ca[3])), hh * (1.0 - ya / double(ca[3]))};
+      const double sb[2] = {hw * (1.0 + double(cb[0]) / double(cb[3])), hh * (1.0 - yb / double(cb[3]))};
       const double cix = double(pr.inside % W) + 0.5, ciy = double(pr.inside / W) + 0.5;
       const double cox = double(pr.outside % W) + 0.5, coy = double(pr.outside / W) + 0.5;
       // t = E_i / (E_i - E_o): quotient rule.
@@ -264,7 +266,7 @@ void antialias_backward(const AntialiasParams<T>& prm, const std::vector<Antiali
   }
   if (!any) return;
   // Screen -> NDC -> clip with the projection adjoints (edge vertices have w > 0).
-  screen_to_clip_backward(clip, num_vertices, W, H, acc.data(), 2, grad_clip);
+  screen_to_clip_backward(clip, num_vertices, W, H, acc.data(), 2, grad_clip, y_up);
 }
 
 #define GR_INSTANTIATE(T)                                                                                      \

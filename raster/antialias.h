@@ -67,7 +67,7 @@ struct AntialiasStats {
 };
 
 // Inputs of one antialias call, shared by the forward and the adjoint (which
-// reads only image, channels, width, height, clip and num_vertices). The
+// reads only image, channels, width, height, clip, num_vertices and y_up). The
 // kernels trust them (the op validates, ops/check.h): tri_id and depth are
 // the G-buffer of rasterize_forward on the same clip, tris, width, height;
 // clip is finite; the topology was built for these triangles.
@@ -83,6 +83,10 @@ struct AntialiasParams {
   const std::int32_t* tris = nullptr;  // num_tris x 3
   std::int64_t num_tris = 0;
   const EdgeTopology* topology = nullptr;
+  // Row 0 is the bottom row (RasterSettings::y_up; the G-buffer must come from
+  // a y_up rasterize): the kernels read clip y negated and return the y
+  // gradient negated, bit for bit the y_up = false result on a y-negated clip.
+  bool y_up = false;
 };
 
 // out: H x W x C row-major (may not alias image). For each blended pair (a

@@ -34,7 +34,7 @@ PixelTerms pixel_terms(const BarycentricGBufferParams<T>& p, std::int64_t tri, s
   const double hw = 0.5 * p.width, hh = 0.5 * p.height;
   for (int k = 0; k < 3; ++k) {
     const T* v = p.clip + 4 * static_cast<std::int64_t>(idx[k]);
-    const double x = v[0], y = v[1], w = v[3];
+    const double x = v[0], y = detail::seen_y(v[1], p.y_up), w = v[3];
     t.V[k] = {hw * (x + w), hh * (w - y), w};
   }
   const HVec e{static_cast<double>(pixel % p.width) + 0.5, static_cast<double>(pixel / p.width) + 0.5, 1.0};
@@ -111,12 +111,13 @@ void pixel_adjoint(const BarycentricGBufferParams<T>& p, std::int64_t tri, std::
     bar_V[k1] = {bar_V[k1].x + d1.x, bar_V[k1].y + d1.y, bar_V[k1].w + d1.w};
     bar_V[k2] = {bar_V[k2].x + d2.x, bar_V[k2].y + d2.y, bar_V[k2].w + d2.w};
   }
-  // V = (W/2 (x + w), H/2 (w - y), w) -> clip.
-  const double hw = 0.5 * p.width, hh = 0.5 * p.height;
+  // V = (W/2 (x + w), H/2 (w - y), w) -> clip; with y_up V holds -y, so
+  // dL/dy = +H/2 dL/dV.y (the negation of -H/2 dL/dV.y, exact).
+  const double hw = 0.5 * p.width, hh = 0.5 * p.height, hy = p.y_up ? hh : -hh;
   for (int k = 0; k < 3; ++k) {
     double* o = out + 4 * k;
     o[0] = hw * bar_V[k].x;
-    o[1] = -hh * bar_V[k].y;
+    o[1] = hy * bar_V[k].y;
     o[2] = bar_z[k];
     o[3] = hw * bar_V[k].x + hh * bar_V[k].y + bar_V[k].w;
   }

@@ -29,6 +29,11 @@ struct BarycentricGBufferParams {
   const std::int32_t* tris = nullptr;  // num_tris x 3
   std::int64_t num_tris = 0;
   int width = 0, height = 0;
+  // Row 0 is the bottom row (RasterSettings::y_up; the coverage must come
+  // from a y_up rasterize): every formula here reads y negated, so
+  // V_k = (W/2 (x_k + w_k), H/2 (w_k + y_k), w_k), and the adjoint's y is
+  // negated back. Bit for bit the y_up = false result on a y-negated clip.
+  bool y_up = false;
 };
 
 // Forward. tri_id (H*W, 0 = background) is rasterize_forward's output for

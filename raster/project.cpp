@@ -78,12 +78,14 @@ void viewport_backward(std::int64_t n, int width, int height, const T* grad_scre
 
 template <class T>
 void screen_to_clip_backward(const T* clip, std::int64_t n, int width, int height, const double* grad_screen,
-                             int stride, T* grad_clip) {
-  const double hw = 0.5 * width, hh = 0.5 * height;
+                             int stride, T* grad_clip, bool y_up) {
+  // With y_up, -hh's negation cancels the one of y: g.y and the product g.y y
+  // are exactly the negated-clip kernel's -g.y and g.y (-y).
+  const double hw = 0.5 * width, hh = 0.5 * height, hy = y_up ? hh : -hh;
   parallel_for(0, n, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
     for (std::int64_t i = lo; i < hi; ++i) {
       const double* gs = grad_screen + stride * i;
-      const double g[3] = {hw * gs[0], -hh * gs[1], stride == 3 ? gs[2] : 0.0};
+      const double g[3] = {hw * gs[0], hy * gs[1], stride == 3 ? gs[2] : 0.0};
       if (g[0] == 0.0 && g[1] == 0.0 && g[2] == 0.0) continue;
       const T* c = clip + 4 * i;
       T* out = grad_clip + 4 * i;
@@ -100,7 +102,7 @@ void screen_to_clip_backward(const T* clip, std::int64_t n, int width, int heigh
   template void wdivide_backward<T>(const T*, std::int64_t, const T*, T*);                  \
   template void viewport_forward<T>(const T*, std::int64_t, int, int, T*);                  \
   template void viewport_backward<T>(std::int64_t, int, int, const T*, T*);                 \
-  template void screen_to_clip_backward<T>(const T*, std::int64_t, int, int, const double*, int, T*);
+  template void screen_to_clip_backward<T>(const T*, std::int64_t, int, int, const double*, int, T*, bool);
 GR_INSTANTIATE(float)
 GR_INSTANTIATE(double)
 #undef GR_INSTANTIATE

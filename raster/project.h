@@ -43,8 +43,12 @@ void viewport_backward(std::int64_t num_vertices, int width, int height, const T
 // the float kernels above would overflow to Inf. Vertices with zero incoming
 // gradient are skipped; the others must have w > 0 (callers pass only
 // vertices in front of the near plane).
+// y_up (RasterSettings::y_up): the screen positions came from clip with y
+// negated (ys = H/2 (1 + y_ndc)), so g_ndc.y = +H/2 g_ys; clip is the caller's
+// (unnegated) array. Bit for bit the y_up = false result on the negated clip,
+// with the y gradient negated.
 template <class T>
 void screen_to_clip_backward(const T* clip, std::int64_t num_vertices, int width, int height,
-                             const double* grad_screen, int stride, T* grad_clip);
+                             const double* grad_screen, int stride, T* grad_clip, bool y_up = false);
 
 }  // namespace gr::raster

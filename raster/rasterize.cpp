@@ -403,7 +403,8 @@ void rasterize_forward(const RasterParams<T>& p, std::int32_t* tri_id, T* uv, T*
   assert(W >= 1 && H >= 1 && p.num_vertices >= 0 && p.num_tris >= 0);
   auto lease = g_forward_pool.take();
   ForwardScratch& sc = *lease;
-  detail::project_vertices_into(p.clip, p.num_vertices, W, H, &sc.v);  // phase 1: per-vertex projection
+  // Phase 1: per-vertex projection.
+  detail::project_vertices_into(p.clip, p.num_vertices, W, H, &sc.v, p.settings.y_up);
   const Grid g = make_grid(p.num_tris, W, H);
   const RasterStats st = classify_and_count(p, g, sc);
   if (stats) *stats = st;
@@ -607,7 +608,8 @@ void rasterize_backward(const RasterParams<T>& p, const std::int32_t* tri_id, co
   const std::int64_t P = static_cast<std::int64_t>(W) * H;
   auto lease = g_backward_pool.take();
   BackwardScratch& sc = *lease;
-  detail::project_vertices_into(clip, num_vertices, W, H, &sc.v);
+  const bool y_up = p.settings.y_up;
+  detail::project_vertices_into(clip, num_vertices, W, H, &sc.v, y_up);
   const detail::Vertices& v = sc.v;
 
   // Scatter by gathering (docs/determinism.md): 1. covered pixels grouped by
@@ -680,12 +682,15 @@ void rasterize_backward(const RasterParams<T>& p, const std::int32_t* tri_id, co
   detail::gather_corners(tris, by_tri.nonempty.data(), used, kind.data(), partial.data(), S, num_vertices,
                          &sc.by_vertex, [&](std::int64_t i, const double* total) {
                            for (int d = 0; d < 3; ++d) acc_screen[3 * i + d] = total[d];
-                           if (any_clip)
+                           if (any_clip) {
                              for (int d = 0; d < 4; ++d) acc_clip[4 * i + d] = total[3 + d];
+                             // The homogeneous form's y is the negated one (y_up).
+                             acc_clip[4 * i + 1] = detail::seen_y(acc_clip[4 * i + 1], y_up);
+                           }
                          });
 
   // Screen -> NDC -> clip per vertex with the projection adjoints.
-  if (any_screen) screen_to_clip_backward(clip, num_vertices, W, H, acc_screen.data(), 3, grad_clip);
+  if (any_screen) screen_to_clip_backward(clip, num_vertices, W, H, acc_screen.data(), 3, grad_clip, y_up);
   if (any_clip)
     parallel_for(0, 4 * num_vertices, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
       for (std::int64_t i = lo; i < hi; ++i) grad_clip[i] += finite_cast<T>(acc_clip[i]);

@@ -27,6 +27,15 @@ struct RasterSettings {
   // holds. Same output bit for bit (the (depth, id) key decides, not the
   // order); it only changes the amount of work (see docs/rasterizer.md).
   bool front_to_back = false;
+  // Row 0 is the bottom row (nvdiffrast's and OpenGL's window convention): the
+  // viewport is ys = H/2 (1 + y_ndc), so y_ndc = -1 is row 0's outer edge and
+  // y_ndc = +1 the last row's. Precisely: every kernel computes on the clip
+  // positions with y negated and returns the y gradient negated back, so the
+  // result is bit for bit the y_up = false result on a y-negated copy of clip
+  // (docs/rasterizer.md). `cull` judges the negated triangles, whose winding
+  // the mirror reverses: with y_up, Cull::Back drops the faces that are
+  // counter-clockwise in the caller's NDC, Cull::Front the clockwise ones.
+  bool y_up = false;
 };
 
 // Triangle counts from one rasterize_forward call (each triangle lands in
@@ -64,7 +73,7 @@ struct RasterParams {
 };
 
 // Writes tri_id (H*W), uv (H*W*2, interleaved u, v), depth (H*W); row-major,
-// row 0 at the top. Background: tri_id 0, uv (0, 0), depth kBackgroundDepth.
+// row 0 at the top (at the bottom with settings.y_up). Background: tri_id 0, uv (0, 0), depth kBackgroundDepth.
 // key_depth (optional, H*W): the winning depth in double, unrounded (for the
 // next peeling layer's floor_z); background pixels get +inf.
 template <class T>

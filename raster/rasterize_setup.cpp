@@ -101,14 +101,14 @@ void check_finite(const T* values, std::int64_t count, const char* what, const c
 }
 
 template <class T>
-Vertices project_vertices(const T* clip, std::int64_t n, int width, int height) {
+Vertices project_vertices(const T* clip, std::int64_t n, int width, int height, bool y_up) {
   Vertices v;
-  project_vertices_into(clip, n, width, height, &v);
+  project_vertices_into(clip, n, width, height, &v, y_up);
   return v;
 }
 
 template <class T>
-void project_vertices_into(const T* clip, std::int64_t n, int width, int height, Vertices* out) {
+void project_vertices_into(const T* clip, std::int64_t n, int width, int height, Vertices* out, bool y_up) {
   Vertices& v = *out;
   // resize() keeps the capacity, and writes nothing when the size is unchanged.
   v.clip.resize(4 * n);
@@ -120,6 +120,7 @@ void project_vertices_into(const T* clip, std::int64_t n, int width, int height,
     for (std::int64_t i = lo; i < hi; ++i) {
       double* c = &v.clip[4 * i];
       for (int k = 0; k < 4; ++k) c[k] = static_cast<double>(clip[4 * i + k]);
+      c[1] = seen_y(c[1], y_up);
       // Project only what is in front of the near plane; the rest is clipped.
       const bool in_front = c[3] > 0.0 && c[2] >= -c[3];
       const double sx = hw * (1.0 + c[0] / c[3]), sy = hh * (1.0 - c[1] / c[3]), zn = c[2] / c[3];
@@ -386,9 +387,9 @@ void setup_edges(const Vertices& v, const std::int32_t* tri, int width, int heig
 
 template void check_finite<float>(const float*, std::int64_t, const char*, const char*);
 template void check_finite<double>(const double*, std::int64_t, const char*, const char*);
-template Vertices project_vertices<float>(const float*, std::int64_t, int, int);
-template Vertices project_vertices<double>(const double*, std::int64_t, int, int);
-template void project_vertices_into<float>(const float*, std::int64_t, int, int, Vertices*);
-template void project_vertices_into<double>(const double*, std::int64_t, int, int, Vertices*);
+template Vertices project_vertices<float>(const float*, std::int64_t, int, int, bool);
+template Vertices project_vertices<double>(const double*, std::int64_t, int, int, bool);
+template void project_vertices_into<float>(const float*, std::int64_t, int, int, Vertices*, bool);
+template void project_vertices_into<double>(const double*, std::int64_t, int, int, Vertices*, bool);
 
 }  // namespace gr::raster::detail

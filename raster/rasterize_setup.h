@@ -41,12 +41,19 @@ struct Vertices {
   // codes share a bit is outside, without reading the clip coordinates).
   std::vector<std::uint8_t> outcode;
 };
+// y_up (RasterSettings::y_up): row 0 is the bottom row; Vertices::clip then
+// holds y negated (seen_y), so every later step works on the negated positions.
 template <class T>
-Vertices project_vertices(const T* clip, std::int64_t num_vertices, int width, int height);
+Vertices project_vertices(const T* clip, std::int64_t num_vertices, int width, int height, bool y_up = false);
 // Same, into `out`, reusing its buffers (no allocation when they are big enough).
 template <class T>
 void project_vertices_into(const T* clip, std::int64_t num_vertices, int width, int height,
-                           Vertices* out);
+                           Vertices* out, bool y_up = false);
+
+// The clip y a kernel computes with: negated when row 0 is the bottom row
+// (y_up). Exact, so a y_up kernel gives the bits of the y_up = false kernel on
+// a y-negated copy of clip; the y gradient it returns is negated back.
+inline double seen_y(double y, bool y_up) { return y_up ? -y : y; }
 
 // A free list of scratch objects reused across calls, so large per-call
 // buffers are allocated (and page-faulted) once, not on every call. Each call

@@ -123,7 +123,7 @@ void visibility_antialias_forward(const VisibilityAntialiasParams<T>& prm, T* ou
   const EdgeTopology& topology = *prm.topology;
   const int W = prm.width, H = prm.height, C = prm.channels;
   const std::int64_t P = static_cast<std::int64_t>(W) * H;
-  const Vertices v = detail::project_vertices(prm.clip, prm.num_vertices, W, H);
+  const Vertices v = detail::project_vertices(prm.clip, prm.num_vertices, W, H, prm.y_up);
 
   parallel_for(0, P * C, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
     std::copy(image + lo, image + hi, out + lo);
@@ -204,7 +204,7 @@ void visibility_antialias_backward(const VisibilityAntialiasParams<T>& prm, cons
   if (!grad_clip || n_pairs == 0) return;
 
   // Per pair: screen (x, y, z_ndc) gradients of up to six vertices, in parallel ...
-  const Vertices v = detail::project_vertices(prm.clip, prm.num_vertices, W, H);
+  const Vertices v = detail::project_vertices(prm.clip, prm.num_vertices, W, H, prm.y_up);
   std::vector<double> contrib(static_cast<std::size_t>(18 * n_pairs), 0.0);
   std::vector<std::uint8_t> live(static_cast<std::size_t>(n_pairs), 0);
   parallel_for(0, n_pairs, 2048, [&](std::int64_t lo, std::int64_t hi) {
@@ -269,7 +269,7 @@ void visibility_antialias_backward(const VisibilityAntialiasParams<T>& prm, cons
   }
   if (!any) return;
   // Screen x, y and z_ndc -> clip (every vertex used has w > 0).
-  screen_to_clip_backward(prm.clip, prm.num_vertices, W, H, acc.data(), 3, grad_clip);
+  screen_to_clip_backward(prm.clip, prm.num_vertices, W, H, acc.data(), 3, grad_clip, prm.y_up);
 }
 
 #define GR_INSTANTIATE(T)                                                                                   \

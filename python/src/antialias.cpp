@@ -34,15 +34,14 @@ bool split_rast(const T* rast, std::int64_t pixels, std::int64_t triangles, std:
   return ok;
 }
 
-// Image b's kernel inputs, its ids, depths and flipped positions in s;
-// *ids_ok: whether its ids are valid (split_rast).
+// Image b's kernel inputs, its ids and depths in s (the kernels read the
+// caller's positions with y_up); *ids_ok: whether its ids are valid (split_rast).
 template <class T>
 raster::AntialiasParams<T> image_params(ImageScratch& s, const Mesh& mesh, const Topology& topology,
                                         const Array& color, const Array& rast, std::int64_t b, bool* ids_ok) {
   const int height = static_cast<int>(color.size(1)), width = static_cast<int>(color.size(2));
   const std::int64_t channels = color.size(3);
   const std::int64_t pixels = static_cast<std::int64_t>(height) * width;
-  copy_flipped(mesh.positions<T>(b), mesh.vertices, &s.buffer<T>(ImageScratch::kClip));
   *ids_ok = split_rast(rast.in<T>() + 4 * pixels * b, pixels, mesh.triangles, &s.tri_id,
                        &s.buffer<T>(ImageScratch::kDepth));
   raster::AntialiasParams<T> p;
@@ -52,11 +51,12 @@ raster::AntialiasParams<T> image_params(ImageScratch& s, const Mesh& mesh, const
   p.height = height;
   p.tri_id = s.tri_id.data();
   p.depth = s.buffer<T>(ImageScratch::kDepth).data();
-  p.clip = s.buffer<T>(ImageScratch::kClip).data();
+  p.clip = mesh.positions<T>(b);
   p.num_vertices = mesh.vertices;
   p.tris = mesh.tris();
   p.num_tris = mesh.triangles;
   p.topology = &topology.edges;
+  p.y_up = true;  // nvdiffrast's row 0 is the bottom row
   return p;
 }
 
@@ -186,12 +186,11 @@ void antialias_backward(Context& ctx, const pybind11::object& pos, const pybind1
       raster::blend_boundaries_backward(p, state.pairs[b], grad_out.in<T>() + pixels * channels * b, g);
       if (!grad_pos) return;
       for (T& v : grad) v = static_cast<T>(pos_gradient_boost * v);
-      if (mesh.instanced) add_flipped(grad.data(), mesh.vertices, grad_pos.out<T>() + mesh.pos_offset(b));
+      if (mesh.instanced) add_in_image_order({&grad}, 4 * mesh.vertices, grad_pos.out<T>() + mesh.pos_offset(b));
     });
     if (bad_ids) check_rast_ids(rast.in<T>(), mesh.images * pixels, mesh.triangles, "rast", op);  // throws
     if (grad_pos && !mesh.instanced)
-      for (std::int64_t b = 0; b < mesh.images; ++b)
-        add_flipped(ctx.image(b).buffer<T>(ImageScratch::kGrad).data(), mesh.vertices, grad_pos.out<T>());
+      add_in_image_order(ctx.grads<T>(mesh.images), 4 * mesh.vertices, grad_pos.out<T>());
   });
 }
 

@@ -94,32 +94,6 @@ void check_mesh(const Mesh& mesh, const char* op) {
 }
 
 template <class T>
-void copy_flipped(const T* pos, std::int64_t vertices, std::vector<T>* out) {
-  out->resize(4 * static_cast<std::size_t>(vertices));
-  T* o = out->data();
-  parallel_for(0, vertices, kElementwiseGrain / 4, [&](std::int64_t lo, std::int64_t hi) {
-    for (std::int64_t i = lo; i < hi; ++i) {
-      o[4 * i] = pos[4 * i];
-      o[4 * i + 1] = -pos[4 * i + 1];
-      o[4 * i + 2] = pos[4 * i + 2];
-      o[4 * i + 3] = pos[4 * i + 3];
-    }
-  });
-}
-
-template <class T>
-void add_flipped(const T* grad, std::int64_t vertices, T* grad_pos) {
-  parallel_for(0, vertices, kElementwiseGrain / 4, [&](std::int64_t lo, std::int64_t hi) {
-    for (std::int64_t i = lo; i < hi; ++i) {
-      grad_pos[4 * i] += grad[4 * i];
-      grad_pos[4 * i + 1] -= grad[4 * i + 1];
-      grad_pos[4 * i + 2] += grad[4 * i + 2];
-      grad_pos[4 * i + 3] += grad[4 * i + 3];
-    }
-  });
-}
-
-template <class T>
 void check_rast_ids(const T* rast, std::int64_t pixels, std::int64_t triangles, const char* what, const char* op) {
   // A branch-free pass over the ids (vectorized, in parallel) says whether
   // any is bad; only then the pass below finds the first.
@@ -143,10 +117,6 @@ void check_rast_ids(const T* rast, std::int64_t pixels, std::int64_t triangles, 
   }
 }
 
-template void copy_flipped<float>(const float*, std::int64_t, std::vector<float>*);
-template void copy_flipped<double>(const double*, std::int64_t, std::vector<double>*);
-template void add_flipped<float>(const float*, std::int64_t, float*);
-template void add_flipped<double>(const double*, std::int64_t, double*);
 template void check_rast_ids<float>(const float*, std::int64_t, std::int64_t, const char*, const char*);
 template void check_rast_ids<double>(const double*, std::int64_t, std::int64_t, const char*, const char*);
 

@@ -92,15 +92,6 @@ void add_in_image_order(const std::vector<std::vector<T>*>& parts, std::int64_t 
 // ranges inside [0, M]. Throws gr errors naming the argument.
 void check_mesh(const Mesh& mesh, const char* op);
 
-// nvdiffrast's row 0 is at clip y = -1 (the bottom), ours at y = +1. The
-// binding rasterizes positions with y negated (a copy of the vertices, never
-// of an image), which puts nvdiffrast's row order into our row-major images;
-// gradients w.r.t. y are negated back.
-template <class T>
-void copy_flipped(const T* pos, std::int64_t vertices, std::vector<T>* out);
-template <class T>
-void add_flipped(const T* grad, std::int64_t vertices, T* grad_pos);
-
 // rast: a [images, H, W, 4] G-buffer of elem's type (images < 0: any) with
 // H, W < 2^31 (ValueError, TypeError otherwise).
 void check_rast_shape(const Array& rast, std::int64_t images, Elem elem, const char* op);

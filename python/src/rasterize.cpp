@@ -27,23 +27,18 @@ namespace {
 // The Vulkan context's rasterizer, for what it covers: float32 positions
 // outside a depth peeler (which needs the exact key depths the CPU kernel
 // writes); the others take the CPU kernel, which gives the same bits.
-// It reads the caller's positions and negates y itself (y_up); p.clip is the
-// flipped copy the CPU kernel and the G-buffer's layout step read.
+// Both read the caller's positions with y_up (p.settings.y_up).
 template <class T>
-bool rasterize_on_gpu(Context& ctx, const raster::RasterParams<T>& p, const T* pos, bool peeling, ImageScratch& s) {
+bool rasterize_on_gpu(Context& ctx, const raster::RasterParams<T>& p, bool peeling, ImageScratch& s) {
 #ifdef GRADRASTER_HAS_VULKAN
   if constexpr (std::is_same_v<T, float>) {
     if (!ctx.gpu || peeling) return false;
-    raster::RasterParams<float> unflipped = p;
-    unflipped.clip = pos;
-    vulkan::GpuRasterOptions options;
-    options.y_up = true;
-    vulkan::rasterize_forward(*ctx.gpu, unflipped, s.tri_id.data(), s.buffer<float>(ImageScratch::kUv).data(),
-                              s.buffer<float>(ImageScratch::kDepth).data(), options);
+    vulkan::rasterize_forward(*ctx.gpu, p, s.tri_id.data(), s.buffer<float>(ImageScratch::kUv).data(),
+                              s.buffer<float>(ImageScratch::kDepth).data());
     return true;
   }
 #endif
-  (void)ctx, (void)p, (void)pos, (void)peeling, (void)s;
+  (void)ctx, (void)p, (void)peeling, (void)s;
   return false;
 }
 
@@ -81,25 +76,24 @@ void rasterize_forward(Context& ctx, const pybind11::object& pos, const pybind11
     using T = decltype(tag);
     for_each_image(mesh.images, [&](std::int64_t b) {
       ImageScratch& s = ctx.image(b);
-      std::vector<T>& clip = s.buffer<T>(ImageScratch::kClip);
-      copy_flipped(mesh.positions<T>(b), mesh.vertices, &clip);
       s.tri_id.resize(static_cast<std::size_t>(pixels));
       s.buffer<T>(ImageScratch::kUv).resize(2 * static_cast<std::size_t>(pixels));
       s.buffer<T>(ImageScratch::kDepth).resize(static_cast<std::size_t>(pixels));
       if (peel) s.key_depth.resize(static_cast<std::size_t>(pixels));
       const auto [first, count] = mesh.range(b);
       raster::RasterParams<T> p;
-      p.clip = clip.data();
+      p.clip = mesh.positions<T>(b);
       p.num_vertices = mesh.vertices;
       p.tris = mesh.tris() + 3 * first;
       p.num_tris = count;
       p.settings.width = width;
       p.settings.height = height;
+      p.settings.y_up = true;  // nvdiffrast's row 0 is the bottom row
       if (peel && peel->layers > 0) {
         p.floor_id = peel->floor_id.data() + b * pixels;
         p.floor_z = peel->floor_z.data() + b * pixels;
       }
-      if (!rasterize_on_gpu(ctx, p, mesh.positions<T>(b), peel != nullptr, s))
+      if (!rasterize_on_gpu(ctx, p, peel != nullptr, s))
         raster::rasterize_forward(p, s.tri_id.data(), s.buffer<T>(ImageScratch::kUv).data(),
                                   s.buffer<T>(ImageScratch::kDepth).data(), nullptr,
                                   peel ? s.key_depth.data() : nullptr);
@@ -107,7 +101,8 @@ void rasterize_forward(Context& ctx, const pybind11::object& pos, const pybind11
         std::copy(s.tri_id.begin(), s.tri_id.end(), peel->floor_id.begin() + b * pixels);
         std::copy(s.key_depth.begin(), s.key_depth.end(), peel->floor_z.begin() + b * pixels);
       }
-      raster::BarycentricGBufferParams<T> g{p.clip, mesh.vertices, mesh.tris(), mesh.triangles, width, height};
+      const raster::BarycentricGBufferParams<T> g{p.clip, mesh.vertices, mesh.tris(), mesh.triangles, width, height,
+                                                  true};
       raster::barycentric_gbuffer_forward(g, s.tri_id.data(), first, rast.out<T>() + 4 * pixels * b,
                                           db ? db.out<T>() + 4 * pixels * b : nullptr);
     });
@@ -135,22 +130,22 @@ void rasterize_backward(Context& ctx, const pybind11::object& pos, const pybind1
   dispatch(mesh.f64, [&](auto tag) {
     using T = decltype(tag);
     check_rast_ids(rast.in<T>(), mesh.images * pixels, mesh.triangles, "rast", op);
-    // Each image's gradient in its own buffer; instanced images own their
-    // positions, range-mode images share them and are summed in image order.
+    // Instanced images own their positions and add straight into grad_pos;
+    // range-mode images share them: each in its own buffer, summed in image
+    // order.
     for_each_image(mesh.images, [&](std::int64_t b) {
-      ImageScratch& s = ctx.image(b);
-      std::vector<T>& clip = s.buffer<T>(ImageScratch::kClip);
-      std::vector<T>& grad = s.buffer<T>(ImageScratch::kGrad);
-      copy_flipped(mesh.positions<T>(b), mesh.vertices, &clip);
-      grad.assign(4 * static_cast<std::size_t>(mesh.vertices), T(0));
-      raster::BarycentricGBufferParams<T> g{clip.data(), mesh.vertices, mesh.tris(), mesh.triangles, width, height};
+      T* out = grad_pos.out<T>() + mesh.pos_offset(b);
+      if (!mesh.instanced) {
+        std::vector<T>& grad = ctx.image(b).buffer<T>(ImageScratch::kGrad);
+        grad.assign(4 * static_cast<std::size_t>(mesh.vertices), T(0));
+        out = grad.data();
+      }
+      const raster::BarycentricGBufferParams<T> g{mesh.positions<T>(b), mesh.vertices, mesh.tris(), mesh.triangles,
+                                                  width, height, true};
       raster::barycentric_gbuffer_backward(g, rast.in<T>() + 4 * pixels * b, grad_rast.in<T>() + 4 * pixels * b,
-                                           grad_db ? grad_db.in<T>() + 4 * pixels * b : nullptr, grad.data());
-      if (mesh.instanced) add_flipped(grad.data(), mesh.vertices, grad_pos.out<T>() + mesh.pos_offset(b));
+                                           grad_db ? grad_db.in<T>() + 4 * pixels * b : nullptr, out);
     });
-    if (!mesh.instanced)
-      for (std::int64_t b = 0; b < mesh.images; ++b)
-        add_flipped(ctx.image(b).buffer<T>(ImageScratch::kGrad).data(), mesh.vertices, grad_pos.out<T>());
+    if (!mesh.instanced) add_in_image_order(ctx.grads<T>(mesh.images), 4 * mesh.vertices, grad_pos.out<T>());
   });
 }
 

@@ -20,10 +20,11 @@ struct PeelState {
   int layers = 0;
 };
 
-// Scratch of one image of a call: the rasterizer's own outputs, the flipped
-// positions and a gradient buffer, per dtype.
+// Scratch of one image of a call: the rasterizer's own outputs and a
+// gradient buffer, per dtype. (The kernels read the caller's positions: they
+// run with y_up, nvdiffrast's row 0 at the bottom.)
 struct ImageScratch {
-  enum Buffer { kUv, kDepth, kClip, kGrad, kBuffers };
+  enum Buffer { kUv, kDepth, kGrad, kBuffers };
   std::vector<std::int32_t> tri_id;
   std::vector<double> key_depth;
   template <class T>
@@ -45,6 +46,13 @@ struct Context {
   ImageScratch& image(std::int64_t b) { return images[static_cast<std::size_t>(b)]; }
   void reserve(std::int64_t count) {
     if (static_cast<std::int64_t>(images.size()) < count) images.resize(static_cast<std::size_t>(count));
+  }
+  // The gradient buffers (kGrad) of images [0, count), for add_in_image_order.
+  template <class T>
+  std::vector<std::vector<T>*> grads(std::int64_t count) {
+    std::vector<std::vector<T>*> out;
+    for (std::int64_t b = 0; b < count; ++b) out.push_back(&image(b).buffer<T>(ImageScratch::kGrad));
+    return out;
   }
 };
 

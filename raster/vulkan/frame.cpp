@@ -189,7 +189,7 @@ GpuTimes Frame::rasterize(const raster::RasterParams<float>& p, const GpuRasterO
   s.height = p.settings.height;
   s.num_vertices = p.num_vertices;
   s.num_tris = p.num_tris;
-  s.y_up = options.y_up;
+  s.y_up = options.y_up || p.settings.y_up;
   s.channels = -1;
   s.aa_channels = -1;
   s.note_triangles(p.tris, p.num_tris);
@@ -218,7 +218,7 @@ GpuTimes Frame::rasterize(const raster::RasterParams<float>& p, const GpuRasterO
   const VkPipeline small = s.k.raster_small(options.small_box);
   RasterPush push{s.width, s.height, static_cast<std::int32_t>(p.num_vertices), static_cast<std::int32_t>(p.num_tris),
                   p.settings.cull == raster::Cull::Back ? 1 : p.settings.cull == raster::Cull::Front ? -1 : 0,
-                  0, options.y_up ? 1 : 0, 0};
+                  0, s.y_up ? 1 : 0, 0};
   s.dev.run([&](VkCommandBuffer cb) {
     s.timestamps.begin(cb, 8);
     copy(cb, s.upload.handle(), 0, s[kClip].handle(), 0, clip_bytes);

@@ -17,7 +17,8 @@ namespace gr::vulkan {
 
 struct GpuRasterOptions {
   // Row 0 is the bottom row (nvdiffrast's convention): the result is the CPU
-  // kernel's on clip coordinates with y negated.
+  // kernel's on clip coordinates with y negated. p.settings.y_up (the CPU
+  // kernel's own option) does the same; either one turns it on.
   bool y_up = false;
   // Triangles whose pixel box has more pixels than this are scanned by a
   // workgroup each, the others by one thread each (same result; a tuning knob).

@@ -139,6 +139,19 @@ TEST_CASE("the GPU's y_up rows are the CPU's on clip y negated", "[vulkan]") {
   require_same(on_gpu(s, 50, 40, Cull::None, true), on_cpu(flipped, 50, 40));
 }
 
+TEST_CASE("the GPU's RasterSettings::y_up is the CPU's y_up, and GpuRasterOptions::y_up's", "[vulkan][y_up]") {
+  if (!gpu()) return;
+  const Scene s = random_soup(200, 6);
+  RasterParams<float> p = s.params(50, 40, Cull::None);
+  p.settings.y_up = true;
+  GBuffer by_settings(50, 40), on_cpu_up(50, 40);
+  vulkan::rasterize_forward(*gpu(), p, by_settings.id.data(), by_settings.uv.data(), by_settings.depth.data());
+  rasterize_forward(p, on_cpu_up.id.data(), on_cpu_up.uv.data(), on_cpu_up.depth.data());
+  require_same(by_settings, on_cpu_up);
+  require_same(by_settings, on_gpu(s, 50, 40, Cull::None, true));
+  CHECK(differing(by_settings.id, on_cpu(s, 50, 40).id) > 0);
+}
+
 TEST_CASE("the GPU G-buffer is the same bits run after run", "[vulkan]") {
   if (!gpu()) return;
   const Scene s = perspective(make_icosphere(5), 1.0, 2.0);
