@@ -47,23 +47,24 @@ def _check_verts(verts, fn, name='verts'):
         raise ValueError(f"{fn}: '{name}' must have shape [V, 3], got {list(verts.shape)}")
 
 
-def _check_faces(faces, num_verts, device, fn):
-    """faces as int64 [F, 3] on `device`, after checking them."""
+def _check_faces(faces, num_verts, device, fn, name='faces', verts_name='verts', rows='F'):
+    """faces as int64 [F, 3] on `device`, after checking them (named `name`,
+    shape written [rows, 3]; `verts_name` names the tensor they index)."""
     if not isinstance(faces, torch.Tensor):
-        raise TypeError(f"{fn}: 'faces' must be a torch.Tensor, got {type(faces).__name__}")
+        raise TypeError(f"{fn}: '{name}' must be a torch.Tensor, got {type(faces).__name__}")
     if faces.dtype not in _INTEGER_DTYPES:
-        raise TypeError(f"{fn}: 'faces' must have an integer dtype (vertex indices), got {faces.dtype}")
+        raise TypeError(f"{fn}: '{name}' must have an integer dtype (vertex indices), got {faces.dtype}")
     if faces.dim() != 2 or faces.shape[1] != 3:
-        raise ValueError(f"{fn}: 'faces' must have shape [F, 3], got {list(faces.shape)}")
+        raise ValueError(f"{fn}: '{name}' must have shape [{rows}, 3], got {list(faces.shape)}")
     if faces.device != device:
-        raise ValueError(f"{fn}: 'faces' is on {faces.device} but 'verts' is on {device}")
+        raise ValueError(f"{fn}: '{name}' is on {faces.device} but '{verts_name}' is on {device}")
     faces = faces.long()
     if faces.numel() > 0:
         lo, hi = int(faces.min()), int(faces.max())
         if lo < 0 or hi >= num_verts:
             bad = lo if lo < 0 else hi
-            raise IndexError(f"{fn}: 'faces' holds vertex index {bad}, outside [0, {num_verts}) "
-                             f"('verts' has {num_verts} rows)")
+            raise IndexError(f"{fn}: '{name}' holds vertex index {bad}, outside [0, {num_verts}) "
+                             f"('{verts_name}' has {num_verts} rows)")
     return faces
 
 

@@ -41,6 +41,8 @@ import math
 
 import torch
 
+from .losses import _check_faces
+
 __all__ = ['srgb_to_linear', 'linear_to_srgb',
            'lambert', 'blinn_phong', 'ggx_distribution', 'smith_ggx_correlated', 'fresnel_schlick', 'cook_torrance',
            'directional_light', 'point_light', 'environment_light',
@@ -50,7 +52,6 @@ __all__ = ['srgb_to_linear', 'linear_to_srgb',
 _EPS = 1e-12                 # normalize's floor on |v|, point_light's on the squared distance
 _NV_MIN = 1e-4               # cook_torrance: n.v clamped below
 _ROUGHNESS_MIN, _ROUGHNESS_MAX = 0.03, 1.0
-_INTEGER_DTYPES = (torch.uint8, torch.int8, torch.int16, torch.int32, torch.int64)
 
 # Real SH basis constants (Ramamoorthi & Hanrahan 2001), exact.
 _Y0 = math.sqrt(1 / (4 * math.pi))      # 0.282095
@@ -386,20 +387,7 @@ def vertex_tangents(positions, uvs, triangles, normals):
         if t.dim() != 2 or t.shape[1] != k or t.shape[0] != positions.shape[0]:
             raise ValueError(f"{fn}: '{name}' must have shape [V, {k}] with V = {positions.shape[0]} "
                              f"(the rows of 'positions'), got {list(t.shape)}")
-    if not isinstance(triangles, torch.Tensor):
-        raise TypeError(f"{fn}: 'triangles' must be a torch.Tensor, got {type(triangles).__name__}")
-    if triangles.dtype not in _INTEGER_DTYPES:
-        raise TypeError(f"{fn}: 'triangles' must have an integer dtype (vertex indices), got {triangles.dtype}")
-    if triangles.dim() != 2 or triangles.shape[1] != 3:
-        raise ValueError(f"{fn}: 'triangles' must have shape [M, 3], got {list(triangles.shape)}")
-    if triangles.device != positions.device:
-        raise ValueError(f"{fn}: 'triangles' is on {triangles.device} but 'positions' is on {positions.device}")
-    num_verts = positions.shape[0]
-    faces = triangles.long()
-    if faces.numel() > 0:
-        lo, hi = int(faces.min()), int(faces.max())
-        if lo < 0 or hi >= num_verts:
-            raise IndexError(f"{fn}: 'triangles' holds vertex index {lo if lo < 0 else hi}, outside [0, {num_verts})")
+    faces = _check_faces(triangles, positions.shape[0], positions.device, fn, 'triangles', 'positions', 'M')
 
     def corner(values, k):
         return values.index_select(0, faces[:, k])
