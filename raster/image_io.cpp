@@ -1,11 +1,9 @@
 // Image I/O: reading checks the format (image_format.h) and the size in the
 // header before the decoder (image_decoder.h, stb_image built for the accepted
-// formats) runs under the memory budget; writing goes through libstb's
-// stb_image_write. Files go through raster/files.h: bytes are read with
+// formats) runs under the memory budget; writing quantizes to 8 bits and
+// encodes with raster/png_encoder.h. Files go through raster/files.h: bytes are read with
 // read_input_file, and written through an OutputSet.
 #include "raster/image_io.h"
-
-#include <stb/stb_image_write.h>
 
 #include <cmath>
 #include <cstdint>
@@ -18,6 +16,7 @@
 #include "raster/image_decoder.h"
 #include "raster/image_format.h"
 #include "raster/jpeg_check.h"
+#include "raster/png_encoder.h"
 
 namespace gr::raster {
 namespace {
@@ -102,16 +101,7 @@ std::vector<unsigned char> encode_png(const Tensor& image, const std::string& wh
     const double* src = image.data<double>();
     for (std::size_t i = 0; i < levels.size(); ++i) levels[i] = to_level(src[i]);
   }
-  std::vector<unsigned char> png;
-  auto sink = [](void* ctx, void* data, int size) {
-    auto* buf = static_cast<std::vector<unsigned char>*>(ctx);
-    const auto* bytes = static_cast<const unsigned char*>(data);
-    buf->insert(buf->end(), bytes, bytes + size);
-  };
-  if (!stbi_write_png_to_func(sink, &png, static_cast<int>(w), static_cast<int>(h),
-                              static_cast<int>(c), levels.data(), static_cast<int>(w * c)))
-    throw IOError(what + ": PNG encoding failed");
-  return png;
+  return encode_png_levels(levels.data(), h, w, static_cast<int>(c), what);
 }
 
 void write_png(const std::string& path, const Tensor& image) {

@@ -1,6 +1,6 @@
 // Image and raw-buffer files: PNG, JPEG, BMP and TGA reading (stb_image built
-// for these four formats only, image_decoder.h), PNG writing through
-// stb_image_write, and an atomic raw writer for G-buffer dumps.
+// for these four formats only, image_decoder.h), PNG writing
+// (raster/png_encoder.h), and an atomic raw writer for G-buffer dumps.
 // Images are H×W×C float32 tensors with values in [0, 1], row 0 the top row (as
 // in the file and as in the screen convention of DESIGN.md). Files are read and
 // written through raster/files.h: inputs must be regular files of bounded size,

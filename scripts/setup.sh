@@ -6,7 +6,7 @@ cd "$(dirname "$0")/.."
 
 # shellcheck source=install_missing.sh
 source scripts/install_missing.sh
-install_missing g++ cmake make pkg-config libeigen3-dev libtbb-dev libtinyobjloader-dev libstb-dev catch2 libbenchmark-dev \
+install_missing g++ cmake make pkg-config libeigen3-dev libtbb-dev libtinyobjloader-dev libstb-dev zlib1g-dev catch2 libbenchmark-dev \
   libopenmpi-dev openmpi-bin \
   python3-dev pybind11-dev python3-torch python3-numpy python3-pytest \
   python3-venv python3-pip python3-setuptools python3-wheel \
