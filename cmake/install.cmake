@@ -1,5 +1,5 @@
-# cmake --install: headers under include/gradraster (so "autodiff/tensor.h"
-# keeps working), the three libraries, a CMake package (find_package(gradraster)
+# cmake --install: the public headers under include/gradraster (so
+# "autodiff/tensor.h" keeps working; cmake/public_headers.cmake says which), the three libraries, a CMake package (find_package(gradraster)
 # gives gradraster::gradraster) and a pkg-config file. Everything here is in the
 # "dev" component; tests/package installs just that, then the "python" component
 # (the Python package, python/CMakeLists.txt).
@@ -9,9 +9,11 @@ include(CMakePackageConfigHelpers)
 set(GRADRASTER_INCLUDE_SUBDIR ${CMAKE_INSTALL_INCLUDEDIR}/gradraster)
 set(GRADRASTER_CMAKE_DIR ${CMAKE_INSTALL_LIBDIR}/cmake/gradraster)
 
-# raster/vulkan is not installed yet: gradraster::vulkan is a build-tree library.
-install(DIRECTORY autodiff raster ops DESTINATION ${GRADRASTER_INCLUDE_SUBDIR}
-  COMPONENT dev FILES_MATCHING PATTERN "*.h" PATTERN vulkan EXCLUDE)
+include(cmake/public_headers.cmake)  # GRADRASTER_INSTALLED_HEADERS: the API and what it includes
+foreach(header IN LISTS GRADRASTER_INSTALLED_HEADERS)
+  get_filename_component(folder ${header} DIRECTORY)
+  install(FILES ${header} DESTINATION ${GRADRASTER_INCLUDE_SUBDIR}/${folder} COMPONENT dev)
+endforeach()
 install(TARGETS gradraster_base gradraster_raster gradraster EXPORT gradrasterTargets
   COMPONENT dev
   ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}

@@ -19,6 +19,18 @@ expected='grad 2 4 6, icosphere 42 vertices'
 cmake --install "$build" --component dev --prefix "$prefix" > "$tmp/install.log"
 test -f "$prefix/include/gradraster/autodiff/tensor.h"
 
+# Only public headers (cmake/public_headers.cmake): internal helpers stay out,
+# and what is installed compiles with nothing but the installed tree.
+include_dir="$prefix/include/gradraster"
+for internal in raster/rasterize_scan.h raster/png_encoder.h ops/mesh/row_sums.h ops/shading/arguments.h ops/check.h; do
+  [[ -f "$src/$internal" ]] || { echo "test_install.sh: $internal is no longer in the source tree; name another internal header" >&2; exit 1; }
+  [[ ! -e "$include_dir/$internal" ]] || { echo "internal header $internal was installed" >&2; exit 1; }
+done
+(cd "$include_dir" && find . -name '*.h' | sort | sed 's|^\./\(.*\)$|#include "\1"|') > "$tmp/all_headers.cc"
+"${CXX:-c++}" -std=c++17 -fsyntax-only ${CONSUMER_CXXFLAGS:-} \
+  -I "$include_dir" "$tmp/all_headers.cc" ||
+  { echo "the installed headers do not compile on their own (a public header includes one not installed?)" >&2; exit 1; }
+
 # 0. What the package asks of consumers: nothing of this machine, no Eigen,
 # -ffp-contract=off on both routes. The check itself must catch a leak.
 "$src/tests/package/check_package_flags.sh" "$prefix"
