@@ -62,7 +62,10 @@ Buffers& buffers_of(Device::Impl& dev) {
   return *static_cast<Buffers*>(dev.texture_buffers.get());
 }
 
-constexpr std::int64_t kMaxIndex = std::numeric_limits<std::int32_t>::max();
+// Invocations of one dispatch row (dispatch_row), and the largest index the
+// shaders take: a strided 32-bit index stays below 2^31.
+constexpr std::int64_t kRow = std::int64_t(65535) * 256;
+constexpr std::int64_t kMaxIndex = std::numeric_limits<std::int32_t>::max() - kRow;
 
 // Levels the filter reads: the layout's for the mipmapped filters, else level 0.
 int levels_read(const raster::TextureParams<float>& p) { return raster::mipmapped(p.filter) ? p.layout.count() : 1; }
@@ -164,11 +167,11 @@ TexturePush push_of(const raster::TextureParams<float>& p) {
           static_cast<std::int32_t>(4 * p.num_samples)};
 }
 
-// `pipeline` over `items` (samples or values) in one row of at most 65535
-// workgroups, each invocation striding over the rest: on lavapipe, a dispatch
-// that spilled into a second row ran some items twice.
+// `pipeline` over `items` (samples, values or texels) in one row of at most
+// 65535 workgroups, each invocation striding over the rest (so what an
+// invocation sets up once, e.g. the fixed-point scale, serves many items).
 void dispatch_row(VkCommandBuffer cb, const Kernels& k, VkPipeline pipeline, const void* push, std::int64_t items) {
-  dispatch(cb, k, pipeline, push, std::min<std::int64_t>(items, std::int64_t(65535) * 256), 256);
+  dispatch(cb, k, pipeline, push, std::min(items, kRow), 256);
 }
 
 // dst[0, n) += src[0, n) when dst is given (the adjoint accumulates, as on the CPU).
@@ -281,10 +284,9 @@ GpuTimes texture_backward(Device& device, const raster::TextureParams<float>& p,
       barrier(cb);
       // The built pyramid's gradients down to level 0; the user's levels keep theirs.
       for (std::int32_t l = static_cast<std::int32_t>(L) - 1; !p.user_pyramid && l >= 1; --l) {
-        const raster::MipLevel& up = p.layout.levels[l - 1];
         finish.mode = 1;
         finish.level = l;
-        dispatch_row(cb, b.k, b.k.texture_finish, &finish, std::int64_t(up.height) * up.width * C);
+        dispatch_row(cb, b.k, b.k.texture_finish, &finish, std::int64_t(p.layout.levels[l].height) * p.layout.levels[l].width);
         barrier(cb);
       }
       finish.mode = 2;

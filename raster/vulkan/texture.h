@@ -28,7 +28,7 @@ namespace gr::vulkan {
 // does (ValueError / ShapeError naming the problem: NaN or Inf in tex, uv,
 // uv_dx, uv_dy, mip_level_bias; trilinear without derivatives or pyramid) and
 // what the shaders' 32-bit indices allow (all levels' values and samples x
-// channels below 2^31, samples below 2^29). pass_ms: sampling.
+// channels below 2^31 - 2^24, samples below a quarter of that). pass_ms: sampling.
 GpuTimes texture_forward(Device& device, const raster::TextureParams<float>& p, float* out);
 
 // raster::texture_backward(p, grad_out, grads) on the device: ACCUMULATED

@@ -59,7 +59,7 @@ void sample_gradients(int s, Taps t) {
   for (int i = 0; i < 7; ++i) sample_grads[7 * s + i] = float(g[i]);
 }
 
-void lookup(int s) {
+void lookup(int s, int shift) {
   int C = P.channels;
   bool live = false;
   for (int c = 0; c < C && !live; ++c) live = grad_out[s * C + c] != 0.0;
@@ -72,7 +72,6 @@ void lookup(int s) {
   if (P.pass == 0) sample_gradients(s, t);
   if ((P.flags & kTexelGrads) == 0) return;
   // dL/d texel_t += w_t g, with w_t rounded to float as the CPU files it.
-  int shift = P.pass == 0 ? 0 : fixed_point_shift(0, P.contributions);
   for (int k = 0; k < t.n; ++k) {
     double w = double(float(t.w[k]));
     for (int c = 0; c < C; ++c) {
@@ -88,6 +87,7 @@ void lookup(int s) {
 // One row of at most 65535 workgroups, striding over the samples (texture.cpp).
 void main() {
   int stride = int(gl_NumWorkGroups.x * gl_WorkGroupSize.x);
-  for (int s = int(gl_GlobalInvocationID.x); s < P.num_samples; s += stride) lookup(s);
+  int shift = P.pass == 0 ? 0 : fixed_point_shift(0, P.contributions);
+  for (int s = int(gl_GlobalInvocationID.x); s < P.num_samples; s += stride) lookup(s, shift);
   if (P.pass == 0) publish_magnitudes();
 }

@@ -3,11 +3,11 @@
 // (binding 7), which are turned into doubles in place:
 //   mode 0: sum -> sum / 2^S (fixed_point.glsl), stored as the double's bits;
 //   mode 1: the box-filter adjoint (mip_backward in raster/mipmap.cpp) from
-//           level `level` to level - 1: each parent value += its child's / block size;
+//           level `level` to level - 1: per child texel, each of its parents'
+//           values += its own / block size (every parent has one child);
 //   mode 2: the doubles [0, count) -> float (binding 9).
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
 #include "fixed_point.glsl"
-#include "exact_math.glsl"
 
 layout(push_constant) uniform Params {
   int mode;
@@ -33,31 +33,43 @@ int64_t bits_of_double(double d) {
 // Parents [first, last) of child i along an axis of n parents and m children.
 int block_last(int i, int n, int m) { return i == m - 1 ? n : 2 * i + 2; }
 
-void finish(int i) {
-  if (P.mode == 0) {
-    if (i < P.count) sums[i] = bits_of_double(from_fixed(sums[i], fixed_point_shift(0, P.contributions)));
-  } else if (P.mode == 2) {
-    if (i < P.count) values[i] = float(double_of_bits(sums[i]));
-  } else {
-    ivec4 up = level_of[P.level - 1], lv = level_of[P.level];
-    int C = P.channels;
-    if (i >= up.x * up.y * C) return;
-    int c = i % C, texel = i / C;
-    int py = texel / up.y, px = texel % up.y;
-    int cy = min(py / 2, lv.x - 1), cx = min(px / 2, lv.y - 1);
-    int ny = block_last(cy, up.x, lv.x) - 2 * cy, nx = block_last(cx, up.y, lv.y) - 2 * cx;
-    double inv = div_rn(1.0, double(nx * ny));
-    int parent = (up.z + texel) * C + c;
-    int child = (lv.z + cy * lv.y + cx) * C + c;
-    precise double sum = double_of_bits(sums[parent]) + double_of_bits(sums[child]) * inv;
-    sums[parent] = bits_of_double(sum);
+// 1 / (block size) for blocks of 1 x 1 to 3 x 3 parents, correctly rounded.
+double inverse_count(int n) {
+  return n == 1 ? 1.0 : n == 2 ? 0.5 : n == 3 ? 0.3333333333333333LF : n == 4 ? 0.25
+       : n == 6 ? 0.16666666666666666LF : 0.1111111111111111LF;
+}
+
+// Mode 1 for child texel `texel` of level P.level: its parents' values += its own / block size.
+void to_parents(int texel) {
+  ivec4 up = level_of[P.level - 1], lv = level_of[P.level];
+  int C = P.channels;
+  int cy = texel / lv.y, cx = texel - cy * lv.y;
+  int py1 = block_last(cy, up.x, lv.x), px1 = block_last(cx, up.y, lv.y);
+  double inv = inverse_count((py1 - 2 * cy) * (px1 - 2 * cx));
+  for (int c = 0; c < C; ++c) {
+    double g = double_of_bits(sums[(lv.z + texel) * C + c]);
+    for (int py = 2 * cy; py < py1; ++py)
+      for (int px = 2 * cx; px < px1; ++px) {
+        int parent = (up.z + py * up.y + px) * C + c;
+        precise double sum = double_of_bits(sums[parent]) + g * inv;
+        sums[parent] = bits_of_double(sum);
+      }
   }
 }
 
 // A 1-D dispatch of at most 65535 workgroups, each invocation taking every
-// stride-th value (lavapipe ran some invocations of a 2-D dispatch twice).
+// stride-th item (texture.cpp's dispatch_row): values (modes 0, 2) or child texels (mode 1).
 void main() {
-  int n = P.mode == 1 ? level_of[P.level - 1].x * level_of[P.level - 1].y * P.channels : P.count;
   int stride = int(gl_NumWorkGroups.x * gl_WorkGroupSize.x);
-  for (int i = int(gl_GlobalInvocationID.x); i < n; i += stride) finish(i);
+  int first = int(gl_GlobalInvocationID.x);
+  if (P.mode == 0) {
+    // from_fixed's ldexp as one multiplication by 2^-S (a normal double: |S| <= 1000), exact.
+    double scale = ldexp(1.0, -fixed_point_shift(0, P.contributions));
+    for (int i = first; i < P.count; i += stride) sums[i] = bits_of_double(double(sums[i]) * scale);
+  } else if (P.mode == 2) {
+    for (int i = first; i < P.count; i += stride) values[i] = float(double_of_bits(sums[i]));
+  } else {
+    int children = level_of[P.level].x * level_of[P.level].y;
+    for (int t = first; t < children; t += stride) to_parents(t);
+  }
 }
