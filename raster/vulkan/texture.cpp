@@ -25,7 +25,7 @@ struct TexturePush {
 constexpr std::int32_t kVDown = 1, kMajorAxis = 2, kHasBias = 4, kLodGrads = 8, kTexelGrads = 16;
 // texture_finish.comp's.
 struct TextureFinishPush {
-  std::int32_t mode, count, channels, level, contributions, pad[3];
+  std::int32_t mode, count, channels, level, contributions, first, pad[2];
 };
 static_assert(sizeof(TexturePush) == kPushBytes && sizeof(TextureFinishPush) == kPushBytes, "push constant blocks");
 // Per-sample gradients the backward writes: du, dv, d uv_dx (2), d uv_dy (2), d bias.
@@ -259,7 +259,7 @@ GpuTimes texture_backward(Device& device, const raster::TextureParams<float>& p,
   TexturePush push = push_of(p);
   push.flags |= (lod ? kLodGrads : 0) | (texels ? kTexelGrads : 0);
   TextureFinishPush finish{0, static_cast<std::int32_t>(values), static_cast<std::int32_t>(C), 0,
-                           push.contributions, {}};
+                           push.contributions, 0, {}};
   dev.run([&](VkCommandBuffer cb) {
     b.timestamps.begin(cb, 6);
     record_uploads(cb, b, uploads);
@@ -280,18 +280,23 @@ GpuTimes texture_backward(Device& device, const raster::TextureParams<float>& p,
     b.timestamps.stamp(cb, 3);
     if (texels) {
       b.use(cb, finish_set);
-      dispatch_row(cb, b.k, b.k.texture_finish, &finish, values);  // mode 0: to double
-      barrier(cb);
-      // The built pyramid's gradients down to level 0; the user's levels keep theirs.
-      for (std::int32_t l = static_cast<std::int32_t>(L) - 1; !p.user_pyramid && l >= 1; --l) {
-        finish.mode = 1;
-        finish.level = l;
-        dispatch_row(cb, b.k, b.k.texture_finish, &finish, std::int64_t(p.layout.levels[l].height) * p.layout.levels[l].width);
+      if (p.user_pyramid || L == 1) {  // every level keeps its own gradient
+        finish.mode = 2;
+        finish.count = static_cast<std::int32_t>(converted);
+        dispatch_row(cb, b.k, b.k.texture_finish, &finish, converted);
+      } else {  // the coarsest level to double, then down the pyramid to level 0's floats
+        const raster::MipLevel& top = p.layout.levels[L - 1];
+        finish.first = static_cast<std::int32_t>(top.offset * C);
+        dispatch_row(cb, b.k, b.k.texture_finish, &finish, values - finish.first);
         barrier(cb);
+        finish.mode = 1;
+        for (std::int32_t l = static_cast<std::int32_t>(L) - 1; l >= 1; --l) {
+          finish.level = l;
+          dispatch_row(cb, b.k, b.k.texture_finish, &finish,
+                       std::int64_t(p.layout.levels[l].height) * p.layout.levels[l].width);
+          barrier(cb);
+        }
       }
-      finish.mode = 2;
-      finish.count = static_cast<std::int32_t>(converted);
-      dispatch_row(cb, b.k, b.k.texture_finish, &finish, converted);
       barrier(cb);
     }
     b.timestamps.stamp(cb, 4);

@@ -1,20 +1,24 @@
 #version 460
-// The texel gradients' last steps, on the fixed-point sums of every level
-// (binding 7), which are turned into doubles in place:
-//   mode 0: sum -> sum / 2^S (fixed_point.glsl), stored as the double's bits;
+// The texel gradients' last steps, from the fixed-point sums of every level
+// (binding 7) to float (binding 9):
+//   mode 0: values [first, count) to double (sum / 2^S, fixed_point.glsl),
+//           stored in place as the double's bits (the coarsest level);
 //   mode 1: the box-filter adjoint (mip_backward in raster/mipmap.cpp) from
-//           level `level` to level - 1: per child texel, each of its parents'
-//           values += its own / block size (every parent has one child);
-//   mode 2: the doubles [0, count) -> float (binding 9).
+//           level `level` to level - 1, per child texel: each of its parents'
+//           values = its own sum / 2^S + the child's / block size (every parent
+//           has one child, so each is converted once, here), stored as double
+//           bits, or for level 0 rounded to float into binding 9;
+//   mode 2: values [0, count) straight to float (no box filter).
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
 #include "fixed_point.glsl"
 
 layout(push_constant) uniform Params {
   int mode;
-  int count;          // values converted (modes 0, 2)
+  int count;          // modes 0, 2: values converted up to
   int channels;
   int level;          // mode 1: the child level
-  int contributions;  // mode 0: contributions per value at most (fixed_point_shift)
+  int contributions;  // contributions per value at most (fixed_point_shift)
+  int first;          // mode 0: the first value converted
 } P;
 layout(local_size_x = 256) in;
 layout(std430, binding = 1) readonly buffer LevelBuf { ivec4 level_of[]; };
@@ -39,8 +43,8 @@ double inverse_count(int n) {
        : n == 6 ? 0.16666666666666666LF : 0.1111111111111111LF;
 }
 
-// Mode 1 for child texel `texel` of level P.level: its parents' values += its own / block size.
-void to_parents(int texel) {
+// Mode 1 for child texel `texel` of level P.level (scale: 2^-S).
+void to_parents(int texel, double scale) {
   ivec4 up = level_of[P.level - 1], lv = level_of[P.level];
   int C = P.channels;
   int cy = texel / lv.y, cx = texel - cy * lv.y;
@@ -51,8 +55,11 @@ void to_parents(int texel) {
     for (int py = 2 * cy; py < py1; ++py)
       for (int px = 2 * cx; px < px1; ++px) {
         int parent = (up.z + py * up.y + px) * C + c;
-        precise double sum = double_of_bits(sums[parent]) + g * inv;
-        sums[parent] = bits_of_double(sum);
+        precise double sum = double(sums[parent]) * scale + g * inv;
+        if (P.level == 1)
+          values[parent] = float(sum);
+        else
+          sums[parent] = bits_of_double(sum);
       }
   }
 }
@@ -62,14 +69,14 @@ void to_parents(int texel) {
 void main() {
   int stride = int(gl_NumWorkGroups.x * gl_WorkGroupSize.x);
   int first = int(gl_GlobalInvocationID.x);
+  // from_fixed's ldexp as one multiplication by 2^-S (a normal double: |S| <= 1000), exact.
+  double scale = ldexp(1.0, -fixed_point_shift(0, P.contributions));
   if (P.mode == 0) {
-    // from_fixed's ldexp as one multiplication by 2^-S (a normal double: |S| <= 1000), exact.
-    double scale = ldexp(1.0, -fixed_point_shift(0, P.contributions));
-    for (int i = first; i < P.count; i += stride) sums[i] = bits_of_double(double(sums[i]) * scale);
+    for (int i = P.first + first; i < P.count; i += stride) sums[i] = bits_of_double(double(sums[i]) * scale);
   } else if (P.mode == 2) {
-    for (int i = first; i < P.count; i += stride) values[i] = float(double_of_bits(sums[i]));
+    for (int i = first; i < P.count; i += stride) values[i] = float(double(sums[i]) * scale);
   } else {
     int children = level_of[P.level].x * level_of[P.level].y;
-    for (int t = first; t < children; t += stride) to_parents(t);
+    for (int t = first; t < children; t += stride) to_parents(t, scale);
   }
 }
