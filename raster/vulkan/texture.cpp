@@ -170,6 +170,10 @@ TexturePush push_of(const raster::TextureParams<float>& p) {
 // `pipeline` over `items` (samples, values or texels) in one row of at most
 // 65535 workgroups, each invocation striding over the rest (so what an
 // invocation sets up once, e.g. the fixed-point scale, serves many items).
+// Not dispatch()'s second row of workgroups beyond 2^24 items: on lavapipe
+// (Mesa 22.3.6) the adjoint's fixed-point sums came out wrong with one (a
+// 2048 x 2048 x 3 texture's, and the interpolate adjoint's at 4096 x 4096,
+// right at 4095 x 4096), though every item ran exactly once; cause not found.
 void dispatch_row(VkCommandBuffer cb, const Kernels& k, VkPipeline pipeline, const void* push, std::int64_t items) {
   dispatch(cb, k, pipeline, push, std::min(items, kRow), 256);
 }
