@@ -3,3 +3,8 @@ if(TARGET gradraster_vulkan)
   add_executable(bench_gpu_rasterize ${CMAKE_CURRENT_SOURCE_DIR}/gpu_rasterize.cpp ${CMAKE_CURRENT_SOURCE_DIR}/mesh_framing.cpp)
   target_link_libraries(bench_gpu_rasterize PRIVATE gradraster::gradraster gradraster::vulkan benchmark::benchmark)
 endif()
+# bench_gpu_texture: Vulkan texture lookups (forward, adjoint) against the CPU kernel.
+if(TARGET gradraster_vulkan)
+  add_executable(bench_gpu_texture ${CMAKE_CURRENT_SOURCE_DIR}/gpu_texture.cpp)
+  target_link_libraries(bench_gpu_texture PRIVATE gradraster::gradraster gradraster::vulkan benchmark::benchmark)
+endif()

@@ -5,6 +5,7 @@
 
 #include <array>
 #include <string>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -229,6 +230,9 @@ void run_lookups(const Lookups& l, Tensor& out, Tensor& uv_jacobian) {
   dispatch_float(l.tex.dtype(), "texture", [&](auto tag) {
     using T = decltype(tag);
     detail::for_each_image(l.batch.images, [&](std::int64_t b) {
+      if constexpr (std::is_same_v<T, float>)
+        if (l.options.backend && l.options.backend->texture_forward(params<T>(l, b), out.data<T>() + b * S * C))
+          return;
       raster::texture_forward(params<T>(l, b), out.data<T>() + b * S * C,
                               uv_jacobian.defined() ? uv_jacobian.data<T>() + b * S * 2 * C : nullptr);
     });
@@ -272,6 +276,9 @@ void image_backward(const Tensor& grad_out, const Lookups& l, const Tensor& uv_j
   grads.uv_dy = ptr(g.inputs[3], 2 * S * b);
   grads.mip_level_bias = ptr(g.inputs[4], S * b);
   grads.pyramid = ptr(g_levels, t * l.upper);
+  if constexpr (std::is_same_v<T, float>)
+    if (l.options.backend && l.options.backend->texture_backward(params<T>(l, b), grad_out.data<T>() + b * S * C, grads))
+      return;
   raster::texture_backward(params<T>(l, b), grad_out.data<T>() + b * S * C, grads,
                            uv_jacobian.defined() ? uv_jacobian.data<T>() + b * S * 2 * C : nullptr);
 }
@@ -342,9 +349,11 @@ Tensor texture(const Tensor& tex, const Tensor& uv, const TextureOptions& option
   inputs.insert(inputs.end(), mip.begin(), mip.end());
   const bool recording = should_record(inputs);
   // Bilinear lookups whose uv takes a gradient keep d out/d(u, v) from the
-  // forward (2 C values a sample): the adjoint then reads no texel for it.
+  // forward (2 C values a sample): the adjoint then reads no texel for it
+  // (on the CPU; a backend's adjoint takes it from the texels).
   Tensor uv_jacobian;
-  if (recording && uv.requires_grad() && options.filter == Filter::Bilinear)
+  const bool on_backend = options.backend && tex.dtype() == DType::Float32;
+  if (recording && uv.requires_grad() && options.filter == Filter::Bilinear && !on_backend)
     uv_jacobian = Tensor::empty({batch.images * batch.samples * 2 * C}, tex.dtype());
   run_lookups(lookups, out, uv_jacobian);
 

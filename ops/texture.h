@@ -7,7 +7,10 @@
 
 #include <vector>
 
+#include <memory>
+
 #include "autodiff/tensor.h"
+#include "raster/backend.h"
 #include "raster/texture.h"
 
 namespace gr {
@@ -24,6 +27,12 @@ struct TextureOptions {
   // How the footprint sets the level of detail (raster/texture.h): OpenGL's
   // isotropic rule or nvdiffrast's major axis.
   LodRule lod_rule = LodRule::Isotropic;
+  // Where the lookups and their adjoint run (null: the CPU), e.g.
+  // gr::vulkan::raster_backend(device), for float32 (float64 stays on the
+  // CPU, as rasterize's): samples within an ulp of float of the CPU's,
+  // gradients within 1e-5 of the largest (docs/gpu.md). The mip pyramid is
+  // built on the CPU either way.
+  std::shared_ptr<const raster::RasterBackend> backend = nullptr;
 };
 
 // tex [Ht, Wt, C] float32/float64 (row 0 = top of the image, as read_image

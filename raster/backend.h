@@ -1,15 +1,17 @@
-// Where the G-buffer is made: the CPU kernel (no backend) or another device
-// (raster/vulkan/backend.h gives a Vulkan one). A backend gives
+// Where the raster kernels run: the CPU (no backend) or another device
+// (raster/vulkan/backend.h gives a Vulkan one), the ops' execution context
+// (RasterizeOptions::backend, TextureOptions::backend). A backend gives
 // rasterize_forward's G-buffer bit for bit, so everything that reads it (the
 // rasterize adjoint, which runs on the CPU from tri_id, interpolate,
-// antialias) is unchanged: the ops take one as their execution context
-// (RasterizeOptions::backend) without changing any result.
+// antialias) is unchanged; texture lookups give the CPU kernel's samples
+// (within an ulp of float) and gradients (within 1e-5 of the largest).
 #pragma once
 
 #include <cstdint>
 #include <string>
 
 #include "raster/rasterize.h"
+#include "raster/texture.h"
 
 namespace gr::raster {
 
@@ -22,6 +24,14 @@ class RasterBackend {
   // when it does not (the caller then runs the CPU kernel). p is validated.
   virtual bool rasterize_forward(const RasterParams<float>& p, std::int32_t* tri_id, float* uv,
                                  float* depth) const = 0;
+  // texture_forward(p, out) / texture_backward(p, grad_out, grads) (raster/texture.h,
+  // ACCUMULATED like it) for what the backend covers; false when it does not
+  // (the caller then runs the CPU kernel). p is validated by the op.
+  virtual bool texture_forward(const TextureParams<float>& /*p*/, float* /*out*/) const { return false; }
+  virtual bool texture_backward(const TextureParams<float>& /*p*/, const float* /*grad_out*/,
+                                const TextureGrads<float>& /*grads*/) const {
+    return false;
+  }
 };
 
 }  // namespace gr::raster

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Runs on a lent GPU machine over the files scripts/device_pack.sh put in
 # .devcarry/ (docs/gpu.md, "Measuring on a GPU"): the machine, the [vulkan]
-# tests on its GPU, bench_gpu_rasterize (GPU against CPU, tri_id compared),
+# tests on its GPU, bench_gpu_rasterize (GPU against CPU, tri_id compared), bench_gpu_texture,
 # and the fit example's thread scaling (bench/fit_threads.sh). Writes logs to
 # $OUT (or ./device-out). Usage: scripts/device_check.sh [fit rounds]
 set -uo pipefail
@@ -38,4 +38,7 @@ timeout 300 "$bin/bench_gpu_rasterize" --benchmark_min_time=0.1 --benchmark_repe
   --benchmark_report_aggregates_only=true --benchmark_out="$out/gpu_rasterize.json" 2>&1 | tee "$out/gpu_rasterize.txt" |
   grep -E 'median|Benchmark|rror'
 nvidia-smi --query-gpu=clocks.sm,clocks.max.sm --format=csv,noheader 2>&1 | sed 's/^/clock after: /' | tee -a "$out/machine.txt"
+timeout 120 "$bin/bench_gpu_texture" --benchmark_min_time=0.1 --benchmark_repetitions=5 \
+  --benchmark_report_aggregates_only=true --benchmark_out="$out/gpu_texture.json" 2>&1 | tee "$out/gpu_texture.txt" |
+  grep -E 'median|Benchmark|rror'
 bench/fit_threads.sh .devcarry/build 512 12 "$rounds" 1 4 8 16 2>&1 | tee "$out/fit_threads.txt"

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Packs what scripts/device_check.sh runs on a lent GPU machine (docs/gpu.md,
 # "Measuring on a GPU") into .devcarry/ (git-ignored): a portable x86-64-v3
-# build of gradraster-fit, bench_gpu_rasterize and the [vulkan] tests, the
+# build of gradraster-fit, bench_gpu_rasterize, bench_gpu_texture and the [vulkan] tests, the
 # shared libraries they load (TBB, Google Benchmark, tinyobjloader, stb, the
 # Vulkan loader) and the glmark2 bunny; and into .gl/ Debian's Vulkan loader
 # and glvnd packages. Run it with `carry: [".devcarry", ".gl"]`. Usage: scripts/device_pack.sh [build dir]
@@ -10,7 +10,7 @@ cd "$(dirname "$0")/.."
 build=${1:-/tmp/gradraster-devbuild}
 cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release -DGRADRASTER_NATIVE=OFF -DCMAKE_CXX_FLAGS=-march=x86-64-v3 \
   -DGRADRASTER_WITH_PYTHON=OFF -DGRADRASTER_WITH_MPI=OFF -DGRADRASTER_BUILD_TESTS=OFF > /dev/null
-cmake --build "$build" -j "$(nproc)" --target gradraster-fit bench_gpu_rasterize
+cmake --build "$build" -j "$(nproc)" --target gradraster-fit bench_gpu_rasterize bench_gpu_texture
 # The [vulkan] Catch2 cases alone (the full test binary is not needed there).
 g++ -std=c++17 -O2 -march=x86-64-v3 -ffp-contract=off -I. -Itests tests/main.cpp tests/raster/vulkan/*.cpp \
   "$build"/libgradraster_vulkan.a "$build"/libgradraster_raster.a "$build"/libgradraster_base.a \
@@ -18,7 +18,7 @@ g++ -std=c++17 -O2 -march=x86-64-v3 -ffp-contract=off -I. -Itests tests/main.cpp
 rm -rf .devcarry
 mkdir -p .devcarry/build/examples/fit .devcarry/build/bench .devcarry/lib
 cp "$build/examples/fit/gradraster-fit" .devcarry/build/examples/fit/
-cp "$build/bench/bench_gpu_rasterize" "$build/vulkan_tests" .devcarry/build/bench/
+cp "$build/bench/bench_gpu_rasterize" "$build/bench/bench_gpu_texture" "$build/vulkan_tests" .devcarry/build/bench/
 for lib in libtbb.so.12 libbenchmark.so.1debian libtinyobjloader.so.2rc10 libstb.so.0 libvulkan.so.1; do
   cp -L "/lib/x86_64-linux-gnu/$lib" .devcarry/lib/
 done

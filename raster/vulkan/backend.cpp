@@ -1,8 +1,10 @@
-// The Vulkan RasterBackend: rasterize_forward through the device's own Frame.
+// The Vulkan RasterBackend: rasterize_forward through the device's own Frame,
+// the texture lookups through raster/vulkan/texture.h.
 #include "raster/vulkan/backend.h"
 
 #include "autodiff/error.h"
 #include "raster/vulkan/rasterize.h"
+#include "raster/vulkan/texture.h"
 
 namespace gr::vulkan {
 namespace {
@@ -15,6 +17,15 @@ class VulkanBackend : public raster::RasterBackend {
                          float* depth) const override {
     if (p.floor_id || p.floor_z) return false;
     vulkan::rasterize_forward(*device_, p, tri_id, uv, depth);
+    return true;
+  }
+  bool texture_forward(const raster::TextureParams<float>& p, float* out) const override {
+    vulkan::texture_forward(*device_, p, out);
+    return true;
+  }
+  bool texture_backward(const raster::TextureParams<float>& p, const float* grad_out,
+                        const raster::TextureGrads<float>& grads) const override {
+    vulkan::texture_backward(*device_, p, grad_out, grads);
     return true;
   }
 

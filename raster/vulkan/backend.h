@@ -1,6 +1,7 @@
 // A Vulkan device as a raster::RasterBackend: the ops' rasterize runs its
 // forward there for float32 clip positions without a peeling floor (the
-// rest stays on the CPU), with the same G-buffer bit for bit.
+// rest stays on the CPU), with the same G-buffer bit for bit; the texture op
+// runs its forward and adjoint there for float32 (raster/vulkan/texture.h).
 #pragma once
 
 #include <memory>

@@ -19,6 +19,7 @@ Device::Impl::~Impl() {
   if (device) {
     vkDeviceWaitIdle(device);
     default_frame.reset();
+    texture_buffers.reset();
     kernels.reset();
     if (command_pool) vkDestroyCommandPool(device, command_pool, nullptr);
     vkDestroyDevice(device, nullptr);

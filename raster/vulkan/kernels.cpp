@@ -29,6 +29,9 @@ Kernels::Kernels(Device::Impl& dev) : pipelines(dev) {
   antialias_forward = add(pipelines, shaders::antialias_forward());
   antialias_backward = add(pipelines, shaders::antialias_backward());
   antialias_finish = add(pipelines, shaders::antialias_finish());
+  texture_forward = add(pipelines, shaders::texture_forward());
+  texture_backward = add(pipelines, shaders::texture_backward());
+  texture_finish = add(pipelines, shaders::texture_finish());
 }
 
 VkPipeline Kernels::raster_small(int small_box) {

@@ -29,6 +29,7 @@ struct Device::Impl {
   // rasterize_forward reuses, made on first use; released before the device.
   std::shared_ptr<void> kernels;
   std::shared_ptr<void> default_frame;
+  std::shared_ptr<void> texture_buffers;  // raster/vulkan/texture.cpp's
 
   ~Impl();
 

@@ -23,6 +23,7 @@ struct Kernels {
   VkPipeline interpolate_forward, interpolate_backward, fixed_point_finish;
   VkPipeline rasterize_backward, rasterize_backward_finish;
   VkPipeline antialias_pairs, antialias_forward, antialias_backward, antialias_finish;
+  VkPipeline texture_forward, texture_backward, texture_finish;
 
  private:
   std::map<int, VkPipeline> small_;

@@ -25,5 +25,8 @@ Spirv antialias_pairs();
 Spirv antialias_forward();
 Spirv antialias_backward();
 Spirv antialias_finish();
+Spirv texture_forward();
+Spirv texture_backward();
+Spirv texture_finish();
 
 }  // namespace gr::vulkan::shaders

@@ -1,0 +1,24 @@
+#version 460
+// Per sample: out = sum_t w_t texel_t over its taps, summed in double in tap
+// order and rounded once (texture_forward in raster/texture.cpp).
+#include "texture_common.glsl"
+
+layout(local_size_x = 256) in;
+layout(std430, binding = 6) writeonly buffer OutBuf { float out_values[]; };
+
+void lookup(int s) {
+  Taps t = sample_taps(s, false);
+  int C = P.channels;
+  for (int c = 0; c < C; ++c) {
+    precise double a = 0.0;
+    for (int k = 0; k < t.n; ++k) a += t.w[k] * double(texels[t.index[k] * C + c]);
+    // The CPU's sum starts at +0, so it is never -0 (a driver may drop 0 + x's sign).
+    out_values[s * C + c] = a == 0.0 ? 0.0 : float(a);
+  }
+}
+
+// One row of at most 65535 workgroups, striding over the samples (texture.cpp).
+void main() {
+  int stride = int(gl_NumWorkGroups.x * gl_WorkGroupSize.x);
+  for (int s = int(gl_GlobalInvocationID.x); s < P.num_samples; s += stride) lookup(s);
+}

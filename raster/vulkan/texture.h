@@ -1,0 +1,42 @@
+// Texture sampling and its adjoint on a Vulkan device: raster::texture_forward
+// and texture_backward (raster/texture.h) for float32, every filter (nearest,
+// bilinear, trilinear, linear-mipmap-nearest), wrap mode, LOD rule, v_down,
+// per-sample mip_level_bias and the user's own mip levels. Cube maps are not
+// on the device.
+//
+// Results: the CPU kernel's taps in the same double expressions, so samples
+// are the CPU's bit for bit for nearest and bilinear and within an ulp of
+// float for the mipmapped filters (the LOD's log2 is the shader's own, within
+// an ulp or two of the C library's and exact at powers of two). The texel
+// gradients are summed in 64-bit fixed point (docs/gpu.md; resolution about
+// 2^-59 x samples x the largest contribution), bit-identical run to run and
+// for any workgroup size; with mip levels they then go down the pyramid
+// through the box-filter adjoint in double, on the device.
+//
+// The pyramid (levels 1.., p.pyramid) is the caller's: built on the CPU with
+// raster::mip_build, or the user's own levels, and uploaded with the texture
+// at every call (nothing is kept between calls). Calls on one device are
+// serialized.
+#pragma once
+
+#include "raster/texture.h"
+#include "raster/vulkan/device.h"
+
+namespace gr::vulkan {
+
+// raster::texture_forward(p, out) on the device. Checks p as the CPU kernel
+// does (ValueError / ShapeError naming the problem: NaN or Inf in tex, uv,
+// uv_dx, uv_dy, mip_level_bias; trilinear without derivatives or pyramid) and
+// what the shaders' 32-bit indices allow (all levels' values and samples x
+// channels below 2^31 - 2^24, samples below a quarter of that). pass_ms: sampling.
+GpuTimes texture_forward(Device& device, const raster::TextureParams<float>& p, float* out);
+
+// raster::texture_backward(p, grad_out, grads) on the device: ACCUMULATED
+// (+=) into each non-null pointer of grads, as on the CPU (nearest: none to
+// uv; uv_dx, uv_dy, mip_level_bias through trilinear's LOD only; grads.pyramid
+// only with p.user_pyramid). pass_ms: per-sample gradients and magnitudes,
+// texel sums, finish (fixed point to double, the box-filter adjoint, to float).
+GpuTimes texture_backward(Device& device, const raster::TextureParams<float>& p, const float* grad_out,
+                          const raster::TextureGrads<float>& grads);
+
+}  // namespace gr::vulkan
