@@ -8,7 +8,7 @@
 #include <unordered_set>
 
 #include "ops/broadcast.h"
-#include "ops/elementwise_formulas.h"
+#include "ops/elementwise_table.h"
 
 // Before a loop over lanes whose arrays never overlap (the arena gives each
 // value its own): tells the vectorizer so, instead of leaving it to compare
@@ -48,7 +48,7 @@ struct FusedRows::Operand {
 };
 
 struct FusedRows::Instr {
-  FusedOp op;
+  OpId op;
   Operand a, b;             // b.value == -1 for unary ops
   int out = -1;
   int components = 1;       // components the operands are read at (dot: the vectors' length)
@@ -76,7 +76,6 @@ std::vector<std::int64_t> lane_dims_of(const std::vector<Tensor>& rows, std::int
 
 int width_of(const Tensor& t) { return t.rank() == 1 ? 1 : int(t.size(-1)); }
 int rank_of(const Tensor& t) { return t.rank() == 1 ? 1 : 2; }
-bool is_unary(FusedOp op) { return op == FusedOp::Neg || op == FusedOp::Pow || op == FusedOp::Normalize; }
 
 }  // namespace
 
@@ -185,7 +184,7 @@ struct FusedRows::Compiler {
     bool ok = shaped && ida >= 0 && (unary || idb >= 0);
     const int out_rank = shaped ? rank_of(s.out) : 0, out_width = shaped ? width_of(s.out) : 0;
     if (ok) {
-      if (s.op == FusedOp::Dot) {
+      if (s.op.kind == OpKind::Dot) {
         in.components = int(s.a.size(-1));
         ok = out_rank == 2 && out_width == 1 && s.b.size(-1) == in.components;
         if (ok) in.a = operand(ida, 2, in.components), in.b = operand(idb, 2, in.components);
@@ -196,7 +195,7 @@ struct FusedRows::Compiler {
         if (!unary) in.b = operand(idb, out_rank, out_width);
         ok = in.a.value >= 0 && (unary || in.b.value >= 0);
         if (ok && unary) ok = p.values_[ida].varying && !in.a.spread;                 // same shape as out
-        if (ok && s.op == FusedOp::Normalize) ok = out_rank == 2;                      // rows of vectors
+        if (ok && s.op.kind == OpKind::Normalize) ok = out_rank == 2;                      // rows of vectors
       }
       // At least one operand has rows (ops on shared values alone are not replayed).
       ok = ok && (p.values_[in.a.value].varying || (!unary && p.values_[in.b.value].varying));
@@ -216,7 +215,7 @@ struct FusedRows::Compiler {
     Value& o = p.values_[in.out];
     o.produced = true;
     o.needs_grad = p.values_[in.a.value].needs_grad || (!unary && p.values_[in.b.value].needs_grad);
-    if (s.op == FusedOp::Normalize) o.aux = p.arena_arrays_++;
+    if (s.op.kind == OpKind::Normalize) o.aux = p.arena_arrays_++;
     ids[s.out.impl()] = in.out;
     p.instrs_.push_back(in);
   }
@@ -497,24 +496,26 @@ class FusedEvaluator {
         });
       }
     };
-    switch (in.op) {  // the eager ops' formulas (ops/elementwise.cpp, ops/vector.cpp)
-      case FusedOp::Add: binary([](T x, T z) { return x + z; }); break;
-      case FusedOp::Sub: binary([](T x, T z) { return x - z; }); break;
-      case FusedOp::Mul: binary([](T x, T z) { return x * z; }); break;
-      case FusedOp::Div: binary([](T x, T z) { return x / z; }); break;
-      case FusedOp::Minimum: binary([](T x, T z) { return z < x ? z : x; }); break;
-      case FusedOp::Maximum: binary([](T x, T z) { return z > x ? z : x; }); break;
-      case FusedOp::Neg:
-        for (int j = 0; j < in.components; ++j) {
-          const T* x = read(in.a, j).p;
-          T* out = lanes(o.array + j);
-          for (std::int64_t l = 0; l < n; ++l) out[l] = -x[l];
-        }
+    switch (in.op.kind) {  // the table's formulas (ops/elementwise_table.h); pow, dot and normalize as eagerly
+      case OpKind::Unary:
+        visit_entry(UnaryOps{}, in.op.index, [&](auto entry) {
+          using Op = decltype(entry);
+          for (int j = 0; j < in.components; ++j) {
+            const T* x = read(in.a, j).p;
+            T* out = lanes(o.array + j);
+            for (std::int64_t l = 0; l < n; ++l) out[l] = Op::forward(x[l]);
+          }
+        });
         break;
-      case FusedOp::Pow:
+      case OpKind::Binary:
+        visit_entry(BinaryOps{}, in.op.index, [&](auto entry) {
+          binary([](T x, T z) { return decltype(entry)::forward(x, z); });
+        });
+        break;
+      case OpKind::Power:
         for (int j = 0; j < in.components; ++j) power_range(read(in.a, j).p, lanes(o.array + j), 0, n, in.param);
         break;
-      case FusedOp::Dot: {  // sum_j a_j b_j in double from 0, rounded once
+      case OpKind::Dot: {  // sum_j a_j b_j in double from 0, rounded once
         if (unrolled(in.components, [&](auto c) { dot_lanes<c()>(in, lanes(o.array)); })) break;
         double s[kLanes];
         std::fill(s, s + n, 0.0);
@@ -526,7 +527,7 @@ class FusedEvaluator {
         for (std::int64_t l = 0; l < n; ++l) out[l] = T(s[l]);
         break;
       }
-      case FusedOp::Normalize: {  // v / d, d = max(|v|, eps) in double (detail::normalized)
+      case OpKind::Normalize: {  // v / d, d = max(|v|, eps) in double (detail::normalized)
         if (unrolled(in.components, [&](auto c) { normalize_lanes<c()>(in, o); })) break;
         double d[kLanes], inv[kLanes];
         std::fill(d, d + n, 0.0);
@@ -722,48 +723,44 @@ class FusedEvaluator {
   void run_backward(const Instr& in) {
     const Value& o = p_.values_[in.out];
     const std::int64_t n = n_;
-    Sink sa(*this, in.a, in.a_first, false), sb(*this, in.b, in.b_first, in.op == FusedOp::Sub);
+    Sink sa(*this, in.a, in.a_first, false), sb(*this, in.b, in.b_first, negates_b(in.op));
     T t[kLanes];
-    // Each side's terms f(g, x, z, y) per component (y: the op's result).
-    auto binary = [&](auto da, auto db) {
-      for (int j = 0; j < in.components; ++j) {
-        const T* g = lanes(o.grad + j);
-        const T* y = lanes(o.array + j);
-        with_reads(read(in.a, j), read(in.b, j), [&](auto x, auto z) {
-          sa.apply(j, [&](std::int64_t l) { return T(da(g[l], x(l), z(l), y[l])); });
-          sb.apply(j, [&](std::int64_t l) { return T(db(g[l], x(l), z(l), y[l])); });
+    switch (in.op.kind) {  // the table's adjoints (ops/elementwise_table.h); pow, dot and normalize as eagerly
+      case OpKind::Unary:
+        visit_entry(UnaryOps{}, in.op.index, [&](auto entry) {
+          using Op = decltype(entry);
+          for (int j = 0; j < in.components; ++j) {
+            const T *g = lanes(o.grad + j), *x = read(in.a, j).p, *y = lanes(o.array + j);
+            sa.apply(j, [&](std::int64_t l) { return Op::adjoint(g[l], x[l], y[l]); });
+          }
         });
-      }
-    };
-    switch (in.op) {  // the eager adjoints' formulas
-      case FusedOp::Add:
-      case FusedOp::Sub:
-        for (int j = 0; j < in.components; ++j) sa.put(j, lanes(o.grad + j)), sb.put(j, lanes(o.grad + j));
         break;
-      case FusedOp::Mul: binary([](T g, T, T z, T) { return g * z; }, [](T g, T x, T, T) { return g * x; }); break;
-      case FusedOp::Div: binary([](T g, T, T z, T) { return g / z; }, [](T g, T, T z, T y) { return -(g * y) / z; }); break;
-      case FusedOp::Minimum:
-        binary([](T g, T x, T z, T) { return selected_gradient(g, x < z, x == z); },
-               [](T g, T x, T z, T) { return selected_gradient(g, z < x, x == z); });
+      case OpKind::Binary:
+        visit_entry(BinaryOps{}, in.op.index, [&](auto entry) {
+          using Op = decltype(entry);
+          if constexpr (Op::linear) {  // g to each side (b's negated by its sink)
+            for (int j = 0; j < in.components; ++j) sa.put(j, lanes(o.grad + j)), sb.put(j, lanes(o.grad + j));
+          } else {  // each side's terms per component (y: the op's result)
+            for (int j = 0; j < in.components; ++j) {
+              const T* g = lanes(o.grad + j);
+              const T* y = lanes(o.array + j);
+              with_reads(read(in.a, j), read(in.b, j), [&](auto x, auto z) {
+                auto y_at = [&](std::int64_t l) { return Op::uses_result ? y[l] : T(0); };
+                sa.apply(j, [&](std::int64_t l) { return Op::adjoint_a(g[l], x(l), z(l), y_at(l)); });
+                sb.apply(j, [&](std::int64_t l) { return Op::adjoint_b(g[l], x(l), z(l), y_at(l)); });
+              });
+            }
+          }
+        });
         break;
-      case FusedOp::Maximum:
-        binary([](T g, T x, T z, T) { return selected_gradient(g, x > z, x == z); },
-               [](T g, T x, T z, T) { return selected_gradient(g, z > x, x == z); });
-        break;
-      case FusedOp::Neg:
-        for (int j = 0; j < in.components; ++j) {
-          const T* g = lanes(o.grad + j);
-          sa.apply(j, [&](std::int64_t l) { return -g[l]; });
-        }
-        break;
-      case FusedOp::Pow:
+      case OpKind::Power:
         for (int j = 0; j < in.components; ++j) {
           T* ta = sa.target(j, t);
           power_adjoint_range(lanes(o.grad + j), read(in.a, j).p, ta, 0, n, in.param);
           sa.put(j, ta);
         }
         break;
-      case FusedOp::Dot: {  // dL/da_j = g b_j, dL/db_j = g a_j
+      case OpKind::Dot: {  // dL/da_j = g b_j, dL/db_j = g a_j
         const T* g = lanes(o.grad);
         for (int j = 0; j < in.components; ++j)
           with_reads(read(in.a, j), read(in.b, j), [&](auto x, auto z) {
@@ -772,7 +769,7 @@ class FusedEvaluator {
           });
         break;
       }
-      case FusedOp::Normalize: {  // (g - n (n.g)) / d; below eps g / eps (g itself for g = +-0)
+      case OpKind::Normalize: {  // (g - n (n.g)) / d; below eps g / eps (g itself for g = +-0)
         if (unrolled(in.components, [&](auto c) { normalize_adjoint_lanes<c()>(in, o, sa); })) break;
         const T* len = lanes(o.aux);
         double ng[kLanes], inv[kLanes];
