@@ -58,7 +58,7 @@ class FusedRows {
   struct Instr;
 
  private:
-  struct Compiler;  // compile's working state (fused_rows.cpp)
+  struct Compiler;  // compile's working state (fused_rows_compile.cpp)
   template <class T>
   friend class FusedEvaluator;
   std::vector<Tensor> evaluate(const std::vector<Tensor>& rows, Tensor* out, double* sums, const Tensor* g, double seed,
