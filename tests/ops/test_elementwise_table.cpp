@@ -6,6 +6,7 @@
 // without a new test.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <functional>
@@ -26,20 +27,21 @@ namespace {
 
 constexpr std::int64_t kRows = 1301, kBlock = 500;  // a partial last block
 
-std::vector<double> values(std::int64_t n, double lo, double hi, std::uint64_t seed) {
-  std::vector<double> v(static_cast<std::size_t>(n));
-  std::uint64_t s = seed * 6364136223846793005ULL + 1442695040888963407ULL;
-  for (double& x : v) {
-    s = s * 6364136223846793005ULL + 1442695040888963407ULL;
-    x = lo + (hi - lo) * double(s >> 11) / 9007199254740992.0;
-  }
-  return v;
-}
-
-Tensor leaf(std::vector<double> v, const Shape& shape, DType dtype) {
-  Tensor t = Tensor::from_values(std::move(v), shape, dtype);
+// Uniform in [lo, hi), needing a gradient.
+Tensor uniform_leaf(const Shape& shape, double lo, double hi, std::uint64_t seed, DType dtype) {
+  Tensor t = Tensor::uniform(shape, lo, hi, seed, dtype);
   t.set_requires_grad();
   return t;
+}
+
+// t's values changed by edit(values), needing a gradient.
+template <class F>
+Tensor edited(const Tensor& t, F edit) {
+  std::vector<double> v = t.to_vector();
+  edit(v);
+  Tensor out = Tensor::from_values(v, t.shape(), t.dtype());
+  out.set_requires_grad();
+  return out;
 }
 
 std::vector<OpId> table_entries() {
@@ -56,10 +58,13 @@ struct Case {
 };
 
 Case make_case(std::int64_t n, DType dtype, double lo, double hi, std::uint64_t seed) {
-  std::vector<double> x = values(3 * n, lo, hi, seed), z = values(3 * n, lo, hi, seed + 1);
-  for (std::int64_t e = 0; e < 60 && e < 3 * n; ++e) z[std::size_t(e)] = x[std::size_t(e)];  // ties
-  return {{leaf(x, {n, 3}, dtype), leaf(z, {n, 3}, dtype), leaf(values(n, lo, hi, seed + 2), {n, 1}, dtype)},
-          {leaf(values(3, lo, hi, seed + 3), {3}, dtype), leaf(values(1, lo, hi, seed + 4), {}, dtype)}};
+  const Tensor x = uniform_leaf({n, 3}, lo, hi, seed, dtype);
+  const Tensor z = edited(uniform_leaf({n, 3}, lo, hi, seed + 1, dtype), [&](std::vector<double>& v) {
+    const std::vector<double> xv = x.to_vector();
+    std::copy(xv.begin(), xv.begin() + 60, v.begin());  // ties
+  });
+  return {{x, z, uniform_leaf({n, 1}, lo, hi, seed + 2, dtype)},
+          {uniform_leaf({3}, lo, hi, seed + 3, dtype), uniform_leaf({}, lo, hi, seed + 4, dtype)}};
 }
 
 // The entry applied to every operand form the interpreter reads: rows of the
@@ -93,19 +98,14 @@ bool same_bits_or_nan(const Tensor& a, const Tensor& b) {
   return true;
 }
 
-struct Run {
-  Tensor out;
-  std::vector<Tensor> grads;  // rows' gradients
-};
-
-// f's output and the rows' gradients of sum(out * w) for a fixed random w.
-Run run(const Case& c, const std::function<Tensor()>& f) {
+// f's output, then the rows' gradients of sum(out * w) for a fixed random w.
+std::vector<Tensor> output_and_row_grads(const Case& c, const std::function<Tensor()>& f) {
   for (Tensor t : c.rows) t.zero_grad();
   for (Tensor t : c.shared) t.zero_grad();
-  Run result{f(), {}};
-  const Tensor w = Tensor::from_values(values(result.out.numel(), -1, 1, 9), result.out.shape(), result.out.dtype());
-  backward(sum(result.out * w));
-  for (const Tensor& t : c.rows) result.grads.push_back(t.has_grad() ? t.grad() : Tensor::zeros(t.shape(), t.dtype()));
+  const Tensor out = f();
+  backward(sum(out * Tensor::uniform(out.shape(), -1, 1, 9, out.dtype())));
+  std::vector<Tensor> result{out};
+  for (const Tensor& t : c.rows) result.push_back(t.grad());
   return result;
 }
 
@@ -125,25 +125,21 @@ TEST_CASE("every elementwise table entry's map_rows replay gives its eager op's 
     for (DType dtype : {DType::Float32, DType::Float64}) {
       Case c = make_case(kRows, dtype, d.lo, d.hi, 1);
       if (d.zeros)  // in the rows of vectors
-        for (std::size_t i : {0, 1}) {
-          std::vector<double> v = c.rows[i].to_vector();
-          for (std::size_t e = 0; e < 12; ++e) v[e] = 0;
-          c.rows[i] = leaf(v, c.rows[i].shape(), dtype);
-        }
+        for (std::size_t i : {0, 1})
+          c.rows[i] = edited(c.rows[i], [](std::vector<double>& v) { std::fill(v.begin(), v.begin() + 12, 0.0); });
       for (const OpId op : table_entries()) {
-          const RowFunction f = graph_of(op);
-          INFO(detail::op_name(op) << ", " << d.name << ", " << dtype_name(dtype));
-          REQUIRE(map_rows_fuses(f, c.rows, c.shared, MapRowsOptions{kBlock}));
-          const Run eager = run(c, [&] { return f(c.rows, c.shared); });
-          const Run fused = run(c, [&] { return map_rows(f, c.rows, c.shared, MapRowsOptions{kBlock}); });
+        const RowFunction f = graph_of(op);
+        INFO(detail::op_name(op) << ", " << d.name << ", " << dtype_name(dtype));
+        REQUIRE(map_rows_fuses(f, c.rows, c.shared, MapRowsOptions{kBlock}));
+        const auto eager = output_and_row_grads(c, [&] { return f(c.rows, c.shared); });
+        const auto fused = output_and_row_grads(c, [&] { return map_rows(f, c.rows, c.shared, MapRowsOptions{kBlock}); });
+        for (std::size_t i = 0; i < eager.size(); ++i) {
+          const std::string what = i == 0 ? "output" : "rows[" + std::to_string(i - 1) + "]'s gradient";
+          INFO(what);
           // Strictly the same bits where no NaN arises.
-          auto same = [&](const Tensor& x, const Tensor& y) { return d.zeros ? same_bits_or_nan(x, y) : same_bits(x, y); };
-          CHECK(same(fused.out, eager.out));
-          for (std::size_t i = 0; i < c.rows.size(); ++i) {
-            INFO("rows[" << i << "]");
-            CHECK(same(fused.grads[i], eager.grads[i]));
-          }
+          CHECK((d.zeros ? same_bits_or_nan(fused[i], eager[i]) : same_bits(fused[i], eager[i])));
         }
+      }
     }
 }
 
@@ -155,13 +151,13 @@ TEST_CASE("every elementwise table entry's replay passes a float64 gradcheck", "
   Inputs in = c.rows;
   in.insert(in.end(), c.shared.begin(), c.shared.end());
   const double offsets[] = {0.0031, 0.0067, 0.0049, 0.0083, 0.0015};
-  for (std::size_t i = 0; i < in.size(); ++i) {
-    std::vector<double> v = in[i].to_vector();
-    for (double& x : v) x = 0.25 + 0.01 * std::floor((x - 0.25) / 0.01) + offsets[i];
-    in[i] = leaf(v, in[i].shape(), DType::Float64);
-  }
+  for (std::size_t i = 0; i < in.size(); ++i)
+    in[i] = edited(in[i], [&](std::vector<double>& v) {
+      for (double& x : v) x = 0.25 + 0.01 * std::floor((x - 0.25) / 0.01) + offsets[i];
+    });
   for (const OpId op : table_entries()) {
     const RowFunction f = graph_of(op);
+    REQUIRE(map_rows_fuses(f, {in[0], in[1], in[2]}, {in[3], in[4]}, MapRowsOptions{100}));
     require_gradcheck(std::string("replayed ") + detail::op_name(op),
                       [&](const Inputs& x) {
                         return map_rows(f, {x[0], x[1], x[2]}, {x[3], x[4]}, MapRowsOptions{100});
