@@ -36,32 +36,9 @@ struct Lod {
   double ax = 0, ay = 0, bx = 0, by = 0;
 };
 
-inline Lod compute_lod(double du_dx, double dv_dx, double du_dy, double dv_dy, int width, int height, int levels,
-                double bias, LodRule rule) {
-  // Footprint of one pixel step along x and along y, in level-0 texels.
-  Lod l;
-  l.ax = du_dx * width, l.ay = dv_dx * height, l.bx = du_dy * width, l.by = dv_dy * height;
-  const double A = l.ax * l.ax + l.ay * l.ay, B = l.bx * l.bx + l.by * l.by;
-  if (rule == LodRule::Isotropic) {
-    const bool along_x = !(A < B);
-    l.rho2 = along_x ? A : B;
-    (along_x ? l.pA : l.pB) = 1.0;
-  } else {
-    // Squared major axis of the ellipse with quadratic form [[A, C], [C, B]].
-    const double C = l.ax * l.bx + l.ay * l.by, h = 0.5 * (A - B);
-    const double r = std::sqrt(h * h + C * C);
-    l.rho2 = 0.5 * (A + B) + r;
-    l.pA = r > 0 ? 0.5 + 0.5 * h / r : 0.5;
-    l.pB = r > 0 ? 0.5 - 0.5 * h / r : 0.5;
-    l.pC = r > 0 ? C / r : 0.0;
-  }
-  const double raw = 0.5 * std::log2(l.rho2) + bias;
-  l.free = raw > 0.0 && raw < levels - 1;
-  l.value = raw;
-  if (!(l.value > 0.0)) l.value = 0.0;  // magnification, zero footprint, NaN
-  if (l.value > levels - 1) l.value = levels - 1;
-  return l;
-}
+// The LOD of a sample (texture_lod's formula, raster/texture.h) and its partials.
+Lod compute_lod(double du_dx, double dv_dx, double du_dy, double dv_dy, int width, int height, int levels,
+                double bias, LodRule rule);
 
 // Address of integer texel index i (a whole number held in a double) along an
 // axis of n texels. The final clamp keeps any input (huge, NaN) in range.
