@@ -328,13 +328,15 @@ const char* op_name(OpId op) {
 }
 
 Tensor eager_op(OpId op, const Tensor& a, const Tensor& b) {
+  const int entries = op.kind == OpKind::Unary ? UnaryOps::size : op.kind == OpKind::Binary ? BinaryOps::size : 0;
+  if (op.index < 0 || op.index >= entries)
+    throw ValueError(std::string("eager_op: ") + (entries ? "index " + std::to_string(op.index) : op_name(op)) +
+                     " is not an entry of the elementwise table");
   Tensor out;
   if (op.kind == OpKind::Unary)
     visit_entry(UnaryOps{}, op.index, [&](auto entry) { out = unary_entry<decltype(entry)>(a); });
-  else if (op.kind == OpKind::Binary)
-    visit_entry(BinaryOps{}, op.index, [&](auto entry) { out = binary_entry<decltype(entry)>(a, b); });
   else
-    throw ValueError(std::string("eager_op: ") + op_name(op) + " is not an entry of the elementwise table");
+    visit_entry(BinaryOps{}, op.index, [&](auto entry) { out = binary_entry<decltype(entry)>(a, b); });
   return out;
 }
 

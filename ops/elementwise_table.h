@@ -5,6 +5,8 @@
 // docs/map_rows.md), so an op added here is an eager op and a replayed one at
 // once, with the same bits (tests/ops/test_elementwise_table.cpp checks every
 // entry's eager op against its replay, forward and adjoint, float32 and float64).
+// To add an op: its entry below, listed in UnaryOps or BinaryOps, and its
+// public function (declared in ops/elementwise.h, one line in elementwise.cpp).
 //
 // Entries are types with static members:
 //   unary:  name; forward(x); adjoint(g, x, y)                     (y = forward(x))

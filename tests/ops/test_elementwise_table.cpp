@@ -173,4 +173,5 @@ TEST_CASE("the table's eager ops are the public functions", "[ops][elementwise]"
   CHECK(same_bits(detail::eager_op(detail::op_id<detail::ExpOp>(), a), exp(a)));
   CHECK(std::string(detail::op_name(detail::op_id<detail::PowOp>())) == "pow");
   CHECK_THROWS_AS(detail::eager_op(OpId{OpKind::Dot}, a, b), ValueError);
+  CHECK_THROWS_AS(detail::eager_op(OpId{OpKind::Binary, detail::BinaryOps::size}, a, b), ValueError);
 }
