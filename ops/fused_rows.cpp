@@ -43,7 +43,7 @@ struct ConstRead {
 
 // f(x, z) with x and z as readers of their kind, so each combination is its own plain loop.
 template <class T, class F>
-void with_reads(const Read<T>& a, const Read<T>& b, F f) {
+[[gnu::always_inline]] inline void with_reads(const Read<T>& a, const Read<T>& b, F f) {
   auto with_b = [&](auto x) {
     if (b.p) f(x, ArrayRead<T>{b.p});
     else f(x, ConstRead<T>{b.v});
@@ -453,7 +453,7 @@ class FusedEvaluator {
   void run_backward(const Instr& in) {
     const Value& o = p_.values_[in.out];
     const std::int64_t n = n_;
-    Sink sa(*this, in.a, in.a_first, false), sb(*this, in.b, in.b_first, negates_b(in.op));
+    Sink sa(*this, in.a, in.a_first, false), sb(*this, in.b, in.b_first, in.negate_b);
     T t[kLanes];
     switch (in.op.kind) {  // the table's adjoints (ops/elementwise_table.h); pow, dot and normalize as eagerly
       case OpKind::Unary:

@@ -38,6 +38,7 @@ struct FusedRows::Instr {
   int components = 1;       // components the operands are read at (dot: the vectors' length)
   double param = 0;         // pow's exponent, normalize's eps
   bool a_first = false, b_first = false;  // the operand's first gradient contribution: assigned, not added
+  bool negate_b = false;    // b's gradient is the negated sum of g (sub; negates_b)
   bool backward = false;    // its result receives a gradient
 };
 
