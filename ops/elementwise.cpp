@@ -1,6 +1,8 @@
-// Elementwise ops: forward kernels and their adjoints side by side.
+// Elementwise ops: the evaluator of the elementwise op table's entries
+// (ops/elementwise_table.h: each op's forward and adjoint formulas, shared
+// with the fused row interpreter), and the ops outside it.
 //
-// Every op here is one of two shapes, written once: a unary map y = f(x) with
+// Every table op is one of two shapes, written once: a unary map y = f(x) with
 // dL/dx = df(g, x, y), or a broadcasting binary map y = f(a, b) with
 // dL/da = da(g, a, b, y) and dL/db = db(g, a, b, y). Binary operands are read
 // in place through a detail::RowView (full, scalar, a repeated row, or a
@@ -21,7 +23,7 @@
 #include "autodiff/parallel.h"
 #include "autodiff/tape.h"
 #include "ops/broadcast.h"
-#include "ops/elementwise_formulas.h"
+#include "ops/elementwise_table.h"
 #include "ops/fusion_trace.h"
 #include "ops/promote.h"
 
@@ -32,7 +34,6 @@ using detail::check_float;
 using detail::check_same_float;
 using detail::expand_raw;
 using detail::power_range;
-using detail::selected_gradient;
 using detail::reduce_raw;
 
 // out[i] = f(a[i]); a is full or scalar.
@@ -249,18 +250,18 @@ Tensor binary(const char* name, Tensor a, Tensor b, bool uses_y, Fwd fwd, DA da,
 
 // add/sub: the adjoint is +-g summed back to each operand's shape (g itself
 // for a full operand of a's shape).
-Tensor add_or_sub(const char* name, Tensor a, Tensor b, bool subtract) {
+template <class Op>
+Tensor add_or_sub(Tensor a, Tensor b) {
   detail::promote_floats({&a, &b});
-  const Operands o = broadcast_operands(name, a, b);
-  Tensor out = subtract ? map_operands(name, o, [](auto x, auto z) { return x - z; })
-                        : map_operands(name, o, [](auto x, auto z) { return x + z; });
+  const Operands o = broadcast_operands(Op::name, a, b);
+  Tensor out = map_operands(Op::name, o, [](auto x, auto z) { return Op::forward(x, z); });
   if (should_record({a, b})) {
-    record(name, {a, b}, {&out}, [subtract](AdjointContext& ctx) {
+    record(Op::name, {a, b}, {&out}, [](AdjointContext& ctx) {
       const Tensor& g = ctx.grad_output();
       if (ctx.needs_grad(0)) ctx.accumulate(0, reduce_raw(g, ctx.input_shape(0)));
       if (ctx.needs_grad(1)) {
         Tensor gb = reduce_raw(g, ctx.input_shape(1));
-        ctx.accumulate(1, subtract ? neg(gb) : gb);
+        ctx.accumulate(1, Op::negate_b ? neg(gb) : gb);
       }
     });
   }
@@ -288,41 +289,78 @@ Tensor scalar_like(const Tensor& a, double value) {
   return Tensor::scalar(value, a.dtype());
 }
 
-// The ops the fused row interpreter replays note themselves on an active trace
-// (ops/fusion_trace.h).
-static Tensor traced(detail::FusedOp op, const Tensor& a, const Tensor& b, Tensor out, double param = 0) {
-  detail::trace_step(op, a, b, out, param);
+// The table's entries (ops/elementwise_table.h) as eager ops. Each notes
+// itself on an active trace (ops/fusion_trace.h), for the fused row
+// interpreter, which replays the same entry.
+template <class Op>
+static Tensor unary_entry(const Tensor& a) {
+  Tensor out = unary(Op::name, a, [](auto x) { return Op::forward(x); },
+                     [](auto g, auto x, auto y) { return Op::adjoint(g, x, y); });
+  detail::trace_step(detail::op_id<Op>(), a, Tensor(), out);
   return out;
 }
 
-Tensor add(const Tensor& a, const Tensor& b) { return traced(detail::FusedOp::Add, a, b, add_or_sub("add", a, b, false)); }
-Tensor sub(const Tensor& a, const Tensor& b) { return traced(detail::FusedOp::Sub, a, b, add_or_sub("sub", a, b, true)); }
-
-Tensor mul(const Tensor& a, const Tensor& b) {
-  return traced(detail::FusedOp::Mul, a, b, binary("mul", a, b, false, [](auto x, auto z) { return x * z; },
-                [](auto g, auto, auto z, auto) { return g * z; },
-                [](auto g, auto x, auto, auto) { return g * x; }));
+template <class Op>
+static Tensor binary_entry(const Tensor& a, const Tensor& b) {
+  Tensor out;
+  if constexpr (Op::linear)
+    out = add_or_sub<Op>(a, b);
+  else
+    out = binary(Op::name, a, b, Op::uses_result, [](auto x, auto z) { return Op::forward(x, z); },
+                 [](auto g, auto x, auto z, auto y) { return Op::adjoint_a(g, x, z, y); },
+                 [](auto g, auto x, auto z, auto y) { return Op::adjoint_b(g, x, z, y); });
+  detail::trace_step(detail::op_id<Op>(), a, b, out);
+  return out;
 }
 
-Tensor div(const Tensor& a, const Tensor& b) {
-  return traced(detail::FusedOp::Div, a, b, binary("div", a, b, true, [](auto x, auto z) { return x / z; },
-                [](auto g, auto, auto z, auto) { return g / z; },
-                [](auto g, auto, auto z, auto y) { return -(g * y) / z; }));
+namespace detail {
+
+const char* op_name(OpId op) {
+  const char* name = "";
+  switch (op.kind) {
+    case OpKind::Unary: visit_entry(UnaryOps{}, op.index, [&](auto entry) { name = decltype(entry)::name; }); break;
+    case OpKind::Binary: visit_entry(BinaryOps{}, op.index, [&](auto entry) { name = decltype(entry)::name; }); break;
+    case OpKind::Power: name = "pow"; break;
+    case OpKind::Dot: name = "dot"; break;
+    case OpKind::Normalize: name = "normalize"; break;
+  }
+  return name;
 }
 
-Tensor pow(const Tensor& a, const Tensor& b) {
-  return binary("pow", a, b, true, [](auto x, auto z) { return std::pow(x, z); },
-                [](auto g, auto x, auto z, auto) {
-                  using T = decltype(g);
-                  if (x == T(0) && z < T(1)) return T(0);
-                  return T(g * z * std::pow(x, z - T(1)));
-                },
-                [](auto g, auto x, auto, auto y) {
-                  using T = decltype(g);
-                  return x > T(0) ? T(g * y * std::log(x)) : T(0);
-                });
+Tensor eager_op(OpId op, const Tensor& a, const Tensor& b) {
+  const int entries = op.kind == OpKind::Unary ? UnaryOps::size : op.kind == OpKind::Binary ? BinaryOps::size : 0;
+  if (op.index < 0 || op.index >= entries)
+    throw ValueError(std::string("eager_op: ") + (entries ? "index " + std::to_string(op.index) : op_name(op)) +
+                     " is not an entry of the elementwise table");
+  Tensor out;
+  if (op.kind == OpKind::Unary)
+    visit_entry(UnaryOps{}, op.index, [&](auto entry) { out = unary_entry<decltype(entry)>(a); });
+  else
+    visit_entry(BinaryOps{}, op.index, [&](auto entry) { out = binary_entry<decltype(entry)>(a, b); });
+  return out;
 }
 
+}  // namespace detail
+
+Tensor add(const Tensor& a, const Tensor& b) { return binary_entry<detail::AddOp>(a, b); }
+Tensor sub(const Tensor& a, const Tensor& b) { return binary_entry<detail::SubOp>(a, b); }
+Tensor mul(const Tensor& a, const Tensor& b) { return binary_entry<detail::MulOp>(a, b); }
+Tensor div(const Tensor& a, const Tensor& b) { return binary_entry<detail::DivOp>(a, b); }
+Tensor pow(const Tensor& a, const Tensor& b) { return binary_entry<detail::PowOp>(a, b); }
+Tensor minimum(const Tensor& a, const Tensor& b) { return binary_entry<detail::MinimumOp>(a, b); }
+Tensor maximum(const Tensor& a, const Tensor& b) { return binary_entry<detail::MaximumOp>(a, b); }
+
+Tensor neg(const Tensor& a) { return unary_entry<detail::NegOp>(a); }
+Tensor exp(const Tensor& a) { return unary_entry<detail::ExpOp>(a); }
+Tensor log(const Tensor& a) { return unary_entry<detail::LogOp>(a); }
+Tensor sqrt(const Tensor& a) { return unary_entry<detail::SqrtOp>(a); }
+Tensor rsqrt(const Tensor& a) { return unary_entry<detail::RsqrtOp>(a); }
+Tensor sin(const Tensor& a) { return unary_entry<detail::SinOp>(a); }
+Tensor cos(const Tensor& a) { return unary_entry<detail::CosOp>(a); }
+Tensor abs(const Tensor& a) { return unary_entry<detail::AbsOp>(a); }
+
+// pow with a constant exponent: the range kernels both evaluators share
+// (detail::power_range, detail::power_adjoint_range).
 Tensor pow(const Tensor& a, double p) {
   check_float(a, "pow", "a");
   Tensor out = Tensor::empty(a.shape(), a.dtype());
@@ -345,55 +383,8 @@ Tensor pow(const Tensor& a, double p) {
       ctx.accumulate(0, ga);
     });
   }
-  return traced(detail::FusedOp::Pow, a, Tensor(), out, p);
-}
-
-Tensor minimum(const Tensor& a, const Tensor& b) {
-  return traced(detail::FusedOp::Minimum, a, b, binary("minimum", a, b, false, [](auto x, auto z) { return z < x ? z : x; },
-                [](auto g, auto x, auto z, auto) { return selected_gradient(g, x < z, x == z); },
-                [](auto g, auto x, auto z, auto) { return selected_gradient(g, z < x, x == z); }));
-}
-
-Tensor maximum(const Tensor& a, const Tensor& b) {
-  return traced(detail::FusedOp::Maximum, a, b, binary("maximum", a, b, false, [](auto x, auto z) { return z > x ? z : x; },
-                [](auto g, auto x, auto z, auto) { return selected_gradient(g, x > z, x == z); },
-                [](auto g, auto x, auto z, auto) { return selected_gradient(g, z > x, x == z); }));
-}
-
-Tensor neg(const Tensor& a) {
-  return traced(detail::FusedOp::Neg, a, Tensor(),
-                unary("neg", a, [](auto x) { return -x; }, [](auto g, auto, auto) { return -g; }));
-}
-
-Tensor exp(const Tensor& a) {
-  return unary("exp", a, [](auto x) { return std::exp(x); }, [](auto g, auto, auto y) { return g * y; });
-}
-
-Tensor log(const Tensor& a) {
-  return unary("log", a, [](auto x) { return std::log(x); }, [](auto g, auto x, auto) { return g / x; });
-}
-
-Tensor sqrt(const Tensor& a) {
-  return unary("sqrt", a, [](auto x) { return std::sqrt(x); },
-               [](auto g, auto, auto y) { return y == 0 ? decltype(g)(0) : g / (2 * y); });
-}
-
-Tensor rsqrt(const Tensor& a) {
-  return unary("rsqrt", a, [](auto x) { return 1 / std::sqrt(x); },
-               [](auto g, auto, auto y) { return -g * y * y * y / 2; });
-}
-
-Tensor sin(const Tensor& a) {
-  return unary("sin", a, [](auto x) { return std::sin(x); }, [](auto g, auto x, auto) { return g * std::cos(x); });
-}
-
-Tensor cos(const Tensor& a) {
-  return unary("cos", a, [](auto x) { return std::cos(x); }, [](auto g, auto x, auto) { return -g * std::sin(x); });
-}
-
-Tensor abs(const Tensor& a) {
-  return unary("abs", a, [](auto x) { return std::fabs(x); },
-               [](auto g, auto x, auto) { return x > 0 ? g : x < 0 ? -g : decltype(g)(0); });
+  detail::trace_step(detail::OpId{detail::OpKind::Power}, a, Tensor(), out, p);
+  return out;
 }
 
 Tensor clamp(const Tensor& a, double lo, double hi) {

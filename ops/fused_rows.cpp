@@ -1,14 +1,14 @@
-#include "ops/fused_rows.h"
-
+// The fused row interpreter's evaluator (ops/fused_rows.h): a compiled
+// program (ops/fused_rows_program.h) run on chunks of kLanes lanes, forward
+// and adjoint, over the elementwise op table's entries and the shared kernels.
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <type_traits>
-#include <unordered_map>
-#include <unordered_set>
 
 #include "ops/broadcast.h"
-#include "ops/elementwise_formulas.h"
+#include "ops/elementwise_table.h"
+#include "ops/fused_rows_program.h"
 
 // Before a loop over lanes whose arrays never overlap (the arena gives each
 // value its own): tells the vectorizer so, instead of leaving it to compare
@@ -22,277 +22,6 @@
 #endif
 
 namespace gr::detail {
-namespace {
-
-constexpr std::int64_t kLanes = 256;        // lanes (pixels) per chunk: a value's component is 1 KiB (float32)
-constexpr std::int64_t kMaxConstant = 64;   // elements of a tensor f captured that is taken as a constant
-constexpr std::int64_t kMaxArenaBytes = std::int64_t(16) << 20;  // wider rows than this allows run per block
-
-}  // namespace
-
-struct FusedRows::Value {
-  bool varying = false;     // one value per lane; else one for every lane (a shared input or a constant)
-  int rank = 0;             // varying: 1 ([P], no last axis) or 2 ([P, ..., width]: the lanes' shape, then width)
-  int width = 1;            // components
-  std::int64_t array = -1;  // varying: its first lane array; uniform: its first element in uniforms_
-  bool produced = false;    // the result of an instruction
-  bool needs_grad = false;  // depends on an input that needs a gradient
-  bool live = false;        // the result depends on it
-  std::int64_t grad = -1;   // varying: first gradient lane array; shared: first partial-sum array
-  std::int64_t aux = -1;    // normalize's result: the lane array of its lengths max(|v|, eps)
-};
-
-struct FusedRows::Operand {
-  int value = -1;
-  bool spread = false;  // its one component is read by every component (a column or a scalar)
-};
-
-struct FusedRows::Instr {
-  FusedOp op;
-  Operand a, b;             // b.value == -1 for unary ops
-  int out = -1;
-  int components = 1;       // components the operands are read at (dot: the vectors' length)
-  double param = 0;         // pow's exponent, normalize's eps
-  bool a_first = false, b_first = false;  // the operand's first gradient contribution: assigned, not added
-  bool backward = false;    // its result receives a gradient
-};
-
-// ---------------------------------------------------------------- compile
-
-namespace {
-
-// The lanes: every axis of a row input but its last ([P] for [P, C], [P, W]
-// for an image's [P, W, C]); values with a last axis share them.
-std::vector<std::int64_t> lane_dims_of(const std::vector<Tensor>& rows, std::int64_t P) {
-  std::vector<std::int64_t> lane_dims{P};
-  for (const Tensor& t : rows)
-    if (t.defined() && t.rank() >= 2) {
-      const std::vector<std::int64_t> d = t.shape().dims();
-      lane_dims.assign(d.begin(), d.end() - 1);
-      break;
-    }
-  return lane_dims;
-}
-
-int width_of(const Tensor& t) { return t.rank() == 1 ? 1 : int(t.size(-1)); }
-int rank_of(const Tensor& t) { return t.rank() == 1 ? 1 : 2; }
-bool is_unary(FusedOp op) { return op == FusedOp::Neg || op == FusedOp::Pow || op == FusedOp::Normalize; }
-
-}  // namespace
-
-// compile's working state: the program being built, the lanes' shape, and the
-// traced tensors seen so far, as values (ids) or as not replayable (opaque:
-// using one fails the step).
-struct FusedRows::Compiler {
-  FusedRows& p;
-  std::int64_t P;
-  std::vector<std::int64_t> lane_dims;
-  std::unordered_map<const TensorImpl*, int> ids;
-  std::unordered_set<const TensorImpl*> opaque;
-
-  int add_varying(int rank, int width) {
-    Value v;
-    v.varying = true, v.rank = rank, v.width = width, v.array = p.arena_arrays_;
-    p.arena_arrays_ += width;
-    p.values_.push_back(v);
-    return int(p.values_.size()) - 1;
-  }
-
-  int add_uniform(const Tensor& t) {
-    Value v;
-    v.width = int(t.numel()), v.array = std::int64_t(p.uniforms_.size());
-    dispatch_float(t.dtype(), "map_rows", [&](auto tag) {
-      const auto* d = t.data<decltype(tag)>();
-      for (std::int64_t e = 0; e < t.numel(); ++e) p.uniforms_.push_back(double(d[e]));
-    });
-    p.values_.push_back(v);
-    return int(p.values_.size()) - 1;
-  }
-
-  // [P] (one lane per row only) or the lanes' shape and a last axis.
-  bool row_shaped(const Tensor& t) const {
-    if (t.dtype() != p.dtype_ || t.rank() < 1 || t.size(0) != P) return false;
-    if (t.rank() == 1) return p.lanes_per_row_ == 1;
-    const std::vector<std::int64_t> d = t.shape().dims();
-    return std::vector<std::int64_t>(d.begin(), d.end() - 1) == lane_dims && d.back() >= 1 &&
-           d.back() <= kMaxArenaBytes;
-  }
-
-  // The inputs' values: rows of the lanes' shape vary per lane, small shared
-  // tensors are uniform; any other input is opaque.
-  void add_inputs(const std::vector<Tensor>& rows, const std::vector<Tensor>& shared,
-                  const std::vector<bool>& rows_grad, const std::vector<bool>& shared_grad) {
-    for (std::size_t i = 0; i < rows.size(); ++i) {
-      const Tensor& t = rows[i];
-      int id = -1;
-      if (row_shaped(t)) {
-        id = add_varying(rank_of(t), width_of(t));
-        p.values_[id].needs_grad = rows_grad[i];
-        ids[t.impl()] = id;
-      } else {
-        opaque.insert(t.impl());
-      }
-      p.row_values_.push_back(id);
-    }
-    for (std::size_t j = 0; j < shared.size(); ++j) {
-      const Tensor& t = shared[j];
-      p.shared_shapes_.push_back(t.defined() ? t.shape() : Shape());
-      int id = -1;
-      if (t.defined() && t.dtype() == p.dtype_ && t.rank() <= 1 && t.numel() >= 1) {
-        id = add_uniform(t);
-        p.values_[id].needs_grad = shared_grad[j];
-        ids[t.impl()] = id;
-      } else if (t.defined()) {
-        opaque.insert(t.impl());
-      }
-      p.shared_values_.push_back(id);
-    }
-  }
-
-  // The value an operand refers to: known, or a small constant f captured; -1 if neither.
-  int lookup(const Tensor& t) {
-    if (!t.defined()) return -1;
-    const auto it = ids.find(t.impl());
-    if (it != ids.end()) return it->second;
-    if (opaque.count(t.impl()) || t.requires_grad() || t.dtype() != p.dtype_ || t.rank() > 1 || t.numel() < 1 ||
-        t.numel() > kMaxConstant)
-      return -1;
-    return ids[t.impl()] = add_uniform(t);
-  }
-
-  // How an operand is read at `components` components of a result of rank
-  // out_rank: whole, spread (a column or a scalar) or not at all (-1).
-  Operand operand(int id, int out_rank, int components) const {
-    if (id < 0) return {};
-    const Value& v = p.values_[id];
-    if (v.varying) {
-      if (v.rank == out_rank && v.width == components) return {id, false};
-      if (out_rank == 2 && v.rank == 2 && v.width == 1) return {id, true};
-      return {};
-    }
-    if (v.width == 1) return {id, true};
-    if (out_rank == 2 && v.width == components) return {id, false};
-    return {};
-  }
-
-  // Step s's op and operands into `in`; false if the interpreter cannot replay it.
-  bool instruction(const TracedStep& s, Instr& in) {
-    const bool unary = is_unary(s.op);
-    in.op = s.op;
-    in.param = s.param;
-    const int ida = lookup(s.a), idb = unary ? -1 : lookup(s.b);
-    const bool shaped = row_shaped(s.out);
-    bool ok = shaped && ida >= 0 && (unary || idb >= 0);
-    const int out_rank = shaped ? rank_of(s.out) : 0, out_width = shaped ? width_of(s.out) : 0;
-    if (ok) {
-      if (s.op == FusedOp::Dot) {
-        in.components = int(s.a.size(-1));
-        ok = out_rank == 2 && out_width == 1 && s.b.size(-1) == in.components;
-        if (ok) in.a = operand(ida, 2, in.components), in.b = operand(idb, 2, in.components);
-        ok = ok && in.a.value >= 0 && in.b.value >= 0 && !in.a.spread && !in.b.spread;
-      } else {
-        in.components = out_width;
-        in.a = operand(ida, out_rank, out_width);
-        if (!unary) in.b = operand(idb, out_rank, out_width);
-        ok = in.a.value >= 0 && (unary || in.b.value >= 0);
-        if (ok && unary) ok = p.values_[ida].varying && !in.a.spread;                 // same shape as out
-        if (ok && s.op == FusedOp::Normalize) ok = out_rank == 2;                      // rows of vectors
-      }
-      // At least one operand has rows (ops on shared values alone are not replayed).
-      ok = ok && (p.values_[in.a.value].varying || (!unary && p.values_[in.b.value].varying));
-    }
-    return ok;
-  }
-
-  // Step s as an instruction writing a new value, or its result opaque.
-  void add_step(const TracedStep& s) {
-    Instr in;
-    if (!instruction(s, in)) {
-      opaque.insert(s.out.impl());
-      return;
-    }
-    const bool unary = is_unary(s.op);
-    in.out = add_varying(rank_of(s.out), width_of(s.out));
-    Value& o = p.values_[in.out];
-    o.produced = true;
-    o.needs_grad = p.values_[in.a.value].needs_grad || (!unary && p.values_[in.b.value].needs_grad);
-    if (s.op == FusedOp::Normalize) o.aux = p.arena_arrays_++;
-    ids[s.out.impl()] = in.out;
-    p.instrs_.push_back(in);
-  }
-
-  // Liveness (what the result depends on) and, in reverse order, which values
-  // receive a gradient (returned) and which contribution to each comes first.
-  std::vector<bool> mark_backward() {
-    p.values_[p.result_].live = true;
-    for (auto i = p.instrs_.rbegin(); i != p.instrs_.rend(); ++i)
-      if (p.values_[i->out].live) {
-        p.values_[i->a.value].live = true;
-        if (i->b.value >= 0) p.values_[i->b.value].live = true;
-      }
-    std::vector<bool> has_grad(p.values_.size(), false);
-    has_grad[p.result_] = p.values_[p.result_].needs_grad;
-    for (auto i = p.instrs_.rbegin(); i != p.instrs_.rend(); ++i) {
-      i->backward = has_grad[i->out] && p.values_[i->out].live;
-      if (!i->backward) continue;
-      auto take = [&](const Operand& o, bool& first) {
-        if (o.value < 0 || !p.values_[o.value].needs_grad) return;
-        first = !has_grad[o.value];
-        has_grad[o.value] = true;
-      };
-      take(i->a, i->a_first);
-      take(i->b, i->b_first);
-    }
-    return has_grad;
-  }
-
-  // Gradient arrays for the values that receive one: lane arrays for varying
-  // values, double partial-sum arrays for shared ones.
-  void place_gradients(const std::vector<bool>& has_grad) {
-    for (std::size_t v = 0; v < p.values_.size(); ++v) {
-      if (!has_grad[v]) continue;
-      Value& val = p.values_[v];
-      if (val.varying) {
-        val.grad = p.arena_arrays_;
-        p.arena_arrays_ += val.width;
-      } else {
-        val.grad = p.partial_arrays_;
-        p.partial_arrays_ += val.width;
-      }
-    }
-  }
-};
-
-std::shared_ptr<const FusedRows> FusedRows::compile(const FusionTrace& trace, const std::vector<Tensor>& rows,
-                                                    const std::vector<Tensor>& shared, const Tensor& result,
-                                                    const std::vector<bool>& rows_grad, const std::vector<bool>& shared_grad) {
-  if (rows.empty() || !result.defined() || !is_floating(result.dtype())) return nullptr;
-  const std::int64_t P = rows[0].size(0);
-  std::vector<std::int64_t> lane_dims = lane_dims_of(rows, P);
-  std::int64_t lanes = 1;
-  for (std::int64_t d : lane_dims) lanes *= d;
-  // More lanes than a constant may have elements: a tensor derived from the
-  // rows by an op the trace does not know can never pass for a constant.
-  if (P < 1 || lanes <= kMaxConstant) return nullptr;
-  auto prog = std::make_shared<FusedRows>();
-  FusedRows& p = *prog;
-  p.dtype_ = result.dtype();
-  p.lanes_per_row_ = lanes / P;
-
-  Compiler c{p, P, std::move(lane_dims), {}, {}};
-  c.add_inputs(rows, shared, rows_grad, shared_grad);
-  for (const TracedStep& s : trace.steps) c.add_step(s);
-  const auto it = c.ids.find(result.impl());
-  if (it == c.ids.end() || !p.values_[it->second].produced) return nullptr;
-  p.result_ = it->second;
-  c.place_gradients(c.mark_backward());
-  // Each thread keeps its lane arrays between calls: rows too wide for that run per block.
-  if (p.arena_arrays_ * kLanes * std::int64_t(dtype_size(p.dtype_)) > kMaxArenaBytes) return nullptr;
-  return prog;
-}
-
-// ---------------------------------------------------------------- evaluation
-
 namespace {
 
 // Component j of an operand within a chunk: a lane array, or one value for all lanes.
@@ -314,7 +43,7 @@ struct ConstRead {
 
 // f(x, z) with x and z as readers of their kind, so each combination is its own plain loop.
 template <class T, class F>
-void with_reads(const Read<T>& a, const Read<T>& b, F f) {
+[[gnu::always_inline]] inline void with_reads(const Read<T>& a, const Read<T>& b, F f) {
   auto with_b = [&](auto x) {
     if (b.p) f(x, ArrayRead<T>{b.p});
     else f(x, ConstRead<T>{b.v});
@@ -497,24 +226,26 @@ class FusedEvaluator {
         });
       }
     };
-    switch (in.op) {  // the eager ops' formulas (ops/elementwise.cpp, ops/vector.cpp)
-      case FusedOp::Add: binary([](T x, T z) { return x + z; }); break;
-      case FusedOp::Sub: binary([](T x, T z) { return x - z; }); break;
-      case FusedOp::Mul: binary([](T x, T z) { return x * z; }); break;
-      case FusedOp::Div: binary([](T x, T z) { return x / z; }); break;
-      case FusedOp::Minimum: binary([](T x, T z) { return z < x ? z : x; }); break;
-      case FusedOp::Maximum: binary([](T x, T z) { return z > x ? z : x; }); break;
-      case FusedOp::Neg:
-        for (int j = 0; j < in.components; ++j) {
-          const T* x = read(in.a, j).p;
-          T* out = lanes(o.array + j);
-          for (std::int64_t l = 0; l < n; ++l) out[l] = -x[l];
-        }
+    switch (in.op.kind) {  // the table's formulas (ops/elementwise_table.h); pow, dot and normalize as eagerly
+      case OpKind::Unary:
+        visit_entry(UnaryOps{}, in.op.index, [&](auto entry) {
+          using Op = decltype(entry);
+          for (int j = 0; j < in.components; ++j) {
+            const T* x = read(in.a, j).p;
+            T* out = lanes(o.array + j);
+            for (std::int64_t l = 0; l < n; ++l) out[l] = Op::forward(x[l]);
+          }
+        });
         break;
-      case FusedOp::Pow:
+      case OpKind::Binary:
+        visit_entry(BinaryOps{}, in.op.index, [&](auto entry) {
+          binary([](T x, T z) { return decltype(entry)::forward(x, z); });
+        });
+        break;
+      case OpKind::Power:
         for (int j = 0; j < in.components; ++j) power_range(read(in.a, j).p, lanes(o.array + j), 0, n, in.param);
         break;
-      case FusedOp::Dot: {  // sum_j a_j b_j in double from 0, rounded once
+      case OpKind::Dot: {  // sum_j a_j b_j in double from 0, rounded once
         if (unrolled(in.components, [&](auto c) { dot_lanes<c()>(in, lanes(o.array)); })) break;
         double s[kLanes];
         std::fill(s, s + n, 0.0);
@@ -526,7 +257,7 @@ class FusedEvaluator {
         for (std::int64_t l = 0; l < n; ++l) out[l] = T(s[l]);
         break;
       }
-      case FusedOp::Normalize: {  // v / d, d = max(|v|, eps) in double (detail::normalized)
+      case OpKind::Normalize: {  // v / d, d = max(|v|, eps) in double (detail::normalized)
         if (unrolled(in.components, [&](auto c) { normalize_lanes<c()>(in, o); })) break;
         double d[kLanes], inv[kLanes];
         std::fill(d, d + n, 0.0);
@@ -722,48 +453,44 @@ class FusedEvaluator {
   void run_backward(const Instr& in) {
     const Value& o = p_.values_[in.out];
     const std::int64_t n = n_;
-    Sink sa(*this, in.a, in.a_first, false), sb(*this, in.b, in.b_first, in.op == FusedOp::Sub);
+    Sink sa(*this, in.a, in.a_first, false), sb(*this, in.b, in.b_first, in.negate_b);
     T t[kLanes];
-    // Each side's terms f(g, x, z, y) per component (y: the op's result).
-    auto binary = [&](auto da, auto db) {
-      for (int j = 0; j < in.components; ++j) {
-        const T* g = lanes(o.grad + j);
-        const T* y = lanes(o.array + j);
-        with_reads(read(in.a, j), read(in.b, j), [&](auto x, auto z) {
-          sa.apply(j, [&](std::int64_t l) { return T(da(g[l], x(l), z(l), y[l])); });
-          sb.apply(j, [&](std::int64_t l) { return T(db(g[l], x(l), z(l), y[l])); });
+    switch (in.op.kind) {  // the table's adjoints (ops/elementwise_table.h); pow, dot and normalize as eagerly
+      case OpKind::Unary:
+        visit_entry(UnaryOps{}, in.op.index, [&](auto entry) {
+          using Op = decltype(entry);
+          for (int j = 0; j < in.components; ++j) {
+            const T *g = lanes(o.grad + j), *x = read(in.a, j).p, *y = lanes(o.array + j);
+            sa.apply(j, [&](std::int64_t l) { return Op::adjoint(g[l], x[l], y[l]); });
+          }
         });
-      }
-    };
-    switch (in.op) {  // the eager adjoints' formulas
-      case FusedOp::Add:
-      case FusedOp::Sub:
-        for (int j = 0; j < in.components; ++j) sa.put(j, lanes(o.grad + j)), sb.put(j, lanes(o.grad + j));
         break;
-      case FusedOp::Mul: binary([](T g, T, T z, T) { return g * z; }, [](T g, T x, T, T) { return g * x; }); break;
-      case FusedOp::Div: binary([](T g, T, T z, T) { return g / z; }, [](T g, T, T z, T y) { return -(g * y) / z; }); break;
-      case FusedOp::Minimum:
-        binary([](T g, T x, T z, T) { return selected_gradient(g, x < z, x == z); },
-               [](T g, T x, T z, T) { return selected_gradient(g, z < x, x == z); });
+      case OpKind::Binary:
+        visit_entry(BinaryOps{}, in.op.index, [&](auto entry) {
+          using Op = decltype(entry);
+          if constexpr (Op::linear) {  // g to each side (b's negated by its sink)
+            for (int j = 0; j < in.components; ++j) sa.put(j, lanes(o.grad + j)), sb.put(j, lanes(o.grad + j));
+          } else {  // each side's terms per component (y: the op's result)
+            for (int j = 0; j < in.components; ++j) {
+              const T* g = lanes(o.grad + j);
+              const T* y = lanes(o.array + j);
+              with_reads(read(in.a, j), read(in.b, j), [&](auto x, auto z) {
+                auto y_at = [&](std::int64_t l) { return Op::uses_result ? y[l] : T(0); };
+                sa.apply(j, [&](std::int64_t l) { return Op::adjoint_a(g[l], x(l), z(l), y_at(l)); });
+                sb.apply(j, [&](std::int64_t l) { return Op::adjoint_b(g[l], x(l), z(l), y_at(l)); });
+              });
+            }
+          }
+        });
         break;
-      case FusedOp::Maximum:
-        binary([](T g, T x, T z, T) { return selected_gradient(g, x > z, x == z); },
-               [](T g, T x, T z, T) { return selected_gradient(g, z > x, x == z); });
-        break;
-      case FusedOp::Neg:
-        for (int j = 0; j < in.components; ++j) {
-          const T* g = lanes(o.grad + j);
-          sa.apply(j, [&](std::int64_t l) { return -g[l]; });
-        }
-        break;
-      case FusedOp::Pow:
+      case OpKind::Power:
         for (int j = 0; j < in.components; ++j) {
           T* ta = sa.target(j, t);
           power_adjoint_range(lanes(o.grad + j), read(in.a, j).p, ta, 0, n, in.param);
           sa.put(j, ta);
         }
         break;
-      case FusedOp::Dot: {  // dL/da_j = g b_j, dL/db_j = g a_j
+      case OpKind::Dot: {  // dL/da_j = g b_j, dL/db_j = g a_j
         const T* g = lanes(o.grad);
         for (int j = 0; j < in.components; ++j)
           with_reads(read(in.a, j), read(in.b, j), [&](auto x, auto z) {
@@ -772,7 +499,7 @@ class FusedEvaluator {
           });
         break;
       }
-      case FusedOp::Normalize: {  // (g - n (n.g)) / d; below eps g / eps (g itself for g = +-0)
+      case OpKind::Normalize: {  // (g - n (n.g)) / d; below eps g / eps (g itself for g = +-0)
         if (unrolled(in.components, [&](auto c) { normalize_adjoint_lanes<c()>(in, o, sa); })) break;
         const T* len = lanes(o.aux);
         double ng[kLanes], inv[kLanes];

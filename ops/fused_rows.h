@@ -2,12 +2,13 @@
 // docs/map_rows.md): a row-wise function traced once (ops/fusion_trace.h) is
 // replayed on chunks of 256 lanes (pixels), each value held as one array per
 // component that stays in cache, so a shading graph costs one pass over its
-// inputs instead of a pass per op. Forward and adjoint use the eager ops' own
-// per-element formulas (ops/elementwise_formulas.h and the same operation
-// order), so outputs and row gradients are bit-identical to the eager ops'.
+// inputs instead of a pass per op. Forward and adjoint evaluate the eager ops'
+// own definitions (the elementwise op table, ops/elementwise_table.h, and the
+// shared kernels of ops/elementwise_formulas.h, in the same operation order), so
+// outputs and row gradients are bit-identical to the eager ops'.
 //
-// Replayed: add, sub, mul, div, minimum, maximum, neg, pow(x, p), dot and
-// normalize on values whose axes but the last are the lanes (the pixels: [P]
+// Replayed: every entry of the elementwise op table, pow(x, p), dot and
+// normalize, on values whose axes but the last are the lanes (the pixels: [P]
 // of [P, k] rows, [P, W] of an image's [P, W, k]; or [P] values, one lane per
 // row), with operands that are values of the same shape, a column [..., 1]
 // against [..., k], a shared or constant vector [k] against [..., k], or a
@@ -57,7 +58,7 @@ class FusedRows {
   struct Instr;
 
  private:
-  struct Compiler;  // compile's working state (fused_rows.cpp)
+  struct Compiler;  // compile's working state (fused_rows_compile.cpp)
   template <class T>
   friend class FusedEvaluator;
   std::vector<Tensor> evaluate(const std::vector<Tensor>& rows, Tensor* out, double* sums, const Tensor* g, double seed,

@@ -8,13 +8,12 @@
 #include <vector>
 
 #include "autodiff/tensor.h"
+#include "ops/elementwise_table.h"
 
 namespace gr::detail {
 
-enum class FusedOp { Add, Sub, Mul, Div, Minimum, Maximum, Neg, Pow, Dot, Normalize };
-
 struct TracedStep {
-  FusedOp op;
+  OpId op;             // an entry of the elementwise table, pow(x, p), dot or normalize
   Tensor a, b, out;    // b undefined for unary ops
   double param = 0;    // pow's exponent, normalize's eps
 };
@@ -35,6 +34,6 @@ class FusionTrace {
 
 // Called by the replayable ops after computing `out`: a no-op unless a trace
 // is active on this thread.
-void trace_step(FusedOp op, const Tensor& a, const Tensor& b, const Tensor& out, double param = 0);
+void trace_step(OpId op, const Tensor& a, const Tensor& b, const Tensor& out, double param = 0);
 
 }  // namespace gr::detail

@@ -239,7 +239,7 @@ Tensor dot(const Tensor& a, const Tensor& b) {
       });
     });
   }
-  detail::trace_step(detail::FusedOp::Dot, a, b, out);
+  detail::trace_step(detail::OpId{detail::OpKind::Dot}, a, b, out);
   return out;
 }
 
@@ -384,7 +384,7 @@ Tensor normalize(const Tensor& v, double eps) {
       ctx.accumulate(0, gv);
     });
   }
-  detail::trace_step(detail::FusedOp::Normalize, v, Tensor(), out, eps);
+  detail::trace_step(detail::OpId{detail::OpKind::Normalize}, v, Tensor(), out, eps);
   return out;
 }
 
