@@ -204,18 +204,6 @@ Tensor interpolate_batch(const Tensor& attributes, const GBuffer& gbuffer, const
   }
   const std::int64_t h = gbuffer.tri_id.size(1), w = gbuffer.tri_id.size(2), P = h * w;
   const Tensor tri_id = gbuffer.tri_id, uv = gbuffer.uv, background = options.background;
-  // The kernels' rast: (u, v, 0, id) per pixel.
-  Tensor rast = Tensor::empty({B * P * 4}, attributes.dtype());
-  dispatch_float(attributes.dtype(), op, [&](auto tag) {
-    using T = decltype(tag);
-    const T* u = uv.data<T>();
-    const std::int32_t* id = tri_id.data<std::int32_t>();
-    T* r = rast.data<T>();
-    parallel_for(0, B * P, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
-      for (std::int64_t q = lo; q < hi; ++q)
-        r[4 * q] = u[2 * q], r[4 * q + 1] = u[2 * q + 1], r[4 * q + 2] = T(0), r[4 * q + 3] = static_cast<T>(id[q]);
-    });
-  });
   auto params = [=](auto tag, const PerImage& a, std::int64_t b) {
     using T = decltype(tag);
     raster::BarycentricInterpolateParams<T> p;
@@ -224,7 +212,9 @@ Tensor interpolate_batch(const Tensor& attributes, const GBuffer& gbuffer, const
     p.channels = C;
     p.tris = triangles.data<std::int32_t>();
     p.num_tris = triangles.size(0);
-    p.rast = rast.data<T>() + 4 * b * P;
+    p.rast = uv.data<T>() + 2 * b * P;  // the GBuffer's planes: uv and int32 ids
+    p.rast_stride = 2;
+    p.tri_id = tri_id.data<std::int32_t>() + b * P;
     p.pixels = P;
     return p;
   };
@@ -243,30 +233,21 @@ Tensor interpolate_batch(const Tensor& attributes, const GBuffer& gbuffer, const
   if (should_record({attributes, uv})) {
     // triangles and tri_id: no gradient, checked for in-place writes (autodiff/tape.h).
     record("interpolate_batch", {attributes, uv, triangles, tri_id}, {&out},
-           [attributes, uv_shape = uv.shape(), attr, params, B, P](AdjointContext& ctx) {
+           [attributes, attr, params, B, P](AdjointContext& ctx) {
              PerImage a = attr;
              a.t = &attributes;
              dispatch_float(attributes.dtype(), "interpolate_batch", [&](auto tag) {
                using T = decltype(tag);
                GradOf g_attr(a, ctx.needs_grad(0) ? B : 0);
-               Tensor g_rast = ctx.needs_grad(1) ? Tensor::zeros({B * P * 4}, attributes.dtype()) : Tensor();
+               Tensor g_uv = ctx.accumulation_buffer(1);  // the kernel adds (+=)
                for_each_image(B, [&](std::int64_t b) {
                  raster::BarycentricInterpolateGrads<T> g;
                  if (ctx.needs_grad(0)) g.attr = g_attr.at<T>(a, b);
-                 if (g_rast.defined()) g.rast = g_rast.data<T>() + 4 * b * P;
+                 if (g_uv.defined()) g.rast = g_uv.data<T>() + 2 * b * P;
                  raster::barycentric_interpolate_backward(params(tag, a, b),
                                                           ctx.grad_output().data<T>() + b * P * a.cols, static_cast<const T*>(nullptr), g);
                });
                if (ctx.needs_grad(0)) ctx.accumulate(0, g_attr.finish());
-               if (g_rast.defined()) {
-                 Tensor g_uv = Tensor::empty(uv_shape, attributes.dtype());
-                 T* u = g_uv.data<T>();
-                 const T* r = g_rast.data<T>();
-                 parallel_for(0, B * P, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
-                   for (std::int64_t q = lo; q < hi; ++q) u[2 * q] = r[4 * q], u[2 * q + 1] = r[4 * q + 1];
-                 });
-                 ctx.accumulate(1, g_uv);
-               }
              });
            });
   }

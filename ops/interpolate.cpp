@@ -1,6 +1,6 @@
 // Tape op over raster::barycentric_interpolate_forward / _backward, image and
-// fragment forms: both validate here, pack their items into the kernels'
-// rast layout (u, v, -, id per item) and record one adjoint.
+// fragment forms: both validate here, give the kernels the items' uv and ids
+// (BarycentricInterpolateParams' planar form) and record one adjoint.
 #include "ops/interpolate.h"
 
 #include <algorithm>
@@ -119,34 +119,12 @@ struct Items {
   std::int64_t count() const { return tri_id.numel(); }
 };
 
-// The kernels' rast for the items: (u, v, 0, id) each (ids < 2^24, exact in float).
-Tensor pack_rast(const Items& items) {
-  const std::int64_t n = items.count();
-  Tensor rast = Tensor::empty({n * 4}, items.uv.dtype());
-  dispatch_float(rast.dtype(), kOp, [&](auto tag) {
-    using T = decltype(tag);
-    const T* uv = items.uv.data<T>();
-    const std::int32_t* id = items.tri_id.data<std::int32_t>();
-    T* r = rast.data<T>();
-    parallel_for(0, n, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
-      for (std::int64_t q = lo; q < hi; ++q) {
-        r[4 * q] = uv[2 * q];
-        r[4 * q + 1] = uv[2 * q + 1];
-        r[4 * q + 2] = T(0);
-        r[4 * q + 3] = static_cast<T>(id[q]);
-      }
-    });
-  });
-  return rast;
-}
-
 // Runs the forward and records the adjoint to attributes, uv and db. diff
 // null: values only; else [values, d_dx, d_dy].
 std::vector<Tensor> interpolate_items(const Tensor& attributes, const Tensor& triangles, const Items& items,
                                       const std::vector<std::int32_t>* diff, const Tensor& background) {
   const std::int64_t n = items.count(), C = attributes.size(1);
   const std::int64_t K = diff ? static_cast<std::int64_t>(diff->size()) : 0;
-  const Tensor rast = pack_rast(items);
   const auto diff_list = std::make_shared<std::vector<std::int32_t>>(diff ? *diff : std::vector<std::int32_t>());
   auto params = [=](auto tag) {
     using T = decltype(tag);
@@ -156,7 +134,9 @@ std::vector<Tensor> interpolate_items(const Tensor& attributes, const Tensor& tr
     p.channels = C;
     p.tris = triangles.data<std::int32_t>();
     p.num_tris = triangles.size(0);
-    p.rast = rast.data<T>();
+    p.rast = items.uv.data<T>();  // the GBuffer's planes: uv and int32 ids
+    p.rast_stride = 2;
+    p.tri_id = items.tri_id.data<std::int32_t>();
     p.pixels = n;
     if (K > 0) {
       p.rast_db = items.db.data<T>();
@@ -202,10 +182,11 @@ std::vector<Tensor> interpolate_items(const Tensor& attributes, const Tensor& tr
   // The index tensors get no gradient; listed so that backward() refuses them written in place.
   record(items.pixel_index.defined() ? "interpolate_fragments" : "interpolate",
          {attributes, uv, db, triangles, items.tri_id, items.pixel_index}, outputs,
-         [params, n, C, K, uv_shape = uv.shape(), dtype = attributes.dtype()](AdjointContext& ctx) {
+         [params, n, C, K, dtype = attributes.dtype()](AdjointContext& ctx) {
+           // The kernel adds (+=) into the gradients summed so far.
            Tensor g_attr = ctx.accumulation_buffer(0);
+           Tensor g_uv = ctx.accumulation_buffer(1);
            Tensor g_db = K > 0 ? ctx.accumulation_buffer(2) : Tensor();
-           const bool g_uv_needed = ctx.needs_grad(1);
            const Tensor& g_out = ctx.grad_output(0);
            dispatch_float(dtype, kOp, [&](auto tag) {
              using T = decltype(tag);
@@ -225,21 +206,11 @@ std::vector<Tensor> interpolate_items(const Tensor& attributes, const Tensor& tr
                    }
                });
              }
-             Tensor g_rast = g_uv_needed ? Tensor::zeros({n * 4}, dtype) : Tensor();
              raster::BarycentricInterpolateGrads<T> grads;
              grads.attr = g_attr.defined() ? g_attr.data<T>() : nullptr;
-             grads.rast = g_uv_needed ? g_rast.data<T>() : nullptr;
+             grads.rast = g_uv.defined() ? g_uv.data<T>() : nullptr;
              grads.rast_db = g_db.defined() ? g_db.data<T>() : nullptr;
              raster::barycentric_interpolate_backward(p, go.data<T>(), K > 0 ? gda.data<T>() : nullptr, grads);
-             if (g_uv_needed) {
-               Tensor g_uv = Tensor::empty(uv_shape, dtype);
-               T* u = g_uv.data<T>();
-               const T* r = g_rast.data<T>();
-               parallel_for(0, n, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
-                 for (std::int64_t q = lo; q < hi; ++q) u[2 * q] = r[4 * q], u[2 * q + 1] = r[4 * q + 1];
-               });
-               ctx.accumulate(1, g_uv);
-             }
            });
          });
   return out;

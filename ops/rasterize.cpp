@@ -113,7 +113,7 @@ void finish_gbuffer(GBuffer& gb, const char* op) {
     const Tensor& g_depth = ctx.grad_output(1);
     const Tensor g_db = db ? ctx.grad_output(2) : Tensor();
     Tensor g = Tensor::zeros(clip.shape(), clip.dtype());
-    Tensor g_rast = Tensor::zeros({images * P * 4}, clip.dtype());
+    Tensor g_rast = Tensor::empty({images * P * 4}, clip.dtype());
     dispatch_float(clip.dtype(), op, [&](auto tag) {
       using T = decltype(tag);
       T* gr = g_rast.data<T>();
@@ -121,8 +121,10 @@ void finish_gbuffer(GBuffer& gb, const char* op) {
       const T* gd = g_depth.defined() ? g_depth.data<T>() : nullptr;
       parallel_for(0, images * P, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
         for (std::int64_t q = lo; q < hi; ++q) {
-          if (gu) gr[4 * q] = gu[2 * q], gr[4 * q + 1] = gu[2 * q + 1];
-          if (gd) gr[4 * q + 2] = gd[q];
+          gr[4 * q] = gu ? gu[2 * q] : T(0);
+          gr[4 * q + 1] = gu ? gu[2 * q + 1] : T(0);
+          gr[4 * q + 2] = gd ? gd[q] : T(0);
+          gr[4 * q + 3] = T(0);
         }
       });
       // Image by image, in image order: a shared clip's sum is the same for any thread count.
