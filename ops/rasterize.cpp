@@ -80,7 +80,7 @@ void finish_gbuffer(GBuffer& gb, const char* op) {
   const std::int64_t images = rank == 3 ? gb.tri_id.size(0) : 1;
   const int h = static_cast<int>(gb.tri_id.size(rank - 2)), w = static_cast<int>(gb.tri_id.size(rank - 1));
   const std::int64_t P = std::int64_t(h) * w;
-  // nvdiffrast's rast (u, v, z/w, id) per pixel; the adjoint reads its ids.
+  // nvdiffrast's rast (u, v, z/w, id) per pixel, split into uv and depth.
   Tensor rast = Tensor::empty({images * P * 4}, clip.dtype());
   const bool db = gb.db.defined();
   dispatch_float(clip.dtype(), op, [&](auto tag) {
@@ -108,7 +108,8 @@ void finish_gbuffer(GBuffer& gb, const char* op) {
   if (db) outputs.push_back(&gb.db);
   // triangles and tri_id get no gradient; listed so that backward() refuses
   // them written in place since (the adjoint trusts the forward's coverage).
-  record(op, {clip, triangles, gb.tri_id}, outputs, [clip, triangles, rast, images, w, h, P, db, op](AdjointContext& ctx) {
+  const Tensor tri_id = gb.tri_id;
+  auto adjoint = [clip, triangles, tri_id, images, w, h, P, db, op](AdjointContext& ctx) {
     const Tensor& g_uv = ctx.grad_output(0);
     const Tensor& g_depth = ctx.grad_output(1);
     const Tensor g_db = db ? ctx.grad_output(2) : Tensor();
@@ -129,13 +130,18 @@ void finish_gbuffer(GBuffer& gb, const char* op) {
       });
       // Image by image, in image order: a shared clip's sum is the same for any thread count.
       const std::int64_t n = clip.size(clip.rank() - 2);
-      for (std::int64_t b = 0; b < images; ++b)
-        raster::barycentric_gbuffer_backward(image_params<T>(clip, triangles, b, w, h), rast.data<T>() + 4 * P * b,
-                                             gr + 4 * P * b, g_db.defined() ? g_db.data<T>() + 4 * P * b : nullptr,
+      // The coverage from tri_id (int32: exact for any triangle count, unlike float32 ids).
+      for (std::int64_t b = 0; b < images; ++b) {
+        raster::BarycentricGBufferParams<T> p = image_params<T>(clip, triangles, b, w, h);
+        p.tri_id = tri_id.data<std::int32_t>() + b * P;
+        raster::barycentric_gbuffer_backward(p, static_cast<const T*>(nullptr), gr + 4 * P * b,
+                                             g_db.defined() ? g_db.data<T>() + 4 * P * b : nullptr,
                                              g.data<T>() + (clip.rank() == 3 ? b * n * 4 : 0));
+      }
     });
     ctx.accumulate(0, g);
-  });
+  };
+  record(op, {clip, triangles, tri_id}, outputs, adjoint);
 }
 
 }  // namespace detail

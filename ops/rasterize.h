@@ -42,8 +42,8 @@ struct GBuffer {
   raster::RasterStats stats;
   // The clip positions and triangles it was rasterized from, set by every op
   // that makes a G-buffer. Ops that read it together with clip and triangles
-  // refuse others (detail::check_gbuffer_source), and interpolate(attributes,
-  // gbuffer, triangles) takes clip from here. Undefined in a hand-made GBuffer.
+  // refuse others (detail::check_gbuffer_source); interpolate checks the
+  // attributes' rows against clip. Undefined in a hand-made GBuffer.
   Tensor clip;
   Tensor triangles;
   int width() const { return static_cast<int>(tri_id.size(1)); }
@@ -68,10 +68,10 @@ void check_rasterize_inputs(const Tensor& clip, const Tensor& triangles, const R
 // layer records the same adjoint as rasterize: it depends on tri_id only.
 GBuffer rasterize_layer(const Tensor& clip, const Tensor& triangles, const RasterizeOptions& options,
                         const std::int32_t* floor_id, const double* floor_z, double* key_depth);
-// Fills gb.uv, gb.depth (and gb.db when defined) of images [B, H, W] from
-// gb.tri_id (ids indexing all of gb.triangles; the first rows of gb.uv and
-// gb.depth may hold anything) and records their adjoint to gb.clip: [N, 4]
-// shared by the images (their gradients added in image order) or [B, N, 4].
+// Overwrites gb.uv, gb.depth (and fills gb.db when defined) of images
+// [B, H, W] (or one [H, W]) from gb.tri_id (ids indexing all of gb.triangles)
+// and records their adjoint to gb.clip: [N, 4] shared by the images (their
+// gradients added in image order) or [B, N, 4].
 void finish_gbuffer(GBuffer& gb, const char* op);
 }  // namespace detail
 

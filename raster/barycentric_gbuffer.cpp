@@ -87,6 +87,12 @@ PixelTerms pixel_terms(const TriangleTerms& t, int width, std::int64_t pixel) {
   return q;
 }
 
+// The adjoint's coverage: pixel q's 1-based id (0 = background).
+template <class T>
+std::int64_t pixel_id(const BarycentricGBufferParams<T>& p, const T* rast, std::int64_t q) {
+  return p.tri_id ? static_cast<std::int64_t>(p.tri_id[q]) : static_cast<std::int64_t>(rast[4 * q + 3]);
+}
+
 // dL/dclip of the three vertices (12 values) for one pixel.
 template <class T>
 void pixel_adjoint(const BarycentricGBufferParams<T>& p, const TriangleTerms& t, std::int64_t pixel, const T* g_rast,
@@ -207,7 +213,7 @@ void barycentric_gbuffer_backward(const BarycentricGBufferParams<T>& p, const T*
       for (std::int64_t q = lo; q < hi; ++q) {
         const std::int64_t i = q - c0;
         live[i] = 0;
-        const auto id = static_cast<std::int64_t>(rast[4 * q + 3]);
+        const std::int64_t id = pixel_id(p, rast, q);
         if (id == 0) continue;
         const T* g = grad_rast + 4 * q;
         const T* h = grad_db ? grad_db + 4 * q : nullptr;
@@ -221,7 +227,7 @@ void barycentric_gbuffer_backward(const BarycentricGBufferParams<T>& p, const T*
     // In pixel order: the same sums for any thread count.
     for (std::int64_t q = c0; q < c1; ++q) {
       if (!live[q - c0]) continue;
-      const std::int32_t* tri = p.tris + 3 * (static_cast<std::int64_t>(rast[4 * q + 3]) - 1);
+      const std::int32_t* tri = p.tris + 3 * (pixel_id(p, rast, q) - 1);
       const double* g = &contrib[12 * (q - c0)];
       for (int k = 0; k < 3; ++k)
         for (int j = 0; j < 4; ++j) acc[4 * static_cast<std::size_t>(tri[k]) + j] += g[4 * k + j];
