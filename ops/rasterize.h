@@ -22,9 +22,10 @@ struct RasterizeOptions {
   int height = 0;
   Cull cull = Cull::None;  // front face = counter-clockwise in NDC
   bool front_to_back = false;  // work order only; same G-buffer (raster::RasterSettings)
-  // Where the forward runs (null: the CPU), e.g. gr::vulkan::raster_backend(device)
-  // for float32 clip positions: the same G-buffer bit for bit, and the same
-  // adjoint (on the CPU). GBuffer::stats stays zero when a backend ran it.
+  // Where the coverage is decided (null: the CPU), e.g.
+  // gr::vulkan::raster_backend(device) for float32 clip positions: the same
+  // tri_id bit for bit; the values and the adjoint run on the CPU, so the
+  // G-buffer is the same too. GBuffer::stats stays zero when a backend ran it.
   std::shared_ptr<const raster::RasterBackend> backend = nullptr;
   // Also make GBuffer::db, the barycentrics' screen derivatives (nvdiffrast's
   // rast_db), for interpolate's attribute derivatives.
