@@ -62,7 +62,7 @@ Inputs inputs_of(const TimeErrorScene& scene) {
   in.clip = scene.clip_positions(scene.points()).set_requires_grad();
   in.colours = scene.vertex_colours(scene.colours()).set_requires_grad();
   in.gbuffer = rasterize(in.clip, scene.triangles(), raster_options(scene));
-  in.image = interpolate(in.colours, in.clip, in.gbuffer, scene.triangles(), interpolation(scene)).set_requires_grad();
+  in.image = interpolate(in.colours, in.gbuffer, scene.triangles(), interpolation(scene)).set_requires_grad();
   return in;
 }
 
@@ -94,7 +94,7 @@ void BM_PointSampled(benchmark::State& state) {
   const InterpolateOptions interpolate_options = interpolation(scene);
   time_forward_backward(state, [&] {
     const GBuffer gb = rasterize(in.clip, scene.triangles(), options);
-    return interpolate(in.colours, in.clip, gb, scene.triangles(), interpolate_options);
+    return interpolate(in.colours, gb, scene.triangles(), interpolate_options);
   });
 }
 

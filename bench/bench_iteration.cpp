@@ -62,11 +62,11 @@ Tensor render(const Scene& s, const Tensor& positions, const Tensor& colours, bo
   if (fragment_mode) {
     const Fragments fr = fragments(gb);
     if (covered) *covered = double(fr.count()) / (double(s.size) * s.size);
-    composited = to_image(shade(interpolate(colours, clip, fr, s.triangles), interpolate(normals, clip, fr, s.triangles)),
+    composited = to_image(shade(interpolate(colours, fr, s.triangles), interpolate(normals, fr, s.triangles)),
                           fr, s.background);
   } else {
     const Tensor shaded =
-        shade(interpolate(colours, clip, gb, s.triangles), interpolate(normals, clip, gb, s.triangles));
+        shade(interpolate(colours, gb, s.triangles), interpolate(normals, gb, s.triangles));
     const Tensor coverage = reshape(greater(cast(gb.tri_id, DType::Float32), Tensor::scalar(0.0)), {s.size, s.size, 1});
     composited = shaded * coverage + s.background * (1.0 - coverage);
     if (covered) *covered = sum(coverage).item() / (double(s.size) * s.size);

@@ -42,14 +42,16 @@ Scene make_scene(int size) {
   s.texture = Tensor::uniform({512, 512, 3}, 0, 1, 3).set_requires_grad();
   {
     NoGradGuard no_grad;
-    s.gbuffer = rasterize(s.clip, s.triangles, {size, size});
+    RasterizeOptions raster{size, size};
+    raster.derivatives = true;
+    s.gbuffer = rasterize(s.clip, s.triangles, raster);
     s.fragments = fragments(s.gbuffer);
     const Tensor uv_attr = Tensor::uniform({mesh.num_vertices(), 2}, 0, 1, 2);
-    InterpolatedWithDerivatives uv = interpolate_with_derivatives(uv_attr, s.clip, s.gbuffer, s.triangles);
+    InterpolatedWithDerivatives uv = interpolate_with_derivatives(uv_attr, s.gbuffer, s.triangles);
     s.uv = uv.values;
     s.uv_dx = uv.d_dx;
     s.uv_dy = uv.d_dy;
-    s.image = interpolate(s.colours, s.clip, s.gbuffer, s.triangles);
+    s.image = interpolate(s.colours, s.gbuffer, s.triangles);
   }
   s.uv.set_requires_grad();
   s.image.set_requires_grad();
@@ -81,13 +83,13 @@ void time_op(benchmark::State& state, const std::function<Tensor()>& op, const s
 
 void BM_Interpolate(benchmark::State& state) {
   Scene s = make_scene(static_cast<int>(state.range(0)));
-  time_op(state, [&] { return interpolate(s.colours, s.clip, s.gbuffer, s.triangles); },
+  time_op(state, [&] { return interpolate(s.colours, s.gbuffer, s.triangles); },
           {s.colours, s.clip, s.gbuffer.tri_id, s.gbuffer.uv, s.triangles});
 }
 
 void BM_InterpolateFragments(benchmark::State& state) {
   Scene s = make_scene(static_cast<int>(state.range(0)));
-  time_op(state, [&] { return interpolate(s.colours, s.clip, s.fragments, s.triangles); },
+  time_op(state, [&] { return interpolate(s.colours, s.fragments, s.triangles); },
           {s.colours, s.clip, s.fragments.tri_id, s.fragments.uv, s.fragments.pixel_index, s.triangles});
 }
 
@@ -137,7 +139,7 @@ void BM_CubeTextureBilinear(benchmark::State& state) {
   Tensor dir;
   {
     NoGradGuard no_grad;
-    dir = interpolate(s.clip.detach(), s.clip.detach(), s.gbuffer, s.triangles);
+    dir = interpolate(s.clip.detach(), s.gbuffer, s.triangles);
     dir = slice(dir, 2, 0, 3);
   }
   dir.set_requires_grad();
@@ -210,13 +212,13 @@ void BM_Batch16x128(benchmark::State& state) {
   for (auto _ : state) {
     if (batched) {
       const GBuffer g = rasterize_batch(clip, mesh.triangles, size);
-      backward(sum(antialias_batch(interpolate_batch(colours, clip, g, mesh.triangles), g, clip, mesh.triangles, aa)));
+      backward(sum(antialias_batch(interpolate_batch(colours, g, mesh.triangles), g, clip, mesh.triangles, aa)));
     } else {
       Tensor loss = Tensor::scalar(0.0);
       for (int b = 0; b < 16; ++b) {
         const Tensor c = reshape(slice(clip, 0, b, b + 1), {mesh.num_vertices(), 4});
         const GBuffer g = rasterize(c, mesh.triangles, size);
-        loss = add(loss, sum(antialias(interpolate(colours, c, g, mesh.triangles), g, c, mesh.triangles, aa)));
+        loss = add(loss, sum(antialias(interpolate(colours, g, mesh.triangles), g, c, mesh.triangles, aa)));
       }
       backward(loss);
     }

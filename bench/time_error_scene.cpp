@@ -258,7 +258,7 @@ Tensor TimeErrorScene::render(const Tensor& points, const Tensor& colours, const
   const GBuffer gb = rasterize(clip, triangles_, raster_options);
   InterpolateOptions interpolation;
   interpolation.background = background;  // a constant: coverage has no gradient
-  Tensor image = interpolate(vertex_colours(colours), clip, gb, triangles_, interpolation);
+  Tensor image = interpolate(vertex_colours(colours), gb, triangles_, interpolation);
   if (settings.antialias && settings.visibility) {
     VisibilityAntialiasOptions options;
     options.topology = topology_;

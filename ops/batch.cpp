@@ -11,7 +11,7 @@
 #include "autodiff/tape.h"
 #include "ops/check.h"
 #include "raster/blended_pairs.h"
-#include "raster/interpolate.h"
+#include "raster/barycentric_interpolate.h"
 
 namespace gr {
 namespace {
@@ -132,6 +132,7 @@ GBuffer rasterize_images(const Tensor& clip, const Tensor& triangles, const Imag
   gb.tri_id = Tensor::empty({B, h, w}, DType::Int32);
   gb.uv = Tensor::empty({B, h, w, 2}, clip.dtype());
   gb.depth = Tensor::empty({B, h, w}, clip.dtype());
+  if (o.derivatives) gb.db = Tensor::empty({B, h, w, 4}, clip.dtype());
   if (key) *key = {Tensor::empty({B * P}, DType::Int32), Tensor::empty({B * P}, DType::Float64)};
   std::vector<raster::RasterStats> stats(static_cast<std::size_t>(B));
   const std::int32_t* tris = triangles.data<std::int32_t>();
@@ -163,30 +164,7 @@ GBuffer rasterize_images(const Tensor& clip, const Tensor& triangles, const Imag
     gb.stats.rasterized += s.rasterized;
     gb.stats.clipped_near += s.clipped_near;
   }
-  if (should_record({clip})) {
-    // triangles and tri_id: no gradient, checked for in-place writes (autodiff/tape.h).
-    record(op, {clip, triangles, gb.tri_id}, {&gb.uv, &gb.depth}, [clip, positions, triangles, settings, B, P,
-                                                                   tri_id = gb.tri_id](
-                                                AdjointContext& ctx) {
-      const Tensor& g_uv = ctx.grad_output(0);
-      const Tensor& g_depth = ctx.grad_output(1);
-      Tensor uv_grad = g_uv.defined() ? g_uv : Tensor::zeros({B, settings.height, settings.width, 2}, clip.dtype());
-      PerImage in = positions;
-      in.t = &clip;
-      GradOf g(in, B);
-      dispatch_float(clip.dtype(), "rasterize", [&](auto tag) {
-        using T = decltype(tag);
-        // The backward reads the triangles through the (global) ids.
-        for_each_image(B, [&](std::int64_t b) {
-          const raster::RasterParams<T> p{in.at<T>(b), in.rows, triangles.data<std::int32_t>(), triangles.size(0),
-                                          settings};
-          raster::rasterize_backward(p, tri_id.data<std::int32_t>() + b * P, uv_grad.data<T>() + 2 * b * P,
-                                     g_depth.defined() ? g_depth.data<T>() + b * P : nullptr, g.at<T>(in, b));
-        });
-        ctx.accumulate(0, g.finish());
-      });
-    });
-  }
+  finish_gbuffer(gb, op);
   return gb;
 }
 
@@ -205,19 +183,19 @@ GBuffer rasterize_ranges(const Tensor& clip, const Tensor& triangles, const Tens
                                   options, nullptr, nullptr, op);
 }
 
-Tensor interpolate_batch(const Tensor& attributes, const Tensor& clip, const GBuffer& gbuffer,
-                         const Tensor& triangles, const InterpolateOptions& options) {
+Tensor interpolate_batch(const Tensor& attributes, const GBuffer& gbuffer, const Tensor& triangles,
+                         const InterpolateOptions& options) {
   const std::string op = "interpolate_batch";
-  detail::check_float(clip, op, "clip");
   const std::int64_t B = gbuffer.tri_id.defined() && gbuffer.tri_id.rank() == 3 ? gbuffer.tri_id.size(0) : 0;
-  const std::int64_t N = clip.rank() >= 2 ? clip.size(clip.rank() - 2) : 0;
-  const PerImage pos = per_image(clip, B, N, op, "clip", "[N, 4] or [B, N, 4]");
+  if (!gbuffer.clip.defined())
+    throw ValueError(op + ": argument 'gbuffer' does not record its clip positions (pass the result of "
+                     "rasterize_batch or rasterize_ranges)");
+  const Tensor& clip = gbuffer.clip;
+  const std::int64_t N = clip.size(clip.rank() - 2);
   const PerImage attr = per_image(attributes, B, N, op, "attributes", "[N, C] or [B, N, C]");
-  if (pos.cols != 4) throw ShapeError(op + ": argument 'clip' must have 4 columns, got " + clip.describe());
-  detail::check_same_dtype(attributes, clip, op, "attributes", "clip");
   detail::check_triangles(triangles, N, op);
   check_batched_gbuffer(gbuffer, B, clip, triangles, op);
-  detail::check_finite(clip, op, "clip");
+  detail::check_same_dtype(attributes, clip, op, "attributes", "gbuffer.clip");
   detail::check_finite(attributes, op, "attributes");
   const std::int64_t C = attr.cols;
   if (options.background.defined()) {
@@ -226,50 +204,50 @@ Tensor interpolate_batch(const Tensor& attributes, const Tensor& clip, const GBu
   }
   const std::int64_t h = gbuffer.tri_id.size(1), w = gbuffer.tri_id.size(2), P = h * w;
   const Tensor tri_id = gbuffer.tri_id, uv = gbuffer.uv, background = options.background;
-  const bool perspective = options.perspective;
-  auto params = [=](auto tag, const PerImage& a, const PerImage& c, std::int64_t b) {
+  auto params = [=](auto tag, const PerImage& a, std::int64_t b) {
     using T = decltype(tag);
-    raster::InterpolateParams<T> p;
+    raster::BarycentricInterpolateParams<T> p;
     p.attr = a.at<T>(b);
     p.num_vertices = N;
     p.channels = C;
-    p.clip = c.at<T>(b);
     p.tris = triangles.data<std::int32_t>();
     p.num_tris = triangles.size(0);
+    p.rast = uv.data<T>() + 2 * b * P;  // the GBuffer's planes: uv and int32 ids
+    p.rast_stride = 2;
     p.tri_id = tri_id.data<std::int32_t>() + b * P;
-    p.uv = uv.data<T>() + 2 * b * P;
-    p.width = static_cast<int>(w);
-    p.height = static_cast<int>(h);
-    p.perspective = perspective;
-    p.background = background.defined() ? background.data<T>() : nullptr;
+    p.pixels = P;
     return p;
   };
   Tensor out = Tensor::empty({B, h, w, C}, attributes.dtype());
-  dispatch_float(clip.dtype(), op, [&](auto tag) {
+  dispatch_float(attributes.dtype(), op, [&](auto tag) {
     using T = decltype(tag);
-    for_each_image(B, [&](std::int64_t b) { raster::interpolate_forward(params(tag, attr, pos, b), out.data<T>() + b * P * C); });
+    for_each_image(B, [&](std::int64_t b) {
+      T* o = out.data<T>() + b * P * C;
+      raster::barycentric_interpolate_forward(params(tag, attr, b), o, static_cast<T*>(nullptr));
+      if (!background.defined()) return;
+      const std::int32_t* id = tri_id.data<std::int32_t>() + b * P;
+      for (std::int64_t q = 0; q < P; ++q)
+        if (id[q] == 0) std::copy(background.data<T>(), background.data<T>() + C, o + q * C);
+    });
   });
-  if (should_record({attributes, clip, uv})) {
+  if (should_record({attributes, uv})) {
     // triangles and tri_id: no gradient, checked for in-place writes (autodiff/tape.h).
-    record("interpolate_batch", {attributes, clip, uv, triangles, tri_id}, {&out},
-           [attributes, clip, uv_in = uv.detach(), attr, pos, params, B, P](AdjointContext& ctx) {
-             PerImage a = attr, c = pos;
+    record("interpolate_batch", {attributes, uv, triangles, tri_id}, {&out},
+           [attributes, attr, params, B, P](AdjointContext& ctx) {
+             PerImage a = attr;
              a.t = &attributes;
-             c.t = &clip;
-             dispatch_float(clip.dtype(), "interpolate_batch", [&](auto tag) {
+             dispatch_float(attributes.dtype(), "interpolate_batch", [&](auto tag) {
                using T = decltype(tag);
-               GradOf g_attr(a, ctx.needs_grad(0) ? B : 0), g_clip(c, ctx.needs_grad(1) ? B : 0);
-               Tensor g_uv = ctx.needs_grad(2) ? Tensor::zeros(uv_in.shape(), uv_in.dtype()) : Tensor();
+               GradOf g_attr(a, ctx.needs_grad(0) ? B : 0);
+               Tensor g_uv = ctx.accumulation_buffer(1);  // the kernel adds (+=)
                for_each_image(B, [&](std::int64_t b) {
-                 raster::InterpolateGrads<T> g;
+                 raster::BarycentricInterpolateGrads<T> g;
                  if (ctx.needs_grad(0)) g.attr = g_attr.at<T>(a, b);
-                 if (ctx.needs_grad(1)) g.clip = g_clip.at<T>(c, b);
-                 if (g_uv.defined()) g.uv = g_uv.data<T>() + 2 * b * P;
-                 raster::interpolate_backward(params(tag, a, c, b), ctx.grad_output().data<T>() + b * P * a.cols, g);
+                 if (g_uv.defined()) g.rast = g_uv.data<T>() + 2 * b * P;
+                 raster::barycentric_interpolate_backward(params(tag, a, b),
+                                                          ctx.grad_output().data<T>() + b * P * a.cols, static_cast<const T*>(nullptr), g);
                });
                if (ctx.needs_grad(0)) ctx.accumulate(0, g_attr.finish());
-               if (ctx.needs_grad(1)) ctx.accumulate(1, g_clip.finish());
-               if (g_uv.defined()) ctx.accumulate(2, g_uv);
              });
            });
   }

@@ -3,7 +3,7 @@
 // triangles per image), for rasterize, interpolate and antialias.
 //
 // A batched G-buffer is an ordinary GBuffer with a leading image axis:
-// tri_id [B, H, W], uv [B, H, W, 2], depth [B, H, W]; its ids index the
+// tri_id [B, H, W], uv [B, H, W, 2], depth [B, H, W] (db [B, H, W, 4]); its ids index the
 // whole triangle list (in range mode too). Images run in parallel and each
 // kernel is parallel inside, so a batch of small images keeps every core
 // busy. Every image's outputs are bit-identical to a separate call's, for any
@@ -32,11 +32,11 @@ GBuffer rasterize_batch(const Tensor& clip, const Tensor& triangles, const Raste
 GBuffer rasterize_ranges(const Tensor& clip, const Tensor& triangles, const Tensor& ranges,
                          const RasterizeOptions& options);
 
-// attributes [N, C] (shared) or [B, N, C]; clip [N, 4] (range mode) or
-// [B, N, 4] (instanced); gbuffer from rasterize_batch / rasterize_ranges ->
-// [B, H, W, C]. Options as interpolate's.
-Tensor interpolate_batch(const Tensor& attributes, const Tensor& clip, const GBuffer& gbuffer,
-                         const Tensor& triangles, const InterpolateOptions& options = {});
+// attributes [N, C] (shared) or [B, N, C] (N = rows of the rasterized clip);
+// gbuffer from rasterize_batch / rasterize_ranges -> [B, H, W, C]. Options as
+// interpolate's (options.diff_attrs unused).
+Tensor interpolate_batch(const Tensor& attributes, const GBuffer& gbuffer, const Tensor& triangles,
+                         const InterpolateOptions& options = {});
 
 // image [B, H, W, C], gbuffer [B, H, W], clip [N, 4] or [B, N, 4] -> [B, H, W, C].
 // Without options.topology, each image's topology welds vertices by that

@@ -59,7 +59,7 @@ struct Rendered {
 Rendered render(const Scene& s) {
   const Tensor clip = transform_points(s.positions, s.mvp);
   GBuffer g = rasterize(clip, s.triangles, {s.width, s.height});
-  Tensor color = interpolate(s.colors, clip, g, s.triangles);
+  Tensor color = interpolate(s.colors, g, s.triangles);
   return {std::move(g), std::move(color)};
 }
 

@@ -8,10 +8,11 @@
 //  - model_view_proj_4x4 is column-major (element (row r, column c) at
 //    [4 c + r], OpenGL's float[16]), clip = MVP (x, y, z, 1);
 //  - the G-buffer holds per pixel tri_id (1-based: triangle k is k + 1, 0 =
-//    background), the barycentrics u = b1, v = b2, and depth z/w (z_ndc; the
+//    background), the perspective-correct barycentrics u = b0, v = b1 (the
+//    weights of vertices 0 and 1, GBuffer::uv), and depth z/w (z_ndc; the
 //    smaller wins; raster::kBackgroundDepth on background); pixel (i, j) is
 //    entry j * width + i, row j = 0 at the top, centre (i + 0.5, j + 0.5);
-//  - the frame buffer holds the perspective-correct (1/w) interpolated colour
+//  - the frame buffer holds the perspective-correct interpolated colour
 //    and alpha = 1 on covered pixels, colour 0 and alpha 0 on background;
 //  - the backward pass reads dL_d_frame (one FramePixel per pixel) and ADDS
 //    dL/dposition and dL/dcolor into vertex_grad, which the caller zeroes.

@@ -11,7 +11,6 @@
 #include "autodiff/tape.h"
 #include "ops/broadcast.h"
 #include "raster/fragments.h"
-#include "raster/triangle_groups.h"
 
 namespace gr {
 namespace {
@@ -65,14 +64,6 @@ Fragments fragments(const GBuffer& gbuffer) {
                               fr.tri_id.data<std::int32_t>());
   });
   fr.uv = gather_fragments(gbuffer.uv, fr);
-  // Const reads from here: gather_fragments recorded pixel_index (autodiff/tape.h).
-  fr.groups = std::make_shared<raster::TriangleGroups>(std::as_const(fr.tri_id).data<std::int32_t>(),
-                                                       std::make_shared<Tensor>(fr.tri_id));
-  // rasterize's adjoint can then group the G-buffer's pixels from the fragments' grouping.
-  if (gbuffer.groups)
-    gbuffer.groups->set_fragments(id.data<std::int32_t>(), fr.groups,
-                                  std::as_const(fr.pixel_index).data<std::int32_t>(), fr.count(),
-                                  std::make_shared<Tensor>(fr.pixel_index));
   return fr;
 }
 

@@ -12,7 +12,7 @@
 //
 //   GBuffer gb = rasterize(clip, tris, {W, H});
 //   Fragments fr = fragments(gb);
-//   Tensor colour = interpolate(colours, clip, fr, tris);              // [F, 3]
+//   Tensor colour = interpolate(colours, fr, tris);                    // [F, 3]
 //   Tensor image = to_image(shade(colour), fr, background);            // [H, W, 3]
 //   image = antialias(image, gb, clip, tris, aa);                      // as usual
 #pragma once
@@ -28,9 +28,6 @@ struct Fragments {
   Tensor uv;           // [F, 2]: the pixels' barycentrics, gathered from gbuffer.uv (differentiable)
   int width = 0;
   int height = 0;
-  // The fragments' grouping by triangle, shared by the interpolate adjoints
-  // over them (as GBuffer::groups).
-  std::shared_ptr<raster::TriangleGroups> groups;
   std::int64_t count() const { return pixel_index.defined() ? pixel_index.size(0) : 0; }
 };
 

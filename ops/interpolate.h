@@ -1,6 +1,12 @@
 // Attribute interpolation over a G-buffer as an op: per-vertex attributes ->
-// per-pixel attributes, perspective-correct (1/w) by default.
+// per-pixel attributes, nvdiffrast's interpolate. The G-buffer's (u, v) are
+// already perspective-correct (ops/rasterize.h), so the blend is linear:
+//   A = u A_0 + v A_1 + (1 - u - v) A_2
+// (raster/barycentric_interpolate.h), and needs no clip positions.
 #pragma once
+
+#include <cstdint>
+#include <vector>
 
 #include "autodiff/tensor.h"
 #include "ops/fragments.h"
@@ -9,57 +15,43 @@
 namespace gr {
 
 struct InterpolateOptions {
-  bool perspective = true;  // false: linear in screen space
-  Tensor background;        // [C] value for background pixels; undefined = zeros
+  Tensor background;  // [C] value for background pixels; undefined = zeros
+  // interpolate_with_derivatives: the channels to differentiate (nvdiffrast's
+  // diff_attrs); empty = all.
+  std::vector<std::int32_t> diff_attrs;
 };
 
-// attributes [N, C] and the G-buffer of rasterize(clip, triangles, ...) with
-// its triangles -> [H, W, C], nvdiffrast's argument order (attr, rast, tri).
-// The clip positions come from the G-buffer (GBuffer::clip), so they are the
-// rasterized ones by construction. The form below, which takes clip too, is
-// the same op; it refuses a clip or triangles other than the rasterized ones.
+// attributes [N, C] (N = rows of the rasterized clip), the G-buffer of
+// rasterize(clip, triangles, ...) and its triangles -> [H, W, C], nvdiffrast's
+// argument order (attr, rast, tri). Differentiable w.r.t. the attributes and
+// gbuffer.uv (hence, through rasterize, clip):
+//   dL/dA_k += b_k g,  dL/du += g . (A_0 - A_2),  dL/dv += g . (A_1 - A_2).
+// Triangles other than the rasterized ones are refused.
 Tensor interpolate(const Tensor& attributes, const GBuffer& gbuffer, const Tensor& triangles,
-                   const InterpolateOptions& options = {});
-
-// attributes [N, C], clip [N, 4] (its w column is the 1/w weight), the
-// G-buffer of rasterize(clip, triangles, ...) -> [H, W, C].
-// With lambda = (1-u-v, u, v), q_k = lambda_k / w_k, s = sum q_k:
-//   A = sum q_k A_k / s (perspective), A = sum lambda_k A_k (linear).
-// Adjoints to the attributes, to w (into clip's last column) and to u, v
-// (hence through rasterize to the clip positions); raster/interpolate.h
-// states the formulas. w thus receives gradient along two paths (here and
-// through rasterize), which the tape adds. Near-clipped triangles (a vertex
-// with w <= 0 or z < -w) take q_k = F_k / D from the clip positions and the
-// pixel centre instead (equal in value, exact at w_k = 0), so their gradient
-// goes to x, y, w of clip, not to u, v.
-Tensor interpolate(const Tensor& attributes, const Tensor& clip, const GBuffer& gbuffer, const Tensor& triangles,
                    const InterpolateOptions& options = {});
 
 // Fragment form (ops/fragments.h): the same values and adjoints at the
 // fragments only -> [F, C], row f = the image form's pixel pixel_index[f], bit
 // for bit. The uv adjoint goes to fragments.uv and from there into
 // gbuffer.uv's gradient. options.background must be undefined (use to_image's).
-Tensor interpolate(const Tensor& attributes, const Tensor& clip, const Fragments& fragments, const Tensor& triangles,
+Tensor interpolate(const Tensor& attributes, const Fragments& fragments, const Tensor& triangles,
                    const InterpolateOptions& options = {});
 
-// Interpolated attributes together with their screen-space derivatives (like
-// nvdiffrast's diff_attrs), e.g. d(uv)/dx, d(uv)/dy for mipmapped texturing.
+// Interpolated attributes together with their screen-space derivatives
+// (nvdiffrast's diff_attrs), e.g. d(uv)/dx, d(uv)/dy for mipmapped texturing.
 struct InterpolatedWithDerivatives {
-  Tensor values;  // [H, W, C], exactly interpolate(...), differentiable as usual
-  Tensor d_dx;    // [H, W, C]: d(values)/dx, x to the right, per pixel
-  Tensor d_dy;    // [H, W, C]: d(values)/dy, y DOWN (row order), per pixel
+  Tensor values;  // [H, W, C], exactly interpolate(...)
+  Tensor d_dx;    // [H, W, K]: d/dx of the K channels options.diff_attrs, x to the right, per pixel
+  Tensor d_dy;    // [H, W, K]: d/dy, y DOWN the rows (row order), per pixel
 };
 
-// interpolate() plus analytic per-pixel derivatives of every channel (zero on
-// background pixels). The screen barycentrics are affine in screen space
-// (constant dlambda_k/dx, dlambda_k/dy per triangle, from the homogeneous
-// vertices, so triangles crossing the near plane are handled too); the
-// perspective form adds the quotient rule dA/dx = sum_k (dq_k/dx)(A_k - A)/s
-// with q_k = lambda_k / w_k (raster/interpolate.h). The derivatives are
-// constants for the tape (no gradient flows through them); they are meant for
-// uses that treat them as stop-gradient, such as a texture's level of detail.
-InterpolatedWithDerivatives interpolate_with_derivatives(const Tensor& attributes, const Tensor& clip,
-                                                         const GBuffer& gbuffer, const Tensor& triangles,
+// interpolate() plus the derivatives of the channels options.diff_attrs (all
+// if empty), from the G-buffer's db (rasterize with options.derivatives):
+//   dA/dx = du/dx (A_0 - A_2) + dv/dx (A_1 - A_2)   (likewise y),
+// 0 on background pixels. All three outputs are differentiable w.r.t. the
+// attributes, gbuffer.uv and gbuffer.db (hence clip).
+InterpolatedWithDerivatives interpolate_with_derivatives(const Tensor& attributes, const GBuffer& gbuffer,
+                                                         const Tensor& triangles,
                                                          const InterpolateOptions& options = {});
 
 }  // namespace gr

@@ -8,7 +8,6 @@
 #include "autodiff/tensor.h"
 #include "ops/antialias.h"
 #include "ops/visibility_antialias.h"
-#include "ops/barycentrics.h"
 #include "ops/batch.h"
 #include "ops/channel.h"
 #include "ops/cube_texture.h"

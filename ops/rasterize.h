@@ -22,37 +22,42 @@ struct RasterizeOptions {
   int height = 0;
   Cull cull = Cull::None;  // front face = counter-clockwise in NDC
   bool front_to_back = false;  // work order only; same G-buffer (raster::RasterSettings)
-  // Where the forward runs (null: the CPU), e.g. gr::vulkan::raster_backend(device)
-  // for float32 clip positions: the same G-buffer bit for bit, and the same
-  // adjoint (on the CPU). GBuffer::stats stays zero when a backend ran it.
+  // Where the coverage is decided (null: the CPU), e.g.
+  // gr::vulkan::raster_backend(device) for float32 clip positions: the same
+  // tri_id bit for bit; the values and the adjoint run on the CPU, so the
+  // G-buffer is the same too. GBuffer::stats stays zero when a backend ran it.
   std::shared_ptr<const raster::RasterBackend> backend = nullptr;
+  // Also make GBuffer::db, the barycentrics' screen derivatives (nvdiffrast's
+  // rast_db), for interpolate's attribute derivatives.
+  bool derivatives = false;
 };
 
-// Per-pixel results, row 0 at the top.
+// Per-pixel results, row 0 at the top: nvdiffrast's G-buffer (rast = u, v,
+// z/w, id; rast_db) with the id as int32 and the channels in their own
+// tensors (raster/barycentric_gbuffer.h has the formulas).
 struct GBuffer {
   Tensor tri_id;  // [H, W] int32: 1-based triangle index, 0 = background (no gradient)
-  Tensor uv;      // [H, W, 2]: screen-space barycentrics (u, v) of vertices 1 and 2
-  Tensor depth;   // [H, W]: z_ndc (raster::kBackgroundDepth on background)
+  Tensor uv;      // [H, W, 2]: perspective-correct barycentrics (u, v) of vertices 0 and 1 (0 on background)
+  Tensor depth;   // [H, W]: z/w = z_ndc (raster::kBackgroundDepth, the far plane, on background)
+  Tensor db;      // [H, W, 4] (RasterizeOptions::derivatives): (du/dx, du/dy, dv/dx, dv/dy), y down the rows
   raster::RasterStats stats;
   // The clip positions and triangles it was rasterized from, set by every op
   // that makes a G-buffer. Ops that read it together with clip and triangles
-  // refuse others (detail::check_gbuffer_source), and interpolate(attributes,
-  // gbuffer, triangles) takes clip from here. Undefined in a hand-made GBuffer.
+  // refuse others (detail::check_gbuffer_source); interpolate checks the
+  // attributes' rows against clip. Undefined in a hand-made GBuffer.
   Tensor clip;
   Tensor triangles;
-  // Set when recorded: the pixels' grouping by triangle, made by the first
-  // adjoint that needs it and reused by the others (raster/triangle_groups.h).
-  std::shared_ptr<raster::TriangleGroups> groups;
   int width() const { return static_cast<int>(tri_id.size(1)); }
   int height() const { return static_cast<int>(tri_id.size(0)); }
 };
 
-// clip [N, 4] float32/float64, triangles [M, 3] int32. uv and depth are
-// differentiable w.r.t. clip for a fixed coverage: for u = E_20/2A, v = E_01/2A
-// the adjoint is the quotient rule on the edge functions, then the viewport
-// and w-divide adjoints (raster/rasterize.h states the formulas). Coverage
-// itself (which pixel belongs to which triangle) gets no gradient here; the
-// antialias op supplies silhouette gradients.
+// clip [N, 4] float32/float64, triangles [M, 3] int32. Coverage comes from
+// raster::rasterize_forward, the values from raster::barycentric_gbuffer_forward
+// (homogeneous, exact also for triangles crossing the near plane). uv, depth
+// and db are differentiable w.r.t. clip for a fixed coverage
+// (raster::barycentric_gbuffer_backward). Coverage itself (which pixel belongs
+// to which triangle) gets no gradient here; the antialias op supplies
+// silhouette gradients.
 GBuffer rasterize(const Tensor& clip, const Tensor& triangles, const RasterizeOptions& options);
 
 namespace detail {
@@ -64,6 +69,11 @@ void check_rasterize_inputs(const Tensor& clip, const Tensor& triangles, const R
 // layer records the same adjoint as rasterize: it depends on tri_id only.
 GBuffer rasterize_layer(const Tensor& clip, const Tensor& triangles, const RasterizeOptions& options,
                         const std::int32_t* floor_id, const double* floor_z, double* key_depth);
+// Overwrites gb.uv, gb.depth (and fills gb.db when defined) of images
+// [B, H, W] (or one [H, W]) from gb.tri_id (ids indexing all of gb.triangles)
+// and records their adjoint to gb.clip: [N, 4] shared by the images (their
+// gradients added in image order) or [B, N, 4].
+void finish_gbuffer(GBuffer& gb, const char* op);
 }  // namespace detail
 
 }  // namespace gr

@@ -93,14 +93,14 @@ SsrGBuffer ssr_gbuffer(const Tensor& view_positions, const Tensor& view_normals,
   SsrGBuffer g;
   const Tensor clip = transform_points(view_positions, projection);
   g.raster = rasterize(clip, triangles, {options.width, options.height, Cull::None});
-  g.position = interpolate(view_positions, clip, g.raster, triangles);
-  g.normal = normalize(interpolate(view_normals, clip, g.raster, triangles));
-  g.colour = interpolate(colours, clip, g.raster, triangles);
+  g.position = interpolate(view_positions, g.raster, triangles);
+  g.normal = normalize(interpolate(view_normals, g.raster, triangles));
+  g.colour = interpolate(colours, g.raster, triangles);
   g.mask = g.raster.tri_id;
   if (options.back_faces) {
     // Keep only back faces (Cull::Front drops the front ones): the nearest back face.
     const GBuffer back = rasterize(clip, triangles, {options.width, options.height, Cull::Front});
-    const Tensor z = slice(interpolate(view_positions, clip, back, triangles), 2, 2, 3);
+    const Tensor z = slice(interpolate(view_positions, back, triangles), 2, 2, 3);
     g.back_z = reshape(z, {options.height, options.width}).detach();
     g.back_mask = back.tri_id;
   }

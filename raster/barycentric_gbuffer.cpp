@@ -5,7 +5,9 @@
 #include "raster/barycentric_gbuffer.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <memory>
 #include <vector>
 
 #include "autodiff/parallel.h"
@@ -20,65 +22,99 @@ using detail::finite_cast;
 using detail::dot;
 using detail::HVec;
 
-// The homogeneous quantities of one covered pixel.
-struct PixelTerms {
+// The homogeneous quantities of one triangle (the same for all its pixels,
+// so consecutive pixels of one triangle compute them once).
+struct TriangleTerms {
   HVec V[3], c[3], C;
-  double a[3], S, D;
-  bool valid;  // S and D nonzero and finite
+  double D, z[3];
 };
 
 template <class T>
-PixelTerms pixel_terms(const BarycentricGBufferParams<T>& p, std::int64_t tri, std::int64_t pixel) {
-  PixelTerms t;
+TriangleTerms triangle_terms(const BarycentricGBufferParams<T>& p, std::int64_t tri) {
+  TriangleTerms t;
   const std::int32_t* idx = p.tris + 3 * tri;
   const double hw = 0.5 * p.width, hh = 0.5 * p.height;
   for (int k = 0; k < 3; ++k) {
     const T* v = p.clip + 4 * static_cast<std::int64_t>(idx[k]);
     const double x = v[0], y = detail::seen_y(v[1], p.y_up), w = v[3];
     t.V[k] = {hw * (x + w), hh * (w - y), w};
+    t.z[k] = v[2];
   }
-  const HVec e{static_cast<double>(pixel % p.width) + 0.5, static_cast<double>(pixel / p.width) + 0.5, 1.0};
   t.C = {0.0, 0.0, 0.0};
-  t.S = 0.0;
   for (int k = 0; k < 3; ++k) {
     t.c[k] = cross(t.V[(k + 1) % 3], t.V[(k + 2) % 3]);
-    t.a[k] = dot(e, t.c[k]);
-    t.S += t.a[k];
     t.C = {t.C.x + t.c[k].x, t.C.y + t.c[k].y, t.C.w + t.c[k].w};
   }
   t.D = dot(t.V[0], t.c[0]);
-  t.valid = t.S != 0.0 && t.D != 0.0 && std::isfinite(t.S) && std::isfinite(t.D);
   return t;
 }
 
+// The triangles' terms, kept for the last 64 triangles seen (direct-mapped
+// by id: neighbouring pixels alternate between a few triangles), so most
+// pixels reuse them; the same values as computing them per pixel.
 template <class T>
-double vertex_z(const BarycentricGBufferParams<T>& p, std::int64_t tri, int k) {
-  return p.clip[4 * static_cast<std::int64_t>(p.tris[3 * tri + k]) + 2];
+class TriangleCache {
+ public:
+  explicit TriangleCache(const BarycentricGBufferParams<T>& p) : p_(p) { tri_.fill(-1); }
+  const TriangleTerms& at(std::int64_t tri) {
+    const std::size_t slot = static_cast<std::size_t>(tri) % kSlots;
+    if (tri_[slot] != tri) terms_[slot] = triangle_terms(p_, tri), tri_[slot] = tri;
+    return terms_[slot];
+  }
+
+ private:
+  static constexpr std::size_t kSlots = 64;
+  const BarycentricGBufferParams<T>& p_;
+  std::array<std::int64_t, kSlots> tri_;
+  std::array<TriangleTerms, kSlots> terms_;
+};
+
+// The per-pixel quantities: a_k = e . c_k and S = sum a_k.
+struct PixelTerms {
+  double a[3], S;
+  bool valid;  // S and D nonzero and finite
+};
+
+PixelTerms pixel_terms(const TriangleTerms& t, int width, std::int64_t pixel) {
+  PixelTerms q;
+  const HVec e{static_cast<double>(pixel % width) + 0.5, static_cast<double>(pixel / width) + 0.5, 1.0};
+  q.S = 0.0;
+  for (int k = 0; k < 3; ++k) {
+    q.a[k] = dot(e, t.c[k]);
+    q.S += q.a[k];
+  }
+  q.valid = q.S != 0.0 && t.D != 0.0 && std::isfinite(q.S) && std::isfinite(t.D);
+  return q;
+}
+
+// The adjoint's coverage: pixel q's 1-based id (0 = background).
+template <class T>
+std::int64_t pixel_id(const BarycentricGBufferParams<T>& p, const T* rast, std::int64_t q) {
+  return p.tri_id ? static_cast<std::int64_t>(p.tri_id[q]) : static_cast<std::int64_t>(rast[4 * q + 3]);
 }
 
 // dL/dclip of the three vertices (12 values) for one pixel.
 template <class T>
-void pixel_adjoint(const BarycentricGBufferParams<T>& p, std::int64_t tri, std::int64_t pixel, const T* g_rast,
+void pixel_adjoint(const BarycentricGBufferParams<T>& p, const TriangleTerms& t, std::int64_t pixel, const T* g_rast,
                    const T* g_db, double* out) {
-  const PixelTerms t = pixel_terms(p, tri, pixel);
+  const PixelTerms q = pixel_terms(t, p.width, pixel);
   std::fill(out, out + 12, 0.0);
-  if (!t.valid) return;
-  const double S = t.S, D = t.D;
-  const double b[2] = {t.a[0] / S, t.a[1] / S};
+  if (!q.valid) return;
+  const double S = q.S, D = t.D;
+  const double* const a = q.a;
+  const double b[2] = {a[0] / S, a[1] / S};
   const double g[3] = {static_cast<double>(g_rast[0]), static_cast<double>(g_rast[1]), 0.0};
   const double gz = g_rast[2];
-  double z[3], zw = 0.0;
-  for (int k = 0; k < 3; ++k) {
-    z[k] = vertex_z(p, tri, k);
-    zw += t.a[k] * z[k];
-  }
+  const double* const z = t.z;
+  double zw = 0.0;
+  for (int k = 0; k < 3; ++k) zw += a[k] * z[k];
   zw /= D;
   // b_k = a_k / S and z/w = sum a_k z_k / D.
   const double gb = g[0] * b[0] + g[1] * b[1];
   double bar_a[3], bar_z[3];
   for (int k = 0; k < 3; ++k) {
     bar_a[k] = (g[k] - gb) / S + gz * z[k] / D;
-    bar_z[k] = gz * t.a[k] / D;
+    bar_z[k] = gz * a[k] / D;
   }
   const double bar_D = -gz * zw / D;
   // db_k/dd = c_k.d / S - a_k C.d / S^2 for d in {x, y}.
@@ -91,10 +127,10 @@ void pixel_adjoint(const BarycentricGBufferParams<T>& p, std::int64_t tri, std::
       const double hx = g_db[2 * k], hy = g_db[2 * k + 1];
       bar_c[k].x += hx / S;
       bar_c[k].y += hy / S;
-      bar_C.x -= hx * t.a[k] / S2;
-      bar_C.y -= hy * t.a[k] / S2;
+      bar_C.x -= hx * a[k] / S2;
+      bar_C.y -= hy * a[k] / S2;
       bar_a[k] -= (hx * t.C.x + hy * t.C.y) / S2;
-      bar_S += (2.0 * t.a[k] * (hx * t.C.x + hy * t.C.y) / S - (hx * t.c[k].x + hy * t.c[k].y)) / S2;
+      bar_S += (2.0 * a[k] * (hx * t.C.x + hy * t.C.y) / S - (hx * t.c[k].x + hy * t.c[k].y)) / S2;
     }
   }
   const double ex = static_cast<double>(pixel % p.width) + 0.5, ey = static_cast<double>(pixel / p.width) + 0.5;
@@ -130,6 +166,7 @@ void barycentric_gbuffer_forward(const BarycentricGBufferParams<T>& p, const std
                                  std::int64_t id_offset, T* rast, T* db) {
   const std::int64_t pixels = static_cast<std::int64_t>(p.width) * p.height;
   parallel_for(0, pixels, 4096, [&](std::int64_t lo, std::int64_t hi) {
+    TriangleCache<T> cache(p);
     for (std::int64_t q = lo; q < hi; ++q) {
       T* r = rast + 4 * q;
       T* d = db ? db + 4 * q : nullptr;
@@ -138,21 +175,22 @@ void barycentric_gbuffer_forward(const BarycentricGBufferParams<T>& p, const std
       if (tri_id[q] == 0) continue;
       const std::int64_t tri = id_offset + tri_id[q] - 1;
       r[3] = static_cast<T>(tri + 1);
-      const PixelTerms t = pixel_terms(p, tri, q);
-      if (!t.valid) continue;
-      double b0 = std::clamp(t.a[0] / t.S, 0.0, 1.0), b1 = std::clamp(t.a[1] / t.S, 0.0, 1.0);
+      const TriangleTerms& t = cache.at(tri);
+      const PixelTerms pt = pixel_terms(t, p.width, q);
+      if (!pt.valid) continue;
+      double b0 = std::clamp(pt.a[0] / pt.S, 0.0, 1.0), b1 = std::clamp(pt.a[1] / pt.S, 0.0, 1.0);
       const double sum = b0 + b1;
       if (sum > 1.0) b0 /= sum, b1 /= sum;
       double zw = 0.0;
-      for (int k = 0; k < 3; ++k) zw += t.a[k] * vertex_z(p, tri, k);
+      for (int k = 0; k < 3; ++k) zw += pt.a[k] * t.z[k];
       r[0] = static_cast<T>(b0);
       r[1] = static_cast<T>(b1);
       r[2] = static_cast<T>(std::clamp(zw / t.D, -1.0, 1.0));
       if (!d) continue;
-      const double S2 = t.S * t.S;
+      const double S2 = pt.S * pt.S;
       for (int k = 0; k < 2; ++k) {
-        d[2 * k] = finite_cast<T>((t.c[k].x * t.S - t.a[k] * t.C.x) / S2);
-        d[2 * k + 1] = finite_cast<T>((t.c[k].y * t.S - t.a[k] * t.C.y) / S2);
+        d[2 * k] = finite_cast<T>((t.c[k].x * pt.S - pt.a[k] * t.C.x) / S2);
+        d[2 * k + 1] = finite_cast<T>((t.c[k].y * pt.S - pt.a[k] * t.C.y) / S2);
       }
     }
   });
@@ -165,29 +203,31 @@ void barycentric_gbuffer_backward(const BarycentricGBufferParams<T>& p, const T*
   std::vector<double> acc(4 * static_cast<std::size_t>(p.num_vertices), 0.0);
   constexpr std::int64_t kChunk = 16384;
   const std::int64_t chunk_len = std::min(kChunk, pixels);
-  std::vector<double> contrib(12 * static_cast<std::size_t>(chunk_len));
+  // Written before read (live), so left uninitialized: no zero fill per call.
+  const std::unique_ptr<double[]> contrib(new double[12 * static_cast<std::size_t>(chunk_len)]);
   std::vector<std::uint8_t> live(static_cast<std::size_t>(chunk_len));
   for (std::int64_t c0 = 0; c0 < pixels; c0 += kChunk) {
     const std::int64_t c1 = std::min(pixels, c0 + kChunk);
     parallel_for(c0, c1, 1024, [&](std::int64_t lo, std::int64_t hi) {
+      TriangleCache<T> cache(p);
       for (std::int64_t q = lo; q < hi; ++q) {
         const std::int64_t i = q - c0;
         live[i] = 0;
-        const auto id = static_cast<std::int64_t>(rast[4 * q + 3]);
+        const std::int64_t id = pixel_id(p, rast, q);
         if (id == 0) continue;
         const T* g = grad_rast + 4 * q;
         const T* h = grad_db ? grad_db + 4 * q : nullptr;
         bool any = g[0] != T(0) || g[1] != T(0) || g[2] != T(0);
         if (h) any = any || h[0] != T(0) || h[1] != T(0) || h[2] != T(0) || h[3] != T(0);
         if (!any) continue;
-        pixel_adjoint(p, id - 1, q, g, h, &contrib[12 * i]);
+        pixel_adjoint(p, cache.at(id - 1), q, g, h, &contrib[12 * i]);
         live[i] = 1;
       }
     });
     // In pixel order: the same sums for any thread count.
     for (std::int64_t q = c0; q < c1; ++q) {
       if (!live[q - c0]) continue;
-      const std::int32_t* tri = p.tris + 3 * (static_cast<std::int64_t>(rast[4 * q + 3]) - 1);
+      const std::int32_t* tri = p.tris + 3 * (pixel_id(p, rast, q) - 1);
       const double* g = &contrib[12 * (q - c0)];
       for (int k = 0; k < 3; ++k)
         for (int j = 0; j < 4; ++j) acc[4 * static_cast<std::size_t>(tri[k]) + j] += g[4 * k + j];

@@ -34,6 +34,11 @@ struct BarycentricGBufferParams {
   // V_k = (W/2 (x_k + w_k), H/2 (w_k + y_k), w_k), and the adjoint's y is
   // negated back. Bit for bit the y_up = false result on a y-negated clip.
   bool y_up = false;
+  // Adjoint only, optional: the coverage as int32 ids (H*W, 1-based, 0 =
+  // background, indexing tris) instead of rast's id channel, which the
+  // adjoint then does not read (rast may be null). Ids beyond 2^24 are exact
+  // only here in float32.
+  const std::int32_t* tri_id = nullptr;
 };
 
 // Forward. tri_id (H*W, 0 = background) is rasterize_forward's output for
@@ -45,7 +50,7 @@ void barycentric_gbuffer_forward(const BarycentricGBufferParams<T>& p, const std
                                  std::int64_t id_offset, T* rast, T* db);
 
 // Adjoint, ACCUMULATED (+=) into grad_clip (num_vertices x 4), for the
-// coverage stored in rast's id channel (ids relative to `tris`). grad_rast:
+// coverage stored in rast's id channel or p.tri_id (ids relative to `tris`). grad_rast:
 // H*W*4 (the id channel is ignored); grad_db: H*W*4 or null. Per pixel, with
 // g_k the gradients of b_k (g_2 = 0), g_z of z/w and h the gradients of the
 // derivatives:

@@ -13,7 +13,8 @@ namespace {
 
 template <class T>
 std::int64_t pixel_triangle(const BarycentricInterpolateParams<T>& p, std::int64_t q) {
-  return static_cast<std::int64_t>(p.rast[4 * q + 3]) - 1;  // -1 = background
+  // -1 = background
+  return p.tri_id ? static_cast<std::int64_t>(p.tri_id[q]) - 1 : static_cast<std::int64_t>(p.rast[4 * q + 3]) - 1;
 }
 
 // Weights of the three vertices at pixel q, and their x and y derivatives.
@@ -22,7 +23,7 @@ struct Weights {
 };
 template <class T>
 Weights pixel_weights(const BarycentricInterpolateParams<T>& p, std::int64_t q) {
-  const T* r = p.rast + 4 * q;
+  const T* r = p.rast + p.rast_stride * q;
   Weights k;
   k.w[0] = r[0];
   k.w[1] = r[1];
@@ -84,8 +85,8 @@ void barycentric_interpolate_backward(const BarycentricInterpolateParams<T>& p, 
             g0 += static_cast<double>(g[c]) * (static_cast<double>(a[0][c]) - a[2][c]);
             g1 += static_cast<double>(g[c]) * (static_cast<double>(a[1][c]) - a[2][c]);
           }
-          grads.rast[4 * q] += static_cast<T>(g0);
-          grads.rast[4 * q + 1] += static_cast<T>(g1);
+          grads.rast[p.rast_stride * q] += static_cast<T>(g0);
+          grads.rast[p.rast_stride * q + 1] += static_cast<T>(g1);
         }
         if (grads.rast_db && K > 0) {
           const T* h = grad_da + q * 2 * K;

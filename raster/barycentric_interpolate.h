@@ -12,8 +12,8 @@
 namespace gr::raster {
 
 // Inputs of one image, shared by the forward and the adjoint. The kernels
-// trust them (the caller validates): the ids in rast's channel 3 are integers
-// in [0, num_tris], indices in [0, num_vertices), diff in [0, channels).
+// trust them (the caller validates): the ids in rast's channel 3 (or tri_id)
+// are integers in [0, num_tris], indices in [0, num_vertices), diff in [0, channels).
 template <class T>
 struct BarycentricInterpolateParams {
   const T* attr = nullptr;  // num_vertices x channels
@@ -27,6 +27,10 @@ struct BarycentricInterpolateParams {
   const T* rast_db = nullptr;
   const std::int32_t* diff = nullptr;
   std::int64_t num_diff = 0;
+  // Or the C++ GBuffer's planes: rast = its uv (H*W*2: b0, b1; rast_stride 2)
+  // and the ids from tri_id (H*W int32, 0 = background) instead of channel 3.
+  std::int64_t rast_stride = 4;
+  const std::int32_t* tri_id = nullptr;
 };
 
 // out: pixels x channels (background 0); out_da: pixels x 2 num_diff as
@@ -38,7 +42,7 @@ void barycentric_interpolate_forward(const BarycentricInterpolateParams<T>& p, T
 template <class T>
 struct BarycentricInterpolateGrads {
   T* attr = nullptr;     // num_vertices x channels
-  T* rast = nullptr;     // pixels x 4 (channels 0 and 1)
+  T* rast = nullptr;     // pixels x rast_stride (channels 0 and 1)
   T* rast_db = nullptr;  // pixels x 4
 };
 

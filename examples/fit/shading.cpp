@@ -55,11 +55,13 @@ Render render(const SurfaceMesh& mesh, const Surface& surface, const Tensor& vie
               const Tensor& background, const RasterizeOptions& raster) {
   const int size = raster.width;
   const Tensor clip = transform_points(surface.vertices, view_projection);  // [R, 4]
-  const GBuffer gb = rasterize(clip, mesh.triangles, raster);
+  RasterizeOptions options = raster;
+  options.derivatives = surface.texture.defined();  // the texture's level of detail
+  const GBuffer gb = rasterize(clip, mesh.triangles, options);
 
   Tensor albedo;  // [H, W, 3]
   if (surface.texture.defined()) {
-    const auto uv = interpolate_with_derivatives(mesh.uvs, clip, gb, mesh.triangles);
+    const auto uv = interpolate_with_derivatives(mesh.uvs, gb, mesh.triangles);
     TextureOptions options;
     options.filter = Filter::Trilinear;
     albedo = texture(surface.texture, uv.values, options, uv.d_dx, uv.d_dy);

@@ -73,11 +73,13 @@ int run(const std::string& out_dir) {
   const Tensor clip = transform_points(mesh.positions, matmul(perspective(36 * kPi / 180, 1.0, 0.1, 20.0), view));
 
   // Rasterize once; interpolate everything the shaders need per pixel.
-  const GBuffer gb = rasterize(clip, mesh.triangles, {kSize, kSize});
+  RasterizeOptions raster{kSize, kSize};
+  raster.derivatives = true;  // the uv derivatives of the textures' level of detail
+  const GBuffer gb = rasterize(clip, mesh.triangles, raster);
   const Tensor normal = normalize(interpolate(mesh.normals, gb, mesh.triangles));  // [H, W, 3]
   const Tensor position = interpolate(mesh.positions, gb, mesh.triangles);
   const Tensor tangent = interpolate(tangents, gb, mesh.triangles);  // [H, W, 4]
-  const InterpolatedWithDerivatives uv = interpolate_with_derivatives(mesh.uvs, clip, gb, mesh.triangles);
+  const InterpolatedWithDerivatives uv = interpolate_with_derivatives(mesh.uvs, gb, mesh.triangles);
   const Tensor view_dir = normalize(eye - position);
 
   // Materials and lights: a directional light of radiance pi (so Lambert's

@@ -67,7 +67,7 @@ TEST_CASE("grad contract: ops whose derivative vanishes still give every input t
     Tensor colours = Tensor::ones({3, 3}, DType::Float64).set_requires_grad();
     const Tensor tris = Tensor::from_vector<std::int32_t>({0, 1, 2}, {1, 3});
     const GBuffer gb = rasterize(clip, tris, {8, 8});
-    const Tensor image = interpolate(colours, clip, gb, tris);
+    const Tensor image = interpolate(colours, gb, tris);
     backward(sum(antialias(image, gb, clip, tris)) + sum(gb.depth));
     REQUIRE(clip.has_grad());
     REQUIRE(colours.has_grad());

@@ -28,7 +28,7 @@ struct TexturedQuad {
 
   Tensor loss() const {
     const GBuffer gb = rasterize(clip, triangles, {16, 16});
-    const Tensor uv = interpolate(uvs, clip, gb, triangles);
+    const Tensor uv = interpolate(uvs, gb, triangles);
     const Tensor image = antialias(texture(texels, uv), gb, clip, triangles);
     return mean(pow(image - target, 2.0));
   }
@@ -188,8 +188,8 @@ TEST_CASE("saved versions: depth peeling and fragments raise nothing", "[autodif
   const GBuffer first = peeler.rasterize_next_layer();
   const GBuffer second = peeler.rasterize_next_layer();
   const Fragments fr = fragments(first);
-  Tensor values = interpolate(quad.uvs, quad.clip, fr, quad.triangles);
-  Tensor loss = sum(to_image(values, fr)) + sum(interpolate(quad.uvs, quad.clip, second, quad.triangles));
+  Tensor values = interpolate(quad.uvs, fr, quad.triangles);
+  Tensor loss = sum(to_image(values, fr)) + sum(interpolate(quad.uvs, second, quad.triangles));
   backward(loss);
   CHECK(quad.clip.has_grad());
 }

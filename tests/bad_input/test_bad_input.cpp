@@ -83,7 +83,7 @@ TEST_CASE("bad input: NaN or Inf vertex positions and attributes are refused nam
       std::vector<double> a(9, 0.5);
       a[4] = bad;
       require_throw<ValueError>(
-          [&] { interpolate(Tensor::from_values(a, {3, 3}, dt), clip_tri(dt), gb, one_tri()); },
+          [&] { interpolate(Tensor::from_values(a, {3, 3}, dt), gb, one_tri()); },
           {"interpolate", "attributes[4]"});
       // Texture coordinates.
       require_throw<ValueError>(
@@ -105,14 +105,16 @@ TEST_CASE("bad input: a NaN or Inf interpolate background is refused naming 'bac
   for (double bad : {kNaN, kInf, -kInf}) {
     for (DType dt : {DType::Float32, DType::Float64}) {
       INFO(bad << " " << dtype_name(dt));
-      const GBuffer gb = rasterize(clip_tri(dt), one_tri(), {8, 8});
+      RasterizeOptions with_db{8, 8};
+      with_db.derivatives = true;
+      const GBuffer gb = rasterize(clip_tri(dt), one_tri(), with_db);
       InterpolateOptions o;
       o.background = Tensor::from_values({0.0, 0.5, bad}, {3}, dt);
       // It would fill every uncovered pixel (fuzz corpus: interpolate_accepts_nan_background.bin).
-      require_throw<ValueError>([&] { interpolate(Tensor::ones({3, 3}, dt), clip_tri(dt), gb, one_tri(), o); },
+      require_throw<ValueError>([&] { interpolate(Tensor::ones({3, 3}, dt), gb, one_tri(), o); },
                                 {"interpolate", "background[2]"});
       require_throw<ValueError>(
-          [&] { interpolate_with_derivatives(Tensor::ones({3, 3}, dt), clip_tri(dt), gb, one_tri(), o); },
+          [&] { interpolate_with_derivatives(Tensor::ones({3, 3}, dt), gb, one_tri(), o); },
           {"interpolate", "background[2]"});
     }
   }
@@ -124,7 +126,7 @@ TEST_CASE("bad input: triangle indices negative or >= the vertex count are refus
     const Tensor tris = Tensor::from_vector<std::int32_t>({0, 1, 2, 2, bad, 0}, {2, 3});
     require_throw<IndexError>([&] { rasterize(clip_tri(), tris, {8, 8}); }, {"rasterize", "tris[1][1]"});
     const GBuffer gb = rasterize(clip_tri(), one_tri(), {8, 8});
-    require_throw<IndexError>([&] { interpolate(Tensor::ones({3, 2}), clip_tri(), gb, tris); },
+    require_throw<IndexError>([&] { interpolate(Tensor::ones({3, 2}), gb, tris); },
                               {"interpolate", "tris[1][1]"});
     require_throw<IndexError>([&] { antialias(Tensor::zeros({8, 8, 3}), gb, clip_tri(), tris); },
                               {"antialias", "tris[1][1]"});
@@ -147,7 +149,7 @@ TEST_CASE("bad input: an empty mesh rasterizes to an empty G-buffer, and an OBJ 
     for (double d : gb.depth.to_vector()) CHECK(d == raster::kBackgroundDepth);
     CHECK(gb.stats.triangles_in == 0);
     Tensor colours = Tensor::ones({n, 3}, DType::Float64).set_requires_grad();
-    Tensor img = interpolate(colours, clip, gb, tris);
+    Tensor img = interpolate(colours, gb, tris);
     img = antialias(img, gb, clip, tris);
     CHECK(img.shape() == Shape{5, 6, 3});
     for (double x : img.to_vector()) CHECK(x == 0.0);
@@ -207,12 +209,12 @@ TEST_CASE("bad input: attribute rows that do not match the vertex count are a Sh
           "[bad_input]") {
   const GBuffer gb = rasterize(clip_tri(), one_tri(), {8, 8});
   for (std::int64_t n : {2, 4}) {
-    require_throw<ShapeError>([&] { interpolate(Tensor::ones({n, 3}), clip_tri(), gb, one_tri()); },
+    require_throw<ShapeError>([&] { interpolate(Tensor::ones({n, 3}), gb, one_tri()); },
                               {"interpolate", "'attributes'", "N = 3"});
   }
   InterpolateOptions o;
   o.background = Tensor::zeros({2});
-  require_throw<ShapeError>([&] { interpolate(Tensor::ones({3, 3}), clip_tri(), gb, one_tri(), o); },
+  require_throw<ShapeError>([&] { interpolate(Tensor::ones({3, 3}), gb, one_tri(), o); },
                             {"interpolate", "background"});
   // An image of another size than the G-buffer.
   require_throw<ShapeError>([&] { antialias(Tensor::zeros({8, 9, 3}), gb, clip_tri(), one_tri()); },
@@ -236,11 +238,11 @@ TEST_CASE("bad input: wrong dtype or rank is a DTypeError or ShapeError naming t
   require_throw<ShapeError>([&] { rasterize(clip_tri(), Tensor::zeros({3}, DType::Int32), {8, 8}); },
                             {"rasterize", "'triangles'"});
   const GBuffer gb = rasterize(clip_tri(), tris, {8, 8});
-  require_throw<DTypeError>([&] { interpolate(Tensor::ones({3, 3}, DType::Float64), clip_tri(), gb, tris); },
+  require_throw<DTypeError>([&] { interpolate(Tensor::ones({3, 3}, DType::Float64), gb, tris); },
                             {"interpolate", "attributes"});
-  require_throw<DTypeError>([&] { interpolate(Tensor::ones({3, 3}, DType::Int32), clip_tri(), gb, tris); },
+  require_throw<DTypeError>([&] { interpolate(Tensor::ones({3, 3}, DType::Int32), gb, tris); },
                             {"interpolate", "'attributes'"});
-  require_throw<ShapeError>([&] { interpolate(Tensor::ones({3}), clip_tri(), gb, tris); },
+  require_throw<ShapeError>([&] { interpolate(Tensor::ones({3}), gb, tris); },
                             {"interpolate", "'attributes'"});
   require_throw<DTypeError>([&] { antialias(Tensor::zeros({8, 8, 3}, DType::Float64), gb, clip_tri(), tris); },
                             {"antialias", "'image'"});

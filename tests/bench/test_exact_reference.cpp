@@ -309,7 +309,7 @@ TEST_CASE("exact reference: its finite differences are smooth where the point-sa
   const auto sampled = [&](double t) {
     NoGradGuard no_grad;
     const Tensor clip = clip_at(t);
-    return interpolate(colours, clip, rasterize(clip, tris({0, 1, 2}), {size, size}), tris({0, 1, 2})).to_vector();
+    return interpolate(colours, rasterize(clip, tris({0, 1, 2}), {size, size}), tris({0, 1, 2})).to_vector();
   };
   const double h = 1e-3;
   const auto differences = [&](const auto& render) {
@@ -351,7 +351,7 @@ double rms_against_supersampled(const Tensor& clip, const Tensor& triangles, con
   InterpolateOptions options;
   options.background = background;
   const Tensor image = downsample_box(
-      interpolate(attributes, clip, rasterize(clip, triangles, {s * size, s * size}), triangles, options), s);
+      interpolate(attributes, rasterize(clip, triangles, {s * size, s * size}), triangles, options), s);
   const std::vector<double> a = image.to_vector(), b = exact.image.to_vector();
   double sum = 0;
   for (std::size_t i = 0; i < a.size(); ++i) sum += (a[i] - b[i]) * (a[i] - b[i]);

@@ -117,9 +117,9 @@ TEST_CASE("shading example: a loss on a rendered sphere sends finite gradients t
   const Tensor clip = transform_points(positions, matmul(perspective(0.8, 1.0, 0.1, 10.0), view));
   const GBuffer gb = rasterize(clip, mesh.triangles, {32, 32});
   const Tensor tangents = shading::vertex_tangents(positions, mesh.uvs, mesh.triangles, mesh.normals);
-  const Tensor normal = normalize(interpolate(mesh.normals, clip, gb, mesh.triangles));
-  const Tensor tangent = interpolate(tangents, clip, gb, mesh.triangles);
-  const Tensor texel = texture(normal_map, interpolate(mesh.uvs, clip, gb, mesh.triangles));
+  const Tensor normal = normalize(interpolate(mesh.normals, gb, mesh.triangles));
+  const Tensor tangent = interpolate(tangents, gb, mesh.triangles);
+  const Tensor texel = texture(normal_map, interpolate(mesh.uvs, gb, mesh.triangles));
   const Tensor bumped = shading::perturb_normal(normal, tangent, texel);
   const Tensor colour = shading::sh_diffuse(Tensor::full({3}, 0.7), bumped, sh);
   backward(mean(colour * colour));

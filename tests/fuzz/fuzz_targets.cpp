@@ -224,7 +224,7 @@ void fuzz_rasterize_interpolate(const std::uint8_t* data, std::size_t size) {
     Tensor tris = Tensor::from_vector<std::int32_t>(tri_values, {m, 3});
     Tensor attributes = tensor_of(attr_values, {n, c}, dtype).set_requires_grad();
     InterpolateOptions iopt;
-    iopt.perspective = !(flags & 8);
+    ropt.derivatives = (flags & 8) || (flags & 16);  // interpolate_with_derivatives needs them
     if (flags & 32) iopt.background = tensor_of(background_values, {c}, dtype);
 
     // The G-buffer must be finite for any accepted input. Interpolated values,
@@ -235,16 +235,17 @@ void fuzz_rasterize_interpolate(const std::uint8_t* data, std::size_t size) {
     const GBuffer gb = rasterize(clip, tris, ropt);
     require_finite(gb.uv, "uv");
     require_finite(gb.depth, "depth");
+    if (ropt.derivatives) require_finite(gb.db, "db");
     Tensor out;
     if (flags & 16) {
-      const InterpolatedWithDerivatives d = interpolate_with_derivatives(attributes, clip, gb, tris, iopt);
+      const InterpolatedWithDerivatives d = interpolate_with_derivatives(attributes, gb, tris, iopt);
       if (moderate) {
         require_finite(d.d_dx, "d_dx");
         require_finite(d.d_dy, "d_dy");
       }
       out = d.values;
     } else {
-      out = interpolate(attributes, clip, gb, tris, iopt);
+      out = interpolate(attributes, gb, tris, iopt);
     }
     if (moderate) require_finite(out, "interpolated");
 
@@ -252,8 +253,9 @@ void fuzz_rasterize_interpolate(const std::uint8_t* data, std::size_t size) {
     auto weights = [&](const Tensor& t, std::uint8_t seed) {
       return Tensor::uniform(t.shape(), -1, 1, seed, dtype);
     };
-    const Tensor loss = sum(out * weights(out, seed_out)) + sum(gb.depth * weights(gb.depth, seed_depth)) +
-                        sum(gb.uv * weights(gb.uv, seed_uv));
+    Tensor loss = sum(out * weights(out, seed_out)) + sum(gb.depth * weights(gb.depth, seed_depth)) +
+                  sum(gb.uv * weights(gb.uv, seed_uv));
+    if (ropt.derivatives) loss = loss + sum(gb.db * weights(gb.db, seed_uv));
     backward(loss);
     if (moderate) require_finite(clip.grad(), "clip.grad");
     if (moderate) require_finite(attributes.grad(), "attributes.grad");

@@ -81,7 +81,7 @@ Tensor camera_clip(const Scene& s, const Tensor& positions, const Tensor& eye, c
 Tensor render_aa(const Tensor& clip, const Tensor& colours, const Tensor& tris, int w, int h,
                  const AntialiasOptions& options = {}) {
   GBuffer gb = rasterize(clip, tris, {w, h});
-  return antialias(interpolate(colours, clip, gb, tris), gb, clip, tris, options);
+  return antialias(interpolate(colours, gb, tris), gb, clip, tris, options);
 }
 
 // A square of constant colour (0.9, 0.6, 0.3) over black, shifted right by dx pixels.
@@ -95,13 +95,11 @@ Tensor square_triangles() { return Tensor::from_vector<std::int32_t>({0, 1, 2, 0
 Tensor square_colours() {
   return Tensor::from_values({0.9, 0.6, 0.3, 0.9, 0.6, 0.3, 0.9, 0.6, 0.3, 0.9, 0.6, 0.3}, {4, 3}, DType::Float64);
 }
-// The square rendered with linear interpolation of its constant colour, optionally antialiased.
+// The square rendered with its constant colour, optionally antialiased.
 Tensor render_square(const Tensor& clip, int W, int H, bool aa) {
   Tensor tris = square_triangles();
   GBuffer gb = rasterize(clip, tris, {W, H});
-  InterpolateOptions linear;
-  linear.perspective = false;
-  Tensor img = interpolate(square_colours(), clip, gb, tris, linear);
+  Tensor img = interpolate(square_colours(), gb, tris);
   return aa ? antialias(img, gb, clip, tris) : img;
 }
 

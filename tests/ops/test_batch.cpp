@@ -47,7 +47,7 @@ std::vector<double> run_chain(bool batched) {
   std::vector<double> result;
   if (batched) {
     const GBuffer g = rasterize_batch(clip, tris, size());
-    const Tensor img = antialias_batch(interpolate_batch(attr, clip, g, tris), g, clip, tris);
+    const Tensor img = antialias_batch(interpolate_batch(attr, g, tris), g, clip, tris);
     backward(sum(mul(img, img)));
     result = concat_values({img});
   } else {
@@ -56,7 +56,7 @@ std::vector<double> run_chain(bool batched) {
     for (int b = 0; b < B; ++b) {
       const Tensor c = reshape(slice(clip, 0, b, b + 1), {6, 4}), a = reshape(slice(attr, 0, b, b + 1), {6, 3});
       const GBuffer g = rasterize(c, tris, size());
-      const Tensor img = antialias(interpolate(a, c, g, tris), g, c, tris);
+      const Tensor img = antialias(interpolate(a, g, tris), g, c, tris);
       images.push_back(img);
       loss = add(loss, sum(mul(img, img)));
     }
@@ -94,8 +94,8 @@ TEST_CASE("batch: range mode draws each image's range and numbers triangles in t
   }
   // Interpolation with shared positions and attributes reads the global ids.
   const Tensor attr = random_input({6, 2}, 0, 1, 9);
-  const Tensor out = interpolate_batch(attr, clip, g, tris);
-  const Tensor both = interpolate(attr, clip, rasterize(clip, tris, size()), tris);
+  const Tensor out = interpolate_batch(attr, g, tris);
+  const Tensor both = interpolate(attr, rasterize(clip, tris, size()), tris);
   const std::vector<double> o = out.to_vector(), e = both.to_vector();
   for (int i = 0; i < W * H * 2; ++i) CHECK(o[2 * W * H * 2 + i] == e[i]);
 }
@@ -109,7 +109,7 @@ TEST_CASE("batch: gradients of positions and shared attributes through the batch
     require_gradcheck("batch instanced chain",
                       [&](const Inputs& in) {
                         const GBuffer g = rasterize_batch(in[0], tris, size());
-                        return antialias_batch(interpolate_batch(in[1], in[0], g, tris), g, in[0], tris);
+                        return antialias_batch(interpolate_batch(in[1], g, tris), g, in[0], tris);
                       },
                       {clip, attr});
   }
@@ -120,7 +120,7 @@ TEST_CASE("batch: gradients of positions and shared attributes through the batch
     require_gradcheck("batch range chain",
                       [&](const Inputs& in) {
                         const GBuffer g = rasterize_ranges(in[0], tris, ranges, size());
-                        return antialias_batch(interpolate_batch(in[1], in[0], g, tris), g, in[0], tris);
+                        return antialias_batch(interpolate_batch(in[1], g, tris), g, in[0], tris);
                       },
                       {clip, attr});
   }
@@ -134,17 +134,18 @@ TEST_CASE("batch: bad batches are errors naming the argument", "[batch][errors]"
   CHECK_THROWS_WITH(rasterize_ranges(testing::two_triangles_clip(), tris, bad_range, size()),
                     Catch::Contains("ranges[0] = (1, 2) is outside the 2 triangles"));
   const GBuffer g = rasterize_batch(clip, tris, size());
-  CHECK_THROWS_WITH(interpolate_batch(Tensor::zeros({2, 6, 3}, DType::Float64), clip, g, tris),
+  CHECK_THROWS_WITH(interpolate_batch(Tensor::zeros({2, 6, 3}, DType::Float64), g, tris),
                     Catch::Contains("'attributes' must be [N, C] or [B, N, C] with B = 3"));
   const GBuffer single = rasterize(testing::two_triangles_clip(), tris, size());
-  CHECK_THROWS_WITH(interpolate_batch(Tensor::zeros({6, 3}, DType::Float64), testing::two_triangles_clip(), single, tris),
+  CHECK_THROWS_WITH(interpolate_batch(Tensor::zeros({6, 3}, DType::Float64), single, tris),
                     Catch::Contains("rasterize_batch or rasterize_ranges"));
   CHECK_THROWS_WITH(antialias_batch(Tensor::zeros({B, H, W - 1, 3}, DType::Float64), g, clip, tris),
                     Catch::Contains("differ in size"));
   Tensor moved = clip.copy();
   moved.data<double>()[0] += 0.25;
-  CHECK_THROWS_WITH(interpolate_batch(Tensor::zeros({6, 3}, DType::Float64), moved, g, tris),
-                    Catch::Contains("interpolate_batch: argument 'clip' is not the clip the G-buffer was rasterized from"));
+  const Tensor swapped = Tensor::from_vector<std::int32_t>({3, 4, 5, 0, 1, 2}, {2, 3});
+  CHECK_THROWS_WITH(interpolate_batch(Tensor::zeros({6, 3}, DType::Float64), g, swapped),
+                    Catch::Contains("interpolate_batch: argument 'triangles' are not the triangles the G-buffer"));
   CHECK_THROWS_WITH(antialias_batch(Tensor::zeros({B, H, W, 3}, DType::Float64), g, moved, tris),
                     Catch::Contains("argument 'clip' is not the clip"));
 }

@@ -85,7 +85,7 @@ std::vector<FramePixel> upstream() {
 Tensor tensor_path(const Tensor& positions, const Tensor& colors, const Tensor& mvp) {
   const Tensor clip = transform_points(positions, mvp);
   const GBuffer g = rasterize(clip, triangles(), {kWidth, kHeight});
-  return interpolate(colors, clip, g, triangles());
+  return interpolate(colors, g, triangles());
 }
 
 }  // namespace
@@ -95,7 +95,7 @@ TEST_CASE("book interface: rasterizer_cpu_forward writes rasterize's G-buffer an
   const BookFrame book = book_forward(mvp);
   const Tensor clip = transform_points(vertex_field(DType::Float32, true), row_major(mvp, DType::Float32));
   const GBuffer g = rasterize(clip, triangles(), {kWidth, kHeight});
-  const Tensor color = interpolate(vertex_field(DType::Float32, false), clip, g, triangles());
+  const Tensor color = interpolate(vertex_field(DType::Float32, false), g, triangles());
   int covered = 0, front = 0;
   for (int j = 0; j < kHeight; ++j)
     for (int i = 0; i < kWidth; ++i) {

@@ -148,7 +148,7 @@ TEST_CASE("depth peeling: interpolate on layer 2 has gradients matching finite d
   auto layer2 = [](const Tensor& attr, const Tensor& clip, const Tensor& tris) {
     DepthPeeler peeler(clip, tris, {kW, kH});
     peeler.rasterize_next_layer();
-    return interpolate(attr, clip, peeler.rasterize_next_layer(), tris);
+    return interpolate(attr, peeler.rasterize_next_layer(), tris);
   };
   SECTION("random tilted stack") {
     Tensor clip = (quads_clip({0.4, -0.3, 0.0}, 0.3) +

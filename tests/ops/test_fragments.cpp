@@ -65,12 +65,12 @@ Tensor render(const MeshScene& s, bool fragment_mode, const Tensor& background, 
   };
   if (fragment_mode) {
     Fragments fr = fragments(gb);
-    return to_image(shade(interpolate(s.colours, clip, fr, s.triangles), interpolate(s.normals, clip, fr, s.triangles)),
+    return to_image(shade(interpolate(s.colours, fr, s.triangles), interpolate(s.normals, fr, s.triangles)),
                     fr, background);
   }
   InterpolateOptions bg;
   bg.background = background;
-  Tensor shaded = shade(interpolate(s.colours, clip, gb, s.triangles), interpolate(s.normals, clip, gb, s.triangles));
+  Tensor shaded = shade(interpolate(s.colours, gb, s.triangles), interpolate(s.normals, gb, s.triangles));
   Tensor coverage = reshape(greater(cast(gb.tri_id, s.positions.dtype()), Tensor::scalar(0.0, s.positions.dtype())), {h, w, 1});
   return shaded * coverage + background * (1.0 - coverage);
 }
@@ -134,19 +134,14 @@ TEST_CASE("fragments: interpolate on fragments matches finite differences throug
           "[ops][fragments][gradcheck]") {
   Tensor tris = gr::testing::two_triangles();
   Tensor attr = random_input({6, 3}, -1, 1, 61);
-  for (bool perspective : {true, false}) {
-    INFO("perspective " << perspective);
-    Tensor clip = gr::testing::two_triangles_clip().set_requires_grad();
-    InterpolateOptions opt;
-    opt.perspective = perspective;
-    // Attributes and clip positions, through fragments' uv gather and rasterize's adjoint.
-    require_gradcheck(perspective ? "interpolate fragments perspective" : "interpolate fragments linear",
-                      [&](const Inputs& in) {
-                        GBuffer gb = rasterize(in[1], tris, {24, 20});
-                        return interpolate(in[0], in[1], fragments(gb), tris, opt);
-                      },
-                      {attr, clip});
-  }
+  Tensor clip = gr::testing::two_triangles_clip().set_requires_grad();
+  // Attributes and clip positions, through fragments' uv gather and rasterize's adjoint.
+  require_gradcheck("interpolate fragments",
+                    [&](const Inputs& in) {
+                      GBuffer gb = rasterize(in[1], tris, {24, 20});
+                      return interpolate(in[0], fragments(gb), tris);
+                    },
+                    {attr, clip});
 }
 
 TEST_CASE("fragments: to_image and gather_fragments match finite differences", "[ops][fragments][gradcheck]") {
@@ -193,7 +188,7 @@ TEST_CASE("fragments: an empty fragment set gives the background and zero gradie
   Fragments fr = fragments(gb);
   REQUIRE(fr.count() == 0);
   CHECK(fr.uv.shape() == Shape{0, 2});
-  Tensor values = interpolate(attr, moved, fr, tris);
+  Tensor values = interpolate(attr, fr, tris);
   CHECK(values.shape() == Shape{0, 2});
   Tensor image = to_image(values * 2.0, fr, bg);
   CHECK(image.shape() == Shape{12, 16, 2});
@@ -220,9 +215,9 @@ TEST_CASE("fragments: bad inputs throw errors naming the argument", "[ops][fragm
   CHECK_THROWS_WITH(to_image(Tensor::ones({n, 3}), Fragments{}), Catch::Contains("fragments"));
   InterpolateOptions with_bg;
   with_bg.background = Tensor::ones({3}, DType::Float64);
-  CHECK_THROWS_WITH(interpolate(Tensor::ones({6, 3}, DType::Float64), clip, fr, tris, with_bg),
+  CHECK_THROWS_WITH(interpolate(Tensor::ones({6, 3}, DType::Float64), fr, tris, with_bg),
                     Catch::Contains("background"));
-  CHECK_THROWS_WITH(interpolate(Tensor::ones({5, 3}, DType::Float64), clip, fr, tris), Catch::Contains("attributes"));
+  CHECK_THROWS_WITH(interpolate(Tensor::ones({6, 3}), fr, tris), Catch::Contains("fragments.uv"));
   // Hand-edited fragments: unsorted pixel indices, a background tri_id, a uv of the wrong size.
   Fragments unsorted = fr;
   unsorted.pixel_index = fr.pixel_index.copy();
@@ -231,10 +226,10 @@ TEST_CASE("fragments: bad inputs throw errors naming the argument", "[ops][fragm
   Fragments bad_id = fr;
   bad_id.tri_id = fr.tri_id.copy();
   bad_id.tri_id.data<std::int32_t>()[0] = 0;
-  CHECK_THROWS_AS(interpolate(Tensor::ones({6, 3}, DType::Float64), clip, bad_id, tris), IndexError);
+  CHECK_THROWS_AS(interpolate(Tensor::ones({6, 3}, DType::Float64), bad_id, tris), IndexError);
   Fragments bad_uv = fr;
   bad_uv.uv = Tensor::zeros({n, 3}, DType::Float64);
-  CHECK_THROWS_WITH(interpolate(Tensor::ones({6, 3}, DType::Float64), clip, bad_uv, tris), Catch::Contains("uv"));
+  CHECK_THROWS_WITH(interpolate(Tensor::ones({6, 3}, DType::Float64), bad_uv, tris), Catch::Contains("uv"));
 }
 
 TEST_CASE("fragment mode equals image mode bit for bit on a clipped triangle with a vertex at w = 0",
@@ -255,9 +250,9 @@ TEST_CASE("fragment mode equals image mode bit for bit on a clipped triangle wit
         Tensor image;
         if (fragment_mode) {
           Fragments fr = fragments(gb);
-          image = to_image(interpolate(attr, clip, fr, tris), fr);
+          image = to_image(interpolate(attr, fr, tris), fr);
         } else {
-          image = interpolate(attr, clip, gb, tris);
+          image = interpolate(attr, gb, tris);
         }
         backward(sum(image * weights));
         set_num_threads(0);
@@ -285,11 +280,20 @@ TEST_CASE("fragment-form gradients of a clipped triangle with a vertex at w = 0 
   // Some of them not at item index = pixel index (so pixel_index matters).
   REQUIRE(fr.pixel_index.to_vector().back() > fr.count());
   fr.uv = fr.uv.detach().copy().set_requires_grad();
-  require_gradcheck("interpolate fragments clipped, w = 0",
+  require_gradcheck("interpolate fragments clipped, w = 0 (attributes, uv)",
                     [&](const Inputs& in) {
                       Fragments f = fr;
-                      f.uv = in[2];
-                      return interpolate(in[0], in[1], f, tris);
+                      f.uv = in[1];
+                      return interpolate(in[0], f, tris);
                     },
-                    {attr, clip, fr.uv});
+                    {attr, fr.uv});
+  GradcheckOptions small;
+  small.eps = 1e-7;  // the coverage must not change
+  small.rtol = 1e-5;
+  require_gradcheck("interpolate fragments clipped, w = 0 (clip through rasterize)",
+                    [&](const Inputs& in) {
+                      const GBuffer g = rasterize(in[1], tris, {20, 16});
+                      return to_image(interpolate(in[0], fragments(g), tris), fragments(g));
+                    },
+                    {attr, clip}, small);
 }

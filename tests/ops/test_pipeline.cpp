@@ -38,8 +38,8 @@ Tensor render(const Tensor& positions, const Tensor& colours, const Tensor& norm
   Tensor mvp = matmul(perspective(fov, double(w) / h, 0.5, 10.0), look_at(eye, target, up));
   Tensor clip = transform_points(positions, mvp);
   GBuffer gb = rasterize(clip, triangles, {w, h});
-  Tensor albedo = interpolate(colours, clip, gb, triangles);
-  Tensor n = normalize(interpolate(normals, clip, gb, triangles));
+  Tensor albedo = interpolate(colours, gb, triangles);
+  Tensor n = normalize(interpolate(normals, gb, triangles));
   Tensor light = normalize(Tensor::from_values({0.5, 0.8, 1.0}, {3}, DType::Float64));
   Tensor shaded = albedo * (0.6 + 0.4 * dot(n, light));  // smooth: no max() kink inside a check
   return shaded + 0.1 * reshape(gb.depth, {h, w, 1});

@@ -369,21 +369,24 @@ struct Scene {
 
 }  // namespace
 
-TEST_CASE("interpolate with derivatives: linear screen positions have unit derivatives", "[ops][interpolate][texture]") {
+TEST_CASE("interpolate with derivatives: screen positions on a triangle of constant w have unit derivatives",
+          "[ops][interpolate][texture]") {
   Scene s;
   const int W = 40, H = 32;
-  // Only the unclipped triangle has finite screen positions.
-  Tensor tris = Tensor::from_vector<std::int32_t>({4, 5, 6}, {1, 3});
-  GBuffer gb = rasterize(s.clip, tris, {W, H});
-  std::vector<double> screen;
-  for (int i = 0; i < 7; ++i) {
+  // The unclipped triangle divided by w: its barycentrics are affine in screen space.
+  std::vector<double> ndc, screen;
+  for (int i = 4; i < 7; ++i) {
     const double w = s.clip.at({i, 3});
+    for (int c = 0; c < 3; ++c) ndc.push_back(s.clip.at({i, c}) / w);
+    ndc.push_back(1.0);
     screen.push_back(0.5 * W * (1 + s.clip.at({i, 0}) / w));
     screen.push_back(0.5 * H * (1 - s.clip.at({i, 1}) / w));
   }
-  InterpolateOptions lin;
-  lin.perspective = false;
-  auto r = interpolate_with_derivatives(Tensor::from_values(screen, {7, 2}, DType::Float64), s.clip, gb, tris, lin);
+  const Tensor tris = Tensor::from_vector<std::int32_t>({0, 1, 2}, {1, 3});
+  RasterizeOptions o{W, H};
+  o.derivatives = true;
+  GBuffer gb = rasterize(Tensor::from_values(ndc, {3, 4}, DType::Float64), tris, o);
+  auto r = interpolate_with_derivatives(Tensor::from_values(screen, {3, 2}, DType::Float64), gb, tris);
   int covered = 0;
   for (int j = 0; j < H; ++j)
     for (int i = 0; i < W; ++i) {
@@ -393,6 +396,7 @@ TEST_CASE("interpolate with derivatives: linear screen positions have unit deriv
       }
       ++covered;
       CHECK(r.values.at({j, i, 0}) == Approx(i + 0.5).epsilon(1e-12));
+      CHECK(r.values.at({j, i, 1}) == Approx(j + 0.5).epsilon(1e-12));
       CHECK(r.d_dx.at({j, i, 0}) == Approx(1).epsilon(1e-12));
       CHECK(r.d_dx.at({j, i, 1}) == Approx(0).margin(1e-12));
       CHECK(r.d_dy.at({j, i, 0}) == Approx(0).margin(1e-12));
@@ -404,11 +408,13 @@ TEST_CASE("interpolate with derivatives: linear screen positions have unit deriv
 TEST_CASE("interpolate with derivatives: perspective clip position gives d(ndc)/d(screen) exactly, clipped triangles too", "[ops][interpolate][texture]") {
   Scene s;
   const int W = 40, H = 32;
-  GBuffer gb = rasterize(s.clip, s.tris, {W, H});
+  RasterizeOptions o{W, H};
+  o.derivatives = true;
+  GBuffer gb = rasterize(s.clip, s.tris, o);
   REQUIRE(gb.stats.clipped_near == 2);
   // Perspective interpolation of the clip position is the surface point's clip
   // position, so d(x/w)/dx = 2/W and d(y/w)/dy = -2/H (y down).
-  auto r = interpolate_with_derivatives(s.clip, s.clip, gb, s.tris);
+  auto r = interpolate_with_derivatives(s.clip, gb, s.tris);
   int covered = 0;
   for (int j = 0; j < H; ++j)
     for (int i = 0; i < W; ++i) {
@@ -430,7 +436,9 @@ TEST_CASE("interpolate with derivatives: derivatives match finite differences ac
   // A fine image: the curvature near the horizon spans many pixels, so the
   // fourth-order differences' truncation error stays well below 1e-4.
   const int W = 288, H = 240;
-  GBuffer gb = rasterize(s.clip, s.tris, {W, H});
+  RasterizeOptions o{W, H};
+  o.derivatives = true;
+  GBuffer gb = rasterize(s.clip, s.tris, o);
   // Texture coordinates of the floor and the wall, smooth per triangle.
   std::vector<double> a;
   for (int i = 0; i < 7; ++i) {
@@ -438,13 +446,10 @@ TEST_CASE("interpolate with derivatives: derivatives match finite differences ac
     a.push_back(-s.world.at({i, 2}) / 8 + 0.3 * s.world.at({i, 1}));
   }
   Tensor attr = Tensor::from_values(a, {7, 2}, DType::Float64);
-  for (bool perspective : {true, false}) {
-    INFO("perspective " << perspective);
-    InterpolateOptions opt;
-    opt.perspective = perspective;
-    auto r = interpolate_with_derivatives(attr, s.clip, gb, s.tris, opt);
+  {
+    auto r = interpolate_with_derivatives(attr, gb, s.tris);
     const std::vector<double> values = r.values.to_vector(), dx = r.d_dx.to_vector(), dy = r.d_dy.to_vector();
-    CHECK(values == interpolate(attr, s.clip, gb, s.tris, opt).to_vector());
+    CHECK(values == interpolate(attr, gb, s.tris).to_vector());
     auto id = [&](int j, int i) { return gb.tri_id.at({j, i}); };
     auto val = [&](int j, int i, int c) { return values[(j * W + i) * 2 + c]; };
     double worst = 0;
@@ -468,7 +473,7 @@ TEST_CASE("interpolate with derivatives: derivatives match finite differences ac
       }
     INFO("worst relative error " << worst << " over " << checked << " pixels");
     CHECK(checked > 10000);
-    CHECK(worst < (perspective ? 2e-4 : 1e-9));
+    CHECK(worst < 2e-4);
   }
 }
 
@@ -476,13 +481,15 @@ TEST_CASE("texture: a rendered floor samples coarser levels farther away and pas
   Scene s;
   const int W = 24, H = 20;
   Tensor tris = Tensor::from_vector<std::int32_t>({0, 1, 2, 0, 2, 3}, {2, 3});
-  GBuffer gb = rasterize(s.clip, tris, {W, H});
+  RasterizeOptions o{W, H};
+  o.derivatives = true;
+  GBuffer gb = rasterize(s.clip, tris, o);
   std::vector<double> a;
   for (int i = 0; i < 7; ++i) {
     a.push_back(s.world.at({i, 0}) / 6 + 0.5);
     a.push_back(-s.world.at({i, 2}) / 4);
   }
-  auto r = interpolate_with_derivatives(Tensor::from_values(a, {7, 2}, DType::Float64), s.clip, gb, tris);
+  auto r = interpolate_with_derivatives(Tensor::from_values(a, {7, 2}, DType::Float64), gb, tris);
   // Footprint (texels per pixel for a 16 x 16 texture) grows towards the horizon.
   auto footprint = [&](int j) {
     const int i = W / 2;

@@ -138,7 +138,7 @@ raster::VisibilityAntialiasStats stats_of(const Tensor& image, const Tensor& cli
 // rasterize -> interpolate -> visibility_antialias, as a gradcheck function of (clip, colours).
 Tensor render(const Tensor& clip, const Tensor& colours, const Tensor& tris, int W, int H) {
   GBuffer gb = rasterize(clip, tris, {W, H});
-  return visibility_antialias(interpolate(colours, clip, gb, tris), gb, clip, tris);
+  return visibility_antialias(interpolate(colours, gb, tris), gb, clip, tris);
 }
 
 }  // namespace
@@ -293,7 +293,7 @@ TEST_CASE("visibility_antialias: on one closed convex mesh it equals antialias (
   auto run = [&](bool visibility) {
     Tensor clip = transform_points(pos, mvp);
     GBuffer gb = rasterize(clip, mesh.triangles, {W, H});
-    Tensor img = interpolate(colours, clip, gb, mesh.triangles);
+    Tensor img = interpolate(colours, gb, mesh.triangles);
     Tensor out;
     if (visibility) {
       VisibilityAntialiasOptions o;
@@ -327,7 +327,7 @@ TEST_CASE("visibility_antialias: an intersection gets depth gradients where anti
   auto depth_grad = [&](bool visibility) {
     Tensor clip = crossing_clip(true).set_requires_grad();
     GBuffer gb = rasterize(clip, tris, {W, H});
-    Tensor img = interpolate(colours, clip, gb, tris);
+    Tensor img = interpolate(colours, gb, tris);
     Tensor out = visibility ? visibility_antialias(img, gb, clip, tris) : antialias(img, gb, clip, tris);
     backward(sum(out));  // the image sum: its change is (c_A - c_B) times the area swept by the line
     // Pushing triangle B away (+z on all its vertices) moves the line so that A covers more.
@@ -471,7 +471,7 @@ TEST_CASE("visibility_antialias: image and gradients are bit-identical for 1, 2 
     VisibilityAntialiasOptions o;
     o.topology = topo;
     o.stats = stats;
-    Tensor img = visibility_antialias(interpolate(col, clip, gb, tris), gb, clip, tris, o);
+    Tensor img = visibility_antialias(interpolate(col, gb, tris), gb, clip, tris, o);
     backward(sum(img * img));
     std::vector<double> r = img.to_vector();
     const std::size_t n_image = r.size();
@@ -561,12 +561,12 @@ TEST_CASE("visibility_antialias: a batch (antialias_batch with visibility) equal
       AntialiasOptions o;
       o.visibility = true;
       const GBuffer gb = rasterize_batch(clip, tris, {W, H});
-      images.push_back(antialias_batch(interpolate_batch(col, clip, gb, tris), gb, clip, tris, o));
+      images.push_back(antialias_batch(interpolate_batch(col, gb, tris), gb, clip, tris, o));
     } else {
       for (int b = 0; b < 2; ++b) {
         const Tensor c = reshape(slice(clip, 0, b, b + 1), {6, 4}), a = reshape(slice(col, 0, b, b + 1), {6, 3});
         const GBuffer gb = rasterize(c, tris, {W, H});
-        images.push_back(reshape(visibility_antialias(interpolate(a, c, gb, tris), gb, c, tris), {1, H, W, 3}));
+        images.push_back(reshape(visibility_antialias(interpolate(a, gb, tris), gb, c, tris), {1, H, W, 3}));
       }
     }
     const Tensor img = concat(images, 0);

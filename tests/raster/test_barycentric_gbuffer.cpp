@@ -1,6 +1,6 @@
 // nvdiffrast-layout G-buffer and interpolation kernels (raster/barycentric_*):
-// the same barycentrics and derivatives as ops/barycentrics.h computes on the
-// tape, and adjoints equal to central differences of the forward.
+// the barycentrics, z/w and derivatives of each pixel ray's linear system
+// (tests/ops/pixel_ray.h), and adjoints equal to central differences of the forward.
 #include <catch2/catch.hpp>
 
 #include <cmath>
@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "../ops/clip_scenes.h"
+#include "../ops/pixel_ray.h"
 #include "ops/ops.h"
 #include "raster/barycentric_gbuffer.h"
 #include "raster/barycentric_interpolate.h"
@@ -79,29 +80,33 @@ double worst_gradient_error(std::vector<double>& x, const std::vector<double>& a
 
 }  // namespace
 
-TEST_CASE("barycentric gbuffer: b0, b1 and their pixel derivatives equal perspective_barycentrics on the tape",
+TEST_CASE("barycentric gbuffer: b0, b1, z/w and their pixel derivatives solve each pixel ray's linear system",
           "[rasterize]") {
-  const Scene s = two_triangles();
-  std::vector<double> rast(4 * W * H), db(4 * W * H);
-  raster::barycentric_gbuffer_forward(s.params(), s.tri_id.data(), 0, rast.data(), db.data());
-  const Tensor clip = testing::two_triangles_clip();
-  const Tensor tris = testing::two_triangles();
-  const GBuffer g = rasterize(clip, tris, {W, H});
-  const PerspectiveBarycentrics ref = perspective_barycentrics(clip, tris, g);
-  const std::vector<double> uv = ref.uv.to_vector(), uv_db = ref.uv_db.to_vector();
-  int covered = 0;
-  for (int q = 0; q < W * H; ++q) {
-    REQUIRE(rast[4 * q + 3] == s.tri_id[q]);
-    if (s.tri_id[q] == 0) continue;
-    ++covered;
-    // ref: (b1, b2) and (db1/dx, db1/dy, db2/dx, db2/dy); ours: (b0, b1), (db0/dx, db0/dy, db1/dx, db1/dy).
-    CHECK(rast[4 * q + 1] == Approx(uv[2 * q]).margin(1e-13));
-    CHECK(1.0 - rast[4 * q] - rast[4 * q + 1] == Approx(uv[2 * q + 1]).margin(1e-13));
-    CHECK(db[4 * q + 2] == Approx(uv_db[4 * q]).margin(1e-13));
-    CHECK(db[4 * q + 3] == Approx(uv_db[4 * q + 1]).margin(1e-13));
-    CHECK(db[4 * q] + db[4 * q + 2] == Approx(-uv_db[4 * q + 2]).margin(1e-13));  // db2 = -db0 - db1
+  for (const Scene& s : {two_triangles(), near_plane()}) {
+    std::vector<double> rast(4 * W * H), db(4 * W * H);
+    raster::barycentric_gbuffer_forward(s.params(), s.tri_id.data(), 0, rast.data(), db.data());
+    auto ray = [&](int tri, double px, double py) {
+      return testing::pixel_ray(s.clip, s.tris, tri, testing::ndc_x(px, W), testing::ndc_y(py, H));
+    };
+    int covered = 0;
+    for (int q = 0; q < W * H; ++q) {
+      REQUIRE(rast[4 * q + 3] == s.tri_id[q]);
+      if (s.tri_id[q] == 0) continue;
+      ++covered;
+      const int tri = s.tri_id[q] - 1;
+      const double x = q % W + 0.5, y = q / W + 0.5, h = 1e-4;
+      const testing::PixelRay r = ray(tri, x, y);
+      CHECK(rast[4 * q] == Approx(r.b[0]).margin(1e-12));
+      CHECK(rast[4 * q + 1] == Approx(r.b[1]).margin(1e-12));
+      CHECK(rast[4 * q + 2] == Approx(r.zw).margin(1e-12));
+      for (int k = 0; k < 2; ++k) {
+        CHECK(db[4 * q + 2 * k] == Approx((ray(tri, x + h, y).b[k] - ray(tri, x - h, y).b[k]) / (2 * h)).margin(1e-7));
+        CHECK(db[4 * q + 2 * k + 1] ==
+              Approx((ray(tri, x, y + h).b[k] - ray(tri, x, y - h).b[k]) / (2 * h)).margin(1e-7));
+      }
+    }
+    CHECK(covered > 20);
   }
-  CHECK(covered > 50);
 }
 
 TEST_CASE("barycentric gbuffer: the adjoint equals central differences, also across the near plane",

@@ -90,7 +90,7 @@ inline RenderFn standard_render(Tensor triangles, int W, int H, std::function<Te
   return [=](const std::vector<Tensor>& in) {
     const Tensor clip = transform_points(in[0], mvp(in[0].dtype()));
     const GBuffer gb = rasterize(clip, triangles, {W, H});
-    Tensor img = interpolate(in[1], clip, gb, triangles) + 0.05 * reshape(gb.depth, {H, W, 1});
+    Tensor img = interpolate(in[1], gb, triangles) + 0.05 * reshape(gb.depth, {H, W, 1});
     if (aa) img = antialias(img, gb, clip, triangles);
     return Render{img, gb.tri_id};
   };
@@ -381,8 +381,8 @@ inline Case shading_case(const std::string& name, int s_channels, const std::vec
   c.render = [=](const std::vector<Tensor>& in) {
     const Tensor clip = transform_points(in[0], perspective(fov, 1.0, 0.1, 100.0, ClipSpace::OpenGL, in[0].dtype()));
     const GBuffer gb = rasterize(clip, triangles, {W, H});
-    const Tensor col = interpolate(in[1], clip, gb, triangles);
-    const Tensor sv = interpolate(in[2], clip, gb, triangles);
+    const Tensor col = interpolate(in[1], gb, triangles);
+    const Tensor sv = interpolate(in[2], gb, triangles);
     return Render{shade(col, sv), gb.tri_id};
   };
   c.check({0}, 1e-6);
@@ -431,8 +431,8 @@ inline Case division_case(double delta) {
     const GBuffer gb = rasterize(clip, triangles, {W, H});
     InterpolateOptions o;
     o.background = Tensor::ones({1}, in[0].dtype());  // no 0 denominators on background
-    const Tensor d = interpolate(in[2], clip, gb, triangles, o);
-    const Tensor col = interpolate(in[1], clip, gb, triangles);
+    const Tensor d = interpolate(in[2], gb, triangles, o);
+    const Tensor col = interpolate(in[1], gb, triangles);
     return Render{col * 1e-3 / d, gb.tri_id};
   };
   c.check({0}, 1e-6, 1e-4, 0);

@@ -143,18 +143,20 @@ Hashes run_pipeline(PipelineScene& s) {
   const Tensor view = look_at(s.eye, vec3(0, 0, 0, dt), vec3(0, 1, 0, dt));
   const Tensor mvp = matmul(perspective(s.fov, double(s.width) / s.height, 0.5, 10.0), matmul(view, model));
   const Tensor clip = transform_points(s.positions, mvp);
-  const GBuffer gb = rasterize(clip, s.triangles, {s.width, s.height});
+  RasterizeOptions raster{s.width, s.height};
+  raster.derivatives = true;
+  const GBuffer gb = rasterize(clip, s.triangles, raster);
 
   // Trilinear texture with the analytic uv derivatives, times vertex colours.
-  const InterpolatedWithDerivatives uv = interpolate_with_derivatives(s.uvs, clip, gb, s.triangles);
+  const InterpolatedWithDerivatives uv = interpolate_with_derivatives(s.uvs, gb, s.triangles);
   TextureOptions topt;
   topt.filter = Filter::Trilinear;
   const Tensor texel = texture(s.texture, uv.values, topt, uv.d_dx, uv.d_dy);
-  const Tensor albedo = interpolate(s.colours, clip, gb, s.triangles) * texel;
+  const Tensor albedo = interpolate(s.colours, gb, s.triangles) * texel;
 
   // Blinn-Phong in model space.
-  const Tensor n = normalize(interpolate(s.normals, clip, gb, s.triangles));
-  const Tensor p = interpolate(s.positions, clip, gb, s.triangles);
+  const Tensor n = normalize(interpolate(s.normals, gb, s.triangles));
+  const Tensor p = interpolate(s.positions, gb, s.triangles);
   const Tensor light = normalize(vec3(0.5, 0.8, 1.0, dt));
   const Tensor v = normalize(s.eye - p);
   const Tensor h = normalize(light + v);
@@ -236,8 +238,12 @@ Hashes run_ssr(SsrSceneTensors& s) {
   backward(mean(c.image * s.weights));
   CHECK(covered(g.mask) > s.width * s.height / 3);
   CHECK(t.stats.hits > 1000);
-  for (Tensor* leaf : {&s.positions, &s.colours, &s.reflectivity, &s.fade.edge_exponent, &s.fade.fade_distance})
+  for (Tensor* leaf : {&s.colours, &s.reflectivity, &s.fade.edge_exponent, &s.fade.fade_distance})
     CHECK(nonzero_grad(*leaf));
+  // Each object has one colour: the interpolated colour does not depend on the
+  // barycentrics, and the trace is a constant for the tape, so the positions
+  // get an exact zero (no antialias here to give the silhouettes a gradient).
+  CHECK(!nonzero_grad(s.positions));
   return {{"position", fnv1a(g.position)},
           {"normal", fnv1a(g.normal)},
           {"colour", fnv1a(g.colour)},
