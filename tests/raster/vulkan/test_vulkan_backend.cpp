@@ -46,7 +46,7 @@ TEST_CASE("rasterize on a Vulkan backend gives the CPU op's G-buffer and gradien
     Tensor positions = mesh.positions.copy().set_requires_grad();
     const Tensor clip = transform_points(positions, mvp);
     gbs[run] = rasterize(clip, mesh.triangles, run == 0 ? RasterizeOptions{96, 80} : gpu);
-    const Tensor image = antialias(interpolate(colours, clip, gbs[run], mesh.triangles), gbs[run], clip, mesh.triangles);
+    const Tensor image = antialias(interpolate(colours, gbs[run], mesh.triangles), gbs[run], clip, mesh.triangles);
     backward(sum(pow(image, 2.0)));
     grads[run] = positions.grad();
   }
