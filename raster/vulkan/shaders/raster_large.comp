@@ -4,10 +4,9 @@
 // so a huge triangle spreads over many invocations and a modest one takes a
 // few. An invocation finds its triangle by a binary search of the entries'
 // first chunks, then sets it up itself (the setup is small next to a chunk).
+#include "dispatch.glsl"
 #include "raster_common.glsl"
 #include "raster_pixels.glsl"
-
-layout(local_size_x = 256) in;
 
 void main() {
   uint entries = uint(large_counter >> 32), chunks = uint(large_counter & 0xffffffffu);
