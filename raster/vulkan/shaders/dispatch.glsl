@@ -2,11 +2,10 @@
 // WORKGROUP_SIZE per workgroup (256 unless the shader defines it first; the
 // host passes the same), in rows of at most 65535 workgroups stacked in y,
 // since one dimension holds at most 65535 (Vulkan's guaranteed minimum).
-// Every shader includes this first: it declares the workgroup size itself, so
-// nothing can read the size before it is declared. (linear_id used to read
-// gl_WorkGroupSize from a shared file included above each shader's layout
-// line; glslang silently took the default size 1 there, so every row after the
-// first repeated the first row's items and skipped its own, beyond 2^24 items.)
+// Every shader includes this first: it declares the workgroup size itself, and
+// the index does not read gl_WorkGroupSize, which glslang silently takes as 1
+// above the shader's layout line (the cause of issue 33's wrong results beyond
+// 2^24 items: the second row took items 65535 + x, not 65535 x 256 + x).
 #ifndef WORKGROUP_SIZE
 #define WORKGROUP_SIZE 256
 #endif

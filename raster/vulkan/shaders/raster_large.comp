@@ -10,7 +10,7 @@
 
 void main() {
   uint entries = uint(large_counter >> 32), chunks = uint(large_counter & 0xffffffffu);
-  uint stride = gl_NumWorkGroups.x * gl_WorkGroupSize.x;
+  uint stride = gl_NumWorkGroups.x * uint(WORKGROUP_SIZE);
   for (uint g = gl_GlobalInvocationID.x; g < chunks; g += stride) {
     // The last entry whose first chunk is <= g.
     uint lo = 0u, hi = entries - 1u;
