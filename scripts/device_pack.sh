@@ -4,21 +4,21 @@
 # build of gradraster-fit, bench_gpu_rasterize, bench_gpu_texture and the [vulkan] tests, the
 # shared libraries they load (TBB, Google Benchmark, tinyobjloader, stb, the
 # Vulkan loader) and the glmark2 bunny; and into .gl/ Debian's Vulkan loader
-# and glvnd packages. Run it with `carry: [".devcarry", ".gl"]`. Usage: scripts/device_pack.sh [build dir]
+# and glvnd packages (both git-ignored). Run it with `carry: [".devcarry", ".gl"]`. Usage: scripts/device_pack.sh [build dir]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=${1:-/tmp/gradraster-devbuild}
 cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release -DGRADRASTER_NATIVE=OFF -DCMAKE_CXX_FLAGS=-march=x86-64-v3 \
-  -DGRADRASTER_WITH_PYTHON=OFF -DGRADRASTER_WITH_MPI=OFF -DGRADRASTER_BUILD_TESTS=OFF > /dev/null
-cmake --build "$build" -j "$(nproc)" --target gradraster-fit bench_gpu_rasterize bench_gpu_texture
-# The [vulkan] Catch2 cases alone (the full test binary is not needed there).
-g++ -std=c++17 -O2 -march=x86-64-v3 -ffp-contract=off -I. -Itests tests/main.cpp tests/raster/vulkan/*.cpp \
-  "$build"/libgradraster_vulkan.a "$build"/libgradraster_raster.a "$build"/libgradraster_base.a \
-  -ltbb -lvulkan -ltinyobjloader -lstb -o "$build/vulkan_tests"
+  -DGRADRASTER_WITH_PYTHON=OFF -DGRADRASTER_WITH_MPI=OFF -DGRADRASTER_BUILD_TESTS=ON > /dev/null
+# gradraster_vulkan_tests: the [vulkan] Catch2 cases alone (tests/CMakeLists.txt;
+# the full test binary is not needed there), linked as the test binary is.
+cmake --build "$build" -j "$(nproc)" --target gradraster-fit bench_gpu_rasterize bench_gpu_texture \
+  gradraster_vulkan_tests
 rm -rf .devcarry
 mkdir -p .devcarry/build/examples/fit .devcarry/build/bench .devcarry/lib
 cp "$build/examples/fit/gradraster-fit" .devcarry/build/examples/fit/
-cp "$build/bench/bench_gpu_rasterize" "$build/bench/bench_gpu_texture" "$build/vulkan_tests" .devcarry/build/bench/
+cp "$build/bench/bench_gpu_rasterize" "$build/bench/bench_gpu_texture" .devcarry/build/bench/
+cp "$build/tests/gradraster_vulkan_tests" .devcarry/build/bench/vulkan_tests
 for lib in libtbb.so.12 libbenchmark.so.1debian libtinyobjloader.so.2rc10 libstb.so.0 libvulkan.so.1; do
   cp -L "/lib/x86_64-linux-gnu/$lib" .devcarry/lib/
 done
@@ -29,5 +29,4 @@ rm -rf .gl && mkdir -p .gl /tmp/amd64/partial
 apt_amd64=(-oAPT::Architecture=amd64 -oAPT::Architectures=amd64 -oDir::State::Lists=/tmp/amd64)
 apt-get "${apt_amd64[@]}" update > /dev/null
 (cd .gl && apt-get "${apt_amd64[@]}" download libvulkan1 libegl1 libglvnd0 libopengl0 libgl1 libglx0 libgles2)
-for d in /.devcarry/ /.gl/; do grep -qx "$d" .git/info/exclude 2>/dev/null || echo "$d" >> .git/info/exclude; done
 du -sh .devcarry

@@ -1,6 +1,7 @@
 // The device's compiled kernels and the recording helpers (internal/kernels.h).
 #include "raster/vulkan/internal/kernels.h"
 
+#include <limits>
 #include <memory>
 #include <string>
 
@@ -57,6 +58,8 @@ void barrier(VkCommandBuffer cb) {
 
 void dispatch(VkCommandBuffer cb, const Kernels& k, VkPipeline pipeline, const void* push, std::int64_t items,
               std::uint32_t local) {
+  if (items > std::numeric_limits<std::int32_t>::max())
+    throw Error("vulkan: " + std::to_string(items) + " items in one dispatch; the shaders index with 32-bit ints");
   const std::int64_t groups = (items + local - 1) / local;
   if (groups <= 0) return;
   vkCmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);

@@ -62,10 +62,8 @@ Buffers& buffers_of(Device::Impl& dev) {
   return *static_cast<Buffers*>(dev.texture_buffers.get());
 }
 
-// Invocations of one dispatch row (dispatch_row), and the largest index the
-// shaders take: a strided 32-bit index stays below 2^31.
-constexpr std::int64_t kRow = std::int64_t(65535) * 256;
-constexpr std::int64_t kMaxIndex = std::numeric_limits<std::int32_t>::max() - kRow;
+// The largest index the shaders take (32-bit ints).
+constexpr std::int64_t kMaxIndex = std::numeric_limits<std::int32_t>::max();
 
 // Levels the filter reads: the layout's for the mipmapped filters, else level 0.
 int levels_read(const raster::TextureParams<float>& p) { return raster::mipmapped(p.filter) ? p.layout.count() : 1; }
@@ -167,17 +165,6 @@ TexturePush push_of(const raster::TextureParams<float>& p) {
           static_cast<std::int32_t>(4 * p.num_samples)};
 }
 
-// `pipeline` over `items` (samples, values or texels) in one row of at most
-// 65535 workgroups, each invocation striding over the rest (so what an
-// invocation sets up once, e.g. the fixed-point scale, serves many items).
-// Not dispatch()'s second row of workgroups beyond 2^24 items: on lavapipe
-// (Mesa 22.3.6) the adjoint's fixed-point sums came out wrong with one (a
-// 2048 x 2048 x 3 texture's, and the interpolate adjoint's at 4096 x 4096,
-// right at 4095 x 4096), though every item ran exactly once; cause not found.
-void dispatch_row(VkCommandBuffer cb, const Kernels& k, VkPipeline pipeline, const void* push, std::int64_t items) {
-  dispatch(cb, k, pipeline, push, std::min(items, kRow), 256);
-}
-
 // dst[0, n) += src[0, n) when dst is given (the adjoint accumulates, as on the CPU).
 void add_to(float* dst, const float* src, std::int64_t n) {
   if (dst)
@@ -208,7 +195,7 @@ GpuTimes texture_forward(Device& device, const raster::TextureParams<float>& p, 
     barrier(cb);
     b.timestamps.stamp(cb, 1);
     b.use(cb, set);
-    dispatch_row(cb, b.k, b.k.texture_forward, &push, p.num_samples);
+    dispatch(cb, b.k, b.k.texture_forward, &push, p.num_samples, 256);
     barrier(cb);
     b.timestamps.stamp(cb, 2);
     copy(cb, b[kValues].handle(), 0, b.download.handle(), 0, out_bytes);
@@ -273,12 +260,12 @@ GpuTimes texture_backward(Device& device, const raster::TextureParams<float>& p,
     barrier(cb);
     b.timestamps.stamp(cb, 1);
     b.use(cb, set);
-    dispatch_row(cb, b.k, b.k.texture_backward, &push, S);  // pass 0
+    dispatch(cb, b.k, b.k.texture_backward, &push, S, 256);  // pass 0
     barrier(cb);
     b.timestamps.stamp(cb, 2);
     if (texels) {
       push.pass = 1;
-      dispatch_row(cb, b.k, b.k.texture_backward, &push, S);
+      dispatch(cb, b.k, b.k.texture_backward, &push, S, 256);
       barrier(cb);
     }
     b.timestamps.stamp(cb, 3);
@@ -287,17 +274,17 @@ GpuTimes texture_backward(Device& device, const raster::TextureParams<float>& p,
       if (p.user_pyramid || L == 1) {  // every level keeps its own gradient
         finish.mode = 2;
         finish.count = static_cast<std::int32_t>(converted);
-        dispatch_row(cb, b.k, b.k.texture_finish, &finish, converted);
+        dispatch(cb, b.k, b.k.texture_finish, &finish, converted, 256);
       } else {  // the coarsest level to double, then down the pyramid to level 0's floats
         const raster::MipLevel& top = p.layout.levels[L - 1];
         finish.first = static_cast<std::int32_t>(top.offset * C);
-        dispatch_row(cb, b.k, b.k.texture_finish, &finish, values - finish.first);
+        dispatch(cb, b.k, b.k.texture_finish, &finish, values - finish.first, 256);
         barrier(cb);
         finish.mode = 1;
         for (std::int32_t l = static_cast<std::int32_t>(L) - 1; l >= 1; --l) {
           finish.level = l;
-          dispatch_row(cb, b.k, b.k.texture_finish, &finish,
-                       std::int64_t(p.layout.levels[l].height) * p.layout.levels[l].width);
+          dispatch(cb, b.k, b.k.texture_finish, &finish,
+                   std::int64_t(p.layout.levels[l].height) * p.layout.levels[l].width, 256);
           barrier(cb);
         }
       }

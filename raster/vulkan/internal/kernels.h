@@ -36,7 +36,9 @@ Kernels& kernels_of(Device::Impl& dev);
 void barrier(VkCommandBuffer cb);
 
 // Binds `pipeline`, pushes `push` (kPushBytes) and dispatches one invocation
-// per item, `local` per workgroup, in rows of at most 65535 workgroups.
+// per item (at most 2^31 - 1), `local` per workgroup (the shader's
+// WORKGROUP_SIZE), in rows of at most 65535 workgroups: the scheme of
+// shaders/dispatch.glsl, whose linear_id() gives each invocation its item.
 void dispatch(VkCommandBuffer cb, const Kernels& k, VkPipeline pipeline, const void* push, std::int64_t items,
               std::uint32_t local);
 

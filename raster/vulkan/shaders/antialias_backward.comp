@@ -8,10 +8,10 @@
 //   dL/dt = g[target] . (image[inside] - image[outside])
 //   t = E_i / (E_i - E_o): dt/dE_i = -E_o / D^2, dt/dE_o = E_i / D^2
 //   dE/dax = qy - by, dE/day = bx - qx, dE/dbx = ay - qy, dE/dby = qx - ax.
+#include "dispatch.glsl"
 #include "antialias_common.glsl"
 #include "fixed_point.glsl"
 
-layout(local_size_x = 256) in;
 layout(std430, binding = 3) readonly buffer GradOutBuf { float grad_out[]; };
 layout(std430, binding = 4) writeonly buffer GradImageBuf { float grad_image[]; };
 // Fixed-point sums of dL/dscreen: N x 2.

@@ -3,10 +3,10 @@
 // dL/dclip (screen_to_clip_backward, raster/project.cpp), with g = (W/2 gsx,
 // -H/2 gsy): dL/dx = gx / w, dL/dy = gy / w, dL/dw = -(gx x + gy y) / w^2;
 // with y_up the y gradient is negated back.
+#include "dispatch.glsl"
 #include "antialias_common.glsl"
 #include "fixed_point.glsl"
 
-layout(local_size_x = 256) in;
 layout(std430, binding = 5) readonly buffer SumBuf { int64_t sums[]; };
 layout(std430, binding = 9) writeonly buffer GradClipBuf { float grad_clip[]; };
 

@@ -3,9 +3,9 @@
 // in pair order (apply_blend, raster/surface_walk.h):
 //   out[target] += w (image[source] - image[target]),  w = |t - 1/2|.
 // Each pixel gathers its own value: no two invocations write one pixel.
+#include "dispatch.glsl"
 #include "antialias_common.glsl"
 
-layout(local_size_x = 256) in;
 layout(std430, binding = 7) readonly buffer PairBuf { Pair pairs[]; };
 layout(std430, binding = 9) writeonly buffer OutBuf { float out_image[]; };
 

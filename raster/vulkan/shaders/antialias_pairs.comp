@@ -4,9 +4,9 @@
 // the triangle ids differ, walk from the front triangle's centre towards the
 // other centre across interior edges (walk_surface, raster/surface_walk.cpp);
 // a silhouette crossed before it, owned by the pair's axis, blends.
+#include "dispatch.glsl"
 #include "antialias_common.glsl"
 
-layout(local_size_x = 256) in;
 layout(std430, binding = 1) readonly buffer TriBuf { int tris[]; };
 layout(std430, binding = 3) readonly buffer TriIdBuf { int tri_id[]; };
 layout(std430, binding = 4) readonly buffer DepthBuf { float depth[]; };

@@ -6,12 +6,6 @@
 // - finiteness and signed zeros are decided on the bits, not with isinf/isnan
 //   (which a driver may assume away).
 
-// The invocation's index over a dispatch that may be 2-D (x up to 65535
-// workgroups, rows of those in y) for sizes beyond one dimension's limit.
-int linear_id() {
-  return int(gl_GlobalInvocationID.x + gl_GlobalInvocationID.y * gl_NumWorkGroups.x * gl_WorkGroupSize.x);
-}
-
 bool finite_bits(double x) { return (unpackDouble2x32(x).y & 0x7ff00000u) != 0x7ff00000u; }
 
 // a / b rounded to nearest: one Newton step on the reciprocal, then

@@ -2,6 +2,7 @@
 // Per element: a fixed-point sum back to float, sum / 2^S (fixed_point.glsl).
 // Elements [0, split) use largest[0]'s scale, the rest largest[1]'s.
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
+#include "dispatch.glsl"
 #include "fixed_point.glsl"
 
 layout(push_constant) uniform Params {
@@ -9,12 +10,11 @@ layout(push_constant) uniform Params {
   int split;   // first element of the second tensor
   int pixels;  // contributions per element at most
 } P;
-layout(local_size_x = 256) in;
 layout(std430, binding = 7) readonly buffer SumBuf { int64_t sums[]; };
 layout(std430, binding = 9) writeonly buffer OutBuf { float values[]; };
 
 void main() {
-  int i = int(gl_GlobalInvocationID.x + gl_GlobalInvocationID.y * gl_NumWorkGroups.x * gl_WorkGroupSize.x);
+  int i = linear_id();
   if (i >= P.count) return;
   values[i] = float(from_fixed(sums[i], fixed_point_shift(i < P.split ? 0 : 1, P.pixels)));
 }

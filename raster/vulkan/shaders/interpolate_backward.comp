@@ -4,10 +4,10 @@
 // the pixel's own entries; dL/dattr (N x C) and dL/dclip (N x 4) are sums over
 // pixels, taken in fixed point (fixed_point.glsl): pass 0 finds the largest
 // contribution per tensor, pass 1 adds them up.
+#include "dispatch.glsl"
 #include "interpolate_common.glsl"
 #include "fixed_point.glsl"
 
-layout(local_size_x = 256) in;
 layout(std430, binding = 5) readonly buffer GradOutBuf { float grad_out[]; };
 layout(std430, binding = 6) writeonly buffer GradUvBuf { float grad_uv[]; };
 // Fixed-point sums: N x C for attr, then N x 4 for clip.

@@ -1,9 +1,9 @@
 #version 460
 // Per pixel: the attributes interpolated over its triangle (interpolate_forward,
 // image form); background pixels get zeros.
+#include "dispatch.glsl"
 #include "interpolate_common.glsl"
 
-layout(local_size_x = 256) in;
 layout(std430, binding = 5) writeonly buffer OutBuf { float out_values[]; };
 
 void main() {

@@ -1,9 +1,8 @@
 #version 460
 // Per vertex: screen position, z_ndc, in-front flag and frustum outcode
 // (project_vertices_into in raster/rasterize_setup.cpp).
+#include "dispatch.glsl"
 #include "raster_common.glsl"
-
-layout(local_size_x = 256) in;
 
 void main() {
   int i = linear_id();

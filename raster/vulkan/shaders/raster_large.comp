@@ -4,14 +4,13 @@
 // so a huge triangle spreads over many invocations and a modest one takes a
 // few. An invocation finds its triangle by a binary search of the entries'
 // first chunks, then sets it up itself (the setup is small next to a chunk).
+#include "dispatch.glsl"
 #include "raster_common.glsl"
 #include "raster_pixels.glsl"
 
-layout(local_size_x = 256) in;
-
 void main() {
   uint entries = uint(large_counter >> 32), chunks = uint(large_counter & 0xffffffffu);
-  uint stride = gl_NumWorkGroups.x * gl_WorkGroupSize.x;
+  uint stride = gl_NumWorkGroups.x * uint(WORKGROUP_SIZE);
   for (uint g = gl_GlobalInvocationID.x; g < chunks; g += stride) {
     // The last entry whose first chunk is <= g.
     uint lo = 0u, hi = entries - 1u;

@@ -1,10 +1,11 @@
 #version 460
 // One thread per triangle: classify, and scan the box when it is small; a
 // larger box is listed (pass 0) for raster_large.comp, in chunks.
+#define WORKGROUP_SIZE 64
+#include "dispatch.glsl"
 #include "raster_common.glsl"
 #include "raster_pixels.glsl"
 
-layout(local_size_x = 64) in;
 layout(constant_id = 0) const int kMaxSmallBox = 64;
 
 void main() {

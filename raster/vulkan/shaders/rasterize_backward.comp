@@ -5,10 +5,10 @@
 // point (fixed_point.glsl): tensor 0 the screen gradients (x, y, z_ndc) of
 // triangles in front of the near plane, tensor 1 the clip gradients of the
 // homogeneous form. Pass 0 finds the largest contributions, pass 1 adds.
+#include "dispatch.glsl"
 #include "raster_common.glsl"
 #include "fixed_point.glsl"
 
-layout(local_size_x = 256) in;
 layout(std430, binding = 3) readonly buffer TriIdBuf { int tri_id[]; };
 layout(std430, binding = 4) readonly buffer GradUvBuf { float grad_uv[]; };
 layout(std430, binding = 5) readonly buffer GradDepthBuf { float grad_depth[]; };

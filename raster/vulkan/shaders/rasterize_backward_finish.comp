@@ -4,10 +4,10 @@
 // (screen_to_clip_backward: g_ndc = (W/2 g_xs, -H/2 g_ys, g_z),
 // dL/d(x, y, z) = g_ndc / w, dL/dw = -(g_ndc . (x, y, z)) / w^2), plus the
 // clip part; y negated back with y_up; clamped to float's finite range.
+#include "dispatch.glsl"
 #include "raster_common.glsl"
 #include "fixed_point.glsl"
 
-layout(local_size_x = 256) in;
 layout(std430, binding = 7) readonly buffer SumBuf { int64_t sums[]; };
 layout(std430, binding = 9) writeonly buffer OutBuf { float grad_clip[]; };
 

@@ -2,9 +2,9 @@
 // Per pixel: the winning triangle's (u, v, depth) in the CPU layout
 // (raster/rasterize.h): tri_id 1-based, (u, v) the screen weights of vertices
 // 1 and 2, depth z_ndc; background: 0, (0, 0), 1.
+#include "dispatch.glsl"
 #include "raster_common.glsl"
 
-layout(local_size_x = 256) in;
 layout(std430, binding = 4) readonly buffer IdBuf { int ids[]; };
 layout(std430, binding = 6) writeonly buffer TriIdOut { int tri_id[]; };
 layout(std430, binding = 7) writeonly buffer UvOut { float uv[]; };

@@ -5,10 +5,10 @@
 // d bias) and notes the largest texel contribution; pass 1 adds every
 // contribution w_t g to its texel value in fixed point (fixed_point.glsl), so
 // the sums do not depend on the order of arrival.
+#include "dispatch.glsl"
 #include "texture_common.glsl"
 #include "fixed_point.glsl"
 
-layout(local_size_x = 256) in;
 layout(std430, binding = 6) readonly buffer GradOutBuf { float grad_out[]; };
 // Fixed-point sums: every level's texel values (level l from level_of[l].z * C).
 layout(std430, binding = 7) buffer SumBuf { int64_t sums[]; };
@@ -84,10 +84,8 @@ void lookup(int s, int shift) {
   }
 }
 
-// One row of at most 65535 workgroups, striding over the samples (texture.cpp).
 void main() {
-  int stride = int(gl_NumWorkGroups.x * gl_WorkGroupSize.x);
-  int shift = P.pass == 0 ? 0 : fixed_point_shift(0, P.contributions);
-  for (int s = int(gl_GlobalInvocationID.x); s < P.num_samples; s += stride) lookup(s, shift);
+  int s = linear_id();
+  if (s < P.num_samples) lookup(s, P.pass == 0 ? 0 : fixed_point_shift(0, P.contributions));
   if (P.pass == 0) publish_magnitudes();
 }

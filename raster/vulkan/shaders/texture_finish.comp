@@ -10,6 +10,7 @@
 //           bits, or for level 0 rounded to float into binding 9;
 //   mode 2: values [0, count) straight to float (no box filter).
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
+#include "dispatch.glsl"
 #include "fixed_point.glsl"
 
 layout(push_constant) uniform Params {
@@ -20,7 +21,6 @@ layout(push_constant) uniform Params {
   int contributions;  // contributions per value at most (fixed_point_shift)
   int first;          // mode 0: the first value converted
 } P;
-layout(local_size_x = 256) in;
 layout(std430, binding = 1) readonly buffer LevelBuf { ivec4 level_of[]; };
 layout(std430, binding = 7) buffer SumBuf { int64_t sums[]; };
 layout(std430, binding = 9) writeonly buffer OutBuf { float values[]; };
@@ -64,19 +64,19 @@ void to_parents(int texel, double scale) {
   }
 }
 
-// A 1-D dispatch of at most 65535 workgroups, each invocation taking every
-// stride-th item (texture.cpp's dispatch_row): values (modes 0, 2) or child texels (mode 1).
+// One invocation per item: a value (modes 0, 2) or a child texel (mode 1).
 void main() {
-  int stride = int(gl_NumWorkGroups.x * gl_WorkGroupSize.x);
-  int first = int(gl_GlobalInvocationID.x);
+  int k = linear_id();
+  int items = P.mode == 0 ? P.count - P.first : P.mode == 2 ? P.count : level_of[P.level].x * level_of[P.level].y;
+  if (k >= items) return;
   // from_fixed's ldexp as one multiplication by 2^-S (a normal double: |S| <= 1000), exact.
   double scale = ldexp(1.0, -fixed_point_shift(0, P.contributions));
   if (P.mode == 0) {
-    for (int i = P.first + first; i < P.count; i += stride) sums[i] = bits_of_double(double(sums[i]) * scale);
+    int i = P.first + k;
+    sums[i] = bits_of_double(double(sums[i]) * scale);
   } else if (P.mode == 2) {
-    for (int i = first; i < P.count; i += stride) values[i] = float(double(sums[i]) * scale);
+    values[k] = float(double(sums[k]) * scale);
   } else {
-    int children = level_of[P.level].x * level_of[P.level].y;
-    for (int t = first; t < children; t += stride) to_parents(t, scale);
+    to_parents(k, scale);
   }
 }

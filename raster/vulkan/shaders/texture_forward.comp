@@ -1,9 +1,9 @@
 #version 460
 // Per sample: out = sum_t w_t texel_t over its taps, summed in double in tap
 // order and rounded once (texture_forward in raster/texture.cpp).
+#include "dispatch.glsl"
 #include "texture_common.glsl"
 
-layout(local_size_x = 256) in;
 layout(std430, binding = 6) writeonly buffer OutBuf { float out_values[]; };
 
 void lookup(int s) {
@@ -17,8 +17,7 @@ void lookup(int s) {
   }
 }
 
-// One row of at most 65535 workgroups, striding over the samples (texture.cpp).
 void main() {
-  int stride = int(gl_NumWorkGroups.x * gl_WorkGroupSize.x);
-  for (int s = int(gl_GlobalInvocationID.x); s < P.num_samples; s += stride) lookup(s);
+  int s = linear_id();
+  if (s < P.num_samples) lookup(s);
 }

@@ -1,0 +1,142 @@
+// Every per-pixel GPU pass beyond 2^24 pixels, where dispatch() stacks a
+// second row of workgroups (65535 x 256 invocations per row), against the CPU
+// kernels on a 4111 x 4100 image: the G-buffer bit for bit, interpolate and
+// antialias values within 1e-6, every adjoint's gradients within 1e-5 of the
+// largest. The scene covers the first and the last rows of pixels (a far
+// quad over the whole view behind a soup crossing the near plane). Before
+// shaders/dispatch.glsl, the second row's invocations took items 65535 +
+// their x index: most pixels ran twice (the fixed-point sums came out wrong)
+// and those from 65535 x 257 on (the last 12,605 here) never ran. On
+// lavapipe (2 cores) this takes about a minute and 3 GB.
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <cstring>
+#include <vector>
+
+#include "raster/antialias.h"
+#include "raster/interpolate.h"
+#include "raster/rasterize.h"
+#include "raster/vulkan/frame.h"
+#include "raster/vulkan/scenes.h"
+
+using namespace gr;
+using namespace gr::raster;
+using namespace gr::testing;
+
+namespace {
+
+constexpr int kWidth = 4111, kHeight = 4100;
+constexpr std::int64_t kPixels = std::int64_t(kWidth) * kHeight;
+static_assert(kPixels > std::int64_t(65535) * 256, "one row of workgroups would do");
+
+// A random soup in front of a quad over the whole view (at depth 0.9).
+Scene soup_before_a_far_quad() {
+  Scene s = random_soup(40, 7);
+  const std::int32_t q = static_cast<std::int32_t>(s.clip.size() / 4);
+  for (float y : {-1.5f, 1.5f})
+    for (float x : {-1.5f, 1.5f}) s.clip.insert(s.clip.end(), {x, y, 0.9f, 1.0f});
+  s.tris.insert(s.tris.end(), {q, q + 1, q + 3, q, q + 3, q + 2});
+  return s;
+}
+
+template <class T>
+std::int64_t differing(const std::vector<T>& a, const std::vector<T>& b) {
+  std::int64_t n = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) n += std::memcmp(&a[i], &b[i], sizeof(T)) != 0;
+  return n;
+}
+
+bool any_nonzero(const std::vector<float>& v) {
+  return std::any_of(v.begin(), v.end(), [](float x) { return x != 0.0f; });
+}
+
+}  // namespace
+
+TEST_CASE("every GPU pass beyond 2^24 pixels (two rows of workgroups) matches the CPU kernels", "[vulkan][large]") {
+  if (!shared_gpu()) return;
+  const Scene s = soup_before_a_far_quad();
+  const RasterParams<float> params = s.params(kWidth, kHeight);
+  const std::int64_t N = params.num_vertices;
+  vulkan::Frame frame(shared_gpu());
+
+  // Rasterize: the G-buffer bit for bit, the first and last rows covered.
+  std::vector<std::int32_t> id(kPixels);
+  std::vector<float> uv(2 * kPixels), depth(kPixels);
+  rasterize_forward(params, id.data(), uv.data(), depth.data());
+  REQUIRE(id.front() > 0);
+  REQUIRE(id.back() > 0);
+  {
+    std::vector<std::int32_t> gpu_id(kPixels, -7);
+    std::vector<float> gpu_uv(2 * kPixels, -7.f), gpu_depth(kPixels, -7.f);
+    frame.rasterize(params, {}, gpu_id.data(), gpu_uv.data(), gpu_depth.data());
+    CHECK(differing(gpu_id, id) == 0);
+    CHECK(differing(gpu_uv, uv) == 0);
+    CHECK(differing(gpu_depth, depth) == 0);
+  }
+
+  // Interpolate (one channel) and its adjoint.
+  const std::vector<float> attr = random_values(N, 1), grad_out = random_values(kPixels, 2);
+  InterpolateParams<float> ip;
+  ip.attr = attr.data();
+  ip.num_vertices = N;
+  ip.channels = 1;
+  ip.clip = s.clip.data();
+  ip.tris = s.tris.data();
+  ip.num_tris = params.num_tris;
+  ip.tri_id = id.data();
+  ip.uv = uv.data();
+  ip.width = kWidth;
+  ip.height = kHeight;
+  std::vector<float> image(kPixels);
+  std::vector<float> grad_attr(N), grad_clip(4 * N), grad_uv(2 * kPixels);
+  interpolate_forward(ip, image.data());
+  interpolate_backward(ip, grad_out.data(), InterpolateGrads<float>{grad_attr.data(), grad_clip.data(), grad_uv.data()});
+  REQUIRE(any_nonzero(grad_attr));
+  {
+    std::vector<float> out(kPixels), g_attr(N), g_clip(4 * N), g_uv(2 * kPixels);
+    frame.interpolate(attr.data(), 1, true, out.data());
+    frame.interpolate_backward(grad_out.data(), g_attr.data(), g_clip.data(), g_uv.data());
+    CHECK(relative_error(out, image) <= 1e-6);
+    CHECK(relative_error(g_attr, grad_attr) <= 1e-5);
+    CHECK(relative_error(g_clip, grad_clip) <= 1e-5);
+    CHECK(relative_error(g_uv, grad_uv) <= 1e-5);
+  }
+
+  // Antialias of the interpolated image (left on the device) and its adjoint.
+  const EdgeTopology topology = build_edge_topology(s.tris.data(), params.num_tris);
+  AntialiasParams<float> ap;
+  ap.image = image.data();
+  ap.channels = 1;
+  ap.width = kWidth;
+  ap.height = kHeight;
+  ap.tri_id = id.data();
+  ap.depth = depth.data();
+  ap.clip = s.clip.data();
+  ap.num_vertices = N;
+  ap.tris = s.tris.data();
+  ap.num_tris = params.num_tris;
+  ap.topology = &topology;
+  {
+    std::vector<float> out(kPixels), grad_image(kPixels), aa_grad_clip(4 * N);
+    std::vector<AntialiasPair> pairs;
+    antialias_forward(ap, out.data(), &pairs);
+    REQUIRE(!pairs.empty());
+    antialias_backward(ap, pairs, grad_out.data(), AntialiasGrads<float>{grad_image.data(), aa_grad_clip.data()});
+    REQUIRE(any_nonzero(aa_grad_clip));
+    std::vector<float> g_out(kPixels), g_image(kPixels), g_clip(4 * N);
+    frame.antialias(nullptr, 1, g_out.data());
+    frame.antialias_backward(grad_out.data(), g_image.data(), g_clip.data());
+    CHECK(relative_error(g_out, out) <= 1e-6);
+    CHECK(relative_error(g_image, grad_image) <= 1e-5);
+    CHECK(relative_error(g_clip, aa_grad_clip) <= 1e-5);
+  }
+
+  // Rasterize's adjoint, from the interpolate adjoint's dL/du,v and a random dL/ddepth.
+  const std::vector<float> grad_depth = random_values(kPixels, 3);
+  std::vector<float> cpu(4 * N), gpu(4 * N);
+  raster::rasterize_backward(params, id.data(), grad_uv.data(), grad_depth.data(), cpu.data());
+  REQUIRE(any_nonzero(cpu));
+  frame.rasterize_backward(grad_uv.data(), grad_depth.data(), gpu.data());
+  CHECK(relative_error(gpu, cpu) <= 1e-5);
+}
