@@ -138,49 +138,57 @@ void backward_channels(const BarycentricInterpolateParams<T>& p, const T* grad_o
                        const BarycentricInterpolateGrads<T>& grads) {
   const std::int64_t C = kC > 0 ? kC : p.channels, K = grad_da ? p.num_diff : 0;
   // Per pixel: gradients of the barycentrics and their derivatives.
-  if (grads.rast || grads.rast_db)
-    parallel_for(0, p.pixels, 2048, [&](std::int64_t lo, std::int64_t hi) {
-      for (std::int64_t q = lo; q < hi; ++q) {
-        const std::int64_t t = pixel_triangle(p, q);
-        if (t < 0) continue;
-        const std::int32_t* tri = p.tris + 3 * t;
-        const T* a[3] = {p.attr + tri[0] * C, p.attr + tri[1] * C, p.attr + tri[2] * C};
-        if (grads.rast) {
-          const T* g = grad_out + q * C;
-          double g0 = 0.0, g1 = 0.0;
-          for (std::int64_t c = 0; c < C; ++c) {
-            g0 += static_cast<double>(g[c]) * (static_cast<double>(a[0][c]) - a[2][c]);
-            g1 += static_cast<double>(g[c]) * (static_cast<double>(a[1][c]) - a[2][c]);
-          }
-          grads.rast[p.rast_stride * q] += static_cast<T>(g0);
-          grads.rast[p.rast_stride * q + 1] += static_cast<T>(g1);
-        }
-        if (grads.rast_db && K > 0) {
-          const T* h = grad_da + q * 2 * K;
-          double d[4] = {0, 0, 0, 0};
-          for (std::int64_t j = 0; j < K; ++j) {
-            const std::int32_t c = p.diff[j];
-            const double e0 = static_cast<double>(a[0][c]) - a[2][c], e1 = static_cast<double>(a[1][c]) - a[2][c];
-            d[0] += h[2 * j] * e0;
-            d[1] += h[2 * j + 1] * e0;
-            d[2] += h[2 * j] * e1;
-            d[3] += h[2 * j + 1] * e1;
-          }
-          for (int i = 0; i < 4; ++i) grads.rast_db[4 * q + i] += static_cast<T>(d[i]);
-        }
+  const bool per_pixel = grads.rast || (grads.rast_db && K > 0);
+  auto pixel_grads = [&](std::int64_t q, const std::int32_t* tri) {
+    const T* a[3] = {p.attr + tri[0] * C, p.attr + tri[1] * C, p.attr + tri[2] * C};
+    if (grads.rast) {
+      const T* g = grad_out + q * C;
+      double g0 = 0.0, g1 = 0.0;
+      for (std::int64_t c = 0; c < C; ++c) {
+        g0 += static_cast<double>(g[c]) * (static_cast<double>(a[0][c]) - a[2][c]);
+        g1 += static_cast<double>(g[c]) * (static_cast<double>(a[1][c]) - a[2][c]);
       }
-    });
-  if (!grads.attr) return;
-  // Per vertex, in pixel order: each thread owns a range of vertices.
+      grads.rast[p.rast_stride * q] += static_cast<T>(g0);
+      grads.rast[p.rast_stride * q + 1] += static_cast<T>(g1);
+    }
+    if (grads.rast_db && K > 0) {
+      const T* h = grad_da + q * 2 * K;
+      double d[4] = {0, 0, 0, 0};
+      for (std::int64_t j = 0; j < K; ++j) {
+        const std::int32_t c = p.diff[j];
+        const double e0 = static_cast<double>(a[0][c]) - a[2][c], e1 = static_cast<double>(a[1][c]) - a[2][c];
+        d[0] += h[2 * j] * e0;
+        d[1] += h[2 * j + 1] * e0;
+        d[2] += h[2 * j] * e1;
+        d[3] += h[2 * j + 1] * e1;
+      }
+      for (int i = 0; i < 4; ++i) grads.rast_db[4 * q + i] += static_cast<T>(d[i]);
+    }
+  };
+  if (!grads.attr) {
+    if (per_pixel)
+      parallel_for(0, p.pixels, 2048, [&](std::int64_t lo, std::int64_t hi) {
+        for (std::int64_t q = lo; q < hi; ++q) {
+          const std::int64_t t = pixel_triangle(p, q);
+          if (t >= 0) pixel_grads(q, p.tris + 3 * t);
+        }
+      });
+    return;
+  }
+  // Per vertex, in pixel order: each thread owns a range of vertices and walks
+  // all pixels; on the way it does the per-pixel gradients of its share of them.
   const std::int64_t N = p.num_vertices;
   const std::int64_t groups = std::max<std::int64_t>(1, std::min<std::int64_t>(num_threads(), N));
-  const std::int64_t per_group = (N + groups - 1) / groups;
+  const std::int64_t per_group = (N + groups - 1) / groups, pixels_per_group = (p.pixels + groups - 1) / groups;
   parallel_for(0, groups, 1, [&](std::int64_t g0, std::int64_t g1) {
     const std::int64_t v0 = g0 * per_group, v1 = std::min(N, g1 * per_group);
+    const std::int64_t q0 = per_pixel ? g0 * pixels_per_group : 0;
+    const std::int64_t q1 = per_pixel ? std::min(p.pixels, g1 * pixels_per_group) : 0;
     for (std::int64_t q = 0; q < p.pixels; ++q) {
       const std::int64_t t = pixel_triangle(p, q);
       if (t < 0) continue;
       const std::int32_t* tri = p.tris + 3 * t;
+      if (q >= q0 && q < q1) pixel_grads(q, tri);
       if ((tri[0] < v0 || tri[0] >= v1) && (tri[1] < v0 || tri[1] >= v1) && (tri[2] < v0 || tri[2] >= v1)) continue;
       const Weights w = pixel_weights(p, q);
       const T* g = grad_out + q * C;
