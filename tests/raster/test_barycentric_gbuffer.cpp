@@ -3,7 +3,9 @@
 // (tests/ops/pixel_ray.h), and adjoints equal to central differences of the forward.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <functional>
 #include <random>
 #include <vector>
@@ -170,4 +172,44 @@ TEST_CASE("barycentric interpolate: the adjoint to attributes, barycentrics and 
   for (int q = 0; q < W * H; ++q) rast_in[4 * q + 2] = rast[4 * q + 2], rast_in[4 * q + 3] = rast[4 * q + 3];
   CHECK(worst_gradient_error(rast_in, uv_grad, loss_rast) < 1e-8);
   CHECK(worst_gradient_error(db, g_db, loss) < 1e-8);
+}
+
+TEMPLATE_TEST_CASE("barycentric interpolate: the values without derivatives (16 pixels in vector lanes) equal the "
+                   "per-pixel blend's bit for bit",
+                   "[interpolate]", float, double) {
+  using T = TestType;
+  const Scene s = two_triangles();
+  std::vector<double> rast64(4 * W * H), db64(4 * W * H);
+  raster::barycentric_gbuffer_forward(s.params(), s.tri_id.data(), 0, rast64.data(), db64.data());
+  const std::vector<T> rast(rast64.begin(), rast64.end()), db(db64.begin(), db64.end());
+  for (int C = 1; C <= 5; ++C) {
+    const std::vector<double> a64 = random_weights(6 * static_cast<std::size_t>(C), 7 + C);
+    const std::vector<T> attr(a64.begin(), a64.end());
+    const std::vector<std::int32_t> diff = {0};
+    // A pixel count that leaves a partial batch of lanes.
+    const std::int64_t pixels = W * H - 5;
+    raster::BarycentricInterpolateParams<T> p{attr.data(), 6, C, s.tris.data(), 2, rast.data(), pixels,
+                                              db.data(), diff.data(), 1};
+    std::vector<T> lanes(C * pixels, T(-7)), per_pixel(C * pixels, T(-9)), da(2 * pixels);
+    raster::barycentric_interpolate_forward(p, lanes.data(), static_cast<T*>(nullptr));
+    raster::barycentric_interpolate_forward(p, per_pixel.data(), da.data());  // derivatives: the per-pixel loop
+    int covered = 0;
+    for (std::int64_t q = 0; q < pixels; ++q) {
+      covered += rast[4 * q + 3] != 0;
+      for (int c = 0; c < C; ++c) {
+        const std::int64_t i = q * C + c;
+        REQUIRE(std::memcmp(&lanes[i], &per_pixel[i], sizeof(T)) == 0);
+        // And the blend itself, evaluated here independently.
+        double want = 0;
+        if (rast[4 * q + 3] != 0) {
+          const std::int32_t* t = s.tris.data() + 3 * (static_cast<std::int64_t>(rast[4 * q + 3]) - 1);
+          const double b0 = rast[4 * q], b1 = rast[4 * q + 1];
+          want = b0 * attr[t[0] * C + c] + b1 * attr[t[1] * C + c] + (1 - b0 - b1) * attr[t[2] * C + c];
+        }
+        REQUIRE(std::abs(lanes[i] - want) <= 1e-6 * std::max(1.0, std::abs(want)));
+      }
+    }
+    CHECK(covered > 0);
+    CHECK(covered < pixels);
+  }
 }
