@@ -5,7 +5,8 @@
 // which refuse to hold more than the limit of the decode in progress. A refused
 // allocation makes stb fail cleanly ("outofmem"); decode_image then reports
 // it as a MemoryError. The functions are static to this file (STB_IMAGE_STATIC),
-// so they do not clash with libstb's, which still provides stb_image_write.
+// so they do not clash with libstb's (the tests and bench_png use its
+// stb_image_write; the library writes PNG with raster/png_encoder.h).
 #include "raster/image_decoder.h"
 
 #include <algorithm>
