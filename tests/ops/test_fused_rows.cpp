@@ -1,5 +1,6 @@
-// The fused row interpreter (ops/fused_rows.h) behind map_rows: every op and
-// operand form it replays gives the eager graph's values and row gradients bit
+// The fused row interpreter (ops/fused_rows.h; its compiler in
+// ops/fused_rows_compile.cpp) behind map_rows: every op and operand form it
+// replays gives the eager graph's values and row gradients bit
 // for bit, its gradients pass float64 gradchecks, and functions it cannot
 // replay still run, per block.
 #include <catch2/catch.hpp>
