@@ -70,6 +70,10 @@ pc_dir="$(dirname "$(find "$prefix" -name gradraster.pc)")"
 flags="$(PKG_CONFIG_PATH="$pc_dir" pkg-config --cflags --libs gradraster)"
 [[ "$flags" == *-ffp-contract=off* ]] || { echo "pkg-config gives no -ffp-contract=off: $flags" >&2; exit 1; }
 [[ "$flags" != *-march=* ]] || { echo "pkg-config gives a -march flag: $flags" >&2; exit 1; }
+# stb_image is compiled into the library from libstb-dev's header: no consumer links libstb.
+if [[ "$flags" == *-lstb* ]] || grep -qi "stb" "$(dirname "$pc_dir")"/cmake/gradraster/*.cmake; then
+  echo "the package asks for libstb (pkg-config: $flags)" >&2; exit 1
+fi
 # shellcheck disable=SC2086  # the flag lists are meant to split
 "${CXX:-c++}" -std=c++17 -O1 ${CONSUMER_CXXFLAGS:-} "$consumer/consumer.cc" -o "$tmp/pc-consumer" $flags
 out="$("$tmp/pc-consumer")"
