@@ -4,7 +4,7 @@
 #include <functional>
 #include <mutex>
 
-#include "autodiff/parallel.h"
+#include "autodiff/base/parallel.h"
 
 namespace gr {
 namespace {

@@ -2,7 +2,7 @@
 // empty and adding in place when dst's storage is not shared.
 #pragma once
 
-#include "autodiff/tensor.h"
+#include "autodiff/base/tensor.h"
 
 namespace gr {
 

@@ -14,7 +14,7 @@
 #include <cstddef>
 #include <vector>
 
-#include "autodiff/tensor.h"
+#include "autodiff/base/tensor.h"
 
 namespace gr {
 

@@ -171,7 +171,7 @@ void AdjointContext::add_leaf_buffers() {
   leaf_buffers_.clear();
 }
 
-// The grad() contract (autodiff/tensor.h): every input of a node the sweep ran
+// The grad() contract (autodiff/base/tensor.h): every input of a node the sweep ran
 // that requires a gradient ends up with one, zeros if the adjoint gave none
 // (e.g. a nearest-filter texture's uv). So whether a leaf has a gradient
 // depends only on whether the loss depends on it, never on which op it met.

@@ -16,7 +16,7 @@
 //
 // In-place writes: with every tensor it records (an op's inputs, outputs and
 // the index tensors its adjoint reads, such as triangles), the tape saves its
-// storage's version (autodiff/storage.h), which every call of the non-const
+// storage's version (autodiff/base/storage.h), which every call of the non-const
 // Tensor::data<T>() bumps, through any handle sharing the storage (detach()).
 // Before a node's adjoint runs, backward() checks that none of them was
 // written since, and otherwise throws TapeError naming the op and the input or
@@ -64,7 +64,7 @@
 #include <utility>
 #include <vector>
 
-#include "autodiff/tensor.h"
+#include "autodiff/base/tensor.h"
 
 namespace gr {
 

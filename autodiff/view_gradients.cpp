@@ -2,8 +2,8 @@
 
 #include <algorithm>
 
-#include "autodiff/dtype.h"
-#include "autodiff/error.h"
+#include "autodiff/base/dtype.h"
+#include "autodiff/base/error.h"
 #include "autodiff/tape.h"
 
 namespace gr {

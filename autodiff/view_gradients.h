@@ -26,8 +26,8 @@
 #include <string>
 #include <vector>
 
-#include "autodiff/error.h"
-#include "autodiff/tensor.h"
+#include "autodiff/base/error.h"
+#include "autodiff/base/tensor.h"
 
 namespace gr {
 

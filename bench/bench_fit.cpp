@@ -14,7 +14,7 @@
 
 #include <sstream>
 
-#include "autodiff/parallel.h"
+#include "autodiff/base/parallel.h"
 #include "examples/fit/fit.h"
 
 namespace {

@@ -11,7 +11,7 @@
 
 #include "fused_blinn_phong.h"
 #include "fused_textured.h"
-#include "ops/map_rows.h"
+#include "ops/tensor/map_rows.h"
 #include "roofline.h"
 
 namespace {
@@ -51,7 +51,7 @@ void BM_BlinnPhongTape(benchmark::State& state) {
   run_blinn_phong<D>(state, [](const Scene& s) { return gr::bench::blinn_phong_loss(s); });
 }
 
-// The same graph through map_rows (ops/map_rows.h) in blocks of block_rows
+// The same graph through map_rows (ops/tensor/map_rows.h) in blocks of block_rows
 // pixels, the loss's mean outside: the forward runs again in the adjoint.
 template <gr::DType D>
 void BM_BlinnPhongBlocked(benchmark::State& state) {

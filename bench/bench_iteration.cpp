@@ -3,7 +3,7 @@
 //   and normals -> Blinn-Phong -> composite over the background -> antialias
 //   -> MSE against a fixed target -> backward to positions and colours,
 // on an icosphere(5) (20480 triangles), in image mode (shading on every pixel)
-// and fragment mode (ops/fragments.h: shading on covered pixels only).
+// and fragment mode (ops/render/fragments.h: shading on covered pixels only).
 //
 // BM_IterationForward:         the recorded forward (tape cleared, no backward).
 // BM_IterationForwardBackward: forward + backward; the ratio of the two times

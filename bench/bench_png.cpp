@@ -1,6 +1,6 @@
 // PNG encoding of a fit snapshot strip (the main example's 6 views at 256 x 256:
 // 772 x 1546 RGB, target | current | difference per row): gradraster's encoder
-// (raster/png_encoder.h, zlib) against stb_image_write as Debian ships it, side
+// (raster/io/png_encoder.h, zlib) against stb_image_write as Debian ships it, side
 // by side in one run. The image: shaded spheres on a white background and a
 // near-black difference panel, as a snapshot looks.
 #include <benchmark/benchmark.h>
@@ -10,7 +10,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "raster/png_encoder.h"
+#include "raster/io/png_encoder.h"
 
 namespace {
 

@@ -20,7 +20,7 @@
 #include <vector>
 
 #include "ops/ops.h"
-#include "raster/obj_io.h"
+#include "raster/io/obj_io.h"
 #include "raster/procedural.h"
 #include "roofline.h"
 #include "mesh_framing.h"

@@ -14,7 +14,7 @@
 
 #include <functional>
 
-#include "autodiff/parallel.h"
+#include "autodiff/base/parallel.h"
 #include "ops/ops.h"
 
 namespace {

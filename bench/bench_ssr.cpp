@@ -8,9 +8,9 @@
 #include <cmath>
 
 #include "autodiff/tape.h"
-#include "ops/ssr.h"
-#include "ops/transforms.h"
-#include "raster/ssr_scene.h"
+#include "ops/render/ssr.h"
+#include "ops/render/transforms.h"
+#include "examples/common/ssr_scene.h"
 
 namespace {
 
@@ -35,7 +35,7 @@ const Fixture& fixture() {
   static const Fixture f = [] {
     NoGradGuard no_grad;
     Fixture x;
-    const raster::SsrScene s = raster::make_ssr_scene(8, 4);
+    const gr::examples::SsrScene s = gr::examples::make_ssr_scene(8, 4);
     auto v3 = [](const std::array<double, 3>& v) { return Tensor::from_values({v[0], v[1], v[2]}, {3}); };
     const Tensor view = look_at(v3(s.eye), v3(s.target), v3(s.up));
     x.proj = perspective(s.fov_y, double(kW) / kH, s.near, s.far);

@@ -5,7 +5,7 @@
 
 #include <vector>
 
-#include "autodiff/parallel.h"
+#include "autodiff/base/parallel.h"
 
 namespace {
 

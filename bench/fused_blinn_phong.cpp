@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "autodiff/parallel.h"
+#include "autodiff/base/parallel.h"
 
 namespace gr::bench {
 namespace {
@@ -24,7 +24,7 @@ Vec3<T> load(const T* p) {
 }
 
 // Dot products, lengths and the normalize adjoint's projection in Acc: T, or
-// double for float32 at the tape's precision (ops/vector.h accumulates in double).
+// double for float32 at the tape's precision (ops/tensor/vector.h accumulates in double).
 template <class Acc, class T>
 Acc dot(const Vec3<T>& a, const Vec3<T>& b) {
   return Acc(a.x) * Acc(b.x) + Acc(a.y) * Acc(b.y) + Acc(a.z) * Acc(b.z);

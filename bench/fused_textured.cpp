@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "autodiff/parallel.h"
+#include "autodiff/base/parallel.h"
 
 namespace gr::bench {
 namespace {

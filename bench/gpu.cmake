@@ -1,7 +1,8 @@
 # bench_gpu_rasterize: the Vulkan rasterizer against the CPU kernel (built with the GPU path only).
 if(TARGET gradraster_vulkan)
   add_executable(bench_gpu_rasterize ${CMAKE_CURRENT_SOURCE_DIR}/gpu_rasterize.cpp ${CMAKE_CURRENT_SOURCE_DIR}/mesh_framing.cpp)
-  target_link_libraries(bench_gpu_rasterize PRIVATE gradraster::gradraster gradraster::vulkan benchmark::benchmark)
+  target_link_libraries(bench_gpu_rasterize PRIVATE gradraster::gradraster gradraster::vulkan benchmark::benchmark
+                        gradraster_example_common)
 endif()
 # bench_gpu_texture: Vulkan texture lookups (forward, adjoint) against the CPU kernel.
 if(TARGET gradraster_vulkan)

@@ -28,9 +28,9 @@
 #include <string>
 #include <vector>
 
-#include "autodiff/parallel.h"
+#include "autodiff/base/parallel.h"
 #include "mesh_framing.h"
-#include "raster/obj_io.h"
+#include "raster/io/obj_io.h"
 #include "raster/procedural.h"
 #include "raster/antialias.h"
 #include "raster/interpolate.h"

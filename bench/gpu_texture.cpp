@@ -18,7 +18,7 @@
 #include <random>
 #include <vector>
 
-#include "autodiff/parallel.h"
+#include "autodiff/base/parallel.h"
 #include "raster/mipmap.h"
 #include "raster/texture.h"
 #include "raster/vulkan/texture.h"

@@ -20,8 +20,8 @@
 #include <unistd.h>
 #include <vector>
 
-#include "autodiff/parallel.h"
-#include "autodiff/storage.h"
+#include "autodiff/base/parallel.h"
+#include "autodiff/base/storage.h"
 #include "examples/common/cli_args.h"
 #include "examples/fit/fit.h"
 

@@ -3,7 +3,7 @@
 //   l = normalize(light - p), v = normalize(cam - p), h = normalize(l + v)
 //   colour = albedo * max(n.l, 0) + 0.5 * max(n.h, 0)^32
 //   loss = mean((colour - target)^2)
-// normalize(x) = x / max(|x|, eps) with gradraster's eps (ops/vector.h), the
+// normalize(x) = x / max(|x|, eps) with gradraster's eps (ops/tensor/vector.h), the
 // same formula as torch::nn::functional::normalize.
 #pragma once
 

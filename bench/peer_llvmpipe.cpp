@@ -22,10 +22,10 @@
 #include <string>
 #include <vector>
 
-#include "autodiff/parallel.h"
+#include "autodiff/base/parallel.h"
 #include "autodiff/tape.h"
 #include "examples/common/cli_args.h"
-#include "ops/rasterize.h"
+#include "ops/render/rasterize.h"
 #include "peer_llvmpipe_compare.h"
 #include "peer_llvmpipe_gl.h"
 #include "peer_llvmpipe_scene.h"

@@ -4,9 +4,9 @@
 #include <cmath>
 #include <fstream>
 
-#include "ops/linalg.h"
-#include "ops/transforms.h"
-#include "raster/obj_io.h"
+#include "ops/tensor/linalg.h"
+#include "ops/render/transforms.h"
+#include "raster/io/obj_io.h"
 #include "raster/procedural.h"
 #include "mesh_framing.h"
 

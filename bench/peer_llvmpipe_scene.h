@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "autodiff/tensor.h"
+#include "autodiff/base/tensor.h"
 #include "raster/mesh.h"
 
 namespace peer {

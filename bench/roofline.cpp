@@ -5,8 +5,8 @@
 #include <map>
 #include <vector>
 
-#include "autodiff/parallel.h"
-#include "autodiff/storage.h"
+#include "autodiff/base/parallel.h"
+#include "autodiff/base/storage.h"
 
 namespace gr::bench {
 namespace {

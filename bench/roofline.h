@@ -8,7 +8,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "autodiff/tensor.h"
+#include "autodiff/base/tensor.h"
 
 namespace gr::bench {
 
@@ -30,7 +30,7 @@ double bytes_of(const std::vector<Tensor>& tensors);
 double grad_bytes(const std::vector<Tensor>& tensors);
 
 // Peak tensor storage of a benchmark: construct before the loop, report()
-// after it. Counts what tensors hold at once (autodiff/storage.h's live
+// after it. Counts what tensors hold at once (autodiff/base/storage.h's live
 // bytes) above what was held at construction, plus `extra_bytes` held
 // outside tensors (the fused baseline's std::vector outputs), as "peak_MiB".
 class StoragePeak {

@@ -17,10 +17,10 @@
 #include "autodiff/tape.h"
 #include "examples/common/cli_args.h"
 #include "examples/common/plot_canvas.h"
-#include "ops/ssr.h"
-#include "ops/transforms.h"
-#include "raster/image_io.h"
-#include "raster/ssr_scene.h"
+#include "ops/render/ssr.h"
+#include "ops/render/transforms.h"
+#include "raster/io/image_io.h"
+#include "examples/common/ssr_scene.h"
 #include "raster/temporaries.h"
 
 using namespace gr;
@@ -107,7 +107,7 @@ int main(int argc, char** argv) {
   const std::string out = arguments.out;
   const int repeats = arguments.repeats;
   NoGradGuard no_grad;
-  const raster::SsrScene s = raster::make_ssr_scene(8, 4);
+  const gr::examples::SsrScene s = gr::examples::make_ssr_scene(8, 4);
   auto v3 = [](const std::array<double, 3>& v) { return Tensor::from_values({v[0], v[1], v[2]}, {3}); };
   const Tensor view = look_at(v3(s.eye), v3(s.target), v3(s.up));
   const Tensor proj = perspective(s.fov_y, double(kW) / kH, s.near, s.far);

@@ -33,7 +33,7 @@
 #include <string>
 #include <vector>
 
-#include "autodiff/parallel.h"
+#include "autodiff/base/parallel.h"
 #include "autodiff/tape.h"
 #include "bench/time_error_args.h"
 #include "bench/time_error_exact.h"
@@ -42,8 +42,8 @@
 #include "bench/time_error_scene.h"
 #include "ops/ops.h"
 #include "examples/common/cli_args.h"
-#include "raster/files.h"
-#include "raster/image_io.h"
+#include "raster/io/files.h"
+#include "raster/io/image_io.h"
 #include "raster/temporaries.h"
 
 using namespace gr;

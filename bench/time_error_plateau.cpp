@@ -25,7 +25,7 @@
 #include <string>
 #include <vector>
 
-#include "autodiff/parallel.h"
+#include "autodiff/base/parallel.h"
 #include "autodiff/tape.h"
 #include "bench/time_error_exact.h"
 #include "bench/time_error_reference.h"

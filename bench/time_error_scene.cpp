@@ -9,11 +9,11 @@
 #include <functional>
 #include <map>
 
-#include "autodiff/error.h"
+#include "autodiff/base/error.h"
 #include "autodiff/tape.h"
 #include "ops/ops.h"
-#include "ops/resample.h"
-#include "ops/soft_rasterize.h"
+#include "ops/render/resample.h"
+#include "ops/render/soft_rasterize.h"
 #include "raster/procedural.h"
 
 namespace gr::bench {

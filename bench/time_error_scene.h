@@ -12,8 +12,8 @@
 #include <string>
 #include <vector>
 
-#include "autodiff/tensor.h"
-#include "ops/antialias.h"
+#include "autodiff/base/tensor.h"
+#include "ops/render/antialias.h"
 #include "raster/rasterize.h"  // raster::Cull
 
 namespace gr::bench {
@@ -22,11 +22,11 @@ struct RenderSettings {
   DType dtype = DType::Float64;
   bool antialias = true;
   int supersample = 1;  // render at (s W) x (s H), then average s x s blocks (downsample_box)
-  // > 0: soft_rasterize (ops/soft_rasterize.h) with this sigma (pixels^2) and
+  // > 0: soft_rasterize (ops/render/soft_rasterize.h) with this sigma (pixels^2) and
   // the scene's gamma and eps instead of rasterize + interpolate (+ antialias):
   // a blurred image, differentiable everywhere (docs/soft_rasterize.md).
   double soft_sigma = 0;
-  // With antialias: visibility_antialias (ops/visibility_antialias.h, every
+  // With antialias: visibility_antialias (ops/render/visibility_antialias.h, every
   // visibility boundary including intersection curves) instead of antialias.
   bool visibility = false;
 };

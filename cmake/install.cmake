@@ -1,5 +1,6 @@
 # cmake --install: the public headers under include/gradraster (so
-# "autodiff/tensor.h" keeps working; cmake/public_headers.cmake says which), the three libraries, a CMake package (find_package(gradraster)
+# "autodiff/base/tensor.h" keeps working; cmake/public_headers.cmake says
+# which), the three libraries, a CMake package (find_package(gradraster)
 # gives gradraster::gradraster) and a pkg-config file. Everything here is in the
 # "dev" component; tests/package installs just that, then the "python" component
 # (the Python package, python/CMakeLists.txt).

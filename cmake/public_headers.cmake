@@ -1,15 +1,16 @@
 # The installed headers: the public entry points below and every project header
 # they include, directly or not (an installed header must compile), found by
 # reading their `#include "..."` lines. Nothing else is installed: the kernels'
-# internal helpers (raster/rasterize_scan.h, ops/mesh/row_sums.h, ...) stay in
+# internal helpers (raster/detail/rasterize_scan.h, ops/mesh/row_sums.h, ...) stay in
 # the source tree. tests/package/test_install.sh checks both halves.
 set(GRADRASTER_PUBLIC_ENTRY_HEADERS
-  ops/ops.h ops/book_interface.h
+  ops/ops.h ops/render/book_interface.h
   raster/antialias.h raster/backend.h raster/barycentric_gbuffer.h raster/barycentric_interpolate.h
-  raster/cube_texture.h raster/files.h raster/image_io.h raster/mesh.h raster/mesh_framing.h raster/mipmap.h
-  raster/obj_io.h raster/procedural.h raster/project.h raster/rasterize.h raster/soft_rasterize.h raster/ssr.h
-  raster/ssr_scene.h raster/temporaries.h raster/texture.h)
-file(GLOB _autodiff_headers RELATIVE ${PROJECT_SOURCE_DIR} ${PROJECT_SOURCE_DIR}/autodiff/*.h)
+  raster/cube_texture.h raster/io/files.h raster/io/image_io.h raster/mesh.h raster/mipmap.h
+  raster/io/obj_io.h raster/procedural.h raster/project.h raster/rasterize.h raster/soft_rasterize.h raster/ssr.h
+  raster/temporaries.h raster/texture.h)
+file(GLOB _autodiff_headers RELATIVE ${PROJECT_SOURCE_DIR} ${PROJECT_SOURCE_DIR}/autodiff/*.h
+  ${PROJECT_SOURCE_DIR}/autodiff/base/*.h)
 list(APPEND GRADRASTER_PUBLIC_ENTRY_HEADERS ${_autodiff_headers})
 # Not installed yet, as their libraries: raster/vulkan (gradraster::vulkan) and
 # autodiff/mpi (gradraster::mpi) are build-tree libraries.

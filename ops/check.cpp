@@ -5,8 +5,8 @@
 
 #include <cstring>
 
-#include "autodiff/error.h"
-#include "raster/rasterize_setup.h"
+#include "autodiff/base/error.h"
+#include "raster/detail/rasterize_setup.h"
 
 namespace gr::detail {
 namespace {

@@ -7,8 +7,8 @@
 #include <cstdint>
 #include <string>
 
-#include "autodiff/tensor.h"
-#include "ops/rasterize.h"
+#include "autodiff/base/tensor.h"
+#include "ops/render/rasterize.h"
 
 namespace gr::detail {
 

@@ -11,11 +11,11 @@
 #include <limits>
 #include <numeric>
 
-#include "autodiff/parallel.h"
-#include "raster/guarded_math.h"
+#include "autodiff/base/parallel.h"
+#include "raster/detail/guarded_math.h"
 #include "raster/project.h"
-#include "raster/rasterize_setup.h"
-#include "raster/surface_walk.h"
+#include "raster/detail/rasterize_setup.h"
+#include "raster/detail/surface_walk.h"
 
 namespace gr::raster {
 
@@ -25,7 +25,7 @@ using detail::finite_cast;
 using detail::safe_inv;
 
 // The walk along a pixel pair's segment (silhouette criterion, exit edges)
-// and the axis ownership live in raster/surface_walk.h, shared with
+// and the axis ownership live in raster/detail/surface_walk.h, shared with
 // visibility_antialias.
 using detail::edge_fn;
 

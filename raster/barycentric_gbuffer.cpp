@@ -10,9 +10,9 @@
 #include <memory>
 #include <vector>
 
-#include "autodiff/parallel.h"
-#include "raster/guarded_math.h"
-#include "raster/rasterize_setup.h"
+#include "autodiff/base/parallel.h"
+#include "raster/detail/guarded_math.h"
+#include "raster/detail/rasterize_setup.h"
 
 namespace gr::raster {
 namespace {

@@ -9,7 +9,7 @@
 
 #include <algorithm>
 
-#include "autodiff/parallel.h"
+#include "autodiff/base/parallel.h"
 
 namespace gr::raster {
 namespace {

@@ -14,11 +14,11 @@
 #include <type_traits>
 #include <vector>
 
-#include "autodiff/error.h"
-#include "autodiff/parallel.h"
-#include "autodiff/tensor.h"
+#include "autodiff/base/error.h"
+#include "autodiff/base/parallel.h"
+#include "autodiff/base/tensor.h"
 #include "raster/cube_map.h"
-#include "raster/rasterize_setup.h"  // detail::check_finite
+#include "raster/detail/rasterize_setup.h"  // detail::check_finite
 
 namespace gr::raster {
 namespace {

@@ -4,7 +4,7 @@
 
 #include <algorithm>
 
-#include "autodiff/parallel.h"
+#include "autodiff/base/parallel.h"
 
 namespace gr::raster {
 

@@ -1,6 +1,6 @@
 // Fragment lists (no tape): the covered pixels of a G-buffer, compacted in
 // ascending pixel order, and the row moves between an image and a fragment
-// list. Used by ops/fragments.h so shading work follows coverage instead of
+// list. Used by ops/render/fragments.h so shading work follows coverage instead of
 // width x height.
 #pragma once
 

@@ -13,12 +13,12 @@
 #include <cmath>
 #include <vector>
 
-#include "autodiff/parallel.h"
-#include "raster/buckets.h"
-#include "raster/corner_gather.h"
-#include "raster/guarded_math.h"
-#include "raster/rasterize_setup.h"
-#include "raster/triangle_groups.h"
+#include "autodiff/base/parallel.h"
+#include "raster/detail/buckets.h"
+#include "raster/detail/corner_gather.h"
+#include "raster/detail/guarded_math.h"
+#include "raster/detail/rasterize_setup.h"
+#include "raster/detail/triangle_groups.h"
 
 namespace gr::raster {
 namespace {

@@ -19,7 +19,7 @@
 
 namespace gr::raster {
 
-class TriangleGroups;  // raster/triangle_groups.h
+class TriangleGroups;  // raster/detail/triangle_groups.h
 
 // Inputs of one interpolate call, shared by the forward, the adjoint and the
 // derivatives. Image form (pixel_index null): the items are the width x
@@ -46,7 +46,7 @@ struct InterpolateParams {
   bool perspective = true;
   const T* background = nullptr;  // image form: C values for tri_id 0 (null = zeros)
   // Adjoint only, optional: the items' grouping by triangle, shared with the
-  // other adjoints over this tri_id (raster/triangle_groups.h).
+  // other adjoints over this tri_id (raster/detail/triangle_groups.h).
   TriangleGroups* groups = nullptr;
   // Pixels (image form) or fragments.
   std::int64_t items() const { return pixel_index ? count : static_cast<std::int64_t>(width) * height; }

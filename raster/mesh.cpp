@@ -4,7 +4,7 @@
 
 #include <cmath>
 
-#include "autodiff/error.h"
+#include "autodiff/base/error.h"
 
 namespace gr::raster {
 namespace {

@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "autodiff/tensor.h"
+#include "autodiff/base/tensor.h"
 
 namespace gr::raster {
 

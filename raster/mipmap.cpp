@@ -5,8 +5,8 @@
 #include <algorithm>
 #include <string>
 
-#include "autodiff/error.h"
-#include "autodiff/parallel.h"
+#include "autodiff/base/error.h"
+#include "autodiff/base/parallel.h"
 
 namespace gr::raster {
 namespace {

@@ -12,7 +12,7 @@
 #include <utility>
 #include <vector>
 
-#include "autodiff/error.h"
+#include "autodiff/base/error.h"
 
 namespace gr::raster {
 namespace {

@@ -4,9 +4,9 @@
 
 #include <string>
 
-#include "autodiff/error.h"
-#include "autodiff/parallel.h"
-#include "raster/guarded_math.h"
+#include "autodiff/base/error.h"
+#include "autodiff/base/parallel.h"
+#include "raster/detail/guarded_math.h"
 
 namespace gr::raster {
 

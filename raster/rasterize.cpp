@@ -13,7 +13,7 @@
 // (depth, id) test needs no atomics and is order independent. Buffers come
 // from a scratch pool and are reused across calls.
 #include "raster/rasterize.h"
-#include "raster/triangle_groups.h"
+#include "raster/detail/triangle_groups.h"
 
 #include <algorithm>
 #include <cassert>
@@ -22,15 +22,15 @@
 #include <memory>
 #include <vector>
 
-#include "autodiff/error.h"
-#include "autodiff/parallel.h"
-#include "raster/buckets.h"
-#include "raster/classify_lanes.h"
-#include "raster/corner_gather.h"
-#include "raster/guarded_math.h"
+#include "autodiff/base/error.h"
+#include "autodiff/base/parallel.h"
+#include "raster/detail/buckets.h"
+#include "raster/detail/classify_lanes.h"
+#include "raster/detail/corner_gather.h"
+#include "raster/detail/guarded_math.h"
 #include "raster/project.h"
-#include "raster/rasterize_setup.h"
-#include "raster/rasterize_scan.h"
+#include "raster/detail/rasterize_setup.h"
+#include "raster/detail/rasterize_scan.h"
 
 namespace gr::raster {
 namespace {

@@ -12,7 +12,7 @@
 
 namespace gr::raster {
 
-class TriangleGroups;  // raster/triangle_groups.h
+class TriangleGroups;  // raster/detail/triangle_groups.h
 
 // Which faces to drop. Front face = counter-clockwise in NDC (OpenGL default),
 // i.e. 2A > 0 in screen coordinates (y down).
@@ -98,7 +98,7 @@ void rasterize_forward(const RasterParams<T>& p, std::int32_t* tri_id, T* uv, T*
 // its triangles by first pixel (docs/determinism.md, "Scatter by gathering"),
 // so the result is bit-identical for any thread count and any triangle order.
 // groups (optional): the pixels' grouping by triangle, shared with the other
-// adjoints over this tri_id (raster/triangle_groups.h).
+// adjoints over this tri_id (raster/detail/triangle_groups.h).
 template <class T>
 void rasterize_backward(const RasterParams<T>& p, const std::int32_t* tri_id, const T* grad_uv,
                         const T* grad_depth, T* grad_clip, TriangleGroups* groups = nullptr);

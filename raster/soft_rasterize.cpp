@@ -12,8 +12,8 @@
 #include <cmath>
 #include <vector>
 
-#include "autodiff/parallel.h"
-#include "raster/guarded_math.h"
+#include "autodiff/base/parallel.h"
+#include "raster/detail/guarded_math.h"
 #include "raster/project.h"
 
 namespace gr::raster {

@@ -8,8 +8,8 @@
 #include <limits>
 #include <string>
 
-#include "autodiff/error.h"
-#include "autodiff/parallel.h"
+#include "autodiff/base/error.h"
+#include "autodiff/base/parallel.h"
 
 namespace gr::raster {
 

@@ -68,7 +68,7 @@ struct SsrOptions {
   // Reference only: step in pixels along the major axis, and bisection count.
   double reference_step = 0.05;
   int reference_binary_steps = 30;
-  // Fades (plain values here; ops/ssr.h recomputes them on the tape).
+  // Fades (plain values here; ops/render/ssr.h recomputes them on the tape).
   EdgeFade edge_form = EdgeFade::Circular;
   double edge_distance = 16.0;
   double edge_exponent = 2.0;

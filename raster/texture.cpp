@@ -1,5 +1,5 @@
 // Texture sampling forward. Every filter is reduced to a list of at most 8
-// taps (raster/texture_taps.h: texel index in the all-levels buffer, weight,
+// taps (raster/detail/texture_taps.h: texel index in the all-levels buffer, weight,
 // d weight/du, d weight/dv): the forward sums weight * texel, and for the
 // bilinear filter can save d out/du, d out/dv for the adjoint. The adjoint
 // (raster/texture_backward.cpp) sums the weight derivatives for uv and
@@ -12,11 +12,11 @@
 #include <type_traits>
 #include <vector>
 
-#include "autodiff/error.h"
-#include "autodiff/parallel.h"
-#include "autodiff/tensor.h"
-#include "raster/rasterize_setup.h"  // detail::check_finite
-#include "raster/texture_taps.h"
+#include "autodiff/base/error.h"
+#include "autodiff/base/parallel.h"
+#include "autodiff/base/tensor.h"
+#include "raster/detail/rasterize_setup.h"  // detail::check_finite
+#include "raster/detail/texture_taps.h"
 
 namespace gr::raster {
 using namespace texture_taps;

@@ -7,11 +7,11 @@
 #include <cstdint>
 #include <vector>
 
-#include "autodiff/parallel.h"
-#include "autodiff/tensor.h"
-#include "raster/rasterize_setup.h"  // detail::ScratchPool
+#include "autodiff/base/parallel.h"
+#include "autodiff/base/tensor.h"
+#include "raster/detail/rasterize_setup.h"  // detail::ScratchPool
 #include "raster/texture.h"
-#include "raster/texture_taps.h"
+#include "raster/detail/texture_taps.h"
 
 namespace gr::raster {
 using namespace texture_taps;

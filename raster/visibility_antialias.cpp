@@ -9,10 +9,10 @@
 #include <cassert>
 #include <cmath>
 
-#include "autodiff/parallel.h"
-#include "raster/guarded_math.h"
+#include "autodiff/base/parallel.h"
+#include "raster/detail/guarded_math.h"
 #include "raster/project.h"
-#include "raster/surface_walk.h"
+#include "raster/detail/surface_walk.h"
 
 namespace gr::raster {
 

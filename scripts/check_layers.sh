@@ -1,19 +1,13 @@
 #!/usr/bin/env bash
-# Keeps the tape-free layers tape-free (issue 14): a file in raster/ may include
-# only raster/ headers and the base's; a base file only the base's. The base is
-# what gradraster_base compiles (CMakeLists.txt): tensor, storage, shape, dtype,
-# error, memory, parallel. Anything else from autodiff/ (tape, backward,
-# gradcheck, optim, accumulate) and all of ops/ is off limits.
+# Keeps the tape-free layers tape-free (issue 14): a file in raster/ (its io/
+# and detail/ folders included) may include only raster/ headers and the
+# base's; a base file (autodiff/base/: tensor, storage, shape, dtype, error,
+# memory, parallel) only the base's. Anything else from autodiff/ (tape,
+# backward, gradcheck, optim, accumulate) and all of ops/ is off limits.
 # Usage: scripts/check_layers.sh [SOURCE_ROOT]   (exit 0 clean, 1 with a list of offenders)
 set -euo pipefail
 root="${1:-$(dirname "$0")/..}"
-base='autodiff/(tensor|storage|shape|dtype|error|memory|parallel)\.h'
-base_files=()
-for name in tensor storage shape dtype error memory parallel; do
-  for ext in h cpp; do
-    [[ -f "$root/autodiff/$name.$ext" ]] && base_files+=("$root/autodiff/$name.$ext")
-  done
-done
+base='autodiff/base/[A-Za-z0-9_]+\.h'
 status=0
 # check ALLOWED_REGEX FILES...: every quoted include in FILES must match ALLOWED_REGEX.
 check() {
@@ -32,7 +26,7 @@ check() {
     END { exit bad }' "$@" || status=1
 }
 shopt -s nullglob
-check "raster/[A-Za-z0-9_]+\.h|$base" "$root"/raster/*.h "$root"/raster/*.cpp
-check "$base" "${base_files[@]}"
+check "raster/((io|detail)/)?[A-Za-z0-9_]+\.h|$base" "$root"/raster/*.{h,cpp} "$root"/raster/{io,detail}/*.{h,cpp}
+check "$base" "$root"/autodiff/base/*.{h,cpp}
 if [[ $status -eq 0 ]]; then echo "layers clean: raster/ and the base include no tape, gradcheck, optim or ops/ header"; fi
 exit $status

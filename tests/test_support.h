@@ -66,7 +66,7 @@ inline double max_relative_difference(const std::vector<double>& a, const std::v
 }
 
 // Column j of a row-major [rows, k] array summed over its rows the way the
-// library sums a broadcast operand's gradient (ops/broadcast.h): blocks of
+// library sums a broadcast operand's gradient (ops/tensor/broadcast.h): blocks of
 // 4096 rows, each summed in double from 0, block totals added in order.
 inline double blocked_column_sum(const std::vector<double>& v, std::int64_t rows, std::int64_t k, std::int64_t j) {
   double total = 0;

@@ -4,7 +4,7 @@
 #include <cstdlib>
 #include <cstdio>
 
-#include "autodiff/error.h"
+#include "autodiff/base/error.h"
 
 namespace gr {
 namespace {

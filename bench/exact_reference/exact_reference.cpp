@@ -7,9 +7,9 @@
 #include <string>
 #include <vector>
 
-#include "autodiff/error.h"
-#include "autodiff/memory.h"
-#include "autodiff/parallel.h"
+#include "autodiff/base/error.h"
+#include "autodiff/base/memory.h"
+#include "autodiff/base/parallel.h"
 #include "bench/exact_reference/polygon.h"
 #include "bench/exact_reference/quadrature.h"
 

@@ -11,7 +11,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "autodiff/tensor.h"
+#include "autodiff/base/tensor.h"
 #include "raster/rasterize.h"  // raster::Cull only
 
 namespace gr::bench {

@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "autodiff/parallel.h"
+#include "autodiff/base/parallel.h"
 #include "autodiff/tape.h"
 #include "bench/time_error_exact.h"
 #include "ops/ops.h"

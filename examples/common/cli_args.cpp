@@ -5,7 +5,7 @@
 #include <cstdio>
 #include <cstdlib>
 
-#include "raster/files.h"
+#include "raster/io/files.h"
 
 namespace gr::cli {
 

@@ -1,6 +1,6 @@
 #include "examples/common/output_folder.h"
 
-#include "autodiff/error.h"
+#include "autodiff/base/error.h"
 
 namespace gr::cli {
 namespace fs = std::filesystem;

@@ -8,7 +8,7 @@
 
 #include <string>
 
-#include "autodiff/tensor.h"
+#include "autodiff/base/tensor.h"
 
 namespace gr::plot {
 

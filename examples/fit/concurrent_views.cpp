@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <utility>
 
-#include "autodiff/error.h"
+#include "autodiff/base/error.h"
 #include "ops/ops.h"
 
 namespace fit {

@@ -5,7 +5,7 @@
 
 #include <vector>
 
-#include "autodiff/tensor.h"
+#include "autodiff/base/tensor.h"
 #include "autodiff/view_gradients.h"
 #include "examples/fit/geometry.h"
 #include "examples/fit/shading.h"

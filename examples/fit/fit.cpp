@@ -13,9 +13,9 @@
 #include <ostream>
 #include <random>
 
-#include "autodiff/error.h"
+#include "autodiff/base/error.h"
 #include "autodiff/optim.h"
-#include "autodiff/parallel.h"
+#include "autodiff/base/parallel.h"
 #include "autodiff/tape.h"
 #include "autodiff/view_gradients.h"
 #include "examples/fit/concurrent_views.h"
@@ -27,8 +27,8 @@
 #include "examples/fit/snapshot.h"
 #include "examples/fit/snapshot_writer.h"
 #include "ops/ops.h"
-#include "raster/image_io.h"
-#include "raster/obj_io.h"
+#include "raster/io/image_io.h"
+#include "raster/io/obj_io.h"
 
 namespace fit {
 

@@ -25,7 +25,7 @@
 #include <string>
 #include <vector>
 
-#include "autodiff/tensor.h"
+#include "autodiff/base/tensor.h"
 #include "autodiff/view_gradients.h"
 #include "examples/fit/phase_times.h"
 #include "raster/backend.h"

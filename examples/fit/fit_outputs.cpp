@@ -4,12 +4,12 @@
 #include <filesystem>
 #include <new>
 
-#include "autodiff/error.h"
-#include "autodiff/memory.h"
+#include "autodiff/base/error.h"
+#include "autodiff/base/memory.h"
 #include "examples/common/cli_args.h"
 #include "examples/common/distinct_files.h"
 #include "examples/common/output_folder.h"
-#include "raster/files.h"
+#include "raster/io/files.h"
 #include "raster/temporaries.h"
 
 namespace fit {

@@ -10,7 +10,7 @@
 #include <utility>
 #include <vector>
 
-#include "autodiff/error.h"
+#include "autodiff/base/error.h"
 #include "ops/ops.h"
 #include "raster/procedural.h"
 

@@ -6,8 +6,8 @@
 
 #include <cstdint>
 
-#include "autodiff/tensor.h"
-#include "ops/antialias.h"
+#include "autodiff/base/tensor.h"
+#include "ops/render/antialias.h"
 #include "ops/mesh.h"
 #include "raster/mesh.h"
 

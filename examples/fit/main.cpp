@@ -12,7 +12,7 @@
 #include "examples/fit/option_agreement.h"
 #include "examples/fit/progress.h"
 #include "examples/fit/snapshot.h"
-#include "autodiff/parallel.h"
+#include "autodiff/base/parallel.h"
 #include "raster/temporaries.h"
 #ifdef GRADRASTER_HAS_VULKAN
 #include "raster/vulkan/backend.h"

@@ -5,7 +5,7 @@
 
 #include <vector>
 
-#include "autodiff/tensor.h"
+#include "autodiff/base/tensor.h"
 
 namespace fit {
 

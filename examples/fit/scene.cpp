@@ -7,11 +7,11 @@
 #include <array>
 #include <cmath>
 
-#include "autodiff/error.h"
+#include "autodiff/base/error.h"
 #include "autodiff/tape.h"
 #include "ops/ops.h"
-#include "raster/image_io.h"
-#include "raster/obj_io.h"
+#include "raster/io/image_io.h"
+#include "raster/io/obj_io.h"
 
 namespace fit {
 

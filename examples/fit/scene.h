@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "autodiff/tensor.h"
+#include "autodiff/base/tensor.h"
 #include "examples/fit/geometry.h"
 #include "examples/fit/shading.h"
 

@@ -3,7 +3,7 @@
 // vertex positions.
 #include "examples/fit/shading.h"
 
-#include "autodiff/error.h"
+#include "autodiff/base/error.h"
 #include "ops/ops.h"
 
 namespace fit {

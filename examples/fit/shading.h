@@ -9,9 +9,9 @@
 
 #include <vector>
 
-#include "autodiff/tensor.h"
+#include "autodiff/base/tensor.h"
 #include "examples/fit/geometry.h"
-#include "ops/rasterize.h"
+#include "ops/render/rasterize.h"
 
 namespace fit {
 
@@ -39,7 +39,7 @@ Tensor lambert(const Tensor& albedo, const Tensor& normal, const Tensor& light, 
 
 // lambert(albedo, normalize(normal), light) where coverage is 1, background
 // where it is 0: albedo, normal [H, W, 3], coverage [H, W, 1], light and
-// background [3]. One fused pass over the pixels (ops/map_rows.h), the same
+// background [3]. One fused pass over the pixels (ops/tensor/map_rows.h), the same
 // bits as the tensor ops one by one.
 Tensor shade_over_background(const Tensor& albedo, const Tensor& normal, const Tensor& coverage, const Tensor& light,
                              const Tensor& background);

@@ -5,8 +5,8 @@
 #include <algorithm>
 #include <cmath>
 
-#include "autodiff/error.h"
-#include "raster/image_io.h"
+#include "autodiff/base/error.h"
+#include "raster/io/image_io.h"
 
 namespace fit {
 

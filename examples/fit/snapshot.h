@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "autodiff/tensor.h"
+#include "autodiff/base/tensor.h"
 
 namespace fit {
 

@@ -7,7 +7,7 @@
 #include <sched.h>
 #endif
 
-#include "autodiff/parallel.h"
+#include "autodiff/base/parallel.h"
 #include "autodiff/tape.h"
 #include "examples/fit/snapshot.h"
 

@@ -1,6 +1,6 @@
 // Writes snapshot strips on a thread of its own, at idle priority, so
 // composing and encoding them (about 20 ms of CPU for 6 views at 256x256,
-// serial: raster/png_encoder.h) uses the CPU time the optimization loop leaves
+// serial: raster/io/png_encoder.h) uses the CPU time the optimization loop leaves
 // instead of stalling it. The files are the same bytes as
 // write_snapshot's, each appears whole (raster::write_png writes a temporary
 // and renames it), and they are all on disk when finish() returns.
@@ -14,7 +14,7 @@
 #include <thread>
 #include <vector>
 
-#include "autodiff/tensor.h"
+#include "autodiff/base/tensor.h"
 
 namespace fit {
 

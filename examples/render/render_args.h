@@ -33,7 +33,7 @@ struct RenderArgs {
 
   // Camera: an MVP (row-major here, converted from the column-major command
   // line), or eye / target / up / fov, or neither: the mesh is framed
-  // (raster::frame_mesh).
+  // (gr::examples::frame_mesh).
   bool has_mvp = false;
   std::array<double, 16> mvp_row_major{};
   bool has_eye = false;

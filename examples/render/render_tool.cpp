@@ -14,20 +14,20 @@
 #include <optional>
 #include <sstream>
 
-#include "autodiff/error.h"
-#include "autodiff/memory.h"
-#include "autodiff/parallel.h"
+#include "autodiff/base/error.h"
+#include "autodiff/base/memory.h"
+#include "autodiff/base/parallel.h"
 #include "autodiff/tape.h"
 #include "examples/common/distinct_files.h"
 #include "examples/render/render_args.h"
-#include "ops/interpolate.h"
-#include "ops/linalg.h"
-#include "ops/rasterize.h"
-#include "ops/transforms.h"
-#include "raster/files.h"
-#include "raster/image_io.h"
-#include "raster/mesh_framing.h"
-#include "raster/obj_io.h"
+#include "ops/render/interpolate.h"
+#include "ops/tensor/linalg.h"
+#include "ops/render/rasterize.h"
+#include "ops/render/transforms.h"
+#include "raster/io/files.h"
+#include "raster/io/image_io.h"
+#include "examples/common/mesh_framing.h"
+#include "raster/io/obj_io.h"
 #include "raster/procedural.h"
 #ifdef GRADRASTER_HAS_VULKAN
 #include "raster/vulkan/backend.h"
@@ -120,7 +120,7 @@ std::string camera_source(const RenderArgs& a) {
 }
 
 // The MVP as a row-major 4x4 in double, plus a description of the camera.
-// Without --mvp or --eye the mesh is framed (raster::frame_mesh).
+// Without --mvp or --eye the mesh is framed (gr::examples::frame_mesh).
 std::array<double, 16> camera_matrix(const RenderArgs& a, const raster::Mesh& mesh, std::string& facts) {
   if (a.has_mvp) {
     facts = "camera=mvp";
@@ -132,9 +132,9 @@ std::array<double, 16> camera_matrix(const RenderArgs& a, const raster::Mesh& me
   if (a.has_eye) {
     s << "camera=look_at";
   } else {
-    raster::MeshFraming f;
+    gr::examples::MeshFraming f;
     try {
-      f = raster::frame_mesh(mesh);
+      f = gr::examples::frame_mesh(mesh);
     } catch (const Error& e) {
       throw RuntimeError(camera_source(a) + ": " + e.what());
     }

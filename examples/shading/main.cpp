@@ -16,7 +16,7 @@
 #include "examples/common/output_folder.h"
 #include "examples/shading/sky_ground.h"
 #include "ops/ops.h"
-#include "raster/image_io.h"
+#include "raster/io/image_io.h"
 #include "raster/procedural.h"
 #include "raster/temporaries.h"
 

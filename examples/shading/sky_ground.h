@@ -3,7 +3,7 @@
 // spherical_harmonics.h: gr::shading::sh_irradiance, sh_diffuse).
 #pragma once
 
-#include "autodiff/tensor.h"
+#include "autodiff/base/tensor.h"
 
 namespace gr::shading_example {
 

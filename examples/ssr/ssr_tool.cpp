@@ -10,19 +10,19 @@
 #include <new>
 #include <set>
 
-#include "autodiff/error.h"
-#include "autodiff/memory.h"
+#include "autodiff/base/error.h"
+#include "autodiff/base/memory.h"
 #include "autodiff/tape.h"
 #include "examples/common/cli_args.h"
 #include "examples/common/output_folder.h"
-#include "ops/elementwise.h"
-#include "ops/shape_ops.h"
-#include "ops/ssr.h"
-#include "ops/transforms.h"
-#include "ops/vector.h"
-#include "raster/files.h"
-#include "raster/image_io.h"
-#include "raster/ssr_scene.h"
+#include "ops/tensor/elementwise.h"
+#include "ops/tensor/shape_ops.h"
+#include "ops/render/ssr.h"
+#include "ops/render/transforms.h"
+#include "ops/tensor/vector.h"
+#include "raster/io/files.h"
+#include "raster/io/image_io.h"
+#include "examples/common/ssr_scene.h"
 
 namespace gr::ssr_tool {
 namespace {
@@ -61,7 +61,7 @@ Tensor vec3(const std::array<double, 3>& v) { return Tensor::from_values({v[0], 
 void render(const SsrArgs& a, std::ostream& out) {
   NoGradGuard no_grad;
   const int W = a.width, H = a.height;
-  const raster::SsrScene s = raster::make_ssr_scene(8, 4, 0.65f);
+  const gr::examples::SsrScene s = gr::examples::make_ssr_scene(8, 4, 0.65f);
   const Tensor view = look_at(vec3(s.eye), vec3(s.target), vec3(s.up));
   const Tensor proj = perspective(s.fov_y, double(W) / H, s.near, s.far);
   const ViewSpaceMesh vs = ssr_view_space(s.mesh.positions, s.mesh.normals, view);

@@ -10,11 +10,11 @@
 #include <utility>
 #include <vector>
 
-#include "autodiff/dtype.h"
-#include "autodiff/error.h"
+#include "autodiff/base/dtype.h"
+#include "autodiff/base/error.h"
 #include "autodiff/tape.h"
 #include "ops/check.h"
-#include "ops/elementwise.h"
+#include "ops/tensor/elementwise.h"
 #include "ops/mesh/row_sums.h"
 #include "ops/mesh/topology.h"
 

@@ -7,7 +7,7 @@
 #include <cstdint>
 #include <memory>
 
-#include "autodiff/tensor.h"
+#include "autodiff/base/tensor.h"
 
 namespace gr {
 

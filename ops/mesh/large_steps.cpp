@@ -11,7 +11,7 @@
 #include <vector>
 
 // Eigen is private to the library (docs/decisions.md): renamed here as in
-// ops/linalg.cpp, so the instantiations this file makes are not the weak
+// ops/tensor/linalg.cpp, so the instantiations this file makes are not the weak
 // Eigen::... symbols of a consumer's own Eigen code. No header of ours
 // includes Eigen.
 #define Eigen gr_private_eigen
@@ -19,8 +19,8 @@
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 
-#include "autodiff/dtype.h"
-#include "autodiff/error.h"
+#include "autodiff/base/dtype.h"
+#include "autodiff/base/error.h"
 #include "autodiff/tape.h"
 #include "ops/check.h"
 #include "ops/mesh/row_sums.h"

@@ -8,12 +8,12 @@
 #include <string>
 #include <vector>
 
-#include "autodiff/error.h"
-#include "ops/elementwise.h"
+#include "autodiff/base/error.h"
+#include "ops/tensor/elementwise.h"
 #include "ops/mesh/topology.h"
-#include "ops/reduce.h"
-#include "ops/shape_ops.h"
-#include "ops/vector.h"
+#include "ops/tensor/reduce.h"
+#include "ops/tensor/shape_ops.h"
+#include "ops/tensor/vector.h"
 
 namespace gr {
 namespace {

@@ -6,7 +6,7 @@
 // gradraster.losses (same names and definitions; docs/mesh_losses.md).
 #pragma once
 
-#include "autodiff/tensor.h"
+#include "autodiff/base/tensor.h"
 #include "ops/mesh/laplacian.h"
 
 namespace gr {

@@ -8,7 +8,7 @@
 #include <cstdint>
 #include <type_traits>
 
-#include "autodiff/parallel.h"
+#include "autodiff/base/parallel.h"
 #include "ops/mesh/topology.h"
 
 namespace gr::detail {

@@ -6,10 +6,10 @@
 #include <numeric>
 #include <utility>
 
-#include "autodiff/dtype.h"
+#include "autodiff/base/dtype.h"
 #include "ops/check.h"
-#include "ops/shape_ops.h"
-#include "ops/reduce.h"
+#include "ops/tensor/shape_ops.h"
+#include "ops/tensor/reduce.h"
 
 namespace gr::detail {
 

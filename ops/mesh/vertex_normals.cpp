@@ -5,11 +5,11 @@
 #include <cmath>
 #include <string>
 
-#include "autodiff/error.h"
+#include "autodiff/base/error.h"
 
 #include "ops/mesh/topology.h"
-#include "ops/shape_ops.h"
-#include "ops/elementwise.h"
+#include "ops/tensor/shape_ops.h"
+#include "ops/tensor/elementwise.h"
 
 namespace gr {
 namespace {

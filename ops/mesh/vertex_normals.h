@@ -2,8 +2,8 @@
 // respect to the vertex positions.
 #pragma once
 
-#include "autodiff/tensor.h"
-#include "ops/vector.h"
+#include "autodiff/base/tensor.h"
+#include "ops/tensor/vector.h"
 
 namespace gr {
 

@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "autodiff/error.h"
+#include "autodiff/base/error.h"
 #include "ops/check.h"
 
 namespace gr::shading::detail {

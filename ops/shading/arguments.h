@@ -7,7 +7,7 @@
 #include <cstdint>
 #include <initializer_list>
 
-#include "autodiff/tensor.h"
+#include "autodiff/base/tensor.h"
 
 namespace gr::shading::detail {
 

@@ -2,9 +2,9 @@
 // differentiates them.
 #include "ops/shading/brdf.h"
 
-#include "ops/elementwise.h"
+#include "ops/tensor/elementwise.h"
 #include "ops/shading/arguments.h"
-#include "ops/vector.h"
+#include "ops/tensor/vector.h"
 
 namespace gr::shading {
 

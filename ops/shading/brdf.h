@@ -10,10 +10,10 @@
 // surface (towards the light / the viewer). All float arguments of one call
 // share one dtype (float32 or float64), and every one of them gets a gradient;
 // masks such as [n.l > 0] carry none. At a kink of max(., c) the gradient is
-// split evenly between the two sides (ops/elementwise.h).
+// split evenly between the two sides (ops/tensor/elementwise.h).
 #pragma once
 
-#include "autodiff/tensor.h"
+#include "autodiff/base/tensor.h"
 
 namespace gr::shading {
 

@@ -5,7 +5,7 @@
 #include "ops/shading/colour.h"
 
 #include "ops/check.h"
-#include "ops/elementwise.h"
+#include "ops/tensor/elementwise.h"
 
 namespace gr::shading {
 

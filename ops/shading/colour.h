@@ -3,7 +3,7 @@
 // results are encoded with linear_to_srgb for display.
 #pragma once
 
-#include "autodiff/tensor.h"
+#include "autodiff/base/tensor.h"
 
 namespace gr::shading {
 

@@ -4,11 +4,11 @@
 
 #include <string>
 
-#include "autodiff/error.h"
+#include "autodiff/base/error.h"
 #include "ops/check.h"
-#include "ops/elementwise.h"
+#include "ops/tensor/elementwise.h"
 #include "ops/shading/arguments.h"
-#include "ops/vector.h"
+#include "ops/tensor/vector.h"
 
 namespace gr::shading {
 

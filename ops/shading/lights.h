@@ -7,8 +7,8 @@
 // argument gets a gradient.
 #pragma once
 
-#include "autodiff/tensor.h"
-#include "ops/cube_texture.h"  // CubeTextureOptions
+#include "autodiff/base/tensor.h"
+#include "ops/render/cube_texture.h"  // CubeTextureOptions
 
 namespace gr::shading {
 
@@ -29,7 +29,7 @@ LightSample directional_light(const Tensor& direction, const Tensor& radiance);
 LightSample point_light(const Tensor& light_position, const Tensor& intensity, const Tensor& position);
 
 // Radiance from a distant environment stored as a cube map [6, S, S, C]
-// (ops/cube_texture.h: +X, -X, +Y, -Y, +Z, -Z), looked up along
+// (ops/render/cube_texture.h: +X, -X, +Y, -Y, +Z, -Z), looked up along
 // direction [..., 3] (any length) -> [..., C]. Bilinear without mipmaps by
 // default; options, dir_da and mip_level_bias are cube_texture's.
 // Differentiable w.r.t. the cube map and the direction (and, trilinear, the

@@ -6,14 +6,14 @@
 #include <string>
 #include <vector>
 
-#include "autodiff/error.h"
+#include "autodiff/base/error.h"
 #include "ops/check.h"
-#include "ops/elementwise.h"
-#include "ops/factories.h"
-#include "ops/linalg.h"
+#include "ops/tensor/elementwise.h"
+#include "ops/tensor/factories.h"
+#include "ops/tensor/linalg.h"
 #include "ops/shading/arguments.h"
-#include "ops/shape_ops.h"
-#include "ops/vector.h"
+#include "ops/tensor/shape_ops.h"
+#include "ops/tensor/vector.h"
 
 namespace gr::shading {
 namespace {

@@ -13,7 +13,7 @@
 // world needs no swap. Everything is differentiable w.r.t. every float input.
 #pragma once
 
-#include "autodiff/tensor.h"
+#include "autodiff/base/tensor.h"
 
 namespace gr::shading {
 

@@ -2,10 +2,10 @@
 #include "ops/shading/tangent_frames.h"
 
 #include "ops/check.h"
-#include "ops/elementwise.h"
+#include "ops/tensor/elementwise.h"
 #include "ops/shading/arguments.h"
-#include "ops/shape_ops.h"
-#include "ops/vector.h"
+#include "ops/tensor/shape_ops.h"
+#include "ops/tensor/vector.h"
 
 namespace gr::shading {
 namespace {

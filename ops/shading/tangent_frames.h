@@ -5,7 +5,7 @@
 // Differentiable w.r.t. every float input (signs and handedness carry no gradient).
 #pragma once
 
-#include "autodiff/tensor.h"
+#include "autodiff/base/tensor.h"
 
 namespace gr::shading {
 

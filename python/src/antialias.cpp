@@ -6,9 +6,9 @@
 #include <cstdint>
 #include <string>
 
-#include "autodiff/error.h"
-#include "autodiff/memory.h"
-#include "raster/rasterize_setup.h"
+#include "autodiff/base/error.h"
+#include "autodiff/base/memory.h"
+#include "raster/detail/rasterize_setup.h"
 
 namespace gr::python {
 namespace {

@@ -2,7 +2,7 @@
 
 #include <algorithm>
 
-#include "autodiff/error.h"
+#include "autodiff/base/error.h"
 
 namespace py = pybind11;
 

@@ -5,9 +5,9 @@
 #include <cstdint>
 #include <string>
 
-#include "autodiff/error.h"
-#include "autodiff/parallel.h"
-#include "raster/rasterize_setup.h"
+#include "autodiff/base/error.h"
+#include "autodiff/base/parallel.h"
+#include "raster/detail/rasterize_setup.h"
 
 namespace gr::python {
 namespace {

@@ -2,9 +2,9 @@
 
 #include <algorithm>
 
-#include "autodiff/error.h"
-#include "autodiff/tensor.h"
-#include "raster/image_io.h"
+#include "autodiff/base/error.h"
+#include "autodiff/base/tensor.h"
+#include "raster/io/image_io.h"
 
 namespace gr::python {
 

@@ -1,5 +1,5 @@
 // PNG output for the Python package (gradraster.write_png), through
-// raster/image_io's atomic writer.
+// raster/io/image_io's atomic writer.
 #pragma once
 
 #include <string>

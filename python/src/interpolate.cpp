@@ -2,9 +2,9 @@
 
 #include <string>
 
-#include "autodiff/error.h"
+#include "autodiff/base/error.h"
 #include "raster/barycentric_interpolate.h"
-#include "raster/rasterize_setup.h"
+#include "raster/detail/rasterize_setup.h"
 
 namespace gr::python {
 namespace {

@@ -7,9 +7,9 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
-#include "autodiff/error.h"
-#include "autodiff/memory.h"
-#include "autodiff/parallel.h"
+#include "autodiff/base/error.h"
+#include "autodiff/base/memory.h"
+#include "autodiff/base/parallel.h"
 #include "python/src/antialias.h"
 #include "python/src/image.h"
 #include "python/src/interpolate.h"

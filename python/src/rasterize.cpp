@@ -4,7 +4,7 @@
 #include <string>
 #include <type_traits>
 
-#include "autodiff/error.h"
+#include "autodiff/base/error.h"
 #include "raster/barycentric_gbuffer.h"
 #include "raster/rasterize.h"
 #ifdef GRADRASTER_HAS_VULKAN

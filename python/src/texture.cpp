@@ -2,10 +2,10 @@
 
 #include <string>
 
-#include "autodiff/error.h"
+#include "autodiff/base/error.h"
 #include "raster/cube_texture.h"
 #include "raster/mipmap.h"
-#include "raster/rasterize_setup.h"
+#include "raster/detail/rasterize_setup.h"
 #include "raster/texture.h"
 
 namespace gr::python {

@@ -2,7 +2,7 @@
 // the texture lookups through raster/vulkan/texture.h.
 #include "raster/vulkan/backend.h"
 
-#include "autodiff/error.h"
+#include "autodiff/base/error.h"
 #include "raster/vulkan/rasterize.h"
 #include "raster/vulkan/texture.h"
 

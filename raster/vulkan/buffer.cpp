@@ -1,7 +1,7 @@
 // Buffers with their own memory (see internal/buffer.h).
 #include "raster/vulkan/internal/buffer.h"
 
-#include "autodiff/error.h"
+#include "autodiff/base/error.h"
 
 namespace gr::vulkan {
 

@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "autodiff/error.h"
+#include "autodiff/base/error.h"
 #include "raster/vulkan/internal/context.h"
 
 namespace gr::vulkan {

@@ -7,9 +7,9 @@
 #include <string>
 #include <vector>
 
-#include "autodiff/error.h"
+#include "autodiff/base/error.h"
 #include "raster/antialias.h"
-#include "raster/rasterize_setup.h"
+#include "raster/detail/rasterize_setup.h"
 #include "raster/vulkan/internal/buffer.h"
 #include "raster/vulkan/internal/kernels.h"
 

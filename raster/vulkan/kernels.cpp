@@ -5,7 +5,7 @@
 #include <memory>
 #include <string>
 
-#include "autodiff/error.h"
+#include "autodiff/base/error.h"
 
 namespace gr::vulkan {
 

@@ -10,8 +10,8 @@
 #include <utility>
 #include <vector>
 
-#include "autodiff/error.h"
-#include "raster/rasterize_setup.h"  // detail::check_finite
+#include "autodiff/base/error.h"
+#include "raster/detail/rasterize_setup.h"  // detail::check_finite
 #include "raster/vulkan/internal/buffer.h"
 #include "raster/vulkan/internal/kernels.h"
 

@@ -1,4 +1,4 @@
-// The grad() contract (autodiff/tensor.h): a leaf has a gradient after
+// The grad() contract (autodiff/base/tensor.h): a leaf has a gradient after
 // backward() exactly when the loss depends on it through recorded ops, zeros
 // where the derivative vanishes, whichever op it met.
 #include <catch2/catch.hpp>

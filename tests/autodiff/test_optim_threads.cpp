@@ -5,7 +5,7 @@
 #include <vector>
 
 #include "autodiff/optim.h"
-#include "autodiff/parallel.h"
+#include "autodiff/base/parallel.h"
 #include "ops/ops.h"
 #include "test_support.h"
 

@@ -8,7 +8,7 @@
 #include <mutex>
 #include <thread>
 
-#include "autodiff/parallel.h"
+#include "autodiff/base/parallel.h"
 #include "autodiff/tape.h"
 #include "autodiff/view_gradients.h"
 #include "ops/ops.h"

@@ -14,12 +14,12 @@
 #include <string>
 #include <vector>
 
-#include "autodiff/memory.h"
-#include "autodiff/storage.h"
+#include "autodiff/base/memory.h"
+#include "autodiff/base/storage.h"
 #include "examples/render/render_tool.h"
 #include "ops/ops.h"
-#include "raster/image_io.h"
-#include "raster/obj_io.h"
+#include "raster/io/image_io.h"
+#include "raster/io/obj_io.h"
 #include "raster/procedural.h"
 #include "raster/temp_dir.h"
 

@@ -8,13 +8,13 @@
 #include <cmath>
 #include <vector>
 
-#include "autodiff/error.h"
-#include "autodiff/parallel.h"
+#include "autodiff/base/error.h"
+#include "autodiff/base/parallel.h"
 #include "autodiff/tape.h"
 #include "bench/exact_reference/exact_reference.h"
 #include "bench/exact_reference/quadrature.h"
 #include "ops/ops.h"
-#include "ops/resample.h"
+#include "ops/render/resample.h"
 
 namespace gr {
 namespace {

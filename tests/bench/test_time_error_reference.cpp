@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "autodiff/tape.h"
-#include "autodiff/error.h"
+#include "autodiff/base/error.h"
 #include "bench/time_error_exact.h"
 #include "bench/time_error_regions.h"
 #include "ops/ops.h"

@@ -6,12 +6,12 @@
 #include <filesystem>
 #include <sstream>
 
-#include "autodiff/error.h"
-#include "autodiff/memory.h"
+#include "autodiff/base/error.h"
+#include "autodiff/base/memory.h"
 #include "examples/common/cli_args.h"
 #include "examples/fit/fit_outputs.h"
-#include "raster/image_io.h"
-#include "raster/obj_io.h"
+#include "raster/io/image_io.h"
+#include "raster/io/obj_io.h"
 #include "raster/procedural.h"
 #include "raster/temp_dir.h"
 

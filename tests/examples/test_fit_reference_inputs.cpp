@@ -9,12 +9,12 @@
 #include <sstream>
 #include <string>
 
-#include "autodiff/error.h"
+#include "autodiff/base/error.h"
 #include "examples/fit/cli.h"
 #include "examples/fit/fit.h"
 #include "examples/fit/scene.h"
-#include "raster/image_io.h"
-#include "raster/obj_io.h"
+#include "raster/io/image_io.h"
+#include "raster/io/obj_io.h"
 #include "raster/procedural.h"
 #include "raster/temp_dir.h"
 

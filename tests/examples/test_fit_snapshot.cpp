@@ -5,7 +5,7 @@
 
 #include <random>
 
-#include "autodiff/error.h"
+#include "autodiff/base/error.h"
 #include "examples/fit/snapshot.h"
 #include "ops/ops.h"
 

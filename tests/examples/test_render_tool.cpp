@@ -16,13 +16,13 @@
 #include <string>
 #include <vector>
 
-#include "autodiff/memory.h"
-#include "autodiff/parallel.h"
+#include "autodiff/base/memory.h"
+#include "autodiff/base/parallel.h"
 #include "examples/render/render_tool.h"
-#include "ops/linalg.h"
-#include "ops/transforms.h"
-#include "raster/image_io.h"
-#include "raster/obj_io.h"
+#include "ops/tensor/linalg.h"
+#include "ops/render/transforms.h"
+#include "raster/io/image_io.h"
+#include "raster/io/obj_io.h"
 #include "raster/procedural.h"
 #include "raster/temp_dir.h"
 

@@ -8,10 +8,10 @@
 #include <string>
 #include <vector>
 
-#include "autodiff/memory.h"
+#include "autodiff/base/memory.h"
 #include "examples/common/output_folder.h"
 #include "examples/ssr/ssr_tool.h"
-#include "raster/image_io.h"
+#include "raster/io/image_io.h"
 #include "raster/temp_dir.h"
 
 using gr::ssr_tool::run_ssr_tool;

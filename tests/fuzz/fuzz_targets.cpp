@@ -7,12 +7,12 @@
 #include <limits>
 #include <string>
 
-#include "autodiff/error.h"
-#include "autodiff/memory.h"
+#include "autodiff/base/error.h"
+#include "autodiff/base/memory.h"
 #include "autodiff/tape.h"
 #include "ops/ops.h"
-#include "raster/image_io.h"
-#include "raster/obj_io.h"
+#include "raster/io/image_io.h"
+#include "raster/io/obj_io.h"
 
 namespace gr::fuzz {
 namespace {

@@ -3,7 +3,7 @@
 // (test_fuzz_corpus.cpp), so every seed is also a regression test.
 //
 // Contract checked by every body: the code under test either throws a gr::Error
-// (autodiff/error.h), which the body swallows, or returns finite outputs and
+// (autodiff/base/error.h), which the body swallows, or returns finite outputs and
 // gradients (for the raster body: the G-buffer always; interpolated values,
 // screen derivatives and gradients when every clip and attribute value has
 // magnitude <= 1e4, since inputs near the float range may overflow them

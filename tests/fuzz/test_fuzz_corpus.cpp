@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "fuzz/fuzz_targets.h"
-#include "raster/obj_io.h"
+#include "raster/io/obj_io.h"
 
 namespace fs = std::filesystem;
 using gr::fuzz::fuzz_obj_loader;

@@ -11,8 +11,8 @@ fail() { echo "FAIL: $*" >&2; exit 1; }
 cp -r "$src/raster" "$src/autodiff" "$tmp/"
 "$src/scripts/check_layers.sh" "$tmp" > /dev/null || fail "the unchanged tree should pass"
 
-for bad in autodiff/tape.h autodiff/gradcheck.h autodiff/optim.h autodiff/accumulate.h ops/ops.h ops/rasterize.h; do
-  for file in raster/rasterize.cpp raster/texture.h autodiff/tensor.cpp; do
+for bad in autodiff/tape.h autodiff/gradcheck.h autodiff/optim.h autodiff/accumulate.h ops/ops.h ops/render/rasterize.h; do
+  for file in raster/rasterize.cpp raster/texture.h raster/io/image_io.cpp raster/detail/rasterize_scan.cpp autodiff/base/tensor.cpp; do
     cp "$src/$file" "$tmp/$file"
     printf '#include "%s"\n' "$bad" >> "$tmp/$file"
     if "$src/scripts/check_layers.sh" "$tmp" 2> "$tmp/err.txt" > /dev/null; then

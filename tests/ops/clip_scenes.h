@@ -1,7 +1,7 @@
 // Small clip-space scenes shared by the op tests.
 #pragma once
 
-#include "autodiff/tensor.h"
+#include "autodiff/base/tensor.h"
 
 namespace gr::testing {
 

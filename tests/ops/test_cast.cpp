@@ -5,7 +5,7 @@
 #include <cmath>
 #include <limits>
 
-#include "autodiff/parallel.h"
+#include "autodiff/base/parallel.h"
 #include "ops/ops.h"
 
 using namespace gr;

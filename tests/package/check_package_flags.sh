@@ -2,7 +2,7 @@
 # Checks what an installed gradraster asks of its consumers (docs/decisions.md,
 # "Packaging"): the CMake package and the .pc file carry nothing about the
 # machine the library was built on (-march=native and other -m flags), nothing
-# of Eigen (private to ops/linalg.cpp), and both carry -ffp-contract=off, so a
+# of Eigen (private to ops/tensor/linalg.cpp), and both carry -ffp-contract=off, so a
 # find_package consumer and a pkg-config consumer compile alike. Prints each
 # offending line and exits 1.
 # Usage: tests/package/check_package_flags.sh PREFIX   (a `cmake --install` prefix)

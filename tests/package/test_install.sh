@@ -17,12 +17,12 @@ consumer="$src/tests/package/consumer"
 expected='grad 2 4 6, icosphere 42 vertices'
 
 cmake --install "$build" --component dev --prefix "$prefix" > "$tmp/install.log"
-test -f "$prefix/include/gradraster/autodiff/tensor.h"
+test -f "$prefix/include/gradraster/autodiff/base/tensor.h"
 
 # Only public headers (cmake/public_headers.cmake): internal helpers stay out,
 # and what is installed compiles with nothing but the installed tree.
 include_dir="$prefix/include/gradraster"
-for internal in raster/rasterize_scan.h raster/png_encoder.h ops/mesh/row_sums.h ops/shading/arguments.h ops/check.h; do
+for internal in raster/detail/rasterize_scan.h raster/io/png_encoder.h ops/mesh/row_sums.h ops/shading/arguments.h ops/check.h; do
   [[ -f "$src/$internal" ]] || { echo "test_install.sh: $internal is no longer in the source tree; name another internal header" >&2; exit 1; }
   [[ ! -e "$include_dir/$internal" ]] || { echo "internal header $internal was installed" >&2; exit 1; }
 done

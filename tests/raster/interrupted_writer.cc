@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "raster/files.h"
+#include "raster/io/files.h"
 #include "raster/temporaries.h"
 
 int main(int argc, char** argv) {

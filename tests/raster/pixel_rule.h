@@ -1,8 +1,8 @@
-// The rasterizer's documented per-pixel rule (raster/rasterize_setup.h), one
+// The rasterizer's documented per-pixel rule (raster/detail/rasterize_setup.h), one
 // pixel at a time, for the kernel tests that hold the vectorized paths to it.
 #pragma once
 
-#include "raster/rasterize_setup.h"
+#include "raster/detail/rasterize_setup.h"
 
 namespace gr::testing {
 

@@ -9,7 +9,7 @@
 #include <numeric>
 #include <vector>
 
-#include "autodiff/error.h"
+#include "autodiff/base/error.h"
 #include "raster/antialias.h"
 #include "raster/rasterize.h"
 

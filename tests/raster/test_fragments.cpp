@@ -4,7 +4,7 @@
 #include <random>
 #include <vector>
 
-#include "autodiff/parallel.h"
+#include "autodiff/base/parallel.h"
 #include "raster/fragments.h"
 
 using namespace gr;

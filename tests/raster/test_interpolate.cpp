@@ -9,8 +9,8 @@
 #include <random>
 #include <vector>
 
-#include "autodiff/error.h"
-#include "autodiff/parallel.h"
+#include "autodiff/base/error.h"
+#include "autodiff/base/parallel.h"
 #include "raster/interpolate.h"
 #include "raster/rasterize.h"
 #include "raster/kernel_checks.h"

@@ -11,7 +11,7 @@
 #include <cstring>
 #include <vector>
 
-#include "autodiff/parallel.h"
+#include "autodiff/base/parallel.h"
 #include "raster/interpolate.h"
 #include "raster/clip_scene.h"
 #include "raster/kernel_checks.h"

@@ -1,4 +1,4 @@
-// Tests of raster/mesh.h and raster/obj_io.h: OBJ loading (triangulation,
+// Tests of raster/mesh.h and raster/io/obj_io.h: OBJ loading (triangulation,
 // welding, materials), its error handling on malformed files, save/load round
 // trips, and Mesh::validate.
 #include <catch2/catch.hpp>
@@ -11,11 +11,11 @@
 #include <fstream>
 #include <sstream>
 
-#include "autodiff/error.h"
-#include "autodiff/memory.h"
-#include "autodiff/storage.h"
-#include "raster/image_io.h"
-#include "raster/obj_io.h"
+#include "autodiff/base/error.h"
+#include "autodiff/base/memory.h"
+#include "autodiff/base/storage.h"
+#include "raster/io/image_io.h"
+#include "raster/io/obj_io.h"
 #include "raster/procedural.h"
 #include "raster/heap_peak.h"
 #include "raster/temp_dir.h"

@@ -7,7 +7,7 @@
 #include <cmath>
 #include <map>
 
-#include "autodiff/error.h"
+#include "autodiff/base/error.h"
 #include "raster/procedural.h"
 
 using namespace gr;

@@ -8,7 +8,7 @@
 #include <random>
 #include <vector>
 
-#include "autodiff/error.h"
+#include "autodiff/base/error.h"
 #include "raster/project.h"
 #include "raster/kernel_checks.h"
 

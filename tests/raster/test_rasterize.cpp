@@ -2,7 +2,7 @@
 // (watertight shared edges and vertices on pixel centres), culling, near-plane
 // clipping, determinism over threads and triangle order, degenerate input,
 // bad input, and the adjoint against central finite differences.
-// raster/rasterize_setup.cpp (edge setup, classification, validation) is tested through these.
+// raster/detail/rasterize_setup.cpp (edge setup, classification, validation) is tested through these.
 #include <catch2/catch.hpp>
 
 #include <algorithm>
@@ -14,8 +14,8 @@
 #include <random>
 #include <vector>
 
-#include "autodiff/error.h"
-#include "autodiff/parallel.h"
+#include "autodiff/base/error.h"
+#include "autodiff/base/parallel.h"
 #include "raster/rasterize.h"
 #include "raster/kernel_checks.h"
 

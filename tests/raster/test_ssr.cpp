@@ -15,17 +15,18 @@
 #include <set>
 #include <vector>
 
-#include "autodiff/error.h"
-#include "autodiff/parallel.h"
-#include "ops/elementwise.h"
-#include "ops/ssr.h"
-#include "ops/transforms.h"
+#include "autodiff/base/error.h"
+#include "autodiff/base/parallel.h"
+#include "ops/tensor/elementwise.h"
+#include "ops/render/ssr.h"
+#include "ops/render/transforms.h"
 #include "raster/ssr.h"
-#include "raster/ssr_scene.h"
+#include "examples/common/ssr_scene.h"
 #include "test_support.h"
 
 using namespace gr;
 using namespace gr::raster;
+using namespace gr::examples;
 using Vec3 = std::array<double, 3>;
 
 namespace {

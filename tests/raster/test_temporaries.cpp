@@ -15,7 +15,7 @@
 #include <vector>
 
 #include "child_process.h"
-#include "raster/files.h"
+#include "raster/io/files.h"
 #include "raster/temp_dir.h"
 #include "raster/temporaries.h"
 

@@ -9,8 +9,8 @@
 #include <random>
 #include <vector>
 
-#include "autodiff/error.h"
-#include "raster/image_io.h"
+#include "autodiff/base/error.h"
+#include "raster/io/image_io.h"
 #include "raster/mipmap.h"
 #include "raster/temp_dir.h"
 #include "raster/texture.h"

@@ -1,5 +1,5 @@
 // Golden checksums: fixed scenes rendered and differentiated with 1, 2 and 8
-// threads (8 really is 8 threads, also on fewer cores: autodiff/parallel.h),
+// threads (8 really is 8 threads, also on fewer cores: autodiff/base/parallel.h),
 // each thread count twice. Every buffer (G-buffer, image, every gradient) is
 // hashed (FNV-1a over its raw bytes) and all runs must agree bit for bit, in
 // float32 and float64. The hashes are compared between runs, never with
@@ -19,11 +19,11 @@
 #include <utility>
 #include <vector>
 
-#include "ops/antialias.h"
+#include "ops/render/antialias.h"
 #include "ops/ops.h"
-#include "ops/ssr.h"
+#include "ops/render/ssr.h"
 #include "raster/procedural.h"
-#include "raster/ssr_scene.h"
+#include "examples/common/ssr_scene.h"
 
 using namespace gr;
 
@@ -197,13 +197,13 @@ struct SsrSceneTensors {
   Tensor positions, colours, reflectivity;  // leaves
   SsrFade fade;                             // leaves
   Tensor normals, triangles, weights;
-  raster::SsrScene scene;
+  gr::examples::SsrScene scene;
   int width = 256, height = 192;
 };
 
 SsrSceneTensors make_ssr_tensors(DType dtype) {
   SsrSceneTensors s;
-  s.scene = raster::make_ssr_scene(8, 3);
+  s.scene = gr::examples::make_ssr_scene(8, 3);
   s.positions = cast(s.scene.mesh.positions, dtype).set_requires_grad();
   s.normals = cast(s.scene.mesh.normals, dtype);
   s.colours = cast(s.scene.colours, dtype).set_requires_grad();
@@ -227,7 +227,7 @@ Hashes run_ssr(SsrSceneTensors& s) {
   s.fade = ssr_fade(ssr_options(), dt);
   for (Tensor* leaf : {&s.fade.edge_exponent, &s.fade.fade_distance}) leaf->set_requires_grad();
   for (Tensor* leaf : {&s.positions, &s.colours, &s.reflectivity}) leaf->zero_grad();
-  const raster::SsrScene& sc = s.scene;
+  const gr::examples::SsrScene& sc = s.scene;
   const Tensor view = look_at(vec3(sc.eye[0], sc.eye[1], sc.eye[2], dt), vec3(sc.target[0], sc.target[1], sc.target[2], dt),
                               vec3(sc.up[0], sc.up[1], sc.up[2], dt));
   const Tensor proj = perspective(sc.fov_y, double(s.width) / s.height, sc.near, sc.far, ClipSpace::OpenGL, dt);

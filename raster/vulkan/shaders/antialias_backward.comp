@@ -2,7 +2,7 @@
 // The adjoint of antialias_forward (raster/antialias.cpp, antialias_backward).
 // Pass 0, per pixel p: dL/dimage[p] = g[p], then in pair order -w g[p] where
 // p is a pair's target and +w g[target] where it is its source
-// (blend_image_adjoint, raster/surface_walk.h); and the largest screen
+// (blend_image_adjoint, raster/detail/surface_walk.h); and the largest screen
 // contribution. Pass 1, per pixel: its two slots' contributions to the edge
 // vertices' screen positions, summed in fixed point (fixed_point.glsl):
 //   dL/dt = g[target] . (image[inside] - image[outside])

@@ -1,5 +1,5 @@
 // Shared by the antialias shaders: the CPU kernel's silhouette pairs
-// (raster/antialias.cpp, raster/surface_walk.cpp), expression for expression
+// (raster/antialias.cpp, raster/detail/surface_walk.cpp), expression for expression
 // in double (the rules of exact_math.glsl: `precise`, div_rn, finiteness
 // on the bits). Pixel pairs are stored per pixel p, two slots: 2p for
 // (p, p + 1) and 2p + 1 for (p, p + W); the CPU's pair order (row-major by the
@@ -59,7 +59,7 @@ ivec2 inside_outside(int s, Pair pr) {
   return (pr.b & int(0x80000000u)) != 0 ? pq.yx : pq;
 }
 
-// blend_step (raster/surface_walk.h): the pixel beyond t = 1/2 (target)
+// blend_step (raster/detail/surface_walk.h): the pixel beyond t = 1/2 (target)
 // takes w = |t - 1/2| of the other's colour (source).
 struct Blend {
   int target;

@@ -1,6 +1,6 @@
 #version 460
 // Per pixel p: out[p] = image[p], then the blends of the pairs that target p,
-// in pair order (apply_blend, raster/surface_walk.h):
+// in pair order (apply_blend, raster/detail/surface_walk.h):
 //   out[target] += w (image[source] - image[target]),  w = |t - 1/2|.
 // Each pixel gathers its own value: no two invocations write one pixel.
 #include "dispatch.glsl"

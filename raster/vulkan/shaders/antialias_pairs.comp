@@ -2,7 +2,7 @@
 // Per pixel p: its pairs with the right and the lower neighbour (slots 2p,
 // 2p + 1), evaluated as antialias_forward does (raster/antialias.cpp): when
 // the triangle ids differ, walk from the front triangle's centre towards the
-// other centre across interior edges (walk_surface, raster/surface_walk.cpp);
+// other centre across interior edges (walk_surface, raster/detail/surface_walk.cpp);
 // a silhouette crossed before it, owned by the pair's axis, blends.
 #include "dispatch.glsl"
 #include "antialias_common.glsl"

@@ -1,6 +1,6 @@
 #version 460
 // Per vertex: screen position, z_ndc, in-front flag and frustum outcode
-// (project_vertices_into in raster/rasterize_setup.cpp).
+// (project_vertices_into in raster/detail/rasterize_setup.cpp).
 #include "dispatch.glsl"
 #include "raster_common.glsl"
 

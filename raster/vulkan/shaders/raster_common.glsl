@@ -1,5 +1,5 @@
 // Shared by the rasterizer's compute shaders: the CPU kernels' projection,
-// triangle classification and watertight edge setup (raster/rasterize_setup.cpp),
+// triangle classification and watertight edge setup (raster/detail/rasterize_setup.cpp),
 // expression for expression in double precision (exact_math.glsl's rules),
 // so that every coverage and depth decision, and so every triangle id, is the CPU's.
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require

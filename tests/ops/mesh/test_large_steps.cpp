@@ -8,7 +8,7 @@
 #include <cmath>
 #include <vector>
 
-#include "autodiff/parallel.h"
+#include "autodiff/base/parallel.h"
 #include "ops/ops.h"
 #include "raster/procedural.h"
 #include "test_support.h"

@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "autodiff/parallel.h"
+#include "autodiff/base/parallel.h"
 #include "ops/ops.h"
 #include "raster/procedural.h"
 #include "test_support.h"

@@ -13,7 +13,7 @@
 #include <cstring>
 #include <vector>
 
-#include "autodiff/error.h"
+#include "autodiff/base/error.h"
 #include "raster/antialias.h"
 #include "raster/procedural.h"
 #include "raster/vulkan/frame.h"

@@ -11,7 +11,7 @@
 #include <cstring>
 #include <vector>
 
-#include "autodiff/error.h"
+#include "autodiff/base/error.h"
 #include "raster/interpolate.h"
 #include "raster/procedural.h"
 #include "raster/vulkan/frame.h"

@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "autodiff/error.h"
+#include "autodiff/base/error.h"
 #include "raster/procedural.h"
 #include "raster/rasterize.h"
 #include "raster/vulkan/rasterize.h"

@@ -25,7 +25,7 @@
 #include <type_traits>
 #include <vector>
 
-#include "autodiff/error.h"
+#include "autodiff/base/error.h"
 #include "ops/ops.h"
 #include "raster/mipmap.h"
 #include "raster/texture.h"

@@ -1,0 +1,343 @@
+// Batched rasterize, interpolate and antialias: the single-image kernels on
+// slices of [B, ...] tensors, images in parallel, one tape node per call.
+#include "ops/render/batch.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "autodiff/base/parallel.h"
+#include "autodiff/tape.h"
+#include "ops/check.h"
+#include "raster/blended_pairs.h"
+#include "raster/barycentric_interpolate.h"
+
+namespace gr {
+namespace {
+
+using detail::for_each_image;
+
+// An input with or without an image axis: image b's rows, and whether the
+// images share it.
+struct PerImage {
+  const Tensor* t;
+  bool shared;
+  std::int64_t rows, cols;
+  template <class T>
+  const T* at(std::int64_t b) const {
+    return t->data<T>() + (shared ? 0 : b * rows * cols);
+  }
+};
+
+PerImage per_image(const Tensor& t, std::int64_t images, std::int64_t rows, const std::string& op, const char* name,
+                   const char* shape) {
+  detail::check_float(t, op, name);
+  const bool shared = t.rank() == 2;
+  if (!(shared || t.rank() == 3) || (!shared && t.size(0) != images) || t.size(t.rank() - 2) != rows)
+    throw ShapeError(op + ": argument '" + name + "' must be " + shape + " with B = " + std::to_string(images) +
+                     " images and N = " + std::to_string(rows) + ", got " + t.describe());
+  return {&t, shared, rows, t.size(t.rank() - 1)};
+}
+
+// Gradient buffers of a PerImage input: slices of one tensor, or one buffer
+// per image summed in image order at the end (a shared input).
+struct GradOf {
+  Tensor total;
+  std::vector<Tensor> parts;
+  GradOf(const PerImage& in, std::int64_t images) : total(Tensor::zeros(in.t->shape(), in.t->dtype())) {
+    if (in.shared)
+      for (std::int64_t b = 0; b < images; ++b) parts.push_back(Tensor::zeros(in.t->shape(), in.t->dtype()));
+  }
+  template <class T>
+  T* at(const PerImage& in, std::int64_t b) {
+    return in.shared ? parts[b].data<T>() : total.data<T>() + b * in.rows * in.cols;
+  }
+  Tensor finish() {
+    for (const Tensor& part : parts) detail::add_image_gradient(total, part);
+    return total;
+  }
+};
+
+void check_batched_gbuffer(const GBuffer& g, std::int64_t images, const Tensor& clip, const Tensor& triangles,
+                           const std::string& op) {
+  if (!g.tri_id.defined() || g.tri_id.dtype() != DType::Int32 || g.tri_id.rank() != 3 || g.tri_id.size(0) != images)
+    throw ShapeError(op + ": argument 'gbuffer' has no [B, H, W] int32 tri_id with B = " + std::to_string(images) +
+                     " (pass the result of rasterize_batch or rasterize_ranges)");
+  const std::int64_t h = g.tri_id.size(1), w = g.tri_id.size(2);
+  detail::check_image_size(w, h, op);
+  if (g.uv.shape() != Shape{images, h, w, 2} || g.uv.dtype() != clip.dtype() ||
+      g.depth.shape() != Shape{images, h, w} || g.depth.dtype() != clip.dtype())
+    throw ShapeError(op + ": gbuffer.uv " + g.uv.describe() + " or depth " + g.depth.describe() +
+                     " does not match tri_id " + g.tri_id.describe() + " and the dtype of 'clip'");
+  detail::check_tri_ids(g.tri_id, triangles.size(0), op);
+  detail::check_gbuffer_source(g, clip, triangles, op);
+}
+
+}  // namespace
+
+namespace detail {
+
+void add_image_gradient(Tensor& total, const Tensor& part) {
+  if (!total.defined()) return;
+  dispatch_float(total.dtype(), "add_image_gradient", [&](auto tag) {
+    using T = decltype(tag);
+    T* to = total.data<T>();
+    const T* from = part.data<T>();
+    parallel_for(0, total.numel(), kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
+      for (std::int64_t k = lo; k < hi; ++k) to[k] += from[k];
+    });
+  });
+}
+
+ImageBatch check_instanced(const Tensor& clip, const Tensor& triangles, const RasterizeOptions& options,
+                           const std::string& op) {
+  check_image_size(options.width, options.height, op);
+  check_float(clip, op, "clip");
+  if (clip.rank() != 3 || clip.size(0) < 1 || clip.size(2) != 4)
+    throw ShapeError(op + ": argument 'clip' must have shape [B, N, 4] with B >= 1, got " + clip.describe());
+  check_triangles(triangles, clip.size(1), op);
+  check_finite(clip, op, "clip");
+  return {true, std::vector<ImageBatch::Range>(clip.size(0), {0, triangles.size(0)})};
+}
+
+ImageBatch check_ranges(const Tensor& clip, const Tensor& triangles, const Tensor& ranges,
+                        const RasterizeOptions& options, const std::string& op) {
+  check_rasterize_inputs(clip, triangles, options, op.c_str());
+  check_dtype(ranges, DType::Int32, op, "ranges");
+  if (ranges.rank() != 2 || ranges.size(0) < 1 || ranges.size(1) != 2)
+    throw ShapeError(op + ": argument 'ranges' must have shape [B, 2] with B >= 1, got " + ranges.describe());
+  const std::int64_t B = ranges.size(0), M = triangles.size(0);
+  ImageBatch batch{false, std::vector<ImageBatch::Range>(static_cast<std::size_t>(B))};
+  const std::int32_t* v = ranges.data<std::int32_t>();
+  for (std::int64_t b = 0; b < B; ++b) {
+    ImageBatch::Range& r = batch.ranges[b];
+    r = {v[2 * b], v[2 * b + 1]};
+    if (r.first < 0 || r.count < 0 || r.first > M || r.count > M - r.first)
+      throw IndexError(op + ": ranges[" + std::to_string(b) + "] = (" + std::to_string(r.first) + ", " +
+                       std::to_string(r.count) + ") is outside the " + std::to_string(M) + " triangles");
+  }
+  return batch;
+}
+
+GBuffer rasterize_images(const Tensor& clip, const Tensor& triangles, const ImageBatch& batch,
+                         const RasterizeOptions& o, const PeelKey* floor, PeelKey* key, const char* op) {
+  const std::vector<ImageBatch::Range>& ranges = batch.ranges;
+  const std::int64_t B = static_cast<std::int64_t>(ranges.size()), h = o.height, w = o.width, P = h * w;
+  const PerImage positions{&clip, !batch.instanced, clip.size(clip.rank() - 2), 4};
+  const raster::RasterSettings settings{o.width, o.height, o.cull, o.front_to_back};
+  GBuffer gb;
+  gb.clip = clip;
+  gb.triangles = triangles;
+  gb.tri_id = Tensor::empty({B, h, w}, DType::Int32);
+  gb.uv = Tensor::empty({B, h, w, 2}, clip.dtype());
+  gb.depth = Tensor::empty({B, h, w}, clip.dtype());
+  if (o.derivatives) gb.db = Tensor::empty({B, h, w, 4}, clip.dtype());
+  if (key) *key = {Tensor::empty({B * P}, DType::Int32), Tensor::empty({B * P}, DType::Float64)};
+  std::vector<raster::RasterStats> stats(static_cast<std::size_t>(B));
+  const std::int32_t* tris = triangles.data<std::int32_t>();
+  dispatch_float(clip.dtype(), op, [&](auto tag) {
+    using T = decltype(tag);
+    for_each_image(B, [&](std::int64_t b) {
+      // The kernel numbers the image's triangles from 1 (its floor ids too).
+      raster::RasterParams<T> p{positions.at<T>(b), positions.rows, tris + 3 * ranges[b].first, ranges[b].count,
+                                settings};
+      if (floor) {
+        p.floor_id = floor->id.data<std::int32_t>() + b * P;
+        p.floor_z = floor->z.data<double>() + b * P;
+      }
+      std::int32_t* id = gb.tri_id.data<std::int32_t>() + b * P;
+      raster::rasterize_forward(p, id, gb.uv.data<T>() + 2 * b * P, gb.depth.data<T>() + b * P, &stats[b],
+                                key ? key->z.data<double>() + b * P : nullptr);
+      if (key) std::copy(id, id + P, key->id.data<std::int32_t>() + b * P);
+      // Ids index the whole triangle list.
+      if (ranges[b].first != 0)
+        for (std::int64_t q = 0; q < P; ++q) id[q] += id[q] ? static_cast<std::int32_t>(ranges[b].first) : 0;
+    });
+  });
+  for (const raster::RasterStats& s : stats) {
+    gb.stats.triangles_in += s.triangles_in;
+    gb.stats.culled_outside += s.culled_outside;
+    gb.stats.culled_zero_area += s.culled_zero_area;
+    gb.stats.culled_face += s.culled_face;
+    gb.stats.culled_no_pixel += s.culled_no_pixel;
+    gb.stats.rasterized += s.rasterized;
+    gb.stats.clipped_near += s.clipped_near;
+  }
+  finish_gbuffer(gb, op);
+  return gb;
+}
+
+}  // namespace detail
+
+GBuffer rasterize_batch(const Tensor& clip, const Tensor& triangles, const RasterizeOptions& options) {
+  const char* op = "rasterize_batch";
+  return detail::rasterize_images(clip, triangles, detail::check_instanced(clip, triangles, options, op), options,
+                                  nullptr, nullptr, op);
+}
+
+GBuffer rasterize_ranges(const Tensor& clip, const Tensor& triangles, const Tensor& ranges,
+                         const RasterizeOptions& options) {
+  const char* op = "rasterize_ranges";
+  return detail::rasterize_images(clip, triangles, detail::check_ranges(clip, triangles, ranges, options, op),
+                                  options, nullptr, nullptr, op);
+}
+
+Tensor interpolate_batch(const Tensor& attributes, const GBuffer& gbuffer, const Tensor& triangles,
+                         const InterpolateOptions& options) {
+  const std::string op = "interpolate_batch";
+  const std::int64_t B = gbuffer.tri_id.defined() && gbuffer.tri_id.rank() == 3 ? gbuffer.tri_id.size(0) : 0;
+  if (!gbuffer.clip.defined())
+    throw ValueError(op + ": argument 'gbuffer' does not record its clip positions (pass the result of "
+                     "rasterize_batch or rasterize_ranges)");
+  const Tensor& clip = gbuffer.clip;
+  const std::int64_t N = clip.size(clip.rank() - 2);
+  const PerImage attr = per_image(attributes, B, N, op, "attributes", "[N, C] or [B, N, C]");
+  detail::check_triangles(triangles, N, op);
+  check_batched_gbuffer(gbuffer, B, clip, triangles, op);
+  detail::check_same_dtype(attributes, clip, op, "attributes", "gbuffer.clip");
+  detail::check_finite(attributes, op, "attributes");
+  const std::int64_t C = attr.cols;
+  if (options.background.defined()) {
+    detail::check_same_dtype(options.background, attributes, op, "background", "attributes");
+    detail::check_shape(options.background, Shape{C}, op, "background");
+  }
+  const std::int64_t h = gbuffer.tri_id.size(1), w = gbuffer.tri_id.size(2), P = h * w;
+  const Tensor tri_id = gbuffer.tri_id, uv = gbuffer.uv, background = options.background;
+  auto params = [=](auto tag, const PerImage& a, std::int64_t b) {
+    using T = decltype(tag);
+    raster::BarycentricInterpolateParams<T> p;
+    p.attr = a.at<T>(b);
+    p.num_vertices = N;
+    p.channels = C;
+    p.tris = triangles.data<std::int32_t>();
+    p.num_tris = triangles.size(0);
+    p.rast = uv.data<T>() + 2 * b * P;  // the GBuffer's planes: uv and int32 ids
+    p.rast_stride = 2;
+    p.tri_id = tri_id.data<std::int32_t>() + b * P;
+    p.pixels = P;
+    return p;
+  };
+  Tensor out = Tensor::empty({B, h, w, C}, attributes.dtype());
+  dispatch_float(attributes.dtype(), op, [&](auto tag) {
+    using T = decltype(tag);
+    for_each_image(B, [&](std::int64_t b) {
+      T* o = out.data<T>() + b * P * C;
+      raster::barycentric_interpolate_forward(params(tag, attr, b), o, static_cast<T*>(nullptr));
+      if (!background.defined()) return;
+      const std::int32_t* id = tri_id.data<std::int32_t>() + b * P;
+      for (std::int64_t q = 0; q < P; ++q)
+        if (id[q] == 0) std::copy(background.data<T>(), background.data<T>() + C, o + q * C);
+    });
+  });
+  if (should_record({attributes, uv})) {
+    // triangles and tri_id: no gradient, checked for in-place writes (autodiff/tape.h).
+    record("interpolate_batch", {attributes, uv, triangles, tri_id}, {&out},
+           [attributes, attr, params, B, P](AdjointContext& ctx) {
+             PerImage a = attr;
+             a.t = &attributes;
+             dispatch_float(attributes.dtype(), "interpolate_batch", [&](auto tag) {
+               using T = decltype(tag);
+               GradOf g_attr(a, ctx.needs_grad(0) ? B : 0);
+               Tensor g_uv = ctx.accumulation_buffer(1);  // the kernel adds (+=)
+               for_each_image(B, [&](std::int64_t b) {
+                 raster::BarycentricInterpolateGrads<T> g;
+                 if (ctx.needs_grad(0)) g.attr = g_attr.at<T>(a, b);
+                 if (g_uv.defined()) g.rast = g_uv.data<T>() + 2 * b * P;
+                 raster::barycentric_interpolate_backward(params(tag, a, b),
+                                                          ctx.grad_output().data<T>() + b * P * a.cols, static_cast<const T*>(nullptr), g);
+               });
+               if (ctx.needs_grad(0)) ctx.accumulate(0, g_attr.finish());
+             });
+           });
+  }
+  return out;
+}
+
+Tensor antialias_batch(const Tensor& image, const GBuffer& gbuffer, const Tensor& clip, const Tensor& triangles,
+                       const AntialiasOptions& options) {
+  const char* name = options.visibility ? "visibility_antialias_batch" : "antialias_batch";  // the tape keeps it
+  const std::string op = name;
+  detail::check_float(clip, op, "clip");
+  detail::check_float(image, op, "image");
+  if (image.rank() != 4 || image.size(3) < 1)
+    throw ShapeError(op + ": argument 'image' must have shape [B, H, W, C], got " + image.describe());
+  const std::int64_t B = image.size(0), h = image.size(1), w = image.size(2), C = image.size(3), P = h * w;
+  const std::int64_t N = clip.rank() >= 2 ? clip.size(clip.rank() - 2) : 0;
+  const PerImage pos = per_image(clip, B, N, op, "clip", "[N, 4] or [B, N, 4]");
+  if (pos.cols != 4) throw ShapeError(op + ": argument 'clip' must have 4 columns, got " + clip.describe());
+  detail::check_same_dtype(image, clip, op, "image", "clip");
+  detail::check_triangles(triangles, N, op);
+  check_batched_gbuffer(gbuffer, B, clip, triangles, op);
+  if (gbuffer.tri_id.size(1) != h || gbuffer.tri_id.size(2) != w)
+    throw ShapeError(op + ": argument 'gbuffer' " + gbuffer.tri_id.describe() + " and 'image' " + image.describe() +
+                     " differ in size");
+  detail::check_finite(clip, op, "clip");
+  const double boost = options.pos_gradient_boost;
+  if (!std::isfinite(boost))
+    throw ValueError(op + ": option 'pos_gradient_boost' must be finite, got " + std::to_string(boost));
+  if (options.topology && options.topology->num_tris != triangles.size(0))
+    throw ValueError(op + ": option 'topology' was built for " + std::to_string(options.topology->num_tris) +
+                     " triangles but 'triangles' has " + std::to_string(triangles.size(0)));
+  // One topology per distinct position set: the given one, else welded by clip rows.
+  const std::int64_t topologies = options.topology ? 0 : pos.shared ? 1 : B;
+  std::vector<AntialiasTopology> topology(static_cast<std::size_t>(topologies));
+  auto pairs = std::make_shared<std::vector<raster::BlendedPairs>>(static_cast<std::size_t>(B));
+  // What the forward and the adjoint both read of image b.
+  auto image_params = [=](auto tag, const Tensor& img, const PerImage& c, std::int64_t b) {
+    using T = decltype(tag);
+    raster::AntialiasParams<T> p;
+    p.image = img.data<T>() + b * P * C;
+    p.channels = static_cast<int>(C);
+    p.width = static_cast<int>(w);
+    p.height = static_cast<int>(h);
+    p.clip = c.at<T>(b);
+    p.num_vertices = N;
+    return p;
+  };
+  Tensor out = Tensor::empty(image.shape(), image.dtype());
+  const Tensor tri_id = gbuffer.tri_id, depth = gbuffer.depth;
+  dispatch_float(clip.dtype(), op, [&](auto tag) {
+    using T = decltype(tag);
+    for_each_image(topologies, [&](std::int64_t b) {
+      topology[b] = std::make_shared<const raster::EdgeTopology>(raster::build_edge_topology(
+          triangles.data<std::int32_t>(), triangles.size(0), N, pos.at<T>(b), 4));
+    });
+    for_each_image(B, [&](std::int64_t b) {
+      raster::AntialiasParams<T> p = image_params(tag, image, pos, b);
+      p.tri_id = tri_id.data<std::int32_t>() + b * P;
+      p.depth = depth.data<T>() + b * P;
+      p.tris = triangles.data<std::int32_t>();
+      p.num_tris = triangles.size(0);
+      p.topology = options.topology ? options.topology.get() : topology[pos.shared ? 0 : b].get();
+      raster::blend_boundaries_forward(options.visibility, p, out.data<T>() + b * P * C, &(*pairs)[b]);
+    });
+  });
+  if (should_record({image, clip})) {
+    record(name, {image, clip}, {&out},
+           [image = image.detach(), clip = clip.detach(), pos, pairs, boost, B, P, C, N, image_params, name](
+               AdjointContext& ctx) {
+             PerImage c = pos;
+             c.t = &clip;
+             dispatch_float(clip.dtype(), name, [&](auto tag) {
+               using T = decltype(tag);
+               Tensor g_image = ctx.needs_grad(0) ? Tensor::zeros(image.shape(), image.dtype()) : Tensor();
+               GradOf g_clip(c, ctx.needs_grad(1) ? B : 0);
+               for_each_image(B, [&](std::int64_t b) {
+                 const raster::AntialiasParams<T> p = image_params(tag, image, c, b);
+                 raster::AntialiasGrads<T> g;
+                 if (g_image.defined()) g.image = g_image.data<T>() + b * P * C;
+                 if (ctx.needs_grad(1)) g.clip = g_clip.at<T>(c, b);
+                 raster::blend_boundaries_backward(p, (*pairs)[b], ctx.grad_output().data<T>() + b * P * C, g);
+                 if (g.clip && boost != 1.0)
+                   for (std::int64_t i = 0; i < 4 * N; ++i) g.clip[i] = static_cast<T>(boost * g.clip[i]);
+               });
+               if (g_image.defined()) ctx.accumulate(0, g_image);
+               if (ctx.needs_grad(1)) ctx.accumulate(1, g_clip.finish());
+             });
+           });
+  }
+  return out;
+}
+
+}  // namespace gr

@@ -1,0 +1,79 @@
+// Rasterization as an op: clip-space triangles -> G-buffer, differentiable
+// with respect to the clip-space positions through the barycentrics and depth.
+//
+// The op takes clip-space positions (not screen positions) because clipping
+// against the near plane must happen before the w-divide; internally it runs
+// the same w-divide and viewport kernels as wdivide()/viewport(), and its
+// adjoint chains through their adjoints (docs/decisions.md).
+#pragma once
+
+#include <memory>
+
+#include "autodiff/base/tensor.h"
+#include "raster/backend.h"
+#include "raster/rasterize.h"
+
+namespace gr {
+
+using raster::Cull;
+
+struct RasterizeOptions {
+  int width = 0;
+  int height = 0;
+  Cull cull = Cull::None;  // front face = counter-clockwise in NDC
+  bool front_to_back = false;  // work order only; same G-buffer (raster::RasterSettings)
+  // Where the coverage is decided (null: the CPU), e.g.
+  // gr::vulkan::raster_backend(device) for float32 clip positions: the same
+  // tri_id bit for bit; the values and the adjoint run on the CPU, so the
+  // G-buffer is the same too. GBuffer::stats stays zero when a backend ran it.
+  std::shared_ptr<const raster::RasterBackend> backend = nullptr;
+  // Also make GBuffer::db, the barycentrics' screen derivatives (nvdiffrast's
+  // rast_db), for interpolate's attribute derivatives.
+  bool derivatives = false;
+};
+
+// Per-pixel results, row 0 at the top: nvdiffrast's G-buffer (rast = u, v,
+// z/w, id; rast_db) with the id as int32 and the channels in their own
+// tensors (raster/barycentric_gbuffer.h has the formulas).
+struct GBuffer {
+  Tensor tri_id;  // [H, W] int32: 1-based triangle index, 0 = background (no gradient)
+  Tensor uv;      // [H, W, 2]: perspective-correct barycentrics (u, v) of vertices 0 and 1 (0 on background)
+  Tensor depth;   // [H, W]: z/w = z_ndc (raster::kBackgroundDepth, the far plane, on background)
+  Tensor db;      // [H, W, 4] (RasterizeOptions::derivatives): (du/dx, du/dy, dv/dx, dv/dy), y down the rows
+  raster::RasterStats stats;
+  // The clip positions and triangles it was rasterized from, set by every op
+  // that makes a G-buffer. Ops that read it together with clip and triangles
+  // refuse others (detail::check_gbuffer_source); interpolate checks the
+  // attributes' rows against clip. Undefined in a hand-made GBuffer.
+  Tensor clip;
+  Tensor triangles;
+  int width() const { return static_cast<int>(tri_id.size(1)); }
+  int height() const { return static_cast<int>(tri_id.size(0)); }
+};
+
+// clip [N, 4] float32/float64, triangles [M, 3] int32. Coverage comes from
+// raster::rasterize_forward, the values from raster::barycentric_gbuffer_forward
+// (homogeneous, exact also for triangles crossing the near plane). uv, depth
+// and db are differentiable w.r.t. clip for a fixed coverage
+// (raster::barycentric_gbuffer_backward). Coverage itself (which pixel belongs
+// to which triangle) gets no gradient here; the antialias op supplies
+// silhouette gradients.
+GBuffer rasterize(const Tensor& clip, const Tensor& triangles, const RasterizeOptions& options);
+
+namespace detail {
+// rasterize's argument checks (op names the caller in messages).
+void check_rasterize_inputs(const Tensor& clip, const Tensor& triangles, const RasterizeOptions& options,
+                            const char* op);
+// rasterize without the checks, with the optional peeling floor and exact
+// depth output of raster::rasterize_forward (DepthPeeler's layers). The
+// layer records the same adjoint as rasterize: it depends on tri_id only.
+GBuffer rasterize_layer(const Tensor& clip, const Tensor& triangles, const RasterizeOptions& options,
+                        const std::int32_t* floor_id, const double* floor_z, double* key_depth);
+// Overwrites gb.uv, gb.depth (and fills gb.db when defined) of images
+// [B, H, W] (or one [H, W]) from gb.tri_id (ids indexing all of gb.triangles)
+// and records their adjoint to gb.clip: [N, 4] shared by the images (their
+// gradients added in image order) or [B, N, 4].
+void finish_gbuffer(GBuffer& gb, const char* op);
+}  // namespace detail
+
+}  // namespace gr

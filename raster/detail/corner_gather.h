@@ -1,0 +1,50 @@
+// The second half of "scatter by gathering" (docs/determinism.md): per-corner
+// sums of triangles are added into their vertices by the vertices themselves,
+// in parallel over vertices, each vertex over its corners in ascending corner
+// order. The callers number their triangles by first pixel (Buckets::nonempty),
+// not by index, so that order does not depend on the triangle order either. No
+// two tasks write one vertex and the order is fixed, so the result is
+// bit-identical for any thread count.
+#pragma once
+
+#include <algorithm>
+#include <cstdint>
+#include <vector>
+
+#include "autodiff/base/parallel.h"
+#include "raster/detail/buckets.h"
+
+namespace gr::raster::detail {
+
+// Corner j = 3 s + k is corner k of triangle tri_of[s] (s in [0, n)); its
+// partial sum is partial[j * S, j * S + S). Corners of slots with live[s] == 0
+// are left out. For every vertex v with a live corner, apply(v, total) gets
+// total[0, S) = sum over v's corners, ascending j, of their partials.
+// by_vertex is scratch (kept for reuse across calls).
+template <class Apply>
+void gather_corners(const std::int32_t* tris, const std::int32_t* tri_of, std::int64_t n,
+                    const std::uint8_t* live, const double* partial, std::int64_t S, std::int64_t num_vertices,
+                    Buckets* by_vertex, const Apply& apply) {
+  bucket_items(3 * n, num_vertices,
+               [&](std::int64_t j) -> std::int64_t {
+                 const std::int64_t s = j / 3;
+                 return live[s] ? tris[3 * static_cast<std::int64_t>(tri_of[s]) + j % 3] : -1;
+               },
+               by_vertex);
+  const Buckets& b = *by_vertex;
+  const std::int64_t used = static_cast<std::int64_t>(b.nonempty.size());
+  parallel_for(0, used, 256, [&](std::int64_t lo, std::int64_t hi) {
+    std::vector<double> total(static_cast<std::size_t>(S));
+    for (std::int64_t i = lo; i < hi; ++i) {
+      const std::int32_t v = b.nonempty[i];
+      std::fill(total.begin(), total.end(), 0.0);
+      for (std::int64_t e = b.start[v]; e < b.start[v + 1]; ++e) {
+        const double* src = partial + static_cast<std::int64_t>(b.item[e]) * S;
+        for (std::int64_t c = 0; c < S; ++c) total[c] += src[c];
+      }
+      apply(static_cast<std::int64_t>(v), total.data());
+    }
+  });
+}
+
+}  // namespace gr::raster::detail

@@ -1,0 +1,59 @@
+// Surface walk along a screen segment (see surface_walk.h). The silhouette
+// criterion is antialias's: raster/antialias.cpp, docs/rasterizer.md.
+#include "raster/detail/surface_walk.h"
+
+#include <limits>
+
+namespace gr::raster::detail {
+namespace {
+
+// Side of the line a-b (screen) on which the surface of the triangle through
+// a, b and o lies near the edge: the sign of E(.; a, b) there, computed in
+// homogeneous coordinates (-sign det[Va, Vb, Vo]); 0 if degenerate.
+int surface_side(const Vertices& v, std::int32_t a, std::int32_t b, std::int32_t o, int w, int h) {
+  const double d = dot(cross(homogeneous(v, a, w, h), homogeneous(v, b, w, h)), homogeneous(v, o, w, h));
+  return d > 0.0 ? -1 : (d < 0.0 ? 1 : 0);
+}
+
+}  // namespace
+
+WalkEnd walk_surface(const Vertices& v, const std::int32_t* tris, const EdgeTopology& topology, int width,
+                     int height, std::int64_t start, std::int64_t target, double cix, double ciy, double cox,
+                     double coy, WalkPath* path) {
+  std::int64_t cur = start;
+  int skip = -1;  // the edge the walk entered through
+  if (path) path->count = 1, path->tri[0] = start, path->t[0] = 0.0;
+  for (int step = 0; step < kMaxWalk; ++step) {
+    const std::int32_t* tri = tris + 3 * cur;
+    // det[V1, V2, V0] = det[V0, V1, V2]: one side sign for all three edges.
+    const int side = surface_side(v, tri[1], tri[2], tri[0], width, height);
+    if (side == 0) return {};
+    // The exit: the edge whose value (positive inside) falls to zero first.
+    int exit_k = -1;
+    double exit_t = std::numeric_limits<double>::infinity();
+    for (int k = 0; k < 3; ++k) {
+      if (k == skip) continue;
+      const std::int32_t a = tri[(k + 1) % 3], b = tri[(k + 2) % 3];
+      if (!v.front[a] || !v.front[b]) continue;  // no screen line behind the near plane (skipped, as antialias did)
+      const double* sa = &v.screen[3 * static_cast<std::size_t>(a)];
+      const double* sb = &v.screen[3 * static_cast<std::size_t>(b)];
+      const double ei = side * edge_fn(cix, ciy, sa, sb), eo = side * edge_fn(cox, coy, sa, sb);
+      if (!(eo < ei)) continue;
+      const double t = ei / (ei - eo);
+      if (t < exit_t) exit_k = k, exit_t = t;
+    }
+    if (exit_k < 0 || !(exit_t < 1.0)) return {WalkEnd::Kind::Continues};
+    const std::int32_t a = tri[(exit_k + 1) % 3], b = tri[(exit_k + 2) % 3];
+    const std::int64_t nb = topology.neighbour[3 * cur + exit_k];
+    const int side_n = nb >= 0 ? surface_side(v, a, b, tris[nb], width, height) : 0;  // tris[3n + k'] = opposite vertex
+    if (nb < 0 || side_n == 0 || side_n == side)
+      return {WalkEnd::Kind::Silhouette, a, b, exit_t > 0.0 ? exit_t : 0.0};  // t < 0: rounding at a centre on the edge
+    cur = nb / 3;
+    skip = static_cast<int>(nb % 3);
+    if (cur == target) return {WalkEnd::Kind::Reached};
+    if (path) path->tri[path->count] = cur, path->t[path->count] = exit_t, ++path->count;
+  }
+  return {};
+}
+
+}  // namespace gr::raster::detail
