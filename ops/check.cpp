@@ -6,7 +6,7 @@
 #include <cstring>
 
 #include "autodiff/error.h"
-#include "raster/rasterize_setup.h"
+#include "raster/mesh_checks.h"
 
 namespace gr::detail {
 namespace {

@@ -18,7 +18,7 @@
 #include "autodiff/parallel.h"
 #include "autodiff/tensor.h"
 #include "raster/cube_map.h"
-#include "raster/rasterize_setup.h"  // detail::check_finite
+#include "raster/mesh_checks.h"  // detail::check_finite
 
 namespace gr::raster {
 namespace {

@@ -15,7 +15,7 @@
 #include "autodiff/error.h"
 #include "autodiff/parallel.h"
 #include "autodiff/tensor.h"
-#include "raster/rasterize_setup.h"  // detail::check_finite
+#include "raster/mesh_checks.h"  // detail::check_finite
 #include "raster/texture_taps.h"
 
 namespace gr::raster {
