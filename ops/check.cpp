@@ -6,7 +6,7 @@
 #include <cstring>
 
 #include "autodiff/base/error.h"
-#include "raster/detail/rasterize_setup.h"
+#include "raster/mesh_checks.h"
 
 namespace gr::detail {
 namespace {

@@ -31,7 +31,7 @@ void check_columns(const Tensor& t, std::int64_t cols, const std::string& op, co
                    const char* rows_name = "N");
 // ValueError naming the first element that is NaN or Inf (float tensors).
 void check_finite(const Tensor& t, const std::string& op, const char* name);
-// ValueError unless 1 <= width, height <= 16384 and width * height <= 2^28.
+// ValueError unless 1 <= width, height <= raster::kMaxSide and width * height <= 2^28.
 void check_image_size(std::int64_t width, std::int64_t height, const std::string& op);
 // triangles: int32 [M, 3] with every index in [0, num_vertices) (IndexError
 // naming the triangle and corner: "tris[i][k] = v is outside [0, N)").

@@ -18,7 +18,7 @@
 #include "autodiff/base/parallel.h"
 #include "autodiff/base/tensor.h"
 #include "raster/cube_map.h"
-#include "raster/detail/rasterize_setup.h"  // detail::check_finite
+#include "raster/mesh_checks.h"  // detail::check_finite
 
 namespace gr::raster {
 namespace {

@@ -15,7 +15,7 @@
 #include "autodiff/base/error.h"
 #include "autodiff/base/parallel.h"
 #include "autodiff/base/tensor.h"
-#include "raster/detail/rasterize_setup.h"  // detail::check_finite
+#include "raster/mesh_checks.h"  // detail::check_finite
 #include "raster/detail/texture_taps.h"
 
 namespace gr::raster {

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "autodiff/base/parallel.h"
@@ -16,7 +17,7 @@
 namespace gr {
 namespace {
 
-using detail::for_each_image;
+using raster::for_each_image;
 
 // An input with or without an image axis: image b's rows, and whether the
 // images share it.
@@ -41,7 +42,8 @@ PerImage per_image(const Tensor& t, std::int64_t images, std::int64_t rows, cons
 }
 
 // Gradient buffers of a PerImage input: slices of one tensor, or one buffer
-// per image summed in image order at the end (a shared input).
+// per image summed in image order at the end (a shared input,
+// raster::sum_in_image_order).
 struct GradOf {
   Tensor total;
   std::vector<Tensor> parts;
@@ -53,8 +55,12 @@ struct GradOf {
   T* at(const PerImage& in, std::int64_t b) {
     return in.shared ? parts[b].data<T>() : total.data<T>() + b * in.rows * in.cols;
   }
+  template <class T>
   Tensor finish() {
-    for (const Tensor& part : parts) detail::add_image_gradient(total, part);
+    if (parts.empty()) return total;
+    std::vector<const T*> from;
+    for (const Tensor& part : parts) from.push_back(part.data<T>());
+    raster::sum_in_image_order(from.data(), static_cast<std::int64_t>(from.size()), total.numel(), total.data<T>());
     return total;
   }
 };
@@ -78,53 +84,32 @@ void check_batched_gbuffer(const GBuffer& g, std::int64_t images, const Tensor& 
 
 namespace detail {
 
-void add_image_gradient(Tensor& total, const Tensor& part) {
-  if (!total.defined()) return;
-  dispatch_float(total.dtype(), "add_image_gradient", [&](auto tag) {
-    using T = decltype(tag);
-    T* to = total.data<T>();
-    const T* from = part.data<T>();
-    parallel_for(0, total.numel(), kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
-      for (std::int64_t k = lo; k < hi; ++k) to[k] += from[k];
-    });
-  });
-}
-
-ImageBatch check_instanced(const Tensor& clip, const Tensor& triangles, const RasterizeOptions& options,
-                           const std::string& op) {
+raster::ImageBatch check_instanced(const Tensor& clip, const Tensor& triangles, const RasterizeOptions& options,
+                                   const std::string& op) {
   check_image_size(options.width, options.height, op);
   check_float(clip, op, "clip");
   if (clip.rank() != 3 || clip.size(0) < 1 || clip.size(2) != 4)
     throw ShapeError(op + ": argument 'clip' must have shape [B, N, 4] with B >= 1, got " + clip.describe());
   check_triangles(triangles, clip.size(1), op);
   check_finite(clip, op, "clip");
-  return {true, std::vector<ImageBatch::Range>(clip.size(0), {0, triangles.size(0)})};
+  return raster::ImageBatch::instanced_mode(clip.size(0), clip.size(1), triangles.size(0));
 }
 
-ImageBatch check_ranges(const Tensor& clip, const Tensor& triangles, const Tensor& ranges,
-                        const RasterizeOptions& options, const std::string& op) {
+raster::ImageBatch check_ranges(const Tensor& clip, const Tensor& triangles, const Tensor& ranges,
+                                const RasterizeOptions& options, const std::string& op) {
   check_rasterize_inputs(clip, triangles, options, op.c_str());
   check_dtype(ranges, DType::Int32, op, "ranges");
   if (ranges.rank() != 2 || ranges.size(0) < 1 || ranges.size(1) != 2)
     throw ShapeError(op + ": argument 'ranges' must have shape [B, 2] with B >= 1, got " + ranges.describe());
-  const std::int64_t B = ranges.size(0), M = triangles.size(0);
-  ImageBatch batch{false, std::vector<ImageBatch::Range>(static_cast<std::size_t>(B))};
+  std::vector<raster::ImageBatch::Range> r(static_cast<std::size_t>(ranges.size(0)));
   const std::int32_t* v = ranges.data<std::int32_t>();
-  for (std::int64_t b = 0; b < B; ++b) {
-    ImageBatch::Range& r = batch.ranges[b];
-    r = {v[2 * b], v[2 * b + 1]};
-    if (r.first < 0 || r.count < 0 || r.first > M || r.count > M - r.first)
-      throw IndexError(op + ": ranges[" + std::to_string(b) + "] = (" + std::to_string(r.first) + ", " +
-                       std::to_string(r.count) + ") is outside the " + std::to_string(M) + " triangles");
-  }
-  return batch;
+  for (std::size_t b = 0; b < r.size(); ++b) r[b] = {v[2 * b], v[2 * b + 1]};
+  return raster::ImageBatch::range_mode(std::move(r), clip.size(0), triangles.size(0), op.c_str(), "triangles");
 }
 
-GBuffer rasterize_images(const Tensor& clip, const Tensor& triangles, const ImageBatch& batch,
-                         const RasterizeOptions& o, const PeelKey* floor, PeelKey* key, const char* op) {
-  const std::vector<ImageBatch::Range>& ranges = batch.ranges;
-  const std::int64_t B = static_cast<std::int64_t>(ranges.size()), h = o.height, w = o.width, P = h * w;
-  const PerImage positions{&clip, !batch.instanced, clip.size(clip.rank() - 2), 4};
+GBuffer rasterize_images(const Tensor& clip, const Tensor& triangles, const raster::ImageBatch& batch,
+                         const RasterizeOptions& o, raster::DepthPeelState* peel, const char* op) {
+  const std::int64_t B = batch.images, h = o.height, w = o.width, P = h * w;
   const raster::RasterSettings settings{o.width, o.height, o.cull, o.front_to_back};
   GBuffer gb;
   gb.clip = clip;
@@ -133,28 +118,29 @@ GBuffer rasterize_images(const Tensor& clip, const Tensor& triangles, const Imag
   gb.uv = Tensor::empty({B, h, w, 2}, clip.dtype());
   gb.depth = Tensor::empty({B, h, w}, clip.dtype());
   if (o.derivatives) gb.db = Tensor::empty({B, h, w, 4}, clip.dtype());
-  if (key) *key = {Tensor::empty({B * P}, DType::Int32), Tensor::empty({B * P}, DType::Float64)};
+  if (peel) peel->begin_layer(B, w, h);
   std::vector<raster::RasterStats> stats(static_cast<std::size_t>(B));
   const std::int32_t* tris = triangles.data<std::int32_t>();
   dispatch_float(clip.dtype(), op, [&](auto tag) {
     using T = decltype(tag);
     for_each_image(B, [&](std::int64_t b) {
       // The kernel numbers the image's triangles from 1 (its floor ids too).
-      raster::RasterParams<T> p{positions.at<T>(b), positions.rows, tris + 3 * ranges[b].first, ranges[b].count,
-                                settings};
-      if (floor) {
-        p.floor_id = floor->id.data<std::int32_t>() + b * P;
-        p.floor_z = floor->z.data<double>() + b * P;
-      }
+      const auto [first, count] = batch.range(b);
+      const raster::RasterParams<T> p{clip.data<T>() + batch.pos_offset(b), batch.vertices, tris + 3 * first, count,
+                                      settings};
       std::int32_t* id = gb.tri_id.data<std::int32_t>() + b * P;
-      raster::rasterize_forward(p, id, gb.uv.data<T>() + 2 * b * P, gb.depth.data<T>() + b * P, &stats[b],
-                                key ? key->z.data<double>() + b * P : nullptr);
-      if (key) std::copy(id, id + P, key->id.data<std::int32_t>() + b * P);
+      T* uv = gb.uv.data<T>() + 2 * b * P;
+      T* depth = gb.depth.data<T>() + b * P;
+      if (peel)
+        peel->rasterize_image(p, b, id, uv, depth, &stats[b]);
+      else
+        raster::rasterize_forward(p, id, uv, depth, &stats[b]);
       // Ids index the whole triangle list.
-      if (ranges[b].first != 0)
-        for (std::int64_t q = 0; q < P; ++q) id[q] += id[q] ? static_cast<std::int32_t>(ranges[b].first) : 0;
+      if (first != 0)
+        for (std::int64_t q = 0; q < P; ++q) id[q] += id[q] ? static_cast<std::int32_t>(first) : 0;
     });
   });
+  if (peel) peel->end_layer();
   for (const raster::RasterStats& s : stats) {
     gb.stats.triangles_in += s.triangles_in;
     gb.stats.culled_outside += s.culled_outside;
@@ -173,14 +159,14 @@ GBuffer rasterize_images(const Tensor& clip, const Tensor& triangles, const Imag
 GBuffer rasterize_batch(const Tensor& clip, const Tensor& triangles, const RasterizeOptions& options) {
   const char* op = "rasterize_batch";
   return detail::rasterize_images(clip, triangles, detail::check_instanced(clip, triangles, options, op), options,
-                                  nullptr, nullptr, op);
+                                  nullptr, op);
 }
 
 GBuffer rasterize_ranges(const Tensor& clip, const Tensor& triangles, const Tensor& ranges,
                          const RasterizeOptions& options) {
   const char* op = "rasterize_ranges";
   return detail::rasterize_images(clip, triangles, detail::check_ranges(clip, triangles, ranges, options, op),
-                                  options, nullptr, nullptr, op);
+                                  options, nullptr, op);
 }
 
 Tensor interpolate_batch(const Tensor& attributes, const GBuffer& gbuffer, const Tensor& triangles,
@@ -247,7 +233,7 @@ Tensor interpolate_batch(const Tensor& attributes, const GBuffer& gbuffer, const
                  raster::barycentric_interpolate_backward(params(tag, a, b),
                                                           ctx.grad_output().data<T>() + b * P * a.cols, static_cast<const T*>(nullptr), g);
                });
-               if (ctx.needs_grad(0)) ctx.accumulate(0, g_attr.finish());
+               if (ctx.needs_grad(0)) ctx.accumulate(0, g_attr.finish<T>());
              });
            });
   }
@@ -333,7 +319,7 @@ Tensor antialias_batch(const Tensor& image, const GBuffer& gbuffer, const Tensor
                    for (std::int64_t i = 0; i < 4 * N; ++i) g.clip[i] = static_cast<T>(boost * g.clip[i]);
                });
                if (g_image.defined()) ctx.accumulate(0, g_image);
-               if (ctx.needs_grad(1)) ctx.accumulate(1, g_clip.finish());
+               if (ctx.needs_grad(1)) ctx.accumulate(1, g_clip.finish<T>());
              });
            });
   }

@@ -4,9 +4,10 @@
 //
 // A batched G-buffer is an ordinary GBuffer with a leading image axis:
 // tri_id [B, H, W], uv [B, H, W, 2], depth [B, H, W] (db [B, H, W, 4]); its ids index the
-// whole triangle list (in range mode too). Images run in parallel and each
-// kernel is parallel inside, so a batch of small images keeps every core
-// busy. Every image's outputs are bit-identical to a separate call's, for any
+// whole triangle list (in range mode too). The batch description, the loop
+// over images (in parallel, each kernel parallel inside) and the image-order
+// gradient sums are the raster layer's (raster/image_batch.h), which the
+// Python binding shares. Every image's outputs are bit-identical to a separate call's, for any
 // thread count; the gradient of an input the images share (range mode's
 // positions, attributes without an image axis) is the sum of the images'
 // gradients in image order.
@@ -14,12 +15,12 @@
 
 #include <cstdint>
 #include <string>
-#include <vector>
 
-#include "autodiff/base/parallel.h"
 #include "ops/render/antialias.h"
 #include "ops/render/interpolate.h"
 #include "ops/render/rasterize.h"
+#include "raster/depth_peel_state.h"
+#include "raster/image_batch.h"
 
 namespace gr {
 
@@ -51,50 +52,21 @@ Tensor antialias_batch(const Tensor& image, const GBuffer& gbuffer, const Tensor
 
 namespace detail {
 
-// Runs body(b) for every image; images in parallel, kernels parallel inside.
-template <class F>
-void for_each_image(std::int64_t images, F body) {
-  parallel_for(0, images, 1, [&](std::int64_t lo, std::int64_t hi) {
-    for (std::int64_t b = lo; b < hi; ++b) body(b);
-  });
-}
+// rasterize_batch's and rasterize_ranges's argument checks (op names the
+// caller): the tensors' shapes and dtypes here, their values and the ranges
+// by the raster layer's checks (raster/mesh_checks.h, raster/image_batch.h).
+raster::ImageBatch check_instanced(const Tensor& clip, const Tensor& triangles, const RasterizeOptions& options,
+                                   const std::string& op);
+raster::ImageBatch check_ranges(const Tensor& clip, const Tensor& triangles, const Tensor& ranges,
+                                const RasterizeOptions& options, const std::string& op);
 
-// total += part, elementwise, for a gradient the images share (range mode's
-// positions, a shared attribute or texture): adding the images' parts one
-// after the other in image order gives the sum separate calls would
-// accumulate, for any thread count. Nothing when total is undefined.
-void add_image_gradient(Tensor& total, const Tensor& part);
-
-// What a checked batched rasterize draws: instanced (clip [B, N, 4], every
-// image all triangles) or range mode (clip [N, 4] shared, image b the
-// triangles first .. first + count - 1).
-struct ImageBatch {
-  struct Range {
-    std::int64_t first, count;
-  };
-  bool instanced = false;
-  std::vector<Range> ranges;  // one per image
-};
-// rasterize_batch's and rasterize_ranges's argument checks (op names the caller).
-ImageBatch check_instanced(const Tensor& clip, const Tensor& triangles, const RasterizeOptions& options,
-                           const std::string& op);
-ImageBatch check_ranges(const Tensor& clip, const Tensor& triangles, const Tensor& ranges,
-                        const RasterizeOptions& options, const std::string& op);
-
-// Per-pixel (depth, id) keys of a peeled layer, B*H*W each: ids in the
-// kernel's numbering (local to an image's range, 1-based, 0 = background) and
-// the exact double depths (raster::RasterParams::floor_id / floor_z). Tensors
-// (int32 and float64, [B*H*W]), so that their buffers come from the storage
-// cache instead of fresh pages for every layer.
-struct PeelKey {
-  Tensor id, z;
-};
-// The batched rasterize behind rasterize_batch / rasterize_ranges, unchecked,
-// with an optional peeling floor (the previous layer's key) and key output.
+// The batched rasterize behind rasterize_batch / rasterize_ranges, unchecked;
+// with a peel state, one layer of DepthPeeler (raster/depth_peel_state.h:
+// each image behind its previous layer's key, which is then advanced).
 // The G-buffer's ids index the whole triangle list; its adjoint is the same
 // for every layer (it depends on tri_id only).
-GBuffer rasterize_images(const Tensor& clip, const Tensor& triangles, const ImageBatch& batch,
-                         const RasterizeOptions& options, const PeelKey* floor, PeelKey* key, const char* op);
+GBuffer rasterize_images(const Tensor& clip, const Tensor& triangles, const raster::ImageBatch& batch,
+                         const RasterizeOptions& options, raster::DepthPeelState* peel, const char* op);
 
 }  // namespace detail
 }  // namespace gr

@@ -1,8 +1,8 @@
 // DepthPeeler: each layer is rasterize_layer (one image) or rasterize_images
-// (a batch) with the previous layer's (depth, id) key as the floor.
+// (a batch) with the previous layer's (depth, id) key as the floor, kept by
+// raster::DepthPeelState.
 #include "ops/render/depth_peel.h"
 
-#include <algorithm>
 #include <utility>
 
 namespace gr {
@@ -13,7 +13,7 @@ DepthPeeler::DepthPeeler(const Tensor& clip, const Tensor& triangles, const Rast
 }
 
 DepthPeeler::DepthPeeler(const Tensor& clip, const Tensor& triangles, const RasterizeOptions& options,
-                         detail::ImageBatch batch)
+                         raster::ImageBatch batch)
     : clip_(clip), triangles_(triangles), options_(options), batch_(std::move(batch)) {}
 
 DepthPeeler DepthPeeler::instanced(const Tensor& clip, const Tensor& triangles, const RasterizeOptions& options) {
@@ -26,21 +26,13 @@ DepthPeeler DepthPeeler::ranges(const Tensor& clip, const Tensor& triangles, con
 }
 
 GBuffer DepthPeeler::rasterize_next_layer() {
-  const detail::PeelKey* floor = layers_++ == 0 ? nullptr : &floor_;
-  detail::PeelKey key;
-  GBuffer gb;
-  if (batch_) {
-    gb = detail::rasterize_images(clip_, triangles_, *batch_, options_, floor, &key, "DepthPeeler");
-  } else {
-    const std::int64_t pixels = std::int64_t(options_.width) * options_.height;
-    key = {Tensor::empty({pixels}, DType::Int32), Tensor::empty({pixels}, DType::Float64)};
-    gb = detail::rasterize_layer(clip_, triangles_, options_, floor ? floor->id.data<std::int32_t>() : nullptr,
-                                 floor ? floor->z.data<double>() : nullptr, key.z.data<double>());
-    // Read through the const data<T>(): rasterize recorded tri_id (autodiff/tape.h).
-    const std::int32_t* id = std::as_const(gb.tri_id).data<std::int32_t>();
-    std::copy(id, id + pixels, key.id.data<std::int32_t>());
-  }
-  floor_ = std::move(key);
+  if (batch_) return detail::rasterize_images(clip_, triangles_, *batch_, options_, &peel_, "DepthPeeler");
+  peel_.begin_layer(1, options_.width, options_.height);
+  GBuffer gb = detail::rasterize_layer(clip_, triangles_, options_, peel_.floor_id(0), peel_.floor_z(0),
+                                       peel_.key_z(0));
+  // Read through the const data<T>(): rasterize recorded tri_id (autodiff/tape.h).
+  peel_.keep_ids(0, std::as_const(gb.tri_id).data<std::int32_t>());
+  peel_.end_layer();
   return gb;
 }
 

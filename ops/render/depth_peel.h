@@ -6,7 +6,9 @@
 // duplicates each appear in exactly one layer. Layer 1 is bit-identical to
 // rasterize(). The kernel takes the previous layer's key as a per-pixel lower
 // bound (raster::RasterParams::floor_id / floor_z): triangles are binned once
-// per layer as in rasterize, no per-layer copies of the mesh. Once every
+// per layer as in rasterize, no per-layer copies of the mesh. The keys and
+// the per-image step are raster::DepthPeelState's (raster/depth_peel_state.h),
+// which gradraster.torch's DepthPeeler shares. Once every
 // pixel is exhausted, further layers are background everywhere.
 //
 // Batches peel like rasterize_batch / rasterize_ranges draw (ops/render/batch.h):
@@ -20,6 +22,8 @@
 
 #include "ops/render/batch.h"
 #include "ops/render/rasterize.h"
+#include "raster/depth_peel_state.h"
+#include "raster/image_batch.h"
 
 namespace gr {
 
@@ -43,14 +47,13 @@ class DepthPeeler {
 
  private:
   DepthPeeler(const Tensor& clip, const Tensor& triangles, const RasterizeOptions& options,
-              detail::ImageBatch batch);
+              raster::ImageBatch batch);
 
   Tensor clip_, triangles_;
   RasterizeOptions options_;
-  std::optional<detail::ImageBatch> batch_;  // set for a batch
-  int layers_ = 0;
-  // The previous layer's key, copied (a caller may write to the returned G-buffer).
-  detail::PeelKey floor_;
+  std::optional<raster::ImageBatch> batch_;  // set for a batch
+  // The previous layer's keys, copied (a caller may write to the returned G-buffer).
+  raster::DepthPeelState peel_;
 };
 
 }  // namespace gr

@@ -14,6 +14,7 @@
 #include "ops/tensor/broadcast.h"
 #include "ops/check.h"
 #include "ops/tensor/shape_ops.h"
+#include "raster/image_batch.h"
 #include "raster/mipmap.h"
 
 namespace gr {
@@ -183,7 +184,7 @@ Tensor mip_pyramid(const Lookups& l, const std::vector<Tensor>& mip) {
   Tensor pyramid = Tensor::empty({l.batch.textures, l.upper}, tex.dtype());
   dispatch_float(tex.dtype(), "texture", [&](auto tag) {
     using T = decltype(tag);
-    detail::for_each_image(l.batch.textures, [&](std::int64_t t) {
+    raster::for_each_image(l.batch.textures, [&](std::int64_t t) {
       raster::mip_build(tex.data<T>() + t * th * tw * C, C, l.layout, pyramid.data<T>() + t * l.upper);
     });
   });
@@ -229,7 +230,7 @@ void run_lookups(const Lookups& l, Tensor& out, Tensor& uv_jacobian) {
   const std::int64_t S = l.batch.samples, C = l.tex.size(l.tex.rank() - 1);
   dispatch_float(l.tex.dtype(), "texture", [&](auto tag) {
     using T = decltype(tag);
-    detail::for_each_image(l.batch.images, [&](std::int64_t b) {
+    raster::for_each_image(l.batch.images, [&](std::int64_t b) {
       if constexpr (std::is_same_v<T, float>)
         if (l.options.backend && l.options.backend->texture_forward(params<T>(l, b), out.data<T>() + b * S * C))
           return;
@@ -292,7 +293,7 @@ void images_backward(const Tensor& grad_out, const Lookups& l, const Tensor& uv_
   Tensor& g_tex = g.inputs[0];
   const bool shared = l.batch.textures < l.batch.images && (g_tex.defined() || g.levels.defined());
   if (!shared) {
-    detail::for_each_image(l.batch.images, [&](std::int64_t b) {
+    raster::for_each_image(l.batch.images, [&](std::int64_t b) {
       image_backward<T>(grad_out, l, uv_jacobian, g, b, l.batch.texture_of(b), g_tex, g.levels);
     });
     return;
@@ -301,8 +302,10 @@ void images_backward(const Tensor& grad_out, const Lookups& l, const Tensor& uv_
     Tensor part_tex = g_tex.defined() ? Tensor::zeros(g_tex.shape(), g_tex.dtype()) : Tensor();
     Tensor part_levels = g.levels.defined() ? Tensor::zeros(g.levels.shape(), g.levels.dtype()) : Tensor();
     image_backward<T>(grad_out, l, uv_jacobian, g, b, 0, part_tex, part_levels);
-    detail::add_image_gradient(g_tex, part_tex);
-    detail::add_image_gradient(g.levels, part_levels);
+    for (auto [total, part] : {std::pair{&g_tex, &part_tex}, std::pair{&g.levels, &part_levels}}) {
+      const T* from = part->defined() ? part->template data<T>() : nullptr;
+      if (from) raster::sum_in_image_order(&from, 1, total->numel(), total->template data<T>());
+    }
   }
 }
 

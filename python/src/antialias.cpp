@@ -8,7 +8,7 @@
 
 #include "autodiff/base/error.h"
 #include "autodiff/base/memory.h"
-#include "raster/detail/rasterize_setup.h"
+#include "raster/mesh_checks.h"
 
 namespace gr::python {
 namespace {
@@ -104,7 +104,7 @@ std::shared_ptr<AntialiasState> antialias_forward(Context& ctx, const pybind11::
                                                   const pybind11::object& color_, const pybind11::object& rast_,
                                                   const pybind11::object& out_, bool visibility, int threads) {
   const char* op = visibility ? "visibility_antialias" : "antialias";
-  const Mesh mesh(pos, tri, std::move(ranges), op);
+  const Mesh mesh(pos, tri, ranges, op);
   const Array color(color_, op, "color"), rast(rast_, op, "rast"), out(out_, op, "out");
   check_shapes(mesh, color, rast, op);
   out.same_elem(color).shape(color.shape());
@@ -125,13 +125,13 @@ std::shared_ptr<AntialiasState> antialias_forward(Context& ctx, const pybind11::
   dispatch(mesh.f64, [&](auto tag) {
     using T = decltype(tag);
     std::atomic<bool> bad_ids{false};
-    for_each_image(mesh.images, [&](std::int64_t b) {
+    raster::for_each_image(mesh.images, [&](std::int64_t b) {
       bool ids_ok = true;
       const auto p = image_params<T>(ctx.image(b), mesh, topology, color, rast, b, &ids_ok);
       if (!ids_ok) return bad_ids.store(true);
       raster::blend_boundaries_forward(visibility, p, out.out<T>() + pixels * channels * b, &state->pairs[b]);
     });
-    if (bad_ids) check_rast_ids(rast.in<T>(), mesh.images * pixels, mesh.triangles, "rast", op);  // throws
+    if (bad_ids) raster::detail::check_rast_ids(rast.in<T>(), mesh.images * pixels, mesh.triangles, "rast", op);  // throws
   });
   return state;
 }
@@ -142,7 +142,7 @@ void antialias_backward(Context& ctx, const pybind11::object& pos, const pybind1
                         const pybind11::object& grad_color_, const pybind11::object& grad_pos_,
                         double pos_gradient_boost, int threads) {
   const char* op = state.visibility ? "visibility_antialias backward" : "antialias backward";
-  const Mesh mesh(pos, tri, std::move(ranges), op);
+  const Mesh mesh(pos, tri, ranges, op);
   const Array color(color_, op, "color"), rast(rast_, op, "rast"), grad_out(grad_out_, op, "grad_out"),
       grad_color(grad_color_, op, "grad_color", true), grad_pos(grad_pos_, op, "grad_pos", true);
   check_shapes(mesh, color, rast, op);
@@ -171,7 +171,7 @@ void antialias_backward(Context& ctx, const pybind11::object& pos, const pybind1
     std::atomic<bool> bad_ids{false};
     // Per image: the colour gradient in place, the position gradient in the
     // image's buffer (scaled by the boost), then added as rasterize's is.
-    for_each_image(mesh.images, [&](std::int64_t b) {
+    raster::for_each_image(mesh.images, [&](std::int64_t b) {
       ImageScratch& s = ctx.image(b);
       bool ids_ok = true;
       const auto p = image_params<T>(s, mesh, topology, color, rast, b, &ids_ok);
@@ -186,11 +186,12 @@ void antialias_backward(Context& ctx, const pybind11::object& pos, const pybind1
       raster::blend_boundaries_backward(p, state.pairs[b], grad_out.in<T>() + pixels * channels * b, g);
       if (!grad_pos) return;
       for (T& v : grad) v = static_cast<T>(pos_gradient_boost * v);
-      if (mesh.instanced) add_in_image_order({&grad}, 4 * mesh.vertices, grad_pos.out<T>() + mesh.pos_offset(b));
+      const T* part = grad.data();
+      if (mesh.instanced) raster::sum_in_image_order(&part, 1, 4 * mesh.vertices, grad_pos.out<T>() + mesh.pos_offset(b));
     });
-    if (bad_ids) check_rast_ids(rast.in<T>(), mesh.images * pixels, mesh.triangles, "rast", op);  // throws
+    if (bad_ids) raster::detail::check_rast_ids(rast.in<T>(), mesh.images * pixels, mesh.triangles, "rast", op);  // throws
     if (grad_pos && !mesh.instanced)
-      add_in_image_order(ctx.grads<T>(mesh.images), 4 * mesh.vertices, grad_pos.out<T>());
+      raster::sum_in_image_order(ctx.grads<T>(mesh.images).data(), mesh.images, 4 * mesh.vertices, grad_pos.out<T>());
   });
 }
 

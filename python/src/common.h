@@ -9,7 +9,6 @@
 #pragma once
 
 #include <cstdint>
-#include <functional>
 #include <mutex>
 #include <utility>
 #include <vector>
@@ -17,15 +16,14 @@
 #include <pybind11/pybind11.h>
 
 #include "python/src/array.h"
+#include "raster/image_batch.h"
 
 namespace gr::python {
 
-// Pixels per side, the rasterizer's limit (raster::RasterSettings).
-constexpr std::int64_t kMaxSide = 16384;
 // float32 holds every triangle id + 1 exactly below this count.
 constexpr std::int64_t kMaxFloat32Ids = std::int64_t(1) << 24;
 
-// (first triangle, count) per image: nvdiffrast's range mode.
+// (first triangle, count) per image: nvdiffrast's range mode, as Python passes it.
 using Ranges = std::vector<std::pair<std::int64_t, std::int64_t>>;
 
 // Runs a kernel call: holds the binding's lock (calls from several Python
@@ -49,56 +47,31 @@ decltype(auto) dispatch(bool f64, F&& f) {
   return f(float{});
 }
 
-// A triangle mesh as rasterize, the peeler and antialias see it (nvdiffrast's
-// instanced or range mode), its shapes checked: pos [images, N, 4] float
+// A triangle mesh as rasterize, the peeler and antialias see it: the batch
+// (raster/image_batch.h: nvdiffrast's instanced or range mode, the ranges
+// checked) and its arrays, their shapes checked: pos [images, N, 4] float
 // (instanced; ranges empty) or [N, 4] (range mode; one range per image), tri
 // [M, 3] int32, float32 positions with fewer than 2^24 triangles. Values are
 // checked by check_mesh.
-struct Mesh {
-  Mesh(const pybind11::handle& pos, const pybind11::handle& tri, Ranges ranges, const char* op);
+struct Mesh : raster::ImageBatch {
+  Mesh(const pybind11::handle& pos, const pybind11::handle& tri, const Ranges& ranges, const char* op);
 
   Array pos, tri;
   bool f64 = false;
-  std::int64_t images = 0;     // minibatch size
-  std::int64_t vertices = 0;   // N
-  bool instanced = false;
-  std::int64_t triangles = 0;  // M
-  // Range mode: (first triangle, count) per image; instanced: empty.
-  Ranges ranges;
 
   template <class T>
   const T* positions(std::int64_t b) const {
     return pos.in<T>() + pos_offset(b);
   }
   const std::int32_t* tris() const { return tri.in<std::int32_t>(); }
-
-  // Offset of image b's positions, in values.
-  std::int64_t pos_offset(std::int64_t b) const { return instanced ? 4 * vertices * b : 0; }
-  std::pair<std::int64_t, std::int64_t> range(std::int64_t b) const {
-    return instanced ? std::make_pair<std::int64_t, std::int64_t>(0, std::int64_t(triangles)) : ranges[b];
-  }
 };
 
-// Runs body(b) for every image b of a minibatch, images in parallel (each
-// kernel inside is parallel too, so small images keep every core busy).
-void for_each_image(std::int64_t images, const std::function<void(std::int64_t)>& body);
-
-// Sums per-image buffers parts[0..images) (each n values) into out (+=), in
-// image order, so the result does not depend on how the images ran.
-template <class T>
-void add_in_image_order(const std::vector<std::vector<T>*>& parts, std::int64_t n, T* out);
-
-// Checks what the kernels trust: every index in [0, N), finite positions,
-// ranges inside [0, M]. Throws gr errors naming the argument.
+// Checks what the kernels trust (raster/mesh_checks.h): finite positions,
+// every index in [0, N). Throws gr errors naming the argument.
 void check_mesh(const Mesh& mesh, const char* op);
 
 // rast: a [images, H, W, 4] G-buffer of elem's type (images < 0: any) with
 // H, W < 2^31 (ValueError, TypeError otherwise).
 void check_rast_shape(const Array& rast, std::int64_t images, Elem elem, const char* op);
-
-// Throws a gr::IndexError naming `what` if a pixel's id (channel 3 of an
-// nvdiffrast G-buffer) is not an integer in [0, triangles].
-template <class T>
-void check_rast_ids(const T* rast, std::int64_t pixels, std::int64_t triangles, const char* what, const char* op);
 
 }  // namespace gr::python

@@ -4,7 +4,7 @@
 
 #include "autodiff/base/error.h"
 #include "raster/barycentric_interpolate.h"
-#include "raster/detail/rasterize_setup.h"
+#include "raster/mesh_checks.h"
 
 namespace gr::python {
 namespace {
@@ -32,7 +32,7 @@ raster::BarycentricInterpolateParams<T> image_params(const InterpolateArgs& a, s
 template <class T>
 void check_values(const InterpolateArgs& a, const char* op) {
   raster::detail::check_triangles(a.tri.in<std::int32_t>(), a.triangles, a.vertices, op);
-  check_rast_ids(a.rast.in<T>(), a.images * a.height * a.width, a.triangles, "rast", op);
+  raster::detail::check_rast_ids(a.rast.in<T>(), a.images * a.height * a.width, a.triangles, "rast", op);
 }
 
 }  // namespace
@@ -81,7 +81,7 @@ void interpolate_forward(const pybind11::object& attr, const pybind11::object& r
   dispatch(a.rast.elem() == Elem::F64, [&](auto tag) {
     using T = decltype(tag);
     check_values<T>(a, op);
-    for_each_image(a.images, [&](std::int64_t b) {
+    raster::for_each_image(a.images, [&](std::int64_t b) {
       raster::barycentric_interpolate_forward(image_params<T>(a, b), out.out<T>() + b * pixels * a.channels,
                                               out_da ? out_da.out<T>() + b * pixels * 2 * K : nullptr);
     });
@@ -116,7 +116,7 @@ void interpolate_backward(const pybind11::object& attr, const pybind11::object& 
     const bool shared = grad_attr && a.attr_images == 1 && a.images > 1;
     const std::int64_t attr_values = a.vertices * a.channels;
     std::vector<std::vector<T>> parts(shared ? static_cast<std::size_t>(a.images) : 0);
-    for_each_image(a.images, [&](std::int64_t b) {
+    raster::for_each_image(a.images, [&](std::int64_t b) {
       raster::BarycentricInterpolateGrads<T> g;
       if (shared) {
         parts[b].assign(static_cast<std::size_t>(attr_values), T(0));
@@ -130,9 +130,9 @@ void interpolate_backward(const pybind11::object& attr, const pybind11::object& 
                                                grad_da ? grad_da.in<T>() + b * pixels * 2 * K : nullptr, g);
     });
     if (shared) {
-      std::vector<std::vector<T>*> order;
-      for (auto& part : parts) order.push_back(&part);
-      add_in_image_order(order, attr_values, grad_attr.out<T>());
+      std::vector<const T*> order;
+      for (const std::vector<T>& part : parts) order.push_back(part.data());
+      raster::sum_in_image_order(order.data(), a.images, attr_values, grad_attr.out<T>());
     }
   });
 }

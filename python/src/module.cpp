@@ -15,6 +15,7 @@
 #include "python/src/interpolate.h"
 #include "python/src/rasterize.h"
 #include "python/src/texture.h"
+#include "raster/mesh_checks.h"
 #ifdef GRADRASTER_HAS_VULKAN
 #include "raster/vulkan/device.h"
 #endif
@@ -49,6 +50,7 @@ PYBIND11_MODULE(_core, m) {
   // returns whether glibc's malloc is tuned (False with GRADRASTER_MALLOC_DEFAULTS=1).
   m.def("keep_freed_memory", &gr::tune_malloc);
   m.attr("MAX_THREADS") = gr::kMaxThreads;
+  m.attr("MAX_SIDE") = gr::raster::kMaxSide;  // pixels per image side
   m.attr("__version__") = GRADRASTER_VERSION;  // the CMake project VERSION (python/CMakeLists.txt)
 
   py::class_<Context>(m, "Context")
@@ -83,7 +85,9 @@ PYBIND11_MODULE(_core, m) {
 #else
       false;
 #endif
-  py::class_<PeelState>(m, "PeelState").def(py::init<>()).def_readonly("layers", &PeelState::layers);
+  py::class_<gr::raster::DepthPeelState>(m, "PeelState")
+      .def(py::init<>())
+      .def_property_readonly("layers", &gr::raster::DepthPeelState::layers);
   m.def("rasterize_forward", &rasterize_forward, py::arg("ctx"), py::arg("pos"), py::arg("tri"), py::arg("ranges"),
         py::arg("rast"), py::arg("rast_db"), py::arg("peel"), py::arg("threads"));
   m.def("rasterize_backward", &rasterize_backward, py::arg("ctx"), py::arg("pos"), py::arg("tri"),

@@ -1,11 +1,11 @@
 #include "python/src/rasterize.h"
 
-#include <algorithm>
 #include <string>
 #include <type_traits>
 
 #include "autodiff/base/error.h"
 #include "raster/barycentric_gbuffer.h"
+#include "raster/mesh_checks.h"
 #include "raster/rasterize.h"
 #ifdef GRADRASTER_HAS_VULKAN
 #include "raster/vulkan/rasterize.h"
@@ -26,60 +26,52 @@ namespace {
 
 // The Vulkan context's rasterizer, for what it covers: float32 positions
 // outside a depth peeler (which needs the exact key depths the CPU kernel
-// writes); the others take the CPU kernel, which gives the same bits.
-// Both read the caller's positions with y_up (p.settings.y_up).
+// writes, so the caller never asks then); the others take the CPU kernel,
+// which gives the same bits. Both read the caller's positions with y_up
+// (p.settings.y_up).
 template <class T>
-bool rasterize_on_gpu(Context& ctx, const raster::RasterParams<T>& p, bool peeling, ImageScratch& s) {
+bool rasterize_on_gpu(Context& ctx, const raster::RasterParams<T>& p, ImageScratch& s) {
 #ifdef GRADRASTER_HAS_VULKAN
   if constexpr (std::is_same_v<T, float>) {
-    if (!ctx.gpu || peeling) return false;
+    if (!ctx.gpu) return false;
     vulkan::rasterize_forward(*ctx.gpu, p, s.tri_id.data(), s.buffer<float>(ImageScratch::kUv).data(),
                               s.buffer<float>(ImageScratch::kDepth).data());
     return true;
   }
 #endif
-  (void)ctx, (void)p, (void)peeling, (void)s;
+  (void)ctx, (void)p, (void)s;
   return false;
 }
 
 }  // namespace
 
 void rasterize_forward(Context& ctx, const pybind11::object& pos, const pybind11::object& tri, Ranges ranges,
-                       const pybind11::object& rast_, const pybind11::object& db_, PeelState* peel, int threads) {
+                       const pybind11::object& rast_, const pybind11::object& db_, raster::DepthPeelState* peel,
+                       int threads) {
   const char* op = "rasterize";
-  const Mesh mesh(pos, tri, std::move(ranges), op);
+  const Mesh mesh(pos, tri, ranges, op);
   const Array rast(rast_, op, "rast"), db(db_, op, "rast_db", true);
   check_rast_shape(rast, mesh.images, mesh.pos.elem(), op);
-  const std::int64_t H = rast.size(1), W = rast.size(2);
-  if (H < 1 || H > kMaxSide || W < 1 || W > kMaxSide)
-    throw ValueError(std::string(op) + ": the resolution " + std::to_string(H) + " x " + std::to_string(W) +
-                     " (height x width of 'rast') is outside 1..16384");
+  raster::detail::check_image_size(rast.size(2), rast.size(1), op);
   db.same_elem(rast).shape(rast.shape());
   check_disjoint(op, {&rast, &db}, {&mesh.pos, &mesh.tri});
-  const int height = static_cast<int>(H), width = static_cast<int>(W);
+  const int height = static_cast<int>(rast.size(1)), width = static_cast<int>(rast.size(2));
   KernelCall call(threads);
   check_mesh(mesh, op);
   const std::int64_t pixels = static_cast<std::int64_t>(height) * width;
-  if (peel && peel->floor_id.empty()) {
-    peel->floor_id.assign(static_cast<std::size_t>(mesh.images * pixels), 0);
-    peel->floor_z.assign(static_cast<std::size_t>(mesh.images * pixels), 0.0);
-  }
   // The layers of one peeler share its images and resolution (the Python
   // layer also refuses changed inputs; this guards the state's memory).
-  if (peel && peel->floor_id.size() != static_cast<std::size_t>(mesh.images * pixels))
-    throw ValueError("DepthPeeler: layer " + std::to_string(peel->layers + 1) + " has " +
-                     std::to_string(mesh.images) + " images of " + std::to_string(width) + " x " +
-                     std::to_string(height) + " pixels, but the layers before it had " +
-                     std::to_string(peel->floor_id.size()) + " pixels in all");
+  if (peel) peel->begin_layer(mesh.images, width, height);
   ctx.reserve(mesh.images);
   dispatch(mesh.f64, [&](auto tag) {
     using T = decltype(tag);
-    for_each_image(mesh.images, [&](std::int64_t b) {
+    raster::for_each_image(mesh.images, [&](std::int64_t b) {
       ImageScratch& s = ctx.image(b);
       s.tri_id.resize(static_cast<std::size_t>(pixels));
       s.buffer<T>(ImageScratch::kUv).resize(2 * static_cast<std::size_t>(pixels));
       s.buffer<T>(ImageScratch::kDepth).resize(static_cast<std::size_t>(pixels));
-      if (peel) s.key_depth.resize(static_cast<std::size_t>(pixels));
+      T* uv = s.buffer<T>(ImageScratch::kUv).data();
+      T* depth = s.buffer<T>(ImageScratch::kDepth).data();
       const auto [first, count] = mesh.range(b);
       raster::RasterParams<T> p;
       p.clip = mesh.positions<T>(b);
@@ -89,32 +81,24 @@ void rasterize_forward(Context& ctx, const pybind11::object& pos, const pybind11
       p.settings.width = width;
       p.settings.height = height;
       p.settings.y_up = true;  // nvdiffrast's row 0 is the bottom row
-      if (peel && peel->layers > 0) {
-        p.floor_id = peel->floor_id.data() + b * pixels;
-        p.floor_z = peel->floor_z.data() + b * pixels;
-      }
-      if (!rasterize_on_gpu(ctx, p, peel != nullptr, s))
-        raster::rasterize_forward(p, s.tri_id.data(), s.buffer<T>(ImageScratch::kUv).data(),
-                                  s.buffer<T>(ImageScratch::kDepth).data(), nullptr,
-                                  peel ? s.key_depth.data() : nullptr);
-      if (peel) {
-        std::copy(s.tri_id.begin(), s.tri_id.end(), peel->floor_id.begin() + b * pixels);
-        std::copy(s.key_depth.begin(), s.key_depth.end(), peel->floor_z.begin() + b * pixels);
-      }
+      if (peel)
+        peel->rasterize_image(p, b, s.tri_id.data(), uv, depth);
+      else if (!rasterize_on_gpu(ctx, p, s))
+        raster::rasterize_forward(p, s.tri_id.data(), uv, depth);
       const raster::BarycentricGBufferParams<T> g{p.clip, mesh.vertices, mesh.tris(), mesh.triangles, width, height,
                                                   true};
       raster::barycentric_gbuffer_forward(g, s.tri_id.data(), first, rast.out<T>() + 4 * pixels * b,
                                           db ? db.out<T>() + 4 * pixels * b : nullptr);
     });
   });
-  if (peel) ++peel->layers;
+  if (peel) peel->end_layer();
 }
 
 void rasterize_backward(Context& ctx, const pybind11::object& pos, const pybind11::object& tri, Ranges ranges,
                         const pybind11::object& rast_, const pybind11::object& grad_rast_,
                         const pybind11::object& grad_db_, const pybind11::object& grad_pos_, int threads) {
   const char* op = "rasterize backward";
-  const Mesh mesh(pos, tri, std::move(ranges), op);
+  const Mesh mesh(pos, tri, ranges, op);
   const Array rast(rast_, op, "rast"), grad_rast(grad_rast_, op, "grad_rast"), grad_db(grad_db_, op, "grad_db", true),
       grad_pos(grad_pos_, op, "grad_pos");
   check_rast_shape(rast, mesh.images, mesh.pos.elem(), op);
@@ -129,11 +113,11 @@ void rasterize_backward(Context& ctx, const pybind11::object& pos, const pybind1
   ctx.reserve(mesh.images);
   dispatch(mesh.f64, [&](auto tag) {
     using T = decltype(tag);
-    check_rast_ids(rast.in<T>(), mesh.images * pixels, mesh.triangles, "rast", op);
+    raster::detail::check_rast_ids(rast.in<T>(), mesh.images * pixels, mesh.triangles, "rast", op);
     // Instanced images own their positions and add straight into grad_pos;
     // range-mode images share them: each in its own buffer, summed in image
     // order.
-    for_each_image(mesh.images, [&](std::int64_t b) {
+    raster::for_each_image(mesh.images, [&](std::int64_t b) {
       T* out = grad_pos.out<T>() + mesh.pos_offset(b);
       if (!mesh.instanced) {
         std::vector<T>& grad = ctx.image(b).buffer<T>(ImageScratch::kGrad);
@@ -145,7 +129,8 @@ void rasterize_backward(Context& ctx, const pybind11::object& pos, const pybind1
       raster::barycentric_gbuffer_backward(g, rast.in<T>() + 4 * pixels * b, grad_rast.in<T>() + 4 * pixels * b,
                                            grad_db ? grad_db.in<T>() + 4 * pixels * b : nullptr, out);
     });
-    if (!mesh.instanced) add_in_image_order(ctx.grads<T>(mesh.images), 4 * mesh.vertices, grad_pos.out<T>());
+    if (!mesh.instanced)
+      raster::sum_in_image_order(ctx.grads<T>(mesh.images).data(), mesh.images, 4 * mesh.vertices, grad_pos.out<T>());
   });
 }
 

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "python/src/common.h"
+#include "raster/depth_peel_state.h"
 
 namespace gr::vulkan {
 class Device;  // raster/vulkan/device.h (built with the GPU path only)
@@ -12,21 +13,12 @@ class Device;  // raster/vulkan/device.h (built with the GPU path only)
 
 namespace gr::python {
 
-// The state of one DepthPeeler: per image, the previous layer's (depth, id)
-// key, which the next layer must lie strictly behind.
-struct PeelState {
-  std::vector<std::int32_t> floor_id;  // images x H x W (0 before the first layer)
-  std::vector<double> floor_z;
-  int layers = 0;
-};
-
 // Scratch of one image of a call: the rasterizer's own outputs and a
 // gradient buffer, per dtype. (The kernels read the caller's positions: they
 // run with y_up, nvdiffrast's row 0 at the bottom.)
 struct ImageScratch {
   enum Buffer { kUv, kDepth, kGrad, kBuffers };
   std::vector<std::int32_t> tri_id;
-  std::vector<double> key_depth;
   template <class T>
   std::vector<T>& buffer(Buffer b);
 
@@ -47,21 +39,22 @@ struct Context {
   void reserve(std::int64_t count) {
     if (static_cast<std::int64_t>(images.size()) < count) images.resize(static_cast<std::size_t>(count));
   }
-  // The gradient buffers (kGrad) of images [0, count), for add_in_image_order.
+  // The gradient buffers (kGrad) of images [0, count), for raster::sum_in_image_order.
   template <class T>
-  std::vector<std::vector<T>*> grads(std::int64_t count) {
-    std::vector<std::vector<T>*> out;
-    for (std::int64_t b = 0; b < count; ++b) out.push_back(&image(b).buffer<T>(ImageScratch::kGrad));
+  std::vector<const T*> grads(std::int64_t count) {
+    std::vector<const T*> out;
+    for (std::int64_t b = 0; b < count; ++b) out.push_back(image(b).buffer<T>(ImageScratch::kGrad).data());
     return out;
   }
 };
 
 // pos, tri, ranges: a Mesh. rast, db (None: not wanted): [images, H, W, 4]
-// of pos's dtype, 1 <= H, W <= 16384 (the resolution). With a peel state,
-// each image draws only what lies behind the state's key, which is then
-// advanced.
+// of pos's dtype, 1 <= H, W <= raster::kMaxSide (the resolution). With a peel
+// state (a DepthPeeler's), each image draws only what lies behind the state's
+// key, which is then advanced.
 void rasterize_forward(Context& ctx, const pybind11::object& pos, const pybind11::object& tri, Ranges ranges,
-                       const pybind11::object& rast, const pybind11::object& db, PeelState* peel, int threads);
+                       const pybind11::object& rast, const pybind11::object& db, raster::DepthPeelState* peel,
+                       int threads);
 // grad_pos (zeroed by the caller, pos's shape) += the adjoint for the
 // coverage in rast; grad_rast: rast's shape; grad_db: None or rast's shape.
 void rasterize_backward(Context& ctx, const pybind11::object& pos, const pybind11::object& tri, Ranges ranges,

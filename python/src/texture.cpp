@@ -5,7 +5,7 @@
 #include "autodiff/base/error.h"
 #include "raster/cube_texture.h"
 #include "raster/mipmap.h"
-#include "raster/detail/rasterize_setup.h"
+#include "raster/mesh_checks.h"
 #include "raster/texture.h"
 
 namespace gr::python {
@@ -196,7 +196,7 @@ void texture_forward(const TextureMode& mode, Objects tex, Objects uv, Objects u
   KernelCall call(threads);
   dispatch(a.f64(), [&](auto tag) {
     using T = decltype(tag);
-    for_each_image(a.images, [&](std::int64_t b) {
+    raster::for_each_image(a.images, [&](std::int64_t b) {
       T* o = out.out<T>() + b * a.samples * a.channels;
       if (a.mode.cube)
         raster::cube_texture_forward(cube_params<T>(a, b), o);
@@ -264,7 +264,7 @@ void texture_backward(const TextureMode& mode, Objects tex, Objects uv, Objects 
     if (a.tex_images == 1 && (grad_tex || grad_pyramid))
       for (std::int64_t b = 0; b < a.images; ++b) image(b);
     else
-      for_each_image(a.images, image);
+      raster::for_each_image(a.images, image);
   });
 }
 

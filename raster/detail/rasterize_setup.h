@@ -1,5 +1,4 @@
-// Internal to the raster kernels: array scans for the ops' input checks (used by
-// ops/check.cpp), per-vertex projection, per-triangle classification (frustum /
+// Internal to the raster kernels: per-vertex projection, per-triangle classification (frustum /
 // area / facing / pixel bounding box) and the watertight edge setup shared by the
 // rasterizer's tiles.
 //
@@ -14,21 +13,9 @@
 #include <mutex>
 #include <vector>
 
+#include "raster/mesh_checks.h"  // the input checks, for this header's users
+
 namespace gr::raster::detail {
-
-// Throws IndexError naming the triangle if an index is < 0 or >= num_vertices.
-// Throws ValueError unless 1 <= width, height <= 16384 and width * height <= 2^28
-// (RasterSettings' limits).
-void check_image_size(std::int64_t width, std::int64_t height, const char* op);
-
-void check_triangles(const std::int32_t* tris, std::int64_t num_tris, std::int64_t num_vertices,
-                     const char* op);
-// Throws IndexError if some tri_id is < 0 or > num_tris.
-void check_tri_ids(const std::int32_t* tri_id, std::int64_t pixels, std::int64_t num_tris,
-                   const char* op);
-// Throws ValueError naming the element if some value is NaN or Inf.
-template <class T>
-void check_finite(const T* values, std::int64_t count, const char* what, const char* op);
 
 // Per-vertex data in double: clip (x, y, z, w), screen (sx, sy), z_ndc, and
 // whether the vertex is strictly in front of the near plane (w > 0, z >= -w).

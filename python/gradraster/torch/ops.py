@@ -20,7 +20,7 @@ from torch.autograd.function import once_differentiable
 
 from .. import _core
 
-_MAX_SIDE = 16384          # pixels per side (the rasterizer's limit)
+_MAX_SIDE = _core.MAX_SIDE  # pixels per side (the rasterizer's limit, raster::kMaxSide)
 _MAX_FLOAT32_IDS = 1 << 24  # float32 holds every triangle id + 1 exactly up to here
 
 
