@@ -4,8 +4,9 @@
 // of magnitudes 2^-100 to 2^100 and the hard ones (exactly on face edges and
 // cube corners, axis-aligned, on texel centres and edges, the zero vector),
 // footprints from dir_da of zero, equal, exactly 2^k texels and beyond the
-// last level, the LOD from the bias alone, a bias on top; the cube_texture op
-// on a Vulkan backend; the same bits run after run; accumulation; bad input.
+// last level, the LOD from the bias alone, a bias on top, fewer levels
+// (max_mip_level 2 and 0); the cube_texture op on a Vulkan backend (every
+// filter); the same bits run after run; accumulation; bad input.
 //
 // Samples: bit for bit (nearest, bilinear), within 1e-6 relative (mipmapped).
 // Gradients (texels, dir, dir_da, bias): each within 1e-5 relative to itself
@@ -88,11 +89,11 @@ void add_sample(CubeLookup& l, const double d[3], double texels, int kind, std::
 
 // The base of a lookup: random faces (and their pyramids), random incoming
 // gradients set after the samples by finish().
-CubeLookup cube_base(int size, std::int64_t C, CubeFilter filter, unsigned seed) {
+CubeLookup cube_base(int size, std::int64_t C, CubeFilter filter, unsigned seed, int max_level = -1) {
   CubeLookup l;
   l.size = size, l.C = C, l.filter = filter;
   l.faces = random_values(std::size_t(6) * size * size * C, seed + 1);
-  l.layout = mip_layout(size, size, is_mipmapped(filter) ? -1 : 0);
+  l.layout = mip_layout(size, size, is_mipmapped(filter) ? max_level : 0);
   if (l.layout.count() > 1) {
     l.pyramid.resize(6 * (l.layout.total_texels - std::int64_t(size) * size) * C);
     cube_mip_build(l.faces.data(), C, l.layout, l.pyramid.data());
@@ -114,10 +115,10 @@ void finish(CubeLookup& l, unsigned seed, bool bias) {
 
 // N random directions (Gaussian, lengths 2^[-100, 100]), a fifth of them
 // snapped onto a face edge, a cube corner or an axis; footprints of 2^[-3, 13]
-// texels (or the bias alone: with_da false).
+// texels (or the bias alone: with_da false); levels up to max_level (-1: all).
 CubeLookup random_cube(int size, std::int64_t C, std::int64_t N, CubeFilter filter, unsigned seed, bool with_da = true,
-                       bool bias = false) {
-  CubeLookup l = cube_base(size, C, filter, seed);
+                       bool bias = false, int max_level = -1) {
+  CubeLookup l = cube_base(size, C, filter, seed, max_level);
   std::mt19937 rng(seed);
   std::normal_distribution<double> normal;
   std::uniform_real_distribution<double> unit(0.0, 1.0);
@@ -242,13 +243,15 @@ TEST_CASE("GPU cube-map lookups and gradients equal the CPU's for every filter o
   }
 }
 
-TEST_CASE("GPU mipmapped cube-map lookups with the LOD from the bias alone or with a bias on top equal the CPU's",
-          "[vulkan][cube]") {
+TEST_CASE("GPU mipmapped cube-map lookups with the LOD from the bias alone or with a bias on top, and fewer levels, "
+          "equal the CPU's", "[vulkan][cube]") {
   if (!shared_gpu()) return;
   for (CubeFilter f : {CubeFilter::LinearMipmapNearest, CubeFilter::Trilinear}) {
     check_gpu_matches_cpu(random_cube(16, 3, 2000, f, 40, false, true));  // the bias is the LOD
     check_gpu_matches_cpu(random_cube(16, 3, 2000, f, 41, true, true));   // footprint + bias
     check_gpu_matches_cpu(random_cube(7, 1, 1000, f, 42, true, true));
+    check_gpu_matches_cpu(random_cube(16, 2, 1000, f, 43, true, true, 2));  // max_mip_level 2: 16, 8, 4
+    check_gpu_matches_cpu(random_cube(16, 2, 500, f, 44, true, false, 0));  // level 0 alone
   }
 }
 
