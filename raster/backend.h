@@ -1,15 +1,17 @@
 // Where the raster kernels run: the CPU (no backend) or another device
 // (raster/vulkan/backend.h gives a Vulkan one), the ops' execution context
-// (RasterizeOptions::backend, TextureOptions::backend). A backend gives
+// (RasterizeOptions::backend, TextureOptions::backend,
+// CubeTextureOptions::backend). A backend gives
 // rasterize_forward's G-buffer bit for bit, so everything that reads it (the
 // rasterize adjoint, which runs on the CPU from tri_id, interpolate,
-// antialias) is unchanged; texture lookups give the CPU kernel's samples
-// (within an ulp of float) and gradients (within 1e-5 of the largest).
+// antialias) is unchanged; texture and cube-map lookups give the CPU kernel's
+// samples (within an ulp of float) and gradients (within 1e-5 of the largest).
 #pragma once
 
 #include <cstdint>
 #include <string>
 
+#include "raster/cube_texture.h"
 #include "raster/rasterize.h"
 #include "raster/texture.h"
 
@@ -30,6 +32,13 @@ class RasterBackend {
   virtual bool texture_forward(const TextureParams<float>& /*p*/, float* /*out*/) const { return false; }
   virtual bool texture_backward(const TextureParams<float>& /*p*/, const float* /*grad_out*/,
                                 const TextureGrads<float>& /*grads*/) const {
+    return false;
+  }
+  // cube_texture_forward / cube_texture_backward (raster/cube_texture.h),
+  // likewise: false when the backend does not cover them.
+  virtual bool cube_texture_forward(const CubeTextureParams<float>& /*p*/, float* /*out*/) const { return false; }
+  virtual bool cube_texture_backward(const CubeTextureParams<float>& /*p*/, const float* /*grad_out*/,
+                                     const CubeTextureGrads<float>& /*grads*/) const {
     return false;
   }
 };

@@ -3,6 +3,7 @@
 #include "ops/render/cube_texture.h"
 
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "autodiff/tape.h"
@@ -95,7 +96,10 @@ Tensor cube_texture(const Tensor& tex, const Tensor& dir, const CubeTextureOptio
   Tensor out = Tensor::empty(out_shape, tex.dtype());
   dispatch_float(tex.dtype(), "cube_texture", [&](auto tag) {
     using T = decltype(tag);
-    raster::cube_texture_forward(params<T>(tex, dir, da, bias, pyramid, layout, options), out.data<T>());
+    const raster::CubeTextureParams<T> p = params<T>(tex, dir, da, bias, pyramid, layout, options);
+    if constexpr (std::is_same_v<T, float>)
+      if (options.backend && options.backend->cube_texture_forward(p, out.data<T>())) return;
+    raster::cube_texture_forward(p, out.data<T>());
   });
 
   const std::vector<Tensor> inputs{tex, dir, mipmapped ? dir_da : Tensor(), mip_level_bias};
@@ -121,8 +125,11 @@ Tensor cube_texture(const Tensor& tex, const Tensor& dir, const CubeTextureOptio
                grads.dir = ptr(g[1]);
                grads.dir_da = ptr(g[2]);
                grads.mip_level_bias = ptr(g[3]);
-               raster::cube_texture_backward(params<T>(tex, dir, da, bias, pyramid, layout, options),
-                                             ctx.grad_output().data<T>(), grads);
+               const raster::CubeTextureParams<T> p = params<T>(tex, dir, da, bias, pyramid, layout, options);
+               if constexpr (std::is_same_v<T, float>)
+                 if (options.backend && options.backend->cube_texture_backward(p, ctx.grad_output().data<T>(), grads))
+                   return;
+               raster::cube_texture_backward(p, ctx.grad_output().data<T>(), grads);
              });
              for (std::size_t i = 0; i < 4; ++i)
                if (g[i].defined()) ctx.accumulate(i, g[i]);

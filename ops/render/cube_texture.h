@@ -5,7 +5,10 @@
 // (trilinear) the direction's screen derivatives and the LOD bias.
 #pragma once
 
+#include <memory>
+
 #include "autodiff/base/tensor.h"
+#include "raster/backend.h"
 #include "raster/cube_texture.h"
 
 namespace gr {
@@ -16,6 +19,11 @@ struct CubeTextureOptions {
   CubeFilter filter = CubeFilter::Bilinear;  // Nearest | Bilinear | LinearMipmapNearest | Trilinear
   // Mipmapped filters: highest mip level used (0 = base only); -1 = the full chain to 1 x 1.
   int max_mip_level = -1;
+  // Where the lookups and their adjoint run (null: the CPU), e.g.
+  // gr::vulkan::raster_backend(device), for float32 (float64 stays on the
+  // CPU): samples within an ulp of float of the CPU's, gradients within 1e-5
+  // of the largest (docs/gpu.md). The per-face pyramids are built on the CPU.
+  std::shared_ptr<const raster::RasterBackend> backend = nullptr;
 };
 
 // tex [6, S, S, C] float32/float64 (face f, row t S, column s S; the face table

@@ -1,8 +1,10 @@
 // The Vulkan RasterBackend: rasterize_forward through the device's own Frame,
-// the texture lookups through raster/vulkan/texture.h.
+// the texture lookups through raster/vulkan/texture.h, the cube maps'
+// through raster/vulkan/cube_texture.h.
 #include "raster/vulkan/backend.h"
 
 #include "autodiff/base/error.h"
+#include "raster/vulkan/cube_texture.h"
 #include "raster/vulkan/rasterize.h"
 #include "raster/vulkan/texture.h"
 
@@ -26,6 +28,15 @@ class VulkanBackend : public raster::RasterBackend {
   bool texture_backward(const raster::TextureParams<float>& p, const float* grad_out,
                         const raster::TextureGrads<float>& grads) const override {
     vulkan::texture_backward(*device_, p, grad_out, grads);
+    return true;
+  }
+  bool cube_texture_forward(const raster::CubeTextureParams<float>& p, float* out) const override {
+    vulkan::cube_texture_forward(*device_, p, out);
+    return true;
+  }
+  bool cube_texture_backward(const raster::CubeTextureParams<float>& p, const float* grad_out,
+                             const raster::CubeTextureGrads<float>& grads) const override {
+    vulkan::cube_texture_backward(*device_, p, grad_out, grads);
     return true;
   }
 

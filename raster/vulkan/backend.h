@@ -1,7 +1,8 @@
 // A Vulkan device as a raster::RasterBackend: the ops' rasterize runs its
 // forward there for float32 clip positions without a peeling floor (the
-// rest stays on the CPU), with the same G-buffer bit for bit; the texture op
-// runs its forward and adjoint there for float32 (raster/vulkan/texture.h).
+// rest stays on the CPU), with the same G-buffer bit for bit; the texture and
+// cube_texture ops run their forward and adjoint there for float32
+// (raster/vulkan/texture.h, raster/vulkan/cube_texture.h).
 #pragma once
 
 #include <memory>

@@ -1,8 +1,8 @@
 // Texture sampling and its adjoint on a Vulkan device: raster::texture_forward
 // and texture_backward (raster/texture.h) for float32, every filter (nearest,
 // bilinear, trilinear, linear-mipmap-nearest), wrap mode, LOD rule, v_down,
-// per-sample mip_level_bias and the user's own mip levels. Cube maps are not
-// on the device.
+// per-sample mip_level_bias and the user's own mip levels. Cube maps:
+// raster/vulkan/cube_texture.h.
 //
 // Results: the CPU kernel's taps in the same double expressions, so samples
 // are the CPU's bit for bit for nearest and bilinear and within an ulp of

@@ -24,6 +24,7 @@ struct Kernels {
   VkPipeline rasterize_backward, rasterize_backward_finish;
   VkPipeline antialias_pairs, antialias_forward, antialias_backward, antialias_finish;
   VkPipeline texture_forward, texture_backward, texture_finish;
+  VkPipeline cube_texture_forward, cube_texture_backward;
 
  private:
   std::map<int, VkPipeline> small_;

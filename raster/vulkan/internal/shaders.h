@@ -28,5 +28,7 @@ Spirv antialias_finish();
 Spirv texture_forward();
 Spirv texture_backward();
 Spirv texture_finish();
+Spirv cube_texture_forward();
+Spirv cube_texture_backward();
 
 }  // namespace gr::vulkan::shaders

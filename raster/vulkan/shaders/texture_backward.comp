@@ -1,31 +1,18 @@
 #version 460
-// Per sample with a non-zero incoming gradient g: the adjoint of
-// texture_forward (formulas in raster/texture.h). Pass 0 writes the sample's
-// own gradients (du, dv; for trilinear through the LOD: d uv_dx, d uv_dy,
-// d bias) and notes the largest texel contribution; pass 1 adds every
-// contribution w_t g to its texel value in fixed point (fixed_point.glsl), so
-// the sums do not depend on the order of arrival.
+// The adjoint of 2D texture lookups (texture_backward.glsl over
+// texture_taps.glsl; formulas in raster/texture.h): the sample's gradients
+// by uv and, for trilinear through the LOD, by uv_dx, uv_dy and the bias.
 #include "dispatch.glsl"
 #include "texture_common.glsl"
-#include "fixed_point.glsl"
+#include "texture_taps.glsl"
+#include "texture_backward.glsl"
 
-layout(std430, binding = 6) readonly buffer GradOutBuf { float grad_out[]; };
-// Fixed-point sums: every level's texel values (level l from level_of[l].z * C).
-layout(std430, binding = 7) buffer SumBuf { int64_t sums[]; };
-// Per sample: du, dv, d(du/dx), d(dv/dx), d(du/dy), d(dv/dy), d bias.
-layout(std430, binding = 9) writeonly buffer SampleGradBuf { float sample_grads[]; };
-
-// g . texel over the channels, in double in channel order (dot_channels).
-double dot_texel(int s, int index) {
-  int C = P.channels;
-  precise double d = 0.0;
-  for (int c = 0; c < C; ++c) d += double(grad_out[s * C + c]) * double(texels[index * C + c]);
-  return d;
-}
+// The float32 CPU kernel files its tap weights as float.
+double filed_weight(double w) { return double(float(w)); }
 
 // The sample's gradients by uv and, through the LOD, by uv_dx, uv_dy and the bias.
 void sample_gradients(int s, Taps t) {
-  double g[7] = double[7](0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+  double g[kSampleGrads] = double[kSampleGrads](0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
   if (P.filter_mode != kNearest) {
     precise double gu = 0.0, gv = 0.0;
     for (int k = 0; k < t.n; ++k) {
@@ -56,36 +43,5 @@ void sample_gradients(int s, Taps t) {
       g[4] = y0, g[5] = y1;
     }
   }
-  for (int i = 0; i < 7; ++i) sample_grads[7 * s + i] = float(g[i]);
-}
-
-void lookup(int s, int shift) {
-  int C = P.channels;
-  bool live = false;
-  for (int c = 0; c < C && !live; ++c) live = grad_out[s * C + c] != 0.0;
-  if (!live) {
-    if (P.pass == 0)
-      for (int i = 0; i < 7; ++i) sample_grads[7 * s + i] = 0.0;
-    return;
-  }
-  Taps t = sample_taps(s, true);
-  if (P.pass == 0) sample_gradients(s, t);
-  if ((P.flags & kTexelGrads) == 0) return;
-  // dL/d texel_t += w_t g, with w_t rounded to float as the CPU files it.
-  for (int k = 0; k < t.n; ++k) {
-    double w = double(float(t.w[k]));
-    for (int c = 0; c < C; ++c) {
-      precise double x = w * double(grad_out[s * C + c]);
-      if (P.pass == 0)
-        note_magnitude(0, x);
-      else if (x != 0.0)
-        atomicAdd(sums[t.index[k] * C + c], to_fixed(x, shift));
-    }
-  }
-}
-
-void main() {
-  int s = linear_id();
-  if (s < P.num_samples) lookup(s, P.pass == 0 ? 0 : fixed_point_shift(0, P.contributions));
-  if (P.pass == 0) publish_magnitudes();
+  for (int i = 0; i < kSampleGrads; ++i) sample_grads[kSampleGrads * s + i] = float(g[i]);
 }

@@ -1,23 +1,6 @@
 #version 460
-// Per sample: out = sum_t w_t texel_t over its taps, summed in double in tap
-// order and rounded once (texture_forward in raster/texture.cpp).
+// 2D texture lookups (texture_forward.glsl over texture_taps.glsl).
 #include "dispatch.glsl"
 #include "texture_common.glsl"
-
-layout(std430, binding = 6) writeonly buffer OutBuf { float out_values[]; };
-
-void lookup(int s) {
-  Taps t = sample_taps(s, false);
-  int C = P.channels;
-  for (int c = 0; c < C; ++c) {
-    precise double a = 0.0;
-    for (int k = 0; k < t.n; ++k) a += t.w[k] * double(texels[t.index[k] * C + c]);
-    // The CPU's sum starts at +0, so it is never -0 (a driver may drop 0 + x's sign).
-    out_values[s * C + c] = a == 0.0 ? 0.0 : float(a);
-  }
-}
-
-void main() {
-  int s = linear_id();
-  if (s < P.num_samples) lookup(s);
-}
+#include "texture_taps.glsl"
+#include "texture_forward.glsl"
