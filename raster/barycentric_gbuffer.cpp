@@ -1,18 +1,23 @@
 // nvdiffrast-layout G-buffer from a coverage image, and its adjoint
 // (formulas in barycentric_gbuffer.h). Per pixel everything is evaluated in
-// double from the three homogeneous screen vertices; the adjoint computes
-// per-pixel contributions in parallel and adds them in pixel order.
+// double from the three homogeneous screen vertices; the adjoint scatters by
+// gathering (docs/determinism.md): pixels grouped by triangle, each
+// triangle's terms computed once and its pixels' contributions summed per
+// corner in pixel order, then each vertex's corners in a fixed order.
 #include "raster/barycentric_gbuffer.h"
 
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <memory>
+#include <optional>
 #include <vector>
 
 #include "autodiff/base/parallel.h"
+#include "raster/detail/buckets.h"
+#include "raster/detail/corner_gather.h"
 #include "raster/detail/guarded_math.h"
 #include "raster/detail/rasterize_setup.h"
+#include "raster/detail/triangle_groups.h"
 
 namespace gr::raster {
 namespace {
@@ -196,46 +201,64 @@ void barycentric_gbuffer_forward(const BarycentricGBufferParams<T>& p, const std
   });
 }
 
+namespace {
+
+// The adjoint's buffers, reused across calls (no page faults after the first).
+struct BackwardScratch {
+  detail::Buckets by_tri, by_vertex;
+  std::vector<double> partial;
+  std::vector<std::uint8_t> live;
+};
+detail::ScratchPool<BackwardScratch> g_backward_pool;
+
+}  // namespace
+
 template <class T>
 void barycentric_gbuffer_backward(const BarycentricGBufferParams<T>& p, const T* rast, const T* grad_rast,
                                   const T* grad_db, T* grad_clip) {
   const std::int64_t pixels = static_cast<std::int64_t>(p.width) * p.height;
-  std::vector<double> acc(4 * static_cast<std::size_t>(p.num_vertices), 0.0);
-  constexpr std::int64_t kChunk = 16384;
-  const std::int64_t chunk_len = std::min(kChunk, pixels);
-  // Written before read (live), so left uninitialized: no zero fill per call.
-  const std::unique_ptr<double[]> contrib(new double[12 * static_cast<std::size_t>(chunk_len)]);
-  std::vector<std::uint8_t> live(static_cast<std::size_t>(chunk_len));
-  for (std::int64_t c0 = 0; c0 < pixels; c0 += kChunk) {
-    const std::int64_t c1 = std::min(pixels, c0 + kChunk);
-    parallel_for(c0, c1, 1024, [&](std::int64_t lo, std::int64_t hi) {
-      TriangleCache<T> cache(p);
-      for (std::int64_t q = lo; q < hi; ++q) {
-        const std::int64_t i = q - c0;
-        live[i] = 0;
-        const std::int64_t id = pixel_id(p, rast, q);
-        if (id == 0) continue;
+  // Scatter by gathering (docs/determinism.md): 1. covered pixels grouped by
+  // triangle, in ascending pixel order; the used triangles numbered by first pixel.
+  auto lease = g_backward_pool.take();
+  BackwardScratch& sc = *lease;
+  const detail::Buckets* shared = p.groups && p.tri_id ? p.groups->by_triangle(p.tri_id, pixels, p.num_tris) : nullptr;
+  if (!shared)
+    detail::bucket_items(pixels, p.num_tris, [&](std::int64_t q) { return pixel_id(p, rast, q) - 1; }, &sc.by_tri);
+  const detail::Buckets& by_tri = shared ? *shared : sc.by_tri;
+  const std::int64_t used = static_cast<std::int64_t>(by_tri.nonempty.size());
+  // 2. Per used triangle s, in parallel: its pixels' dL/dclip of the three
+  // vertices summed per corner in pixel order (corner k at partial[4 (3 s + k)]).
+  sc.partial.resize(static_cast<std::size_t>(12 * used));
+  sc.live.resize(static_cast<std::size_t>(used));
+  double* const partial = sc.partial.data();
+  parallel_for(0, used, 16, [&](std::int64_t s0, std::int64_t s1) {
+    double contrib[12];
+    for (std::int64_t s = s0; s < s1; ++s) {
+      const std::int32_t tri = by_tri.nonempty[s];
+      double* acc = partial + 12 * s;
+      std::fill(acc, acc + 12, 0.0);
+      std::uint8_t live = 0;
+      std::optional<TriangleTerms> terms;  // computed at the first pixel with a gradient
+      for (std::int64_t e = by_tri.start[tri]; e < by_tri.start[tri + 1]; ++e) {
+        const std::int64_t q = by_tri.item[e];
         const T* g = grad_rast + 4 * q;
         const T* h = grad_db ? grad_db + 4 * q : nullptr;
         bool any = g[0] != T(0) || g[1] != T(0) || g[2] != T(0);
         if (h) any = any || h[0] != T(0) || h[1] != T(0) || h[2] != T(0) || h[3] != T(0);
         if (!any) continue;
-        pixel_adjoint(p, cache.at(id - 1), q, g, h, &contrib[12 * i]);
-        live[i] = 1;
+        if (!terms) terms = triangle_terms(p, tri);
+        pixel_adjoint(p, *terms, q, g, h, contrib);
+        for (int i = 0; i < 12; ++i) acc[i] += contrib[i];
+        live = 1;
       }
-    });
-    // In pixel order: the same sums for any thread count.
-    for (std::int64_t q = c0; q < c1; ++q) {
-      if (!live[q - c0]) continue;
-      const std::int32_t* tri = p.tris + 3 * (pixel_id(p, rast, q) - 1);
-      const double* g = &contrib[12 * (q - c0)];
-      for (int k = 0; k < 3; ++k)
-        for (int j = 0; j < 4; ++j) acc[4 * static_cast<std::size_t>(tri[k]) + j] += g[4 * k + j];
+      sc.live[s] = live;
     }
-  }
-  parallel_for(0, 4 * p.num_vertices, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
-    for (std::int64_t i = lo; i < hi; ++i) grad_clip[i] += finite_cast<T>(acc[i]);
   });
+  // 3. Each vertex adds its corners' sums in corner order, once.
+  detail::gather_corners(p.tris, by_tri.nonempty.data(), used, sc.live.data(), partial, 4, p.num_vertices,
+                         &sc.by_vertex, [&](std::int64_t v, const double* total) {
+                           for (int j = 0; j < 4; ++j) grad_clip[4 * v + j] += finite_cast<T>(total[j]);
+                         });
 }
 
 #define GR_INSTANTIATE(T)                                                                                       \

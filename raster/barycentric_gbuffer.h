@@ -19,6 +19,8 @@
 
 namespace gr::raster {
 
+class TriangleGroups;  // raster/detail/triangle_groups.h
+
 // Inputs of one image, shared by the forward and the adjoint. The kernels
 // trust them (the caller validates): indices in [0, num_vertices), ids in
 // range, clip finite, the size within RasterSettings' limits.
@@ -39,6 +41,9 @@ struct BarycentricGBufferParams {
   // adjoint then does not read (rast may be null). Ids beyond 2^24 are exact
   // only here in float32.
   const std::int32_t* tri_id = nullptr;
+  // Adjoint only, optional (with tri_id): the pixels' grouping by triangle,
+  // shared with the other adjoints over this tri_id (raster/detail/triangle_groups.h).
+  TriangleGroups* groups = nullptr;
 };
 
 // Forward. tri_id (H*W, 0 = background) is rasterize_forward's output for
@@ -60,8 +65,9 @@ void barycentric_gbuffer_forward(const BarycentricGBufferParams<T>& p, const std
 //   dL/dz_k = g_z a_k / D,  dL/dD = -g_z (z/w) / D,
 //   dL/dc_k += dL/da_k e + dL/dC,  dL/dV_j += dL/dD c_j,
 //   c_k = V_k+1 x V_k+2: dL/dV_k+1 += V_k+2 x dL/dc_k, dL/dV_k+2 += dL/dc_k x V_k+1,
-// then V -> clip. Contributions are added in pixel order, so the result is
-// bit-identical for any thread count.
+// then V -> clip. Contributions are summed per triangle in pixel order
+// (float64), then per vertex over its triangles in the order of their first
+// pixels, so the result is bit-identical for any thread count.
 template <class T>
 void barycentric_gbuffer_backward(const BarycentricGBufferParams<T>& p, const T* rast, const T* grad_rast,
                                   const T* grad_db, T* grad_clip);

@@ -2,14 +2,20 @@
 // (formulas in barycentric_interpolate.h). The forward blends 16 pixels at a
 // time in vector lanes for 1 to 4 channels, and the adjoint's channel loops
 // are unrolled for them, with the per-pixel loop's arithmetic in the same
-// order (the same bits). The per-vertex scatter gives each thread a range of
-// vertices that walks all pixels in order, so the sums do not depend on the
-// thread count.
+// order (the same bits). The per-vertex sums scatter by gathering
+// (docs/determinism.md): pixels grouped by triangle, summed per corner in
+// pixel order, then per vertex in corner order, so the sums do not depend on
+// the thread count.
 #include "raster/barycentric_interpolate.h"
 
 #include <algorithm>
+#include <vector>
 
 #include "autodiff/base/parallel.h"
+#include "raster/detail/buckets.h"
+#include "raster/detail/corner_gather.h"
+#include "raster/detail/rasterize_setup.h"
+#include "raster/detail/triangle_groups.h"
 
 namespace gr::raster {
 namespace {
@@ -130,6 +136,14 @@ void barycentric_interpolate_forward(const BarycentricInterpolateParams<T>& p, T
 
 namespace {
 
+// The adjoint's buffers, reused across calls (no page faults after the first).
+struct BackwardScratch {
+  detail::Buckets by_tri, by_vertex;
+  std::vector<double> partial;
+  std::vector<std::uint8_t> live;
+};
+detail::ScratchPool<BackwardScratch> g_backward_pool;
+
 // barycentric_interpolate_backward for kC channels (0: p.channels), so the
 // usual channel counts get unrolled channel loops; the same arithmetic in the
 // same order either way.
@@ -175,33 +189,47 @@ void backward_channels(const BarycentricInterpolateParams<T>& p, const T* grad_o
       });
     return;
   }
-  // Per vertex, in pixel order: each thread owns a range of vertices and walks
-  // all pixels; on the way it does the per-pixel gradients of its share of them.
-  const std::int64_t N = p.num_vertices;
-  const std::int64_t groups = std::max<std::int64_t>(1, std::min<std::int64_t>(num_threads(), N));
-  const std::int64_t per_group = (N + groups - 1) / groups, pixels_per_group = (p.pixels + groups - 1) / groups;
-  parallel_for(0, groups, 1, [&](std::int64_t g0, std::int64_t g1) {
-    const std::int64_t v0 = g0 * per_group, v1 = std::min(N, g1 * per_group);
-    const std::int64_t q0 = per_pixel ? g0 * pixels_per_group : 0;
-    const std::int64_t q1 = per_pixel ? std::min(p.pixels, g1 * pixels_per_group) : 0;
-    for (std::int64_t q = 0; q < p.pixels; ++q) {
-      const std::int64_t t = pixel_triangle(p, q);
-      if (t < 0) continue;
-      const std::int32_t* tri = p.tris + 3 * t;
-      if (q >= q0 && q < q1) pixel_grads(q, tri);
-      if ((tri[0] < v0 || tri[0] >= v1) && (tri[1] < v0 || tri[1] >= v1) && (tri[2] < v0 || tri[2] >= v1)) continue;
-      const Weights w = pixel_weights(p, q);
-      const T* g = grad_out + q * C;
-      const T* h = K > 0 ? grad_da + q * 2 * K : nullptr;
-      for (int k = 0; k < 3; ++k) {
-        if (tri[k] < v0 || tri[k] >= v1) continue;
-        T* ga = grads.attr + tri[k] * C;
-        for (std::int64_t c = 0; c < C; ++c) ga[c] += static_cast<T>(w.w[k] * g[c]);
-        for (std::int64_t j = 0; j < K; ++j)
-          ga[p.diff[j]] += static_cast<T>(w.dx[k] * h[2 * j] + w.dy[k] * h[2 * j + 1]);
+  // Scatter by gathering (docs/determinism.md): 1. covered pixels grouped by
+  // triangle, in ascending pixel order; the used triangles numbered by first pixel.
+  auto lease = g_backward_pool.take();
+  BackwardScratch& sc = *lease;
+  const detail::Buckets* shared = p.groups && p.tri_id ? p.groups->by_triangle(p.tri_id, p.pixels, p.num_tris) : nullptr;
+  if (!shared)
+    detail::bucket_items(p.pixels, p.num_tris, [&](std::int64_t q) { return pixel_triangle(p, q); }, &sc.by_tri);
+  const detail::Buckets& by_tri = shared ? *shared : sc.by_tri;
+  const std::int64_t used = static_cast<std::int64_t>(by_tri.nonempty.size());
+  // 2. Per used triangle s, in parallel: its pixels' terms summed per corner
+  // in pixel order (corner k at partial[(3 s + k) C]), and the per-pixel gradients.
+  sc.partial.resize(static_cast<std::size_t>(3 * used * C));
+  sc.live.assign(static_cast<std::size_t>(used), 1);
+  double* const partial = sc.partial.data();
+  parallel_for(0, used, 16, [&](std::int64_t s0, std::int64_t s1) {
+    for (std::int64_t s = s0; s < s1; ++s) {
+      const std::int32_t t = by_tri.nonempty[s];
+      const std::int32_t* tri = p.tris + 3 * static_cast<std::int64_t>(t);
+      double* acc = partial + 3 * s * C;
+      std::fill(acc, acc + 3 * C, 0.0);
+      for (std::int64_t e = by_tri.start[t]; e < by_tri.start[t + 1]; ++e) {
+        const std::int64_t q = by_tri.item[e];
+        if (per_pixel) pixel_grads(q, tri);
+        // dL/dA_k += b_k g + (db_k/dx h_x + db_k/dy h_y) on the selected channels.
+        const Weights w = pixel_weights(p, q);
+        const T* g = grad_out + q * C;
+        const T* h = K > 0 ? grad_da + q * 2 * K : nullptr;
+        for (int k = 0; k < 3; ++k) {
+          double* o = acc + k * C;
+          for (std::int64_t c = 0; c < C; ++c) o[c] += w.w[k] * g[c];
+          for (std::int64_t j = 0; j < K; ++j) o[p.diff[j]] += w.dx[k] * h[2 * j] + w.dy[k] * h[2 * j + 1];
+        }
       }
     }
   });
+  // 3. Each vertex adds its corners' sums in corner order, once.
+  detail::gather_corners(p.tris, by_tri.nonempty.data(), used, sc.live.data(), partial, C, p.num_vertices,
+                         &sc.by_vertex, [&](std::int64_t v, const double* total) {
+                           T* ga = grads.attr + v * C;
+                           for (std::int64_t c = 0; c < C; ++c) ga[c] += static_cast<T>(total[c]);
+                         });
 }
 
 }  // namespace

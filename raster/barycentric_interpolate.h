@@ -11,6 +11,8 @@
 
 namespace gr::raster {
 
+class TriangleGroups;  // raster/detail/triangle_groups.h
+
 // Inputs of one image, shared by the forward and the adjoint. The kernels
 // trust them (the caller validates): the ids in rast's channel 3 (or tri_id)
 // are integers in [0, num_tris], indices in [0, num_vertices), diff in [0, channels).
@@ -31,6 +33,9 @@ struct BarycentricInterpolateParams {
   // and the ids from tri_id (H*W int32, 0 = background) instead of channel 3.
   std::int64_t rast_stride = 4;
   const std::int32_t* tri_id = nullptr;
+  // Adjoint only, optional (with tri_id): the pixels' grouping by triangle,
+  // shared with the other adjoints over this tri_id (raster/detail/triangle_groups.h).
+  TriangleGroups* groups = nullptr;
 };
 
 // out: pixels x channels (background 0); out_da: pixels x 2 num_diff as
@@ -51,7 +56,9 @@ struct BarycentricInterpolateGrads {
 //   (b_2 = 1 - b0 - b1, db_2 = -db0 - db1),
 //   dL/db_k += g . (A_k - A_2) (k = 0, 1),  dL/d(db_k/dx) += h_x . (A_k - A_2).
 // grad_out: pixels x channels; grad_da: pixels x 2 num_diff or null.
-// Per-vertex sums are added in pixel order (bit-identical for any thread count).
+// Per-vertex sums: pixels grouped by triangle and summed per corner in pixel
+// order (float64), then each vertex's corners in the order of their
+// triangles' first pixels (bit-identical for any thread count).
 template <class T>
 void barycentric_interpolate_backward(const BarycentricInterpolateParams<T>& p, const T* grad_out,
                                       const T* grad_da, const BarycentricInterpolateGrads<T>& grads);

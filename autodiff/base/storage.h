@@ -13,6 +13,8 @@
 // request that would pass the memory limit empties the whole cache first, and
 // release_cached_storage() empties it on demand. A recycled buffer is handed
 // out as it was left, never cleared (Tensor::zeros clears, Tensor::empty not).
+// A fresh buffer of 64 KiB to 64 MiB has its pages mapped in one call (Linux:
+// MADV_POPULATE_WRITE) rather than page-faulted in one by one as it is written.
 //
 // Each Storage counts the in-place writes made into it (its version): the
 // non-const Tensor::data<T>() bumps it, the gradient tape saves it when it

@@ -9,6 +9,7 @@
 #include "autodiff/tape.h"
 #include "ops/check.h"
 #include "raster/barycentric_interpolate.h"
+#include "raster/detail/triangle_groups.h"
 
 namespace gr {
 namespace {
@@ -116,6 +117,7 @@ std::vector<std::int32_t> diff_channels(const InterpolateOptions& options, std::
 struct Items {
   Tensor tri_id, uv, db, pixel_index;
   Shape shape;
+  std::shared_ptr<raster::TriangleGroups> groups;  // the G-buffer's (or null)
   std::int64_t count() const { return tri_id.numel(); }
 };
 
@@ -138,6 +140,7 @@ std::vector<Tensor> interpolate_items(const Tensor& attributes, const Tensor& tr
     p.rast_stride = 2;
     p.tri_id = items.tri_id.data<std::int32_t>();
     p.pixels = n;
+    p.groups = items.groups.get();
     if (K > 0) {
       p.rast_db = items.db.data<T>();
       p.diff = diff_list->data();
@@ -223,7 +226,7 @@ Tensor interpolate(const Tensor& attributes, const GBuffer& gbuffer, const Tenso
   check_attributes(attributes, triangles, gbuffer.clip);
   check_gbuffer(gbuffer, attributes, triangles, false);
   check_background(options.background, attributes);
-  const Items items{gbuffer.tri_id, gbuffer.uv, Tensor(), Tensor(), gbuffer.tri_id.shape()};
+  const Items items{gbuffer.tri_id, gbuffer.uv, Tensor(), Tensor(), gbuffer.tri_id.shape(), gbuffer.groups};
   return interpolate_items(attributes, triangles, items, nullptr, options.background)[0];
 }
 
@@ -234,7 +237,7 @@ Tensor interpolate(const Tensor& attributes, const Fragments& fragments, const T
     throw ValueError("interpolate: options.background has no meaning for fragments (every fragment is covered); "
                      "pass it to to_image");
   check_fragments(fragments, attributes, triangles);
-  const Items items{fragments.tri_id, fragments.uv, Tensor(), fragments.pixel_index, {fragments.count()}};
+  const Items items{fragments.tri_id, fragments.uv, Tensor(), fragments.pixel_index, {fragments.count()}, nullptr};
   return interpolate_items(attributes, triangles, items, nullptr, Tensor())[0];
 }
 
@@ -244,7 +247,7 @@ InterpolatedWithDerivatives interpolate_with_derivatives(const Tensor& attribute
   check_gbuffer(gbuffer, attributes, triangles, true);
   check_background(options.background, attributes);
   const std::vector<std::int32_t> diff = diff_channels(options, attributes.size(1));
-  const Items items{gbuffer.tri_id, gbuffer.uv, gbuffer.db, Tensor(), gbuffer.tri_id.shape()};
+  const Items items{gbuffer.tri_id, gbuffer.uv, gbuffer.db, Tensor(), gbuffer.tri_id.shape(), gbuffer.groups};
   std::vector<Tensor> out = interpolate_items(attributes, triangles, items, &diff, options.background);
   return {out[0], out[1], out[2]};
 }

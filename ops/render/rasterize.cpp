@@ -9,6 +9,7 @@
 #include "autodiff/tape.h"
 #include "ops/check.h"
 #include "raster/barycentric_gbuffer.h"
+#include "raster/detail/triangle_groups.h"
 
 namespace gr {
 namespace {
@@ -109,7 +110,9 @@ void finish_gbuffer(GBuffer& gb, const char* op) {
   // triangles and tri_id get no gradient; listed so that backward() refuses
   // them written in place since (the adjoint trusts the forward's coverage).
   const Tensor tri_id = gb.tri_id;
-  auto adjoint = [clip, triangles, tri_id, images, w, h, P, db, op](AdjointContext& ctx) {
+  if (images == 1)
+    gb.groups = std::make_shared<raster::TriangleGroups>(tri_id.data<std::int32_t>(), std::make_shared<Tensor>(tri_id));
+  auto adjoint = [clip, triangles, tri_id, images, w, h, P, db, op, groups = gb.groups](AdjointContext& ctx) {
     const Tensor& g_uv = ctx.grad_output(0);
     const Tensor& g_depth = ctx.grad_output(1);
     const Tensor g_db = db ? ctx.grad_output(2) : Tensor();
@@ -134,6 +137,7 @@ void finish_gbuffer(GBuffer& gb, const char* op) {
       for (std::int64_t b = 0; b < images; ++b) {
         raster::BarycentricGBufferParams<T> p = image_params<T>(clip, triangles, b, w, h);
         p.tri_id = tri_id.data<std::int32_t>() + b * P;
+        p.groups = groups.get();
         raster::barycentric_gbuffer_backward(p, static_cast<const T*>(nullptr), gr + 4 * P * b,
                                              g_db.defined() ? g_db.data<T>() + 4 * P * b : nullptr,
                                              g.data<T>() + (clip.rank() == 3 ? b * n * 4 : 0));

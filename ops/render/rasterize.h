@@ -13,6 +13,10 @@
 #include "raster/backend.h"
 #include "raster/rasterize.h"
 
+namespace gr::raster {
+class TriangleGroups;  // raster/detail/triangle_groups.h
+}  // namespace gr::raster
+
 namespace gr {
 
 using raster::Cull;
@@ -47,6 +51,10 @@ struct GBuffer {
   // attributes' rows against clip. Undefined in a hand-made GBuffer.
   Tensor clip;
   Tensor triangles;
+  // Set when recorded (one image): the pixels' grouping by triangle, made by
+  // the first adjoint that needs it and reused by the others over this
+  // tri_id (raster/detail/triangle_groups.h).
+  std::shared_ptr<raster::TriangleGroups> groups;
   int width() const { return static_cast<int>(tri_id.size(1)); }
   int height() const { return static_cast<int>(tri_id.size(0)); }
 };

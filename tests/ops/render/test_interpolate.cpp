@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include "ops/ops.h"
 #include "ops/pixel_ray.h"
@@ -207,4 +208,31 @@ TEST_CASE("interpolate and antialias op: triangles or a clip other than the rast
   fixed.clip = Tensor();
   fixed.triangles = Tensor();
   CHECK(interpolate(attr, fixed, swapped).to_vector() == interpolate(attr, gb, tris).to_vector());
+}
+
+TEST_CASE("interpolate op: adjoints sharing the G-buffer's grouping by triangle give the bits of adjoints grouping "
+          "on their own",
+          "[ops][interpolate][rasterize]") {
+  auto gradients = [](bool shared) {
+    Tensor clip = clip_of_two_triangles().set_requires_grad();
+    Tensor attr = random_input({6, 3}, -1, 1, 9).set_requires_grad();
+    const Tensor tris = two_tris();
+    RasterizeOptions ro{64, 48};
+    ro.derivatives = true;
+    GBuffer gb = rasterize(clip, tris, ro);
+    REQUIRE(gb.groups);  // recorded, one image
+    if (!shared) gb.groups.reset();  // each interpolate adjoint groups its pixels itself
+    InterpolateOptions io;
+    io.diff_attrs = {0, 2};
+    const InterpolatedWithDerivatives d = interpolate_with_derivatives(attr, gb, tris, io);
+    const Tensor colour = interpolate(attr * attr, gb, tris);
+    backward(sum(d.values * colour) + sum(d.d_dx * d.d_dx) + sum(d.d_dy) + sum(gb.depth));
+    std::vector<double> g = clip.grad().to_vector();
+    for (double x : attr.grad().to_vector()) g.push_back(x);
+    return g;
+  };
+  const std::vector<double> shared = gradients(true), own = gradients(false);
+  REQUIRE(shared.size() == own.size());
+  CHECK(std::equal(shared.begin(), shared.end(), own.begin(),
+                   [](double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }));
 }
