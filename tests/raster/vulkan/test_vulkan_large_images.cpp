@@ -95,7 +95,30 @@ TEST_CASE("every GPU pass beyond 2^24 pixels (two rows of workgroups) matches th
   std::vector<float> image(kPixels), da(2 * kPixels);
   std::vector<float> grad_attr(N), grad_rast(4 * kPixels), grad_db(4 * kPixels);
   barycentric_interpolate_forward(ip, image.data(), da.data());
-  barycentric_interpolate_backward(ip, grad_out.data(), grad_da.data(), {grad_attr.data(), grad_rast.data(), grad_db.data()});
+  barycentric_interpolate_backward(ip, grad_out.data(), grad_da.data(), {nullptr, grad_rast.data(), grad_db.data()});
+  {
+    // dL/dattr from the float64 kernel on the same float32 inputs: the float32
+    // kernel sums each vertex's ~8 million contributions in float (about 1e-4
+    // off; the GPU's fixed-point sums are exact to 2^-61 of the largest).
+    auto wide = [](const std::vector<float>& v) { return std::vector<double>(v.begin(), v.end()); };
+    const std::vector<double> attr64 = wide(attr), rast64 = wide(gb.rast), db64 = wide(gb.db);
+    const std::vector<double> grad_out64 = wide(grad_out), grad_da64 = wide(grad_da);
+    BarycentricInterpolateParams<double> ip64;
+    ip64.attr = attr64.data();
+    ip64.num_vertices = N;
+    ip64.channels = 1;
+    ip64.tris = s.tris.data();
+    ip64.num_tris = params.num_tris;
+    ip64.rast = rast64.data();
+    ip64.pixels = kPixels;
+    ip64.tri_id = gb.id.data();
+    ip64.rast_db = db64.data();
+    ip64.diff = diff;
+    ip64.num_diff = 1;
+    std::vector<double> grad_attr64(N);
+    barycentric_interpolate_backward(ip64, grad_out64.data(), grad_da64.data(), {grad_attr64.data(), nullptr, nullptr});
+    grad_attr.assign(grad_attr64.begin(), grad_attr64.end());
+  }
   REQUIRE(any_nonzero(grad_attr));
   {
     std::vector<float> out(kPixels), out_da(2 * kPixels), g_attr(N), g_rast(4 * kPixels), g_db(4 * kPixels);
