@@ -8,8 +8,8 @@
 // Results: rasterize gives the CPU kernels' coverage and G-buffer
 // (raster::rasterize_forward's tri_id, then raster::barycentric_gbuffer_forward's
 // rast and rast_db) bit for bit; interpolate the CPU kernel's values
-// (raster/barycentric_interpolate.h, the same double expressions, bit for
-// bit); the adjoints' sums over pixels are taken in 64-bit fixed point
+// (raster/barycentric_interpolate.h, the same double expressions: bit for
+// bit on lavapipe, at most an ulp of float apart elsewhere); the adjoints' sums over pixels are taken in 64-bit fixed point
 // (exact and order-independent, so bit-identical run to run; resolution
 // about 2^-61 x pixels x the largest contribution), within 1e-12 of the CPU's
 // double sums relative to the largest gradient. antialias gives the CPU
