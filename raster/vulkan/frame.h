@@ -8,14 +8,15 @@
 // Results: rasterize gives the CPU kernels' coverage and G-buffer
 // (raster::rasterize_forward's tri_id, then raster::barycentric_gbuffer_forward's
 // rast and rast_db) bit for bit; interpolate the CPU kernel's values
-// (raster/barycentric_interpolate.h, the same double expressions: bit for
-// bit on lavapipe, at most an ulp of float apart elsewhere); the adjoints' sums over pixels are taken in 64-bit fixed point
-// (exact and order-independent, so bit-identical run to run; resolution
-// about 2^-61 x pixels x the largest contribution), within 1e-12 of the CPU's
-// double sums relative to the largest gradient. antialias gives the CPU
-// kernel's pairs (the same silhouette walk in double) and blends, bit for
-// bit; its adjoint sums the edge vertices' screen gradients in fixed point
-// (the same resolution) before the projection adjoint.
+// (raster/barycentric_interpolate.h, the same double expressions: bit for bit
+// on lavapipe, at most an ulp of float apart elsewhere); the adjoints' sums
+// over pixels are taken in 64-bit fixed point (exact and order-independent,
+// so bit-identical run to run; resolution about 2^-61 x pixels x the largest
+// contribution), within 1e-12 of the CPU's double sums relative to the
+// largest gradient. antialias gives the CPU kernel's pairs (the same
+// silhouette walk in double) and blends, bit for bit; its adjoint sums the
+// edge vertices' screen gradients in fixed point (the same resolution)
+// before the projection adjoint.
 //
 // A Frame is used by one thread at a time; Frames on one device share its
 // queue (calls are serialized).
