@@ -7,18 +7,21 @@
 //                          (the transfers), host_ms (the whole call, host copies
 //                          included), and differing_px: pixels whose
 //                          tri_id differs from the CPU kernel's (expected 0);
-//                          clear/project/depth/id/resolve_ms: the passes.
+//                          clear/project/depth/id/resolve/gbuffer_ms: the passes
+//                          (gbuffer: nvdiffrast's rast = u, v, z/w, id).
 //                          small_box: GpuRasterOptions::small_box (tuning).
 //   BM_CpuRasterize/mesh/threads: the CPU kernel on the same scene, for the
 //                          side-by-side figure.
 //   BM_GpuChain/mesh:      nvdiffrast's "rasterize + interpolate + antialias,
 //                          forward + backward": rasterize, interpolate (3
 //                          channels), antialias, then the adjoints of antialias,
-//                          interpolate and rasterize, on one vulkan::Frame:
+//                          interpolate and rasterize (the G-buffer's gradient
+//                          stays on the device between the last two), on one vulkan::Frame:
 //                          iteration time = the six calls' compute passes;
 //                          counters transfers_ms (their uploads and downloads),
 //                          host_ms, and each call's passes (*_ms).
-//   BM_CpuChain/mesh/threads: the same six CPU kernels.
+//   BM_CpuChain/mesh/threads: the same on the CPU kernels (coverage, G-buffer,
+//                          barycentric_interpolate, antialias and the adjoints).
 // The device is Device::open()'s choice (GRADRASTER_VULKAN_DEVICE selects).
 #include <benchmark/benchmark.h>
 
@@ -33,7 +36,8 @@
 #include "raster/io/obj_io.h"
 #include "raster/procedural.h"
 #include "raster/antialias.h"
-#include "raster/interpolate.h"
+#include "raster/barycentric_gbuffer.h"
+#include "raster/barycentric_interpolate.h"
 #include "raster/rasterize.h"
 #include "raster/vulkan/frame.h"
 #include "raster/vulkan/rasterize.h"
@@ -94,7 +98,7 @@ void BM_GpuRasterize(benchmark::State& state) {
   options.small_box = static_cast<int>(state.range(1));
   gr::vulkan::Frame frame(shared_device());
   gr::vulkan::GpuTimes sum;
-  sum.pass_ms.assign(5, 0.0);
+  sum.pass_ms.assign(6, 0.0);
   double host_ms = 0.0;
   // The G-buffer stays on the device while timed (a download and its copy
   // would leave the GPU idle, and an idle GPU lowers its clock); it comes
@@ -106,15 +110,15 @@ void BM_GpuRasterize(benchmark::State& state) {
     state.SetIterationTime(t.kernels_ms * 1e-3);
     sum.upload_ms += t.upload_ms;
     sum.download_ms += t.download_ms;
-    for (std::size_t i = 0; i < t.pass_ms.size() && i < 5; ++i) sum.pass_ms[i] += t.pass_ms[i];
+    for (std::size_t i = 0; i < t.pass_ms.size() && i < 6; ++i) sum.pass_ms[i] += t.pass_ms[i];
   }
   const double n = static_cast<double>(state.iterations());
   state.counters["upload_ms"] = sum.upload_ms / n;
   state.counters["download_ms"] = sum.download_ms / n;
   state.counters["host_ms"] = host_ms / n;
-  const char* pass_names[5] = {"clear_ms", "project_ms", "depth_ms", "id_ms", "resolve_ms"};
-  for (int i = 0; i < 5; ++i) state.counters[pass_names[i]] = sum.pass_ms[i] / n;
-  frame.rasterize(scene.params(), options, g.id.data(), g.uv.data(), g.depth.data());
+  const char* pass_names[6] = {"clear_ms", "project_ms", "depth_ms", "id_ms", "resolve_ms", "gbuffer_ms"};
+  for (int i = 0; i < 6; ++i) state.counters[pass_names[i]] = sum.pass_ms[i] / n;
+  frame.rasterize(scene.params(), options, g.id.data());
   GBuffer cpu;
   gr::raster::rasterize_forward(scene.params(), cpu.id.data(), cpu.uv.data(), cpu.depth.data());
   std::int64_t differing = 0, covered = 0;
@@ -145,21 +149,20 @@ void BM_GpuChain(benchmark::State& state) {
   const std::int64_t N = scene.clip.size(0), px = std::int64_t(kSize) * kSize;
   const ChainInputs in(N);
   gr::vulkan::Frame frame(shared_device());
-  std::vector<float> grad_attr(N * 3), grad_clip(N * 4), grad_uv(px * 2), grad_image(px * 3);
+  std::vector<float> grad_attr(N * 3), grad_clip(N * 4), grad_image(px * 3);
   const char* names[6] = {"rasterize_ms", "interpolate_ms", "antialias_ms", "antialias_bwd_ms", "interpolate_bwd_ms",
                           "rasterize_bwd_ms"};
   double transfers = 0.0, host_ms = 0.0, per_call[6] = {};
   for (auto _ : state) {
     const auto start = std::chrono::steady_clock::now();
-    std::fill(grad_uv.begin(), grad_uv.end(), 0.0f);
     std::fill(grad_image.begin(), grad_image.end(), 0.0f);
     gr::vulkan::GpuTimes t[6];
     t[0] = frame.rasterize(scene.params());
-    t[1] = frame.interpolate(in.attr.data(), 3, true, nullptr);
+    t[1] = frame.interpolate(in.attr.data(), 3);
     t[2] = frame.antialias(nullptr, 3, nullptr);
     t[3] = frame.antialias_backward(in.grad_out.data(), grad_image.data(), grad_clip.data());
-    t[4] = frame.interpolate_backward(grad_image.data(), grad_attr.data(), grad_clip.data(), grad_uv.data());
-    t[5] = frame.rasterize_backward(grad_uv.data(), nullptr, grad_clip.data());
+    t[4] = frame.interpolate_backward(grad_image.data(), nullptr, grad_attr.data());
+    t[5] = frame.rasterize_backward(nullptr, nullptr, grad_clip.data());
     host_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     double kernels = 0.0;
     for (int i = 0; i < 6; ++i) {
@@ -183,41 +186,50 @@ void BM_CpuChain(benchmark::State& state) {
   const std::int64_t N = scene.clip.size(0), M = scene.tris.size(0), px = std::int64_t(kSize) * kSize;
   const ChainInputs in(N);
   GBuffer g;
-  std::vector<float> out(px * 3), aa(px * 3), grad_attr(N * 3), grad_clip(N * 4), grad_uv(px * 2), grad_image(px * 3);
+  std::vector<float> rast(px * 4), out(px * 3), aa(px * 3), grad_attr(N * 3), grad_clip(N * 4), grad_rast(px * 4),
+      grad_image(px * 3);
   const gr::raster::EdgeTopology topology = gr::raster::build_edge_topology(scene.tris.data<std::int32_t>(), M);
-  gr::raster::InterpolateParams<float> ip;
+  gr::raster::BarycentricGBufferParams<float> gp;
+  gp.clip = scene.clip.data<float>();
+  gp.num_vertices = N;
+  gp.tris = scene.tris.data<std::int32_t>();
+  gp.num_tris = M;
+  gp.width = gp.height = kSize;
+  gr::raster::BarycentricInterpolateParams<float> ip;
   ip.attr = in.attr.data();
   ip.num_vertices = N;
   ip.channels = 3;
-  ip.clip = scene.clip.data<float>();
-  ip.tris = scene.tris.data<std::int32_t>();
+  ip.tris = gp.tris;
   ip.num_tris = M;
+  ip.rast = rast.data();
+  ip.pixels = px;
   ip.tri_id = g.id.data();
-  ip.uv = g.uv.data();
-  ip.width = ip.height = kSize;
   gr::raster::AntialiasParams<float> ap;
   ap.image = out.data();
   ap.channels = 3;
   ap.width = ap.height = kSize;
   ap.tri_id = g.id.data();
   ap.depth = g.depth.data();
-  ap.clip = ip.clip;
+  ap.clip = gp.clip;
   ap.num_vertices = N;
-  ap.tris = ip.tris;
+  ap.tris = gp.tris;
   ap.num_tris = M;
   ap.topology = &topology;
   std::vector<gr::raster::AntialiasPair> pairs;
   for (auto _ : state) {
-    std::fill(grad_uv.begin(), grad_uv.end(), 0.0f);
+    std::fill(grad_rast.begin(), grad_rast.end(), 0.0f);
     std::fill(grad_image.begin(), grad_image.end(), 0.0f);
     pairs.clear();
     gr::raster::rasterize_forward(scene.params(), g.id.data(), g.uv.data(), g.depth.data());
-    gr::raster::interpolate_forward(ip, out.data());
+    gr::raster::barycentric_gbuffer_forward(gp, g.id.data(), 0, rast.data(), static_cast<float*>(nullptr));
+    for (std::int64_t q = 0; q < px; ++q) g.depth[q] = rast[4 * q + 2];  // z/w, as the ops pass it
+    gr::raster::barycentric_interpolate_forward(ip, out.data(), static_cast<float*>(nullptr));
     gr::raster::antialias_forward(ap, aa.data(), &pairs);
     gr::raster::antialias_backward(ap, pairs, in.grad_out.data(), {grad_image.data(), grad_clip.data()});
-    gr::raster::interpolate_backward(ip, grad_image.data(), {grad_attr.data(), grad_clip.data(), grad_uv.data()});
-    gr::raster::rasterize_backward(scene.params(), g.id.data(), grad_uv.data(), static_cast<const float*>(nullptr),
-                                   grad_clip.data());
+    gr::raster::barycentric_interpolate_backward(ip, grad_image.data(), static_cast<const float*>(nullptr),
+                                                 {grad_attr.data(), grad_rast.data(), nullptr});
+    gr::raster::barycentric_gbuffer_backward(gp, rast.data(), grad_rast.data(), static_cast<const float*>(nullptr),
+                                             grad_clip.data());
   }
   gr::set_num_threads(0);
 }

@@ -18,7 +18,7 @@ if(GRADRASTER_HAS_VULKAN)
   set(shader_dir ${CMAKE_CURRENT_SOURCE_DIR}/raster/vulkan/shaders)
   file(GLOB shader_includes CONFIGURE_DEPENDS ${shader_dir}/*.glsl)
   set(shader_names project raster_small raster_large resolve interpolate_forward interpolate_backward
-    fixed_point_finish rasterize_backward rasterize_backward_finish antialias_pairs antialias_forward
+    fixed_point_finish gbuffer gbuffer_backward antialias_pairs antialias_forward
     antialias_backward antialias_finish texture_forward texture_backward texture_finish
     cube_texture_forward cube_texture_backward)
   set(embedded ${CMAKE_CURRENT_BINARY_DIR}/vulkan_shaders.cpp)

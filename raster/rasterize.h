@@ -1,4 +1,6 @@
-// Rasterization into a G-buffer and its adjoint, on plain arrays (no tape).
+// Rasterization into a coverage image, on plain arrays (no tape). The
+// differentiable values (nvdiffrast's G-buffer) and their adjoint are made
+// from its tri_id by raster/barycentric_gbuffer.h.
 //
 // Forward: clip-space triangles -> per pixel (tri_id, u, v, depth), where
 // tri_id is 1-based (0 = background), (u, v) are the screen-space barycentrics
@@ -11,8 +13,6 @@
 #include <cstdint>
 
 namespace gr::raster {
-
-class TriangleGroups;  // raster/detail/triangle_groups.h
 
 // Which faces to drop. Front face = counter-clockwise in NDC (OpenGL default),
 // i.e. 2A > 0 in screen coordinates (y down).
@@ -79,28 +79,5 @@ struct RasterParams {
 template <class T>
 void rasterize_forward(const RasterParams<T>& p, std::int32_t* tri_id, T* uv, T* depth,
                        RasterStats* stats = nullptr, double* key_depth = nullptr);
-
-// Adjoint of rasterize_forward for a fixed coverage (tri_id, each in
-// [0, num_tris]), ACCUMULATED (+=) into grad_clip (N x 4). grad_uv: H*W*2;
-// grad_depth: H*W or a null const T*.
-// Per covered pixel p of triangle (P0, P1, P2) (screen positions, z_k = z_ndc):
-//   u = E_20(p)/2A, v = E_01(p)/2A, depth = (1-u-v) z0 + u z1 + v z2,
-//   g_u' = g_u + g_d (z1 - z0), g_v' = g_v + g_d (z2 - z0),
-//   dL/dE_20 = g_u'/2A, dL/dE_01 = g_v'/2A, dL/d2A = -(g_u' u + g_v' v)/2A,
-//   dL/dz_k = g_d b_k,
-// then through the partials of E(q; a, b) = (qx-ax)(by-ay) - (qy-ay)(bx-ax):
-//   dE/dax = qy-by, dE/day = bx-qx, dE/dbx = ay-qy, dE/dby = qx-ax,
-// and per vertex through viewport_backward and wdivide_backward.
-// Triangles crossing the near plane use the homogeneous form of the same
-// function (u = w1 F1/D, v = w2 F2/D, depth = sum z_k F_k / D with
-// F_k = det[s, V_k+1, V_k+2], D = det[V0, V1, V2]); see docs/rasterizer.md.
-// Contributions are summed per triangle in pixel order, then per vertex over
-// its triangles by first pixel (docs/determinism.md, "Scatter by gathering"),
-// so the result is bit-identical for any thread count and any triangle order.
-// groups (optional): the pixels' grouping by triangle, shared with the other
-// adjoints over this tri_id (raster/detail/triangle_groups.h).
-template <class T>
-void rasterize_backward(const RasterParams<T>& p, const std::int32_t* tri_id, const T* grad_uv,
-                        const T* grad_depth, T* grad_clip, TriangleGroups* groups = nullptr);
 
 }  // namespace gr::raster

@@ -22,14 +22,19 @@ constexpr std::size_t kPairBytes = 16;
 // Workgroups of raster_large; their invocations take the listed chunks in turn.
 constexpr std::uint32_t kLargeWorkgroups = 1024;
 // Timestamps of the call that stamps the most (rasterize).
-constexpr std::uint32_t kMaxTimestamps = 8;
+constexpr std::uint32_t kMaxTimestamps = 9;
 
 struct RasterPush {
   std::int32_t width, height, num_vertices, num_tris, cull, pass, y_up, flags;
 };
 struct InterpolatePush {
-  std::int32_t width, height, num_vertices, num_tris, channels, pass, perspective, y_up;
+  std::int32_t width, height, num_vertices, num_tris, channels, pass, num_diff, count;
 };
+struct GBufferPush {
+  std::int32_t width, height, num_vertices, num_tris, pass, y_up, flags, count;
+};
+// gbuffer_backward.comp's flags: which incoming G-buffer gradients are present.
+constexpr std::int32_t kDeviceRast = 1, kDeviceDb = 2, kHostRast = 4, kHostDb = 8;
 struct FinishPush {
   std::int32_t count, split, pixels, pad[5];
 };
@@ -37,15 +42,18 @@ struct AntialiasPush {
   std::int32_t width, height, num_vertices, num_tris, channels, pass, y_up, pad;
 };
 static_assert(sizeof(RasterPush) == kPushBytes && sizeof(InterpolatePush) == kPushBytes &&
+                  sizeof(GBufferPush) == kPushBytes &&
                   sizeof(FinishPush) == kPushBytes && sizeof(AntialiasPush) == kPushBytes,
               "push constant blocks");
 
 // The frame's buffers by role (device-local), and two host-visible staging buffers.
 enum Role {
-  kClip, kTris, kVerts, kKeys, kIds, kLarge, kTriId, kUv, kDepth,  // mesh and G-buffer
-  kAttr, kInterpolated, kGradOut, kGradUv,  // interpolate
+  kClip, kTris, kVerts, kKeys, kIds, kLarge, kTriId, kRast, kDb,  // mesh, coverage and G-buffer
+  kUv, kDepth,  // rasterize_coverage's screen-space uv and depth
+  kAttr, kDiff, kInterpolated, kDa, kGradIn,  // interpolate (kGradIn: grad_out, then grad_da)
+  kGradGBuffer,  // the G-buffer's gradient on the device: H*W*4 rast, then H*W*4 db
+  kHostGradGBuffer,  // rasterize_backward's from the host, in the same layout
   kSums, kLargest, kFinished,  // an adjoint's fixed-point sums, their scales, its result
-  kGradUvIn, kGradDepthIn,  // rasterize_backward's incoming gradients
   kNeighbour, kAaImage, kAaOut, kAaPairs, kAaGradOut, kAaGradImage,  // antialias
   kRoles
 };
@@ -55,21 +63,24 @@ enum Role {
 struct Frame::State {
   State(Device::Impl& dev, Kernels& k)
       : dev(dev), k(k), raster_set(dev, k.pipelines), forward_set(dev, k.pipelines), backward_set(dev, k.pipelines),
-        raster_backward_set(dev, k.pipelines), aa_forward_set(dev, k.pipelines), aa_backward_set(dev, k.pipelines),
-        timestamps(dev, kMaxTimestamps) {}
+        raster_backward_set(dev, k.pipelines), finish_set(dev, k.pipelines), aa_forward_set(dev, k.pipelines),
+        aa_backward_set(dev, k.pipelines), timestamps(dev, kMaxTimestamps) {}
 
   Device::Impl& dev;
   Kernels& k;
   Buffer buffers[kRoles];
   Buffer upload, download;
-  DescriptorSet raster_set, forward_set, backward_set, raster_backward_set, aa_forward_set, aa_backward_set;
+  DescriptorSet raster_set, forward_set, backward_set, raster_backward_set, finish_set, aa_forward_set,
+      aa_backward_set;
   Timestamps timestamps;
   // What the last rasterize and interpolate were given.
   int width = 0, height = 0;
   std::int64_t num_vertices = 0, num_tris = 0;
-  bool y_up = false, rasterized = false;
-  std::int64_t channels = -1;
-  bool perspective = true;
+  bool y_up = false, rasterized = false, derivatives = false;
+  std::int64_t channels = -1, num_diff = 0;
+  // The device's G-buffer gradient (kGradGBuffer) holds values (rast, db)
+  // since the last rasterize or rasterize_backward; else it is stale.
+  bool grad_rast = false, grad_db = false;
   int aa_channels = -1;  // of the last antialias (-1: none since the last rasterize)
   // The triangles the device's edge topology (kNeighbour) is for, once topology_ready.
   std::vector<std::int32_t> tris;
@@ -95,13 +106,13 @@ struct Frame::State {
   }
   // The adjoints' passes (fixed_point.glsl), after stamp 1: zero `count`
   // fixed-point sums and the two largest magnitudes; `pipeline` over the
-  // pixels with pass 0 (magnitudes), then 1 (sums); `finish` over
-  // `finish_items`. Stamps 2, 3 and 4 after them.
+  // pixels with pass 0 (magnitudes), then 1 (sums); `finish` (with
+  // finish_set, default `set`) over `finish_items`. Stamps 2, 3 and 4 after them.
   template <class Push, class FinishPush>
   void fixed_point_passes(VkCommandBuffer cb, VkDescriptorSet set, Role sums, std::size_t count, Role largest,
                           VkPipeline pipeline, Push push, VkPipeline finish, const FinishPush& finish_push,
-                          std::int64_t finish_items) {
-    vkCmdFillBuffer(cb, buffers[sums].handle(), 0, count * sizeof(std::int64_t), 0u);
+                          std::int64_t finish_items, VkDescriptorSet finish_set = VK_NULL_HANDLE) {
+    if (count > 0) vkCmdFillBuffer(cb, buffers[sums].handle(), 0, count * sizeof(std::int64_t), 0u);
     vkCmdFillBuffer(cb, buffers[largest].handle(), 0, 2 * sizeof(std::uint64_t), 0u);
     barrier(cb);
     use(cb, set);
@@ -111,6 +122,7 @@ struct Frame::State {
       barrier(cb);
       timestamps.stamp(cb, 2 + pass);
     }
+    if (finish_set != VK_NULL_HANDLE) use(cb, finish_set);
     dispatch(cb, k, finish, &finish_push, finish_items, 256);
     barrier(cb);
     timestamps.stamp(cb, 4);
@@ -176,7 +188,24 @@ Frame::~Frame() {
 }
 
 GpuTimes Frame::rasterize(const raster::RasterParams<float>& p, const GpuRasterOptions& options, std::int32_t* tri_id,
-                      float* uv, float* depth) {
+                          float* rast, float* db) {
+  if (db && !options.derivatives)
+    throw ValueError("vulkan rasterize: db asked for without options.derivatives");
+  void* const outs[3] = {tri_id, rast, db};
+  return rasterize_into(p, options, false, outs);
+}
+
+GpuTimes Frame::rasterize_coverage(const raster::RasterParams<float>& p, const GpuRasterOptions& options,
+                                   std::int32_t* tri_id, float* uv, float* depth) {
+  void* const outs[3] = {tri_id, uv, depth};
+  return rasterize_into(p, options, true, outs);
+}
+
+// coverage: the resolve pass also writes the coverage kernel's uv and depth
+// (outs: tri_id, uv, depth) and no G-buffer is made; else the G-buffer pass
+// follows (outs: tri_id, rast, db).
+GpuTimes Frame::rasterize_into(const raster::RasterParams<float>& p, const GpuRasterOptions& options, bool coverage,
+                               void* const (&outs)[3]) {
   if (p.floor_id || p.floor_z)
     throw ValueError("vulkan rasterize: depth peeling (floor_id, floor_z) is not on the GPU yet");
   if (options.small_box < 1)
@@ -190,37 +219,47 @@ GpuTimes Frame::rasterize(const raster::RasterParams<float>& p, const GpuRasterO
   s.num_vertices = p.num_vertices;
   s.num_tris = p.num_tris;
   s.y_up = options.y_up || p.settings.y_up;
+  s.derivatives = !coverage && options.derivatives;
   s.channels = -1;
   s.aa_channels = -1;
+  s.grad_rast = s.grad_db = false;
   s.note_triangles(p.tris, p.num_tris);
   const std::size_t px = static_cast<std::size_t>(s.pixels());
   const std::size_t clip_bytes = static_cast<std::size_t>(p.num_vertices) * 4 * sizeof(float);
   const std::size_t tri_bytes = static_cast<std::size_t>(p.num_tris) * 3 * sizeof(std::int32_t);
-  const std::size_t out_bytes[3] = {tri_id ? px * sizeof(std::int32_t) : 0, uv ? px * 2 * sizeof(float) : 0,
-                                    depth ? px * sizeof(float) : 0};
+  // Per pixel: tri_id, then uv and depth (coverage) or rast and db.
+  const std::size_t values[3] = {1, coverage ? std::size_t(2) : std::size_t(4), coverage ? std::size_t(1) : std::size_t(4)};
+  const Role roles[3] = {kTriId, coverage ? kUv : kRast, coverage ? kDepth : kDb};
+  const bool made[3] = {true, true, coverage || s.derivatives};
+  std::size_t out_bytes[3];
+  for (int i = 0; i < 3; ++i) out_bytes[i] = outs[i] && made[i] ? px * values[i] * 4 : 0;
   s.reserve(kClip, clip_bytes);
   s.reserve(kTris, tri_bytes);
   s.reserve(kVerts, static_cast<std::size_t>(p.num_vertices) * 32);
   s.reserve(kKeys, px * sizeof(std::uint64_t));
   s.reserve(kIds, px * sizeof(std::int32_t));
   s.reserve(kLarge, (static_cast<std::size_t>(p.num_tris) + 1) * 2 * sizeof(std::uint32_t));
-  s.reserve(kTriId, px * sizeof(std::int32_t));
-  s.reserve(kUv, px * 2 * sizeof(float));
-  s.reserve(kDepth, px * sizeof(float));
+  for (int i = 0; i < 3; ++i)
+    if (made[i]) s.reserve(roles[i], px * values[i] * 4);
   s.upload.reserve(s.dev, clip_bytes + tri_bytes, true);
   s.download.reserve(s.dev, out_bytes[0] + out_bytes[1] + out_bytes[2], true);
   if (clip_bytes) std::memcpy(s.upload.mapped(), p.clip, clip_bytes);
   if (tri_bytes) std::memcpy(static_cast<char*>(s.upload.mapped()) + clip_bytes, p.tris, tri_bytes);
 
-  // Raster shaders' bindings: 0 clip, 1 tris, 2 verts, 3 keys, 4 ids, 5 large list, 6-8 the G-buffer.
+  // Raster shaders' bindings: 0 clip, 1 tris, 2 verts, 3 keys, 4 ids, 5 large list, 6 tri_id, 7-8 uv and
+  // depth (resolve, coverage) or rast and db (gbuffer; without db, binding 8 is unused: rast stands in).
   const VkDescriptorSet set = s.bind(s.raster_set, {{0, kClip}, {1, kTris}, {2, kVerts}, {3, kKeys}, {4, kIds},
-                                                    {5, kLarge}, {6, kTriId}, {7, kUv}, {8, kDepth}});
+                                                    {5, kLarge}, {6, kTriId}, {7, roles[1]},
+                                                    {8, made[2] ? roles[2] : roles[1]}});
   const VkPipeline small = s.k.raster_small(options.small_box);
   RasterPush push{s.width, s.height, static_cast<std::int32_t>(p.num_vertices), static_cast<std::int32_t>(p.num_tris),
                   p.settings.cull == raster::Cull::Back ? 1 : p.settings.cull == raster::Cull::Front ? -1 : 0,
-                  0, s.y_up ? 1 : 0, 0};
+                  0, s.y_up ? 1 : 0, coverage ? 1 : 0};
+  const GBufferPush gpush{s.width, s.height, static_cast<std::int32_t>(p.num_vertices),
+                          static_cast<std::int32_t>(p.num_tris), 0, s.y_up ? 1 : 0, s.derivatives ? 1 : 0, 0};
+  const std::uint32_t last = coverage ? 7 : 8;
   s.dev.run([&](VkCommandBuffer cb) {
-    s.timestamps.begin(cb, 8);
+    s.timestamps.begin(cb, last + 1);
     copy(cb, s.upload.handle(), 0, s[kClip].handle(), 0, clip_bytes);
     copy(cb, s.upload.handle(), clip_bytes, s[kTris].handle(), 0, tri_bytes);
     barrier(cb);
@@ -246,104 +285,159 @@ GpuTimes Frame::rasterize(const raster::RasterParams<float>& p, const GpuRasterO
     dispatch(cb, s.k, s.k.resolve, &push, s.pixels(), 256);
     barrier(cb);
     s.timestamps.stamp(cb, 6);
-    const Role outs[3] = {kTriId, kUv, kDepth};
+    if (!coverage) {
+      dispatch(cb, s.k, s.k.gbuffer, &gpush, s.pixels(), 256);
+      barrier(cb);
+      s.timestamps.stamp(cb, 7);
+    }
     std::size_t offset = 0;
     for (int i = 0; i < 3; ++i) {
-      copy(cb, s[outs[i]].handle(), 0, s.download.handle(), offset, out_bytes[i]);
+      copy(cb, s[roles[i]].handle(), 0, s.download.handle(), offset, out_bytes[i]);
       offset += out_bytes[i];
     }
     barrier(cb);
-    s.timestamps.stamp(cb, 7);
+    s.timestamps.stamp(cb, last);
   });
   const char* from = static_cast<const char*>(s.download.mapped());
-  void* to[3] = {tri_id, uv, depth};
   for (int i = 0; i < 3; ++i) {
-    if (out_bytes[i]) std::memcpy(to[i], from, out_bytes[i]);
+    if (out_bytes[i]) std::memcpy(outs[i], from, out_bytes[i]);
     from += out_bytes[i];
   }
-  s.rasterized = true;
+  s.rasterized = !coverage;
   return s.timestamps.read();
 }
 
-GpuTimes Frame::interpolate(const float* attr, std::int64_t channels, bool perspective, float* out) {
+GpuTimes Frame::interpolate(const float* attr, std::int64_t channels, float* out, const std::int32_t* diff,
+                            std::int64_t num_diff, float* out_da) {
   State& s = *state_;
-  if (!s.rasterized) throw ValueError("vulkan interpolate: the frame has no G-buffer (call rasterize first)");
-  check_channels(channels, s.pixels(), "vulkan interpolate");
-  if (!attr && s.num_vertices * channels > 0) throw ValueError("vulkan interpolate: attr is missing");
+  const char* op = "vulkan interpolate";
+  if (!s.rasterized) throw ValueError(std::string(op) + ": the frame has no G-buffer (call rasterize first)");
+  check_channels(channels, s.pixels(), op);
+  if (!attr && s.num_vertices * channels > 0) throw ValueError(std::string(op) + ": attr is missing");
+  if (num_diff < 0 || (num_diff > 0 && !diff))
+    throw ValueError(std::string(op) + ": diff is missing for " + std::to_string(num_diff) + " channels");
+  if (num_diff > 0 && !s.derivatives)
+    throw ValueError(std::string(op) + ": attribute derivatives need a G-buffer with rast_db "
+                     "(rasterize with GpuRasterOptions::derivatives)");
+  check_channels(2 * num_diff, s.pixels(), op);
+  for (std::int64_t j = 0; j < num_diff; ++j)
+    if (diff[j] < 0 || diff[j] >= channels)
+      throw IndexError(std::string(op) + ": diff[" + std::to_string(j) + "] = " + std::to_string(diff[j]) +
+                       " is not a channel in [0, " + std::to_string(channels) + ")");
   std::lock_guard<std::mutex> lock(s.dev.mutex);
   s.channels = channels;
-  s.perspective = perspective;
+  s.num_diff = num_diff;
   const std::size_t attr_bytes = static_cast<std::size_t>(s.num_vertices * channels) * sizeof(float);
+  const std::size_t diff_bytes = static_cast<std::size_t>(num_diff) * sizeof(std::int32_t);
   const std::size_t out_bytes = static_cast<std::size_t>(s.pixels() * channels) * sizeof(float);
+  const std::size_t da_bytes = static_cast<std::size_t>(s.pixels() * 2 * num_diff) * sizeof(float);
+  const std::size_t down[2] = {out ? out_bytes : 0, out_da ? da_bytes : 0};
   s.reserve(kAttr, attr_bytes);
+  s.reserve(kDiff, diff_bytes);
   s.reserve(kInterpolated, out_bytes);
-  s.upload.reserve(s.dev, attr_bytes, true);
-  s.download.reserve(s.dev, out ? out_bytes : 0, true);
+  s.reserve(kDa, da_bytes);
+  s.upload.reserve(s.dev, attr_bytes + diff_bytes, true);
+  s.download.reserve(s.dev, down[0] + down[1], true);
   if (attr_bytes) std::memcpy(s.upload.mapped(), attr, attr_bytes);
-  // Interpolate shaders' bindings: 0 clip, 1 tris, 2 attr, 3 tri_id, 4 uv, 5 out.
-  const VkDescriptorSet set =
-      s.bind(s.forward_set, {{0, kClip}, {1, kTris}, {2, kAttr}, {3, kTriId}, {4, kUv}, {5, kInterpolated}});
+  if (diff_bytes) std::memcpy(static_cast<char*>(s.upload.mapped()) + attr_bytes, diff, diff_bytes);
+  // Interpolate shaders' bindings: 0 attr, 1 tris, 2 tri_id, 3 rast, 4 db, 5 diff, 6 out, 7 out_da (unused
+  // bindings: stand-ins of the right kind).
+  const Role db = s.derivatives ? kDb : kRast, diffs = num_diff > 0 ? kDiff : kTris, da = num_diff > 0 ? kDa : kRast;
+  const VkDescriptorSet set = s.bind(s.forward_set, {{0, kAttr}, {1, kTris}, {2, kTriId}, {3, kRast}, {4, db},
+                                                     {5, diffs}, {6, kInterpolated}, {7, da}});
   const InterpolatePush push{s.width, s.height, static_cast<std::int32_t>(s.num_vertices),
                              static_cast<std::int32_t>(s.num_tris), static_cast<std::int32_t>(channels),
-                             0, perspective ? 1 : 0, s.y_up ? 1 : 0};
+                             0, static_cast<std::int32_t>(num_diff), 0};
   s.dev.run([&](VkCommandBuffer cb) {
     s.timestamps.begin(cb, 4);
     copy(cb, s.upload.handle(), 0, s[kAttr].handle(), 0, attr_bytes);
+    copy(cb, s.upload.handle(), attr_bytes, s[kDiff].handle(), 0, diff_bytes);
     barrier(cb);
     s.timestamps.stamp(cb, 1);
     s.use(cb, set);
     if (channels > 0) dispatch(cb, s.k, s.k.interpolate_forward, &push, s.pixels(), 256);
     barrier(cb);
     s.timestamps.stamp(cb, 2);
-    if (out) copy(cb, s[kInterpolated].handle(), 0, s.download.handle(), 0, out_bytes);
+    copy(cb, s[kInterpolated].handle(), 0, s.download.handle(), 0, down[0]);
+    copy(cb, s[kDa].handle(), 0, s.download.handle(), down[0], down[1]);
     barrier(cb);
     s.timestamps.stamp(cb, 3);
   });
-  if (out && out_bytes) std::memcpy(out, s.download.mapped(), out_bytes);
+  const char* got = static_cast<const char*>(s.download.mapped());
+  if (down[0]) std::memcpy(out, got, down[0]);
+  if (down[1]) std::memcpy(out_da, got + down[0], down[1]);
   return s.timestamps.read();
 }
 
-GpuTimes Frame::interpolate_backward(const float* grad_out, float* grad_attr, float* grad_clip, float* grad_uv) {
+GpuTimes Frame::interpolate_backward(const float* grad_out, const float* grad_da, float* grad_attr,
+                                     float* grad_rast, float* grad_db) {
   State& s = *state_;
   if (s.channels < 0) throw ValueError("vulkan interpolate_backward: the frame has no interpolate to differentiate");
   if (!grad_out) throw ValueError("vulkan interpolate_backward: grad_out is missing");
   std::lock_guard<std::mutex> lock(s.dev.mutex);
-  const std::int64_t N = s.num_vertices, C = s.channels, px = s.pixels();
-  const std::size_t grad_bytes = static_cast<std::size_t>(px * C) * sizeof(float);
-  const std::size_t sums = static_cast<std::size_t>(N * C + N * 4);
-  const std::size_t uv_bytes = static_cast<std::size_t>(px) * 2 * sizeof(float);
-  s.reserve(kGradOut, grad_bytes);
-  s.reserve(kGradUv, uv_bytes);
+  // Without grad_da the derivatives get no gradient (nor does rast_db), as on the CPU.
+  const std::int64_t N = s.num_vertices, C = s.channels, K = grad_da ? s.num_diff : 0, px = s.pixels();
+  const std::size_t out_bytes = static_cast<std::size_t>(px * C) * sizeof(float);
+  const std::size_t da_bytes = static_cast<std::size_t>(px * 2 * K) * sizeof(float);
+  const std::size_t sums = static_cast<std::size_t>(N * C);
+  const std::size_t plane = static_cast<std::size_t>(px) * 4 * sizeof(float);
+  // The G-buffer's gradient goes to the host (grad_rast or grad_db given) or
+  // is added to the device's own (kGradGBuffer, zeroed on first use).
+  const bool to_host = grad_rast || grad_db;
+  const Role gbuffer_grad = to_host ? kHostGradGBuffer : kGradGBuffer;
+  const std::size_t down[3] = {grad_attr ? sums * sizeof(float) : 0, grad_rast ? plane : 0,
+                               grad_db && K > 0 ? plane : 0};
+  s.reserve(kGradIn, out_bytes + da_bytes);
+  s.reserve(gbuffer_grad, 2 * plane);
   s.reserve(kSums, sums * sizeof(std::int64_t));
   s.reserve(kLargest, 2 * sizeof(std::uint64_t));
   s.reserve(kFinished, sums * sizeof(float));
-  s.upload.reserve(s.dev, grad_bytes, true);
-  s.download.reserve(s.dev, sums * sizeof(float) + uv_bytes, true);
-  if (grad_bytes) std::memcpy(s.upload.mapped(), grad_out, grad_bytes);
-  // Bindings: 0-4 as the forward, 5 grad_out, 6 grad_uv, 7 sums, 8 largest magnitudes, 9 finished sums.
-  const VkDescriptorSet set = s.bind(s.backward_set, {{0, kClip}, {1, kTris}, {2, kAttr}, {3, kTriId}, {4, kUv},
-                                                      {5, kGradOut}, {6, kGradUv}, {7, kSums}, {8, kLargest},
-                                                      {9, kFinished}});
-  InterpolatePush push{s.width, s.height, static_cast<std::int32_t>(N), static_cast<std::int32_t>(s.num_tris),
-                       static_cast<std::int32_t>(C), 0, s.perspective ? 1 : 0, s.y_up ? 1 : 0};
-  const FinishPush finish{static_cast<std::int32_t>(sums), static_cast<std::int32_t>(N * C),
-                          static_cast<std::int32_t>(px), {}};
+  s.upload.reserve(s.dev, out_bytes + da_bytes, true);
+  s.download.reserve(s.dev, down[0] + down[1] + down[2], true);
+  if (out_bytes) std::memcpy(s.upload.mapped(), grad_out, out_bytes);
+  if (da_bytes) std::memcpy(static_cast<char*>(s.upload.mapped()) + out_bytes, grad_da, da_bytes);
+  // Bindings: 0-5 as the forward, 6 grad_out and grad_da, 7 sums, 8 largest magnitudes, 9 the G-buffer
+  // gradient; the finish: 7 sums, 8 largest, 9 finished sums.
+  const Role db = s.derivatives ? kDb : kRast, diffs = s.num_diff > 0 ? kDiff : kTris;
+  const VkDescriptorSet set = s.bind(s.backward_set, {{0, kAttr}, {1, kTris}, {2, kTriId}, {3, kRast}, {4, db},
+                                                      {5, diffs}, {6, kGradIn}, {7, kSums}, {8, kLargest},
+                                                      {9, gbuffer_grad}});
+  const VkDescriptorSet finish_set = s.bind(s.finish_set, {{7, kSums}, {8, kLargest}, {9, kFinished}});
+  // Per element at most one contribution per pixel and vertex slot (3, for
+  // triangles repeating a vertex), per channel and its derivatives.
+  const std::int64_t count = 3 * px * (1 + K);
+  if (count > kMaxIndex)
+    throw ValueError("vulkan interpolate_backward: " + std::to_string(K) + " derivative channels of " +
+                     std::to_string(px) + " pixels: the fixed-point sums take at most " + std::to_string(kMaxIndex) +
+                     " contributions per element (3 x pixels x (1 + derivative channels))");
+  const InterpolatePush push{s.width, s.height, static_cast<std::int32_t>(N), static_cast<std::int32_t>(s.num_tris),
+                             static_cast<std::int32_t>(C), 0, static_cast<std::int32_t>(K),
+                             static_cast<std::int32_t>(count)};
+  const FinishPush finish{static_cast<std::int32_t>(sums), static_cast<std::int32_t>(sums), push.count, {}};
+  const bool zero_rast = to_host || !s.grad_rast, zero_db = K > 0 && (to_host || !s.grad_db);
   s.dev.run([&](VkCommandBuffer cb) {
     s.timestamps.begin(cb, 6);
-    copy(cb, s.upload.handle(), 0, s[kGradOut].handle(), 0, grad_bytes);
+    copy(cb, s.upload.handle(), 0, s[kGradIn].handle(), 0, out_bytes + da_bytes);
+    if (zero_rast) vkCmdFillBuffer(cb, s[gbuffer_grad].handle(), 0, plane, 0u);
+    if (zero_db) vkCmdFillBuffer(cb, s[gbuffer_grad].handle(), plane, plane, 0u);
     barrier(cb);
     s.timestamps.stamp(cb, 1);
     s.fixed_point_passes(cb, set, kSums, sums, kLargest, s.k.interpolate_backward, push, s.k.fixed_point_finish,
-                         finish, static_cast<std::int64_t>(sums));
-    copy(cb, s[kFinished].handle(), 0, s.download.handle(), 0, sums * sizeof(float));
-    copy(cb, s[kGradUv].handle(), 0, s.download.handle(), sums * sizeof(float), uv_bytes);
+                         finish, static_cast<std::int64_t>(sums), finish_set);
+    copy(cb, s[kFinished].handle(), 0, s.download.handle(), 0, down[0]);
+    copy(cb, s[gbuffer_grad].handle(), 0, s.download.handle(), down[0], down[1]);
+    copy(cb, s[gbuffer_grad].handle(), plane, s.download.handle(), down[0] + down[1], down[2]);
     barrier(cb);
     s.timestamps.stamp(cb, 5);
   });
+  if (!to_host) {
+    s.grad_rast = true;
+    s.grad_db = s.grad_db || K > 0;
+  }
   const float* got = static_cast<const float*>(s.download.mapped());
   add_to(grad_attr, got, N * C);
-  add_to(grad_clip, got + N * C, N * 4);
-  add_to(grad_uv, got + sums, 2 * px);
+  add_to(grad_rast, got + down[0] / sizeof(float), static_cast<std::int64_t>(down[1] / sizeof(float)));
+  add_to(grad_db, got + (down[0] + down[1]) / sizeof(float), static_cast<std::int64_t>(down[2] / sizeof(float)));
   return s.timestamps.read();
 }
 
@@ -373,9 +467,9 @@ GpuTimes Frame::antialias(const float* image, int channels, float* out) {
   s.download.reserve(s.dev, out ? image_bytes : 0, true);
   if (upload_image) std::memcpy(s.upload.mapped(), image, upload_image);
   if (neighbour_bytes) std::memcpy(static_cast<char*>(s.upload.mapped()) + upload_image, neighbours.data(), neighbour_bytes);
-  // Bindings (antialias_common.glsl): 0 clip, 1 tris, 2 verts, 3 tri_id, 4 depth, 5 neighbours, 6 image,
-  // 7 pairs, 9 out.
-  const VkDescriptorSet set = s.bind(s.aa_forward_set, {{0, kClip}, {1, kTris}, {2, kVerts}, {3, kTriId}, {4, kDepth},
+  // Bindings (antialias_common.glsl): 0 clip, 1 tris, 2 verts, 3 tri_id, 4 rast (z/w: the depth),
+  // 5 neighbours, 6 image, 7 pairs, 9 out.
+  const VkDescriptorSet set = s.bind(s.aa_forward_set, {{0, kClip}, {1, kTris}, {2, kVerts}, {3, kTriId}, {4, kRast},
                                                         {5, kNeighbour}, {6, kAaImage}, {7, kAaPairs}, {9, kAaOut}});
   const AntialiasPush push{s.width, s.height, static_cast<std::int32_t>(s.num_vertices),
                            static_cast<std::int32_t>(s.num_tris), channels, 0, s.y_up ? 1 : 0, 0};
@@ -445,44 +539,52 @@ GpuTimes Frame::antialias_backward(const float* grad_out, float* grad_image, flo
   return s.timestamps.read();
 }
 
-GpuTimes Frame::rasterize_backward(const float* grad_uv, const float* grad_depth, float* grad_clip) {
+GpuTimes Frame::rasterize_backward(const float* grad_rast, const float* grad_db, float* grad_clip) {
   State& s = *state_;
   if (!s.rasterized) throw ValueError("vulkan rasterize_backward: the frame has no G-buffer (call rasterize first)");
-  if (!grad_uv) throw ValueError("vulkan rasterize_backward: grad_uv is missing");
+  if (grad_db && !s.derivatives)
+    throw ValueError("vulkan rasterize_backward: grad_db given, but the G-buffer was made without derivatives");
   std::lock_guard<std::mutex> lock(s.dev.mutex);
   const std::int64_t N = s.num_vertices, px = s.pixels();
-  const std::size_t uv_bytes = static_cast<std::size_t>(px) * 2 * sizeof(float);
-  const std::size_t depth_bytes = grad_depth ? static_cast<std::size_t>(px) * sizeof(float) : 0;
-  const std::size_t sums = static_cast<std::size_t>(N * 3 + N * 4), out_bytes = static_cast<std::size_t>(N) * 4 * 4;
-  s.reserve(kGradUvIn, uv_bytes);
-  s.reserve(kGradDepthIn, depth_bytes);
+  const std::size_t plane = static_cast<std::size_t>(px) * 4 * sizeof(float);
+  const std::size_t host_bytes[2] = {grad_rast ? plane : 0, grad_db ? plane : 0};
+  const std::size_t sums = static_cast<std::size_t>(N) * 4;
+  const std::int32_t flags = (s.grad_rast ? kDeviceRast : 0) | (s.grad_db ? kDeviceDb : 0) |
+                             (grad_rast ? kHostRast : 0) | (grad_db ? kHostDb : 0);
+  s.reserve(kHostGradGBuffer, 2 * plane);
+  s.reserve(kGradGBuffer, 2 * plane);  // read only where flagged
   s.reserve(kSums, sums * sizeof(std::int64_t));
   s.reserve(kLargest, 2 * sizeof(std::uint64_t));
-  s.reserve(kFinished, out_bytes);
-  s.upload.reserve(s.dev, uv_bytes + depth_bytes, true);
-  s.download.reserve(s.dev, out_bytes, true);
-  std::memcpy(s.upload.mapped(), grad_uv, uv_bytes);
-  if (depth_bytes) std::memcpy(static_cast<char*>(s.upload.mapped()) + uv_bytes, grad_depth, depth_bytes);
-  // Bindings: 0 clip, 1 tris, 2 verts, 3 tri_id, 4 grad_uv, 5 grad_depth, 7 sums, 8 largest, 9 dL/dclip.
+  s.reserve(kFinished, sums * sizeof(float));
+  s.upload.reserve(s.dev, host_bytes[0] + host_bytes[1], true);
+  s.download.reserve(s.dev, sums * sizeof(float), true);
+  if (grad_rast) std::memcpy(s.upload.mapped(), grad_rast, plane);
+  if (grad_db) std::memcpy(static_cast<char*>(s.upload.mapped()) + host_bytes[0], grad_db, plane);
+  // Bindings: 0 clip, 1 tris, 2 the host's G-buffer gradient, 3 tri_id, 4 the device's, 7 sums,
+  // 8 largest; the finish: 7 sums, 8 largest, 9 dL/dclip.
   const VkDescriptorSet set =
-      s.bind(s.raster_backward_set, {{0, kClip}, {1, kTris}, {2, kVerts}, {3, kTriId}, {4, kGradUvIn},
-                                     {5, kGradDepthIn}, {7, kSums}, {8, kLargest}, {9, kFinished}});
-  RasterPush push{s.width, s.height, static_cast<std::int32_t>(N), static_cast<std::int32_t>(s.num_tris), 0, 0,
-                  s.y_up ? 1 : 0, grad_depth ? 1 : 0};
+      s.bind(s.raster_backward_set, {{0, kClip}, {1, kTris}, {2, kHostGradGBuffer}, {3, kTriId}, {4, kGradGBuffer},
+                                     {7, kSums}, {8, kLargest}});
+  const VkDescriptorSet finish_set = s.bind(s.finish_set, {{7, kSums}, {8, kLargest}, {9, kFinished}});
+  // Per element at most one contribution per pixel and vertex slot.
+  const std::int32_t count = static_cast<std::int32_t>(3 * px);  // px <= 2^28 (check_image_size)
+  const GBufferPush push{s.width, s.height, static_cast<std::int32_t>(N), static_cast<std::int32_t>(s.num_tris),
+                         0, s.y_up ? 1 : 0, flags, count};
+  const FinishPush finish{static_cast<std::int32_t>(sums), static_cast<std::int32_t>(sums), count, {}};
   s.dev.run([&](VkCommandBuffer cb) {
     s.timestamps.begin(cb, 6);
-    copy(cb, s.upload.handle(), 0, s[kGradUvIn].handle(), 0, uv_bytes);
-    copy(cb, s.upload.handle(), uv_bytes, s[kGradDepthIn].handle(), 0, depth_bytes);
+    copy(cb, s.upload.handle(), 0, s[kHostGradGBuffer].handle(), 0, host_bytes[0]);
+    copy(cb, s.upload.handle(), host_bytes[0], s[kHostGradGBuffer].handle(), plane, host_bytes[1]);
     barrier(cb);
     s.timestamps.stamp(cb, 1);
-    s.fixed_point_passes(cb, set, kSums, sums, kLargest, s.k.rasterize_backward, push, s.k.rasterize_backward_finish,
-                         push, N);
-    copy(cb, s[kFinished].handle(), 0, s.download.handle(), 0, out_bytes);
+    s.fixed_point_passes(cb, set, kSums, sums, kLargest, s.k.gbuffer_backward, push, s.k.fixed_point_finish, finish,
+                         static_cast<std::int64_t>(sums), finish_set);
+    copy(cb, s[kFinished].handle(), 0, s.download.handle(), 0, sums * sizeof(float));
     barrier(cb);
     s.timestamps.stamp(cb, 5);
   });
-  const float* got = static_cast<const float*>(s.download.mapped());
-  add_to(grad_clip, got, 4 * N);
+  s.grad_rast = s.grad_db = false;  // consumed
+  add_to(grad_clip, static_cast<const float*>(s.download.mapped()), 4 * N);
   return s.timestamps.read();
 }
 

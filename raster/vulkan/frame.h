@@ -5,15 +5,18 @@
 // downloaded only where the caller passes a pointer. Each call returns where
 // its time went (device timestamps; docs/gpu.md).
 //
-// Results: rasterize gives the CPU kernel's G-buffer bit for bit; interpolate
-// the CPU kernel's values (the same double expressions: equal or within an
-// ulp of float); the adjoint's sums are taken in 64-bit fixed point (exact
-// and order-independent, so bit-identical run to run; resolution about
-// 2^-61 x pixels x the largest contribution), within 1e-12 of the CPU's
-// double sums relative to the largest gradient. antialias gives the CPU
-// kernel's pairs (the same silhouette walk in double) and blends, bit for
-// bit; its adjoint sums the edge vertices' screen gradients in fixed point
-// (the same resolution) before the projection adjoint.
+// Results: rasterize gives the CPU kernels' coverage and G-buffer
+// (raster::rasterize_forward's tri_id, then raster::barycentric_gbuffer_forward's
+// rast and rast_db) bit for bit; interpolate the CPU kernel's values
+// (raster/barycentric_interpolate.h, the same double expressions: bit for bit
+// on lavapipe, at most an ulp of float apart elsewhere); the adjoints' sums
+// over pixels are taken in 64-bit fixed point (exact and order-independent,
+// so bit-identical run to run; resolution about 2^-61 x pixels x the largest
+// contribution), within 1e-12 of the CPU's double sums relative to the
+// largest gradient. antialias gives the CPU kernel's pairs (the same
+// silhouette walk in double) and blends, bit for bit; its adjoint sums the
+// edge vertices' screen gradients in fixed point (the same resolution)
+// before the projection adjoint.
 //
 // A Frame is used by one thread at a time; Frames on one device share its
 // queue (calls are serialized).
@@ -35,32 +38,61 @@ class Frame {
   Frame(const Frame&) = delete;
   Frame& operator=(const Frame&) = delete;
 
-  // rasterize_forward (raster/vulkan/rasterize.h); the G-buffer stays on the
-  // device and is downloaded into the arrays given (each may be null).
-  // Checks p as the CPU op does (ValueError / IndexError naming the problem):
-  // image size, indices in range, finite clip; and what the shaders' 32-bit
-  // indices allow (at most 2^31 / 4 vertices, 2^31 / 3 triangles).
-  // pass_ms: clear, project, depth pass, id pass, resolve.
+  // The coverage (rasterize_forward's tri_id, H x W) and nvdiffrast's
+  // G-buffer of raster::barycentric_gbuffer_forward (id_offset 0): rast
+  // (H x W x 4: u, v, z/w, id; zeros on background) and, with
+  // options.derivatives, db (H x W x 4: rast_db). Row 0 at the bottom with
+  // options.y_up or p.settings.y_up (as the CPU kernels' y_up). It stays on the
+  // device and is downloaded into the arrays given (each may be null; db
+  // needs options.derivatives). Checks p as the CPU op does (ValueError /
+  // IndexError naming the problem): image size, indices in range, finite
+  // clip; and what the shaders' 32-bit indices allow (at most 2^31 / 4
+  // vertices, 2^31 / 3 triangles). pass_ms: clear, project, depth pass, id
+  // pass, resolve, G-buffer.
   GpuTimes rasterize(const raster::RasterParams<float>& p, const GpuRasterOptions& options = {},
-                     std::int32_t* tri_id = nullptr, float* uv = nullptr, float* depth = nullptr);
+                     std::int32_t* tri_id = nullptr, float* rast = nullptr, float* db = nullptr);
 
-  // interpolate_forward (raster/interpolate.h, image form, zeros on the
-  // background) of attr (num_vertices x channels) over the last rasterize's
-  // G-buffer and clip positions; out (H x W x channels) if not null.
-  GpuTimes interpolate(const float* attr, std::int64_t channels, bool perspective = true, float* out = nullptr);
+  // raster::rasterize_forward's own outputs: tri_id and the coverage
+  // kernel's screen-space uv (H x W x 2) and depth (H x W), for
+  // vulkan::rasterize_forward (a RasterBackend). Makes no G-buffer: the frame
+  // then has none for interpolate and antialias. pass_ms: clear, project,
+  // depth pass, id pass, resolve.
+  GpuTimes rasterize_coverage(const raster::RasterParams<float>& p, const GpuRasterOptions& options,
+                              std::int32_t* tri_id, float* uv, float* depth);
 
-  // The adjoint of the last interpolate for grad_out (H x W x channels),
-  // ACCUMULATED (+=) into grad_attr (N x C), grad_clip (N x 4) and grad_uv
-  // (H x W x 2), each may be null. pass_ms: magnitudes, sums, finish.
-  GpuTimes interpolate_backward(const float* grad_out, float* grad_attr, float* grad_clip, float* grad_uv);
+  // raster::barycentric_interpolate_forward of attr (num_vertices x
+  // channels) over the last rasterize's G-buffer (zeros on background); out
+  // (H x W x channels) if not null. diff (num_diff channel indices in
+  // [0, channels), may repeat; needs a rasterize with options.derivatives):
+  // their screen derivatives, out_da (H x W x 2 num_diff: d/dx, d/dy per
+  // channel) if not null. pass_ms: interpolate.
+  GpuTimes interpolate(const float* attr, std::int64_t channels, float* out = nullptr,
+                       const std::int32_t* diff = nullptr, std::int64_t num_diff = 0, float* out_da = nullptr);
 
-  // The adjoint of the last rasterize (raster::rasterize_backward, for its
-  // coverage) for grad_uv (H x W x 2) and grad_depth (H x W, may be null),
-  // ACCUMULATED (+=) into grad_clip (N x 4). pass_ms: magnitudes, sums, finish.
-  GpuTimes rasterize_backward(const float* grad_uv, const float* grad_depth, float* grad_clip);
+  // The adjoint of the last interpolate (raster::barycentric_interpolate_backward)
+  // for grad_out (H x W x channels) and grad_da (H x W x 2 num_diff, or null:
+  // the derivatives get no gradient), ACCUMULATED (+=) into grad_attr
+  // (N x channels, summed in fixed point), grad_rast (H x W x 4: u, v) and
+  // grad_db (H x W x 4), each may be null. The G-buffer's gradient is also
+  // added (in float, per pixel) to the device's own, which rasterize_backward
+  // reads: a chain interpolate -> rasterize adjoint needs no host round trip.
+  // pass_ms: magnitudes and G-buffer gradient, sums, finish.
+  GpuTimes interpolate_backward(const float* grad_out, const float* grad_da = nullptr, float* grad_attr = nullptr,
+                                float* grad_rast = nullptr, float* grad_db = nullptr);
+
+  // The adjoint of the last rasterize's G-buffer (raster::barycentric_gbuffer_backward,
+  // for its coverage), ACCUMULATED (+=) into grad_clip (N x 4), for the
+  // G-buffer gradient the interpolate adjoints left on the device since the
+  // rasterize (or the last rasterize_backward), plus (in float) grad_rast
+  // (H x W x 4: u, v, z/w; the id channel ignored) and grad_db (H x W x 4)
+  // when given. The device's G-buffer gradient is consumed (zero after).
+  // pass_ms: magnitudes, sums, finish.
+  GpuTimes rasterize_backward(const float* grad_rast = nullptr, const float* grad_db = nullptr,
+                              float* grad_clip = nullptr);
 
   // antialias_forward (raster/antialias.h) of image (H x W x channels) over
-  // the last rasterize's G-buffer, clip positions and triangles; out (H x W x
+  // the last rasterize's G-buffer (tri_id, and z/w as the depth), clip
+  // positions and triangles; out (H x W x
   // channels) if not null. The edge topology (build_edge_topology of the
   // triangles, no welding) is built on the host and uploaded on the first
   // call after a rasterize whose triangles differ from the last ones; else
@@ -76,6 +108,8 @@ class Frame {
 
  private:
   struct State;
+  GpuTimes rasterize_into(const raster::RasterParams<float>& p, const GpuRasterOptions& options, bool coverage,
+                          void* const (&outs)[3]);
   std::shared_ptr<Device> device_;
   std::unique_ptr<State> state_;
 };

@@ -24,8 +24,8 @@ Kernels::Kernels(Device::Impl& dev) : pipelines(dev) {
   interpolate_forward = add(pipelines, shaders::interpolate_forward());
   interpolate_backward = add(pipelines, shaders::interpolate_backward());
   fixed_point_finish = add(pipelines, shaders::fixed_point_finish());
-  rasterize_backward = add(pipelines, shaders::rasterize_backward());
-  rasterize_backward_finish = add(pipelines, shaders::rasterize_backward_finish());
+  gbuffer = add(pipelines, shaders::gbuffer());
+  gbuffer_backward = add(pipelines, shaders::gbuffer_backward());
   antialias_pairs = add(pipelines, shaders::antialias_pairs());
   antialias_forward = add(pipelines, shaders::antialias_forward());
   antialias_backward = add(pipelines, shaders::antialias_backward());

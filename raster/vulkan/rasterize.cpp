@@ -25,7 +25,7 @@ void rasterize_forward(Device& device, const raster::RasterParams<float>& p, std
     if (!dev.default_frame) dev.default_frame = made;
     frame = std::static_pointer_cast<Frame>(dev.default_frame);
   }
-  const GpuTimes t = frame->rasterize(p, options, tri_id, uv, depth);
+  const GpuTimes t = frame->rasterize_coverage(p, options, tri_id, uv, depth);
   if (times) *times = t;
 }
 

@@ -23,6 +23,9 @@ struct GpuRasterOptions {
   // Triangles whose pixel box has more pixels than this are scanned by a
   // workgroup each, the others by one thread each (same result; a tuning knob).
   int small_box = 64;
+  // Frame::rasterize: also make rast_db, the barycentrics' screen derivatives
+  // (raster::barycentric_gbuffer_forward's db), for attribute derivatives.
+  bool derivatives = false;
 };
 
 // p is checked as the CPU op checks it (Frame::rasterize); peeling fields must be null.

@@ -1,7 +1,7 @@
 // Tests of the rasterizer kernels: coverage and G-buffer values, the tie rule
 // (watertight shared edges and vertices on pixel centres), culling, near-plane
-// clipping, determinism over threads and triangle order, degenerate input,
-// bad input, and the adjoint against central finite differences.
+// clipping, determinism over threads and triangle order, degenerate input and
+// bad input. (The differentiable G-buffer and its adjoint: test_barycentric_gbuffer.cpp.)
 // raster/detail/rasterize_setup.cpp (edge setup, classification, validation) is tested through these.
 #include <catch2/catch.hpp>
 
@@ -47,14 +47,6 @@ GBuffer render(const std::vector<double>& clip, const std::vector<std::int32_t>&
   rasterize_forward(params(clip, tris, W, H, cull, front_to_back), g.id.data(), g.uv.data(), g.depth.data(),
                     &g.stats);
   return g;
-}
-
-std::vector<double> backward(const std::vector<double>& clip, const std::vector<std::int32_t>& tris,
-                             int W, int H, const std::vector<std::int32_t>& id,
-                             const std::vector<double>& gu, const std::vector<double>* gd) {
-  std::vector<double> grad(clip.size(), 0.0);
-  rasterize_backward(params(clip, tris, W, H), id.data(), gu.data(), gd ? gd->data() : nullptr, grad.data());
-  return grad;
 }
 
 // Clip coordinates of a screen point (xs, ys) at NDC depth z with the given w.
@@ -110,24 +102,6 @@ void push_view_vertex(std::vector<double>& clip, double x, double y, double z, d
                       double aspect = 1.0, double n = 0.1, double f = 100.0) {
   const double t = 1.0 / std::tan(0.5 * fovy);
   clip.insert(clip.end(), {t / aspect * x, t * y, (f + n) / (n - f) * z + 2 * f * n / (n - f), -z});
-}
-
-// Checks rasterize_backward against central differences of
-// L = sum_p (a_p u_p + b_p v_p + c_p depth_p) with the coverage held fixed.
-double fd_check(const std::vector<double>& clip, const std::vector<std::int32_t>& tris, int W, int H,
-                unsigned seed) {
-  const GBuffer base = render(clip, tris, W, H);
-  const std::vector<double> wuv = random_vector(2 * W * H, -1, 1, seed);
-  const std::vector<double> wd = random_vector(W * H, -1, 1, seed + 1);
-  auto loss = [&](const std::vector<double>& c) {
-    const GBuffer g = render(c, tris, W, H);
-    REQUIRE(g.id == base.id);  // the perturbation must not change coverage
-    double l = 0;
-    for (int p = 0; p < W * H; ++p)
-      l += wuv[2 * p] * g.uv[2 * p] + wuv[2 * p + 1] * g.uv[2 * p + 1] + wd[p] * g.depth[p] * (g.id[p] != 0);
-    return l;
-  };
-  return fd_error(loss, clip, backward(clip, tris, W, H, base.id, wuv, &wd));
 }
 
 }  // namespace
@@ -277,7 +251,7 @@ TEST_CASE("rasterize: a closed sphere is covered exactly twice inside its silhou
   CHECK(front == twice);
 }
 
-TEST_CASE("rasterize: G-buffer and gradients are identical for 1 and 2 threads and shuffled triangles",
+TEST_CASE("rasterize: the G-buffer is identical for 1 and 2 threads and shuffled triangles",
           "[raster][rasterize][determinism]") {
   const int W = 150, H = 130, T = 3000;
   std::mt19937 rng(7);
@@ -293,23 +267,17 @@ TEST_CASE("rasterize: G-buffer and gradients are identical for 1 and 2 threads a
       tris.push_back(3 * t + k);
     }
   }
-  const std::vector<double> gu = random_vector(2 * W * H, -1, 1, 8), gd = random_vector(W * H, -1, 1, 9);
-
   gr::set_num_threads(1);
   const GBuffer g1 = render(clip, tris, W, H);
-  const std::vector<double> grad1 = backward(clip, tris, W, H, g1.id, gu, &gd);
   gr::set_num_threads(2);
   const GBuffer g2 = render(clip, tris, W, H);
-  const std::vector<double> grad2 = backward(clip, tris, W, H, g2.id, gu, &gd);
   gr::set_num_threads(0);
   CHECK(g1.stats.clipped_near > 0);
   CHECK(g1.id == g2.id);
   CHECK(g1.uv == g2.uv);
   CHECK(g1.depth == g2.depth);
-  CHECK(grad1 == grad2);
-  CHECK(all_finite(grad1));
 
-  // Shuffle the triangle list: same image up to the id permutation, same gradients.
+  // Shuffle the triangle list: same image up to the id permutation.
   std::vector<int> perm(T);
   std::iota(perm.begin(), perm.end(), 0);
   std::shuffle(perm.begin(), perm.end(), rng);
@@ -323,7 +291,6 @@ TEST_CASE("rasterize: G-buffer and gradients are identical for 1 and 2 threads a
   CHECK(same_ids);
   CHECK(gs.uv == g1.uv);
   CHECK(gs.depth == g1.depth);
-  CHECK(backward(clip, shuffled, W, H, gs.id, gu, &gd) == grad1);
 }
 
 // Overlapping layers: big quads that cover whole tiles at a few depths (some
@@ -392,41 +359,6 @@ TEST_CASE("rasterize: reused scratch buffers leave no trace between calls of dif
   CHECK(again.depth == first.depth);
   CHECK(small_again.id == small_first.id);
   CHECK(small_again.uv == small_first.uv);
-  // Backward twice (its accumulators are reused too).
-  const std::vector<double> gu = random_vector(2 * W * H, -1, 1, 3), gd = random_vector(W * H, -1, 1, 4);
-  const std::vector<double> g1 = backward(big_clip, big_tris, W, H, first.id, gu, &gd);
-  (void)backward(small_clip, small_tris, 64, 48, small_first.id, random_vector(2 * 64 * 48, -1, 1, 5), nullptr);
-  CHECK(backward(big_clip, big_tris, W, H, first.id, gu, &gd) == g1);
-}
-
-TEST_CASE("rasterize: gradient w.r.t. clip coordinates matches finite differences",
-          "[raster][rasterize][gradient]") {
-  const int W = 40, H = 32;
-  std::vector<double> clip;
-  push_view_vertex(clip, -0.9, -0.7, -2.0);
-  push_view_vertex(clip, 1.1, -0.5, -3.5);
-  push_view_vertex(clip, -0.2, 0.9, -2.5);
-  push_view_vertex(clip, 0.8, 0.8, -1.7);
-  const std::vector<std::int32_t> tris = {0, 1, 2, 2, 1, 3};
-  const double err = fd_check(clip, tris, W, H, 11);
-  INFO("relative error " << err);
-  CHECK(err < 1e-7);
-}
-
-TEST_CASE("rasterize: gradient matches finite differences for triangles clipped by the near plane",
-          "[raster][rasterize][gradient][near]") {
-  const int W = 40, H = 32;
-  std::vector<double> clip;
-  push_view_vertex(clip, -0.6, -0.5, -1.0);
-  push_view_vertex(clip, 0.7, -0.4, -1.5);
-  push_view_vertex(clip, 0.1, 0.3, 0.6);    // behind the camera: w < 0
-  push_view_vertex(clip, 0.3, 0.25, -0.05);  // in front of the eye but before the near plane
-  const std::vector<std::int32_t> tris = {0, 1, 2, 1, 0, 3};
-  const GBuffer g = render(clip, tris, W, H);
-  CHECK(g.stats.clipped_near == 2);
-  const double err = fd_check(clip, tris, W, H, 12);
-  INFO("relative error " << err);
-  CHECK(err < 1e-7);
 }
 
 TEST_CASE("rasterize: a triangle crossing w = 0 renders exactly its visible part",
@@ -488,9 +420,6 @@ TEST_CASE("rasterize: a triangle crossing w = 0 renders exactly its visible part
   CHECK(covered >= checked);
   CHECK(all_finite(g.uv));
   CHECK(all_finite(g.depth));
-  const std::vector<double> grad =
-      backward(clip, {0, 1, 2}, W, H, g.id, random_vector(2 * W * H, -1, 1, 5), nullptr);
-  CHECK(all_finite(grad));
 }
 
 TEST_CASE("rasterize: triangles behind the camera or outside the frustum contribute nothing",
@@ -529,44 +458,5 @@ TEST_CASE("rasterize: degenerate triangles, slivers and vertices on pixel centre
   CHECK(g.stats.culled_zero_area >= 2);
   CHECK(all_finite(g.uv));
   CHECK(all_finite(g.depth));
-  const std::vector<double> grad = backward(clip, tris, W, H, g.id, random_vector(2 * W * H, -1, 1, 3),
-                                            &g.depth);
-  CHECK(all_finite(grad));
 }
 
-TEST_CASE("rasterize: float32 gradient stays finite for a vertex with tiny w and is clamped to the float range",
-          "[raster][rasterize][degenerate]") {
-  // Vertex 0 at NDC (0.5, 0.5, 0) with w = 1e-39 (a float32 denormal): 1/w is
-  // beyond FLT_MAX, so its exact gradient is too (fuzz corpus:
-  // rasterize_backward_inf_grad_tiny_w_float32.bin). The same scene with w = 1
-  // has vertex 0's gradient 1e39 times smaller (d(x/w)/dx = 1/w, d(x/w)/dw =
-  // -x/w^2 with x ~ w) and the same gradient for vertices 1 and 2.
-  const int W = 8, H = 8;
-  const float tiny = 1e-39f;
-  const std::vector<float> tiny_clip = {0.5f * tiny, 0.5f * tiny, 0, tiny, -0.9f, -0.9f, 0, 1, 0.9f, -0.9f, 0, 1};
-  const std::vector<float> unit_clip = {0.5f, 0.5f, 0, 1, -0.9f, -0.9f, 0, 1, 0.9f, -0.9f, 0, 1};
-  const std::vector<std::int32_t> tris = {0, 1, 2};
-  auto grad_of = [&](const std::vector<float>& clip) {
-    std::vector<std::int32_t> id(W * H);
-    std::vector<float> uv(2 * W * H), depth(W * H), grad(12, 0.0f);
-    rasterize_forward(params(clip, tris, W, H), id.data(), uv.data(), depth.data());
-    const std::vector<double> gu = random_vector(2 * W * H, -1, 1, 5), gd = random_vector(W * H, -1, 1, 6);
-    const std::vector<float> guf(gu.begin(), gu.end()), gdf(gd.begin(), gd.end());
-    rasterize_backward(params(clip, tris, W, H), id.data(), guf.data(), gdf.data(), grad.data());
-    return grad;
-  };
-  const std::vector<float> g_tiny = grad_of(tiny_clip), g_unit = grad_of(unit_clip);
-  for (int i = 0; i < 12; ++i) {
-    INFO("grad_clip[" << i << "] = " << g_tiny[i] << " (w = 1: " << g_unit[i] << ")");
-    CHECK(std::isfinite(g_tiny[i]));
-    if (i < 4) {
-      // Vertex 0: same sign, magnitude >= |g_unit| / 1e-39 or clamped to FLT_MAX.
-      if (std::abs(g_unit[i]) > 1e-3f) {
-        CHECK((g_tiny[i] > 0) == (g_unit[i] > 0));
-        CHECK(std::abs(g_tiny[i]) >= std::min(3.0e38, 0.9e39 * std::abs(g_unit[i])));
-      }
-    } else {
-      CHECK(g_tiny[i] == Approx(g_unit[i]).epsilon(1e-4).margin(1e-5));
-    }
-  }
-}

@@ -158,24 +158,6 @@ TEMPLATE_TEST_CASE("y_up: rasterize gives the G-buffer of y_up = false on clip w
   }
 }
 
-TEMPLATE_TEST_CASE("y_up: the rasterize adjoint is y_up = false's on negated clip, its y negated back",
-                   "[rasterize][y_up]", float, double) {
-  using T = TestType;
-  unsigned seed = 10;
-  for (const Mesh& m : scenes()) {
-    const std::vector<T> clip = as<T>(m.clip), flipped = negated_y(clip);
-    const GBuffer<T> g = rasterize(raster_params(clip, m, true));
-    const std::vector<T> g_uv = random_t<T>(2 * P, ++seed), g_depth = random_t<T>(P, ++seed);
-    const std::vector<T> start = random_t<T>(clip.size(), ++seed);
-    std::vector<T> up = start, ref = negated_y(start), plain = start;
-    rasterize_backward(raster_params(clip, m, true), g.id.data(), g_uv.data(), g_depth.data(), up.data());
-    rasterize_backward(raster_params(flipped, m, false), g.id.data(), g_uv.data(), g_depth.data(), ref.data());
-    REQUIRE(same_bits(up, negated_y(ref)));
-    rasterize_backward(raster_params(clip, m, false), g.id.data(), g_uv.data(), g_depth.data(), plain.data());
-    REQUIRE_FALSE(same_bits(up, plain));
-  }
-}
-
 TEMPLATE_TEST_CASE("y_up: the nvdiffrast G-buffer and its adjoint are y_up = false's on negated clip",
                    "[barycentric][y_up]", float, double) {
   using T = TestType;

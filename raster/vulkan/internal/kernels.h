@@ -21,7 +21,7 @@ struct Kernels {
   PipelineSet pipelines;
   VkPipeline project, raster_large, resolve;
   VkPipeline interpolate_forward, interpolate_backward, fixed_point_finish;
-  VkPipeline rasterize_backward, rasterize_backward_finish;
+  VkPipeline gbuffer, gbuffer_backward;
   VkPipeline antialias_pairs, antialias_forward, antialias_backward, antialias_finish;
   VkPipeline texture_forward, texture_backward, texture_finish;
   VkPipeline cube_texture_forward, cube_texture_backward;

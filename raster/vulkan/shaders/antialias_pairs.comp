@@ -9,7 +9,9 @@
 
 layout(std430, binding = 1) readonly buffer TriBuf { int tris[]; };
 layout(std430, binding = 3) readonly buffer TriIdBuf { int tri_id[]; };
-layout(std430, binding = 4) readonly buffer DepthBuf { float depth[]; };
+// The G-buffer (u, v, z/w, id per pixel): the depth is z/w, as the CPU ops pass it.
+layout(std430, binding = 4) readonly buffer RastBuf { float rast[]; };
+float depth(int p) { return rast[4 * p + 2]; }
 // EdgeTopology::neighbour (3 per triangle: 3n + k', or < 0).
 layout(std430, binding = 5) readonly buffer NeighbourBuf { int neighbour[]; };
 layout(std430, binding = 7) writeonly buffer PairBuf { Pair pairs[]; };
@@ -64,7 +66,7 @@ Pair evaluate(int p, int q, bool horizontal) {
   Pair none = Pair(0.0, -1, 0);
   int ip = tri_id[p], iq = tri_id[q];
   if (ip == iq) return none;
-  bool p_front = iq == 0 || (ip != 0 && (depth[p] < depth[q] || (depth[p] == depth[q] && ip < iq)));
+  bool p_front = iq == 0 || (ip != 0 && (depth(p) < depth(q) || (depth(p) == depth(q) && ip < iq)));
   int inside = p_front ? p : q, outside = p_front ? q : p;
   Pair e = walk((p_front ? ip : iq) - 1, centre(inside), centre(outside));
   if (e.a < 0) return none;

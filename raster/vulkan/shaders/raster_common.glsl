@@ -10,10 +10,9 @@ layout(push_constant) uniform Params {
   int num_vertices;
   int num_tris;
   int cull;    // 0 none, +1 drop back faces, -1 drop front faces
-  int pass;    // raster passes: 0 = nearest depth, 1 = smallest id at that depth;
-               // rasterize_backward: 0 = largest magnitudes, 1 = sums
+  int pass;    // raster passes: 0 = nearest depth, 1 = smallest id at that depth
   int y_up;    // 1: row 0 is the bottom row (nvdiffrast); 0: the top row
-  int flags;   // rasterize_backward: bit 0 set when grad_depth is given
+  int flags;   // resolve: bit 0 set to write the coverage kernel's uv and depth too
 } P;
 
 #include "vert.glsl"

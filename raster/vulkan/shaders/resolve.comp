@@ -1,7 +1,8 @@
 #version 460
-// Per pixel: the winning triangle's (u, v, depth) in the CPU layout
-// (raster/rasterize.h): tri_id 1-based, (u, v) the screen weights of vertices
-// 1 and 2, depth z_ndc; background: 0, (0, 0), 1.
+// Per pixel: the winning triangle's id (1-based, 0 = background) and, with
+// flags bit 0, the coverage kernel's own (u, v, depth) (raster/rasterize.h:
+// (u, v) the screen weights of vertices 1 and 2, depth z_ndc; background
+// (0, 0), 1), for vulkan::rasterize_forward.
 #include "dispatch.glsl"
 #include "raster_common.glsl"
 
@@ -14,6 +15,11 @@ void main() {
   int p = linear_id();
   if (p >= P.width * P.height) return;
   int t = ids[p];
+  bool coverage = (P.flags & 1) != 0;
+  if (!coverage) {
+    tri_id[p] = t == 0x7fffffff ? 0 : t + 1;
+    return;
+  }
   if (t == 0x7fffffff) {
     tri_id[p] = 0;
     uv[2 * p] = 0.0;

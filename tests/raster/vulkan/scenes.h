@@ -1,7 +1,8 @@
 // Scenes shared by the GPU tests: float32 clip-space triangle soups (some
-// crossing the near plane), pixel-centre grids and meshes in perspective; the
-// shared device (null, with a warning saying why, when there is none); random
-// inputs and the error measure the GPU is held to.
+// crossing the near plane), pixel-centre grids, slivers and meshes in
+// perspective; the shared device (null, with a warning saying why, when there
+// is none); the CPU kernels' G-buffer; random inputs and the error measure the
+// GPU is held to.
 #pragma once
 
 #include <catch2/catch.hpp>
@@ -13,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "raster/barycentric_gbuffer.h"
 #include "raster/mesh.h"
 #include "raster/rasterize.h"
 #include "raster/vulkan/device.h"
@@ -75,6 +77,26 @@ inline Scene pixel_centre_grid(int W, int n) {
   return s;
 }
 
+// Slivers: needles a few pixels wide or less across the view, at random
+// depths and w (some crossing the near plane), and fans of nearly collinear
+// triangles sharing a vertex.
+inline Scene slivers(int count, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> xy(-1.2, 1.2), zz(-0.9, 0.9), ww(-0.3, 2.0), thin(1e-4, 2e-2);
+  Scene s;
+  for (int t = 0; t < count; ++t) {
+    const double ax = xy(rng), ay = xy(rng), bx = xy(rng), by = xy(rng), d = thin(rng);
+    const double w[3] = {ww(rng), ww(rng), ww(rng)};
+    const double x[3] = {ax, bx, 0.5 * (ax + bx) + d}, y[3] = {ay, by, 0.5 * (ay + by) - d};
+    for (int k = 0; k < 3; ++k) {
+      const double wk = std::abs(w[k]) < 0.05 ? 0.05 : w[k];
+      s.clip.insert(s.clip.end(), {float(x[k] * std::abs(wk)), float(y[k] * std::abs(wk)), float(zz(rng) * wk), float(wk)});
+      s.tris.push_back(3 * t + k);
+    }
+  }
+  return s;
+}
+
 // A mesh in perspective: positions scaled and moved `distance` in front of
 // the camera (w = distance - z), so that a small distance puts part of it behind.
 inline Scene perspective(const Mesh& m, double scale, double distance) {
@@ -88,6 +110,36 @@ inline Scene perspective(const Mesh& m, double scale, double distance) {
   const std::int32_t* t = m.triangles.data<std::int32_t>();
   s.tris.assign(t, t + 3 * m.num_triangles());
   return s;
+}
+
+// The CPU kernels' G-buffer of a scene: the coverage of raster::rasterize_forward,
+// then raster::barycentric_gbuffer_forward's rast (H*W*4) and, with
+// derivatives, db (H*W*4); y_up as RasterSettings::y_up.
+struct CpuGBuffer {
+  std::vector<std::int32_t> id;
+  std::vector<float> rast, db;
+};
+inline raster::BarycentricGBufferParams<float> gbuffer_params(const Scene& s, int W, int H, bool y_up) {
+  raster::BarycentricGBufferParams<float> p;
+  p.clip = s.clip.data();
+  p.num_vertices = static_cast<std::int64_t>(s.clip.size() / 4);
+  p.tris = s.tris.data();
+  p.num_tris = static_cast<std::int64_t>(s.tris.size() / 3);
+  p.width = W;
+  p.height = H;
+  p.y_up = y_up;
+  return p;
+}
+inline CpuGBuffer cpu_gbuffer(const Scene& s, int W, int H, bool y_up = false, bool derivatives = false) {
+  const std::size_t px = static_cast<std::size_t>(W) * H;
+  CpuGBuffer g{std::vector<std::int32_t>(px), std::vector<float>(4 * px), std::vector<float>(derivatives ? 4 * px : 0)};
+  std::vector<float> uv(2 * px), depth(px);
+  RasterParams<float> p = s.params(W, H);
+  p.settings.y_up = y_up;
+  raster::rasterize_forward(p, g.id.data(), uv.data(), depth.data());
+  raster::barycentric_gbuffer_forward(gbuffer_params(s, W, H, y_up), g.id.data(), 0, g.rast.data(),
+                                      derivatives ? g.db.data() : nullptr);
+  return g;
 }
 
 // n values uniform in [-1, 1).
@@ -107,6 +159,14 @@ inline double relative_error(const std::vector<float>& a, const std::vector<floa
     scale = std::max(scale, std::abs(double(b[i])));
   }
   return scale > 0.0 ? diff / scale : diff;
+}
+
+// max |a - b| / max(|b|, 1e-30) elementwise: the largest relative error of any value.
+inline double elementwise_error(const std::vector<float>& a, const std::vector<float>& b) {
+  double worst = 0.0;
+  for (std::size_t i = 0; i < a.size(); ++i)
+    worst = std::max(worst, std::abs(double(a[i]) - double(b[i])) / std::max(std::abs(double(b[i])), 1e-30));
+  return worst;
 }
 
 }  // namespace gr::testing

@@ -1,5 +1,5 @@
 // The GPU's antialias and its adjoint (raster/vulkan/frame.h) against the CPU
-// kernels (raster/antialias.h, float) on the same G-buffer and topology: the
+// kernels (raster/antialias.h, float) on the same G-buffer (ids and z/w) and topology: the
 // output within 1e-6 and the gradients (image, clip) within 1e-5 relative to
 // the largest, on random soups crossing the near plane, meshes in front of
 // and through the near plane, edges through pixel centres at 45 degrees, 1 and
@@ -45,9 +45,10 @@ Result on_cpu(const Case& c, const std::vector<float>& image, const std::vector<
   Scene flipped = c.scene;
   if (c.y_up)
     for (std::size_t i = 1; i < flipped.clip.size(); i += 4) flipped.clip[i] = -flipped.clip[i];
-  std::vector<std::int32_t> id(px);
-  std::vector<float> uv(2 * px), depth(px);
-  rasterize_forward(flipped.params(c.W, c.H), id.data(), uv.data(), depth.data());
+  // The G-buffer's coverage and z/w as the depth (as the ops pass them).
+  const CpuGBuffer gb = cpu_gbuffer(c.scene, c.W, c.H, c.y_up);
+  std::vector<float> depth(px);
+  for (std::int64_t q = 0; q < px; ++q) depth[q] = gb.rast[4 * q + 2];
   const std::int64_t M = static_cast<std::int64_t>(c.scene.tris.size() / 3);
   const EdgeTopology topology = build_edge_topology(c.scene.tris.data(), M);
   AntialiasParams<float> p;
@@ -55,7 +56,7 @@ Result on_cpu(const Case& c, const std::vector<float>& image, const std::vector<
   p.channels = c.C;
   p.width = c.W;
   p.height = c.H;
-  p.tri_id = id.data();
+  p.tri_id = gb.id.data();
   p.depth = depth.data();
   p.clip = flipped.clip.data();
   p.num_vertices = N;
@@ -218,7 +219,7 @@ TEST_CASE("GPU antialias of the interpolated image left on the device equals ant
   vulkan::Frame frame(shared_gpu());
   frame.rasterize(s.params(48, 40));
   std::vector<float> image(48 * 40 * 3), from_host(image.size()), on_device(image.size());
-  frame.interpolate(attr.data(), 3, true, image.data());
+  frame.interpolate(attr.data(), 3, image.data());
   frame.antialias(image.data(), 3, from_host.data());
   frame.antialias(nullptr, 3, on_device.data());
   REQUIRE(std::memcmp(from_host.data(), on_device.data(), image.size() * sizeof(float)) == 0);
