@@ -204,12 +204,7 @@ void barycentric_gbuffer_forward(const BarycentricGBufferParams<T>& p, const std
 namespace {
 
 // The adjoint's buffers, reused across calls (no page faults after the first).
-struct BackwardScratch {
-  detail::Buckets by_tri, by_vertex;
-  std::vector<double> partial;
-  std::vector<std::uint8_t> live;
-};
-detail::ScratchPool<BackwardScratch> g_backward_pool;
+detail::ScratchPool<detail::GatherScratch> g_backward_pool;
 
 }  // namespace
 
@@ -220,7 +215,7 @@ void barycentric_gbuffer_backward(const BarycentricGBufferParams<T>& p, const T*
   // Scatter by gathering (docs/determinism.md): 1. covered pixels grouped by
   // triangle, in ascending pixel order; the used triangles numbered by first pixel.
   auto lease = g_backward_pool.take();
-  BackwardScratch& sc = *lease;
+  detail::GatherScratch& sc = *lease;
   const detail::Buckets* shared = p.groups && p.tri_id ? p.groups->by_triangle(p.tri_id, pixels, p.num_tris) : nullptr;
   if (!shared)
     detail::bucket_items(pixels, p.num_tris, [&](std::int64_t q) { return pixel_id(p, rast, q) - 1; }, &sc.by_tri);

@@ -137,12 +137,7 @@ void barycentric_interpolate_forward(const BarycentricInterpolateParams<T>& p, T
 namespace {
 
 // The adjoint's buffers, reused across calls (no page faults after the first).
-struct BackwardScratch {
-  detail::Buckets by_tri, by_vertex;
-  std::vector<double> partial;
-  std::vector<std::uint8_t> live;
-};
-detail::ScratchPool<BackwardScratch> g_backward_pool;
+detail::ScratchPool<detail::GatherScratch> g_backward_pool;
 
 // barycentric_interpolate_backward for kC channels (0: p.channels), so the
 // usual channel counts get unrolled channel loops; the same arithmetic in the
@@ -192,7 +187,7 @@ void backward_channels(const BarycentricInterpolateParams<T>& p, const T* grad_o
   // Scatter by gathering (docs/determinism.md): 1. covered pixels grouped by
   // triangle, in ascending pixel order; the used triangles numbered by first pixel.
   auto lease = g_backward_pool.take();
-  BackwardScratch& sc = *lease;
+  detail::GatherScratch& sc = *lease;
   const detail::Buckets* shared = p.groups && p.tri_id ? p.groups->by_triangle(p.tri_id, p.pixels, p.num_tris) : nullptr;
   if (!shared)
     detail::bucket_items(p.pixels, p.num_tris, [&](std::int64_t q) { return pixel_triangle(p, q); }, &sc.by_tri);

@@ -47,4 +47,13 @@ void gather_corners(const std::int32_t* tris, const std::int32_t* tri_of, std::i
   });
 }
 
+// The buffers of an adjoint that scatters by gathering (pixels grouped by
+// triangle, then corners by vertex), kept in a ScratchPool across calls so
+// that later calls take no page faults.
+struct GatherScratch {
+  Buckets by_tri, by_vertex;
+  std::vector<double> partial;     // per-corner sums
+  std::vector<std::uint8_t> live;  // per triangle slot: 0 leaves its corners out
+};
+
 }  // namespace gr::raster::detail
