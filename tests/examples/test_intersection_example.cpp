@@ -26,7 +26,7 @@ TEST_CASE("intersection example: the sunk sphere's height converges with visibil
   CHECK(aa.final_height() == options.start_height);  // no gradient reaches the height
 }
 
-TEST_CASE("intersection example: flags take whole numbers in range; anything else is a usage error naming the flag",
+TEST_CASE("intersection example: flags take whole numbers in range - anything else is a usage error naming the flag",
           "[examples][intersection]") {
   const IntersectionArgs a = parse_intersection_args({"--iterations", "12", "--size=64"});
   CHECK(!a.help);

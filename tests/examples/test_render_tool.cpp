@@ -409,7 +409,7 @@ TEST_CASE("render tool: an output that is the mesh's MTL file is refused", "[exa
   CHECK(slurp(dir.file("v.mtl")) == mtl);
 }
 
-TEST_CASE("render tool: a mesh 1e-14 units across is framed like a unit one; a mesh of one point is refused",
+TEST_CASE("render tool: a mesh 1e-14 units across is framed like a unit one - a mesh of one point is refused",
           "[examples][render][mesh_framing]") {
   TempDir dir;
   std::string covered;

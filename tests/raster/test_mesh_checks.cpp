@@ -35,7 +35,7 @@ std::string error_of(F&& f) {
 
 }  // namespace
 
-TEST_CASE("mesh checks: a triangle index outside [0, N) names the triangle, the corner and the index",
+TEST_CASE("mesh checks: a triangle index outside 0..N-1 names the triangle, the corner and the index",
           "[raster][mesh_checks][errors]") {
   std::vector<std::int32_t> tris = {0, 1, 2, 2, 1, 3};
   CHECK_NOTHROW(check_triangles(tris.data(), 2, 4, "op"));

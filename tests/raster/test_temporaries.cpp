@@ -80,7 +80,7 @@ TEST_CASE("committed and abandoned output sets give their registrations back", "
   CHECK(entries(dir) == std::vector<std::string>{"a.bin"});
 }
 
-TEST_CASE("temporaries of dead processes are removed; live ones, foreign hosts and look-alikes stay",
+TEST_CASE("temporaries of dead processes are removed - live ones, foreign hosts and look-alikes stay",
           "[raster][io][temporaries]") {
   TempDir dir, outside;
   const std::string own = temporary_file_name();  // ".gr<pid>.<host>.<n>.tmp"

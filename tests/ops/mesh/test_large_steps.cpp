@@ -162,7 +162,7 @@ TEST_CASE("LargeSteps: bad weights and values are refused naming the argument", 
   CHECK_THROWS_AS(ls.to_differential(Tensor()), Error);
 }
 
-TEST_CASE("LargeSteps and MeshLaplacian: a mesh without faces gives M = I and L x = -x; without vertices, empty "
+TEST_CASE("LargeSteps and MeshLaplacian: a mesh without faces gives M = I and L x = -x - without vertices, empty "
           "results",
           "[ops][mesh][large_steps]") {
   const Tensor v = Tensor::uniform({5, 3}, -1, 1, 8, DType::Float64);

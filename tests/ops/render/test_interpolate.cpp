@@ -186,7 +186,7 @@ TEST_CASE("interpolate op: mismatched shapes and dtypes throw with clear message
 }
 
 TEST_CASE("interpolate and antialias op: triangles or a clip other than the rasterized ones are refused, naming the "
-          "argument; a copy with the same values is accepted", "[ops][interpolate][antialias][errors]") {
+          "argument - a copy with the same values is accepted", "[ops][interpolate][antialias][errors]") {
   const Tensor clip = clip_of_two_triangles();
   const Tensor tris = two_tris();
   const GBuffer gb = rasterize(clip, tris, {8, 8});

@@ -57,7 +57,7 @@ Tensor tangents_of(const Inputs& in, const Tensor& triangles) {
 
 }  // namespace
 
-TEST_CASE("vertex_tangents: a quad with uv = (x, y) gets t = (1, 0, 0), w = +1; mirrored u gets t = -x, w = -1",
+TEST_CASE("vertex_tangents: a quad with uv = (x, y) gets t = (1, 0, 0), w = +1 - mirrored u gets t = -x, w = -1",
           "[ops][shading][tangents]") {
   const Quad q;
   const Tensor t = shading::vertex_tangents(q.positions, f64({0, 0, 1, 0, 1, 1, 0, 1}, {4, 2}), q.triangles, q.normals);

@@ -12,7 +12,7 @@
 
 using gr::testing::TempDir;
 
-TEST_CASE("MtlReader reads a file named by two spellings once and records it; a missing file is a warning",
+TEST_CASE("MtlReader reads a file named by two spellings once and records it - a missing file is a warning",
           "[raster][io][obj][mtl]") {
   TempDir dir;
   dir.write("x.mtl", "newmtl red\nKd 1 0 0\nnewmtl blue\nKd 0 0 1\n");

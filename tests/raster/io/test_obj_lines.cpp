@@ -9,7 +9,7 @@
 
 using namespace gr::raster;
 
-TEST_CASE("check_obj_lines counts vertices, faces and corners; a quad is two triangles", "[raster][io][obj]") {
+TEST_CASE("check_obj_lines counts vertices, faces and corners - a quad is two triangles", "[raster][io][obj]") {
   const std::string text =
       "# a quad and a triangle\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\n"
       "usemtl red\nf 1 2 3 4\nf 1/1/1 2/1/1 3/1/1\n";
@@ -26,7 +26,7 @@ TEST_CASE("check_obj_lines counts vertices, faces and corners; a quad is two tri
   CHECK(c.parser_bytes == parser_text(text).size());
 }
 
-TEST_CASE("parser_text keeps v, vt, vn, f without comments and usemtl, mtllib as they are; other lines stay empty",
+TEST_CASE("parser_text keeps v, vt, vn, f without comments and usemtl, mtllib as they are - other lines stay empty",
           "[raster][io][obj]") {
   const std::string text = "o name\nv 0 0 0 # corner\nt a 8192/8192/8192\nmtllib x.mtl\nf 1 2 3#4 5\ng group\n";
   CHECK(parser_text(text) == "\nv 0 0 0 \n\nmtllib x.mtl\nf 1 2 3\n\n");
