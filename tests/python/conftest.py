@@ -5,6 +5,12 @@ import torch
 import gradraster.torch as dr
 
 
+@pytest.fixture(autouse=True)
+def seeded_torch():
+    """Every test draws the same random numbers, whatever ran before it."""
+    torch.manual_seed(0)
+
+
 @pytest.fixture
 def glctx():
     return dr.RasterizeCpuContext()

@@ -51,7 +51,10 @@ def test_range_mode_gradients_sum_over_images_in_order(glctx):
         img_b, da_b = render(glctx, pos, tri, ranges=ranges[b:b + 1], attr=attr)
         g = torch.autograd.grad(img_b.sum() + da_b.sum(), (pos, attr))
         expect_p, expect_a = expect_p + g[0], expect_a + g[1]
-    assert torch.allclose(gp, expect_p, rtol=1e-14, atol=1e-14) and torch.allclose(ga, expect_a, rtol=1e-14, atol=1e-14)
+    # The two sums add the same per-image terms in another grouping (per op, then per image), so
+    # they agree to rounding relative to the terms' size, not to the (possibly cancelled) result.
+    for got, expect in ((gp, expect_p), (ga, expect_a)):
+        assert torch.allclose(got, expect, rtol=0, atol=1e-13 * expect.abs().max())
 
 
 def test_attr_with_minibatch_one_broadcasts_over_images(glctx):
