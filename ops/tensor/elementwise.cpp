@@ -321,6 +321,7 @@ const char* op_name(OpId op) {
     case OpKind::Unary: visit_entry(UnaryOps{}, op.index, [&](auto entry) { name = decltype(entry)::name; }); break;
     case OpKind::Binary: visit_entry(BinaryOps{}, op.index, [&](auto entry) { name = decltype(entry)::name; }); break;
     case OpKind::Power: name = "pow"; break;
+    case OpKind::Clamp: name = ClampOp::name; break;
     case OpKind::Dot: name = "dot"; break;
     case OpKind::Normalize: name = "normalize"; break;
   }
@@ -389,15 +390,12 @@ Tensor pow(const Tensor& a, double p) {
 
 Tensor clamp(const Tensor& a, double lo, double hi) {
   if (!(lo <= hi)) throw ValueError("clamp: lower bound " + std::to_string(lo) + " exceeds upper bound " + std::to_string(hi));
-  return unary("clamp", a,
-               [lo, hi](auto x) {
-                 using T = decltype(x);
-                 return x < T(lo) ? T(lo) : x > T(hi) ? T(hi) : x;
-               },
-               [lo, hi](auto g, auto x, auto) {
-                 using T = decltype(g);
-                 return (x >= T(lo) && x <= T(hi)) ? g : T(0);
-               });
+  using detail::ClampOp;
+  Tensor out = unary(
+      ClampOp::name, a, [lo, hi](auto x) { return ClampOp::forward(x, decltype(x)(lo), decltype(x)(hi)); },
+      [lo, hi](auto g, auto x, auto) { return ClampOp::adjoint(g, x, decltype(x)(lo), decltype(x)(hi)); });
+  detail::trace_step(detail::OpId{detail::OpKind::Clamp}, a, Tensor(), out, lo, hi);
+  return out;
 }
 
 Tensor less(const Tensor& a, const Tensor& b) { return compare("less", a, b, [](auto x, auto z) { return x < z; }); }

@@ -80,6 +80,15 @@ struct AbsOp {
   template <class T> static T adjoint(T g, T x, T) { return x > 0 ? g : x < 0 ? -g : T(0); }  // g sign(x), sign(0) = 0
 };
 
+// clamp(x, lo, hi): a unary op with two parameters, so not an entry of
+// UnaryOps (whose formulas take x alone) but an op of its own kind (OpKind::Clamp),
+// with its formulas here for both evaluators. g inside [lo, hi] (bounds included), 0 outside.
+struct ClampOp {
+  static constexpr const char* name = "clamp";
+  template <class T> static T forward(T x, T lo, T hi) { return x < lo ? lo : x > hi ? hi : x; }
+  template <class T> static T adjoint(T g, T x, T lo, T hi) { return (x >= lo && x <= hi) ? g : T(0); }
+};
+
 // ---------------------------------------------------------------- binary entries
 
 struct AddOp {
@@ -152,9 +161,10 @@ using UnaryOps = OpList<NegOp, ExpOp, LogOp, SqrtOp, RsqrtOp, SinOp, CosOp, AbsO
 using BinaryOps = OpList<AddOp, SubOp, MulOp, DivOp, PowOp, MinimumOp, MaximumOp>;
 
 // What a traced step is: an entry of UnaryOps or BinaryOps (by its index), or
-// one of the ops with kernels of their own: pow with a constant exponent
-// (power_range, power_adjoint_range), dot and normalize (ops/tensor/vector.h).
-enum class OpKind { Unary, Binary, Power, Dot, Normalize };
+// one of the ops with kernels or parameters of their own: pow with a constant
+// exponent (power_range, power_adjoint_range), clamp (ClampOp), dot and
+// normalize (ops/tensor/vector.h).
+enum class OpKind { Unary, Binary, Power, Clamp, Dot, Normalize };
 struct OpId {
   OpKind kind = OpKind::Unary;
   int index = 0;  // the entry, for Unary and Binary
@@ -194,10 +204,10 @@ inline bool negates_b(OpId op) {
   return negate;
 }
 
-// Takes one operand (unary entries, Power, Normalize) or two.
+// Takes one operand (unary entries, Power, Clamp, Normalize) or two.
 inline bool is_unary(OpId op) { return op.kind != OpKind::Binary && op.kind != OpKind::Dot; }
 
-// The entry's name ("mul"); Power, Dot and Normalize: "pow", "dot", "normalize".
+// The entry's name ("mul"); Power, Clamp, Dot and Normalize: "pow", "clamp", "dot", "normalize".
 const char* op_name(OpId op);
 
 // The eager op of a table entry (what its public function, e.g. mul, calls);

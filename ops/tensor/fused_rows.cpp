@@ -245,6 +245,15 @@ class FusedEvaluator {
       case OpKind::Power:
         for (int j = 0; j < in.components; ++j) power_range(read(in.a, j).p, lanes(o.array + j), 0, n, in.param);
         break;
+      case OpKind::Clamp: {
+        const T lo = T(in.param), hi = T(in.param2);
+        for (int j = 0; j < in.components; ++j) {
+          const T* x = read(in.a, j).p;
+          T* out = lanes(o.array + j);
+          for (std::int64_t l = 0; l < n; ++l) out[l] = ClampOp::forward(x[l], lo, hi);
+        }
+        break;
+      }
       case OpKind::Dot: {  // sum_j a_j b_j in double from 0, rounded once
         if (unrolled(in.components, [&](auto c) { dot_lanes<c()>(in, lanes(o.array)); })) break;
         double s[kLanes];
@@ -490,6 +499,14 @@ class FusedEvaluator {
           sa.put(j, ta);
         }
         break;
+      case OpKind::Clamp: {
+        const T lo = T(in.param), hi = T(in.param2);
+        for (int j = 0; j < in.components; ++j) {
+          const T *g = lanes(o.grad + j), *x = read(in.a, j).p;
+          sa.apply(j, [&](std::int64_t l) { return ClampOp::adjoint(g[l], x[l], lo, hi); });
+        }
+        break;
+      }
       case OpKind::Dot: {  // dL/da_j = g b_j, dL/db_j = g a_j
         const T* g = lanes(o.grad);
         for (int j = 0; j < in.components; ++j)

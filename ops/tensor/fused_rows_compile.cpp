@@ -151,6 +151,7 @@ struct FusedRows::Compiler {
     const bool unary = is_unary(s.op);
     in.op = s.op;
     in.param = s.param;
+    in.param2 = s.param2;
     in.negate_b = negates_b(s.op);
     const int ida = lookup(s.a), idb = unary ? -1 : lookup(s.b);
     const bool shaped = row_shaped(s.out);

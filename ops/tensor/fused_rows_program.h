@@ -36,7 +36,8 @@ struct FusedRows::Instr {
   Operand a, b;             // b.value == -1 for unary ops
   int out = -1;
   int components = 1;       // components the operands are read at (dot: the vectors' length)
-  double param = 0;         // pow's exponent, normalize's eps
+  double param = 0;         // pow's exponent, normalize's eps, clamp's lower bound
+  double param2 = 0;        // clamp's upper bound
   bool a_first = false, b_first = false;  // the operand's first gradient contribution: assigned, not added
   bool negate_b = false;    // b's gradient is the negated sum of g (sub; negates_b)
   bool backward = false;    // its result receives a gradient

@@ -15,7 +15,8 @@ namespace gr::detail {
 struct TracedStep {
   OpId op;             // an entry of the elementwise table, pow(x, p), dot or normalize
   Tensor a, b, out;    // b undefined for unary ops
-  double param = 0;    // pow's exponent, normalize's eps
+  double param = 0;    // pow's exponent, normalize's eps, clamp's lower bound
+  double param2 = 0;   // clamp's upper bound
 };
 
 // Active on the constructing thread for its lifetime (scopes nest).
@@ -34,6 +35,7 @@ class FusionTrace {
 
 // Called by the replayable ops after computing `out`: a no-op unless a trace
 // is active on this thread.
-void trace_step(OpId op, const Tensor& a, const Tensor& b, const Tensor& out, double param = 0);
+void trace_step(OpId op, const Tensor& a, const Tensor& b, const Tensor& out, double param = 0,
+                double param2 = 0);
 
 }  // namespace gr::detail

@@ -92,6 +92,8 @@ std::vector<Graph> replayable_graphs() {
        [](const Inputs& r, const Inputs&) { return r[2] - r[0] + r[0] * r[0] - (r[2] - r[1]); }},
       {"a column times rows with zero rows (its gradient a sum of zeros of one sign)",
        [](const Inputs& r, const Inputs&) { return r[0] * r[2]; }},
+      {"clamp inside, outside and on its bounds (ties: b's 0.25s)",
+       [](const Inputs& r, const Inputs&) { return clamp(r[0], -0.5, 0.5) * r[2] + clamp(r[1], 0.25, 0.75); }},
   };
 }
 
@@ -145,8 +147,9 @@ TEST_CASE("fused map_rows gives the eager graph's values and row gradients bit f
 using RowsOp = std::function<Tensor(const RowFunction&, const Inputs& rows, const Inputs& shared)>;
 
 // Each replayable graph gradchecked through `op` on random rows of 150 (seed,
-// seed + 1), optionally requiring that it fuses. The tie and zero-length rows
-// are kinks of min/max/normalize, so the graph built on them is skipped.
+// seed + 1), optionally requiring that it fuses. The graphs named for ties
+// have kinks (min/max, clamp's bounds) at random values, so they are skipped
+// (their gradients equal the eager ops' bit for bit, above, which are gradchecked).
 void gradcheck_graphs(const std::string& prefix, std::uint64_t seed, bool require_fused, const RowsOp& op) {
   const Case c = make_case(150, DType::Float64);
   const Inputs random{leaf(values(450, -1, 1, seed), {150, 3}, DType::Float64),
@@ -177,7 +180,7 @@ TEST_CASE("functions with ops the interpreter does not replay run per block and 
           "[ops][map_rows][fused]") {
   const Case c = make_case(kRows, DType::Float64);
   const std::vector<Graph> others = {
-      {"clamp", [](const Inputs& r, const Inputs&) { return clamp(r[0], -0.5, 0.5) * r[2]; }},
+      {"where", [](const Inputs& r, const Inputs&) { return where(greater(r[0], r[1]), r[0], r[1]) * r[2]; }},
       {"an op on shared inputs alone", [](const Inputs& r, const Inputs& s) { return r[0] * normalize(s[0]); }},
       {"a row-wise sum", [](const Inputs& r, const Inputs&) { return r[0] * sum(r[1], -1, true); }},
   };
@@ -237,8 +240,9 @@ TEST_CASE("map_rows_mean gives mean(f) bit for bit, for an upstream gradient of 
   }
   // Without gradients, and for a function it does not fuse: still mean(f).
   const Case c = make_case(kRows, DType::Float64);
-  auto clamp_rows = [](const Inputs& r, const Inputs&) { return clamp(r[0], -0.5, 0.5); };
-  CHECK(same_bits(map_rows_mean(clamp_rows, c.rows, c.shared), mean(clamp(c.rows[0], -0.5, 0.5))));
+  auto where_rows = [](const Inputs& r, const Inputs&) { return where(greater(r[0], r[1]), r[0], r[1]); };
+  CHECK(same_bits(map_rows_mean(where_rows, c.rows, c.shared),
+                  mean(where(greater(c.rows[0], c.rows[1]), c.rows[0], c.rows[1]))));
   NoGradGuard no_grad;
   const Graph first = replayable_graphs().front();
   CHECK(same_bits(map_rows_mean(first.f, c.rows, c.shared, MapRowsOptions{kBlock}), mean(first.f(c.rows, c.shared))));
