@@ -10,6 +10,7 @@
 
 #include <cstdint>
 #include <string>
+#include <type_traits>
 
 #include "raster/cube_texture.h"
 #include "raster/rasterize.h"
@@ -22,10 +23,11 @@ class RasterBackend {
   virtual ~RasterBackend() = default;
   // e.g. "vulkan: NVIDIA H200".
   virtual std::string name() const = 0;
-  // rasterize_forward(p, tri_id, uv, depth) for what the backend covers; false
-  // when it does not (the caller then runs the CPU kernel). p is validated.
-  virtual bool rasterize_forward(const RasterParams<float>& p, std::int32_t* tri_id, float* uv,
-                                 float* depth) const = 0;
+  // rasterize_forward(p, tri_id, uv, depth, nullptr, key_depth) (depth
+  // peeling included) for what the backend covers; false when it does not
+  // (the caller then runs the CPU kernel). p is validated; key_depth may be null.
+  virtual bool rasterize_forward(const RasterParams<float>& p, std::int32_t* tri_id, float* uv, float* depth,
+                                 double* key_depth) const = 0;
   // texture_forward(p, out) / texture_backward(p, grad_out, grads) (raster/texture.h,
   // ACCUMULATED like it) for what the backend covers; false when it does not
   // (the caller then runs the CPU kernel). p is validated by the op.
@@ -42,5 +44,15 @@ class RasterBackend {
     return false;
   }
 };
+
+// rasterize_forward (raster/rasterize.h) on `backend` where it covers p
+// (float32 clip positions), else on the CPU; stats only from the CPU kernel.
+template <class T>
+void rasterize_forward_on(const RasterBackend* backend, const RasterParams<T>& p, std::int32_t* tri_id, T* uv,
+                          T* depth, RasterStats* stats = nullptr, double* key_depth = nullptr) {
+  if constexpr (std::is_same_v<T, float>)
+    if (backend && backend->rasterize_forward(p, tri_id, uv, depth, key_depth)) return;
+  rasterize_forward(p, tri_id, uv, depth, stats, key_depth);
+}
 
 }  // namespace gr::raster

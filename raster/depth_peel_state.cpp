@@ -38,16 +38,16 @@ void DepthPeelState::keep_ids(std::int64_t b, const std::int32_t* tri_id) {
 
 template <class T>
 void DepthPeelState::rasterize_image(RasterParams<T> p, std::int64_t b, std::int32_t* tri_id, T* uv, T* depth,
-                                     RasterStats* stats) {
+                                     RasterStats* stats, const RasterBackend* backend) {
   p.floor_id = floor_id(b);
   p.floor_z = floor_z(b);
-  rasterize_forward(p, tri_id, uv, depth, stats, key_z(b));
+  rasterize_forward_on(backend, p, tri_id, uv, depth, stats, key_z(b));
   keep_ids(b, tri_id);
 }
 template void DepthPeelState::rasterize_image<float>(RasterParams<float>, std::int64_t, std::int32_t*, float*,
-                                                     float*, RasterStats*);
+                                                     float*, RasterStats*, const RasterBackend*);
 template void DepthPeelState::rasterize_image<double>(RasterParams<double>, std::int64_t, std::int32_t*, double*,
-                                                      double*, RasterStats*);
+                                                      double*, RasterStats*, const RasterBackend*);
 
 void DepthPeelState::end_layer() { ++layers_; }
 

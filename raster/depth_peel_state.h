@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "raster/backend.h"
 #include "raster/rasterize.h"
 
 namespace gr::raster {
@@ -21,10 +22,11 @@ class DepthPeelState {
   // One image of the current layer: rasterize_forward(p) with image b's key
   // of the previous layer as the floor (none on the first layer), writing
   // tri_id, uv and depth as rasterize_forward does (ids local to p's
-  // triangles) and keeping image b's new key for the next layer.
+  // triangles) and keeping image b's new key for the next layer; on
+  // `backend` where it covers p (rasterize_forward_on).
   template <class T>
   void rasterize_image(RasterParams<T> p, std::int64_t b, std::int32_t* tri_id, T* uv, T* depth,
-                       RasterStats* stats = nullptr);
+                       RasterStats* stats = nullptr, const RasterBackend* backend = nullptr);
   // Ends the layer begun by begin_layer: its keys become the next layer's floor.
   void end_layer();
   // Layers ended so far.

@@ -132,9 +132,9 @@ GBuffer rasterize_images(const Tensor& clip, const Tensor& triangles, const rast
       T* uv = gb.uv.data<T>() + 2 * b * P;
       T* depth = gb.depth.data<T>() + b * P;
       if (peel)
-        peel->rasterize_image(p, b, id, uv, depth, &stats[b]);
+        peel->rasterize_image(p, b, id, uv, depth, &stats[b], o.backend.get());
       else
-        raster::rasterize_forward(p, id, uv, depth, &stats[b]);
+        raster::rasterize_forward_on(o.backend.get(), p, id, uv, depth, &stats[b]);
       // Ids index the whole triangle list.
       if (first != 0)
         for (std::int64_t q = 0; q < P; ++q) id[q] += id[q] ? static_cast<std::int32_t>(first) : 0;

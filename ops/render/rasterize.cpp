@@ -64,12 +64,8 @@ GBuffer rasterize_layer(const Tensor& clip, const Tensor& triangles, const Raste
     raster::RasterParams<T> p = params<T>(clip, triangles, settings);
     p.floor_id = floor_id;
     p.floor_z = floor_z;
-    if constexpr (std::is_same_v<T, float>)
-      if (options.backend && !key_depth &&
-          options.backend->rasterize_forward(p, gb.tri_id.data<std::int32_t>(), gb.uv.data<T>(), gb.depth.data<T>()))
-        return;
-    raster::rasterize_forward(p, gb.tri_id.data<std::int32_t>(), gb.uv.data<T>(), gb.depth.data<T>(), &gb.stats,
-                              key_depth);
+    raster::rasterize_forward_on(options.backend.get(), p, gb.tri_id.data<std::int32_t>(), gb.uv.data<T>(),
+                                 gb.depth.data<T>(), &gb.stats, key_depth);
   });
   finish_gbuffer(gb, op);
   return gb;

@@ -17,6 +17,7 @@
 #include "python/src/texture.h"
 #include "raster/mesh_checks.h"
 #ifdef GRADRASTER_HAS_VULKAN
+#include "raster/vulkan/backend.h"
 #include "raster/vulkan/device.h"
 #endif
 
@@ -64,6 +65,7 @@ PYBIND11_MODULE(_core, m) {
                     auto device = gr::vulkan::Device::open(&why);
                     if (!device) throw std::runtime_error("RasterizeVulkanContext: " + why);
                     Context ctx;
+                    ctx.backend = gr::vulkan::raster_backend(device);
                     ctx.gpu = std::move(device);
                     return ctx;
 #else

@@ -1,15 +1,11 @@
 #include "python/src/rasterize.h"
 
 #include <string>
-#include <type_traits>
 
 #include "autodiff/base/error.h"
 #include "raster/barycentric_gbuffer.h"
 #include "raster/mesh_checks.h"
 #include "raster/rasterize.h"
-#ifdef GRADRASTER_HAS_VULKAN
-#include "raster/vulkan/rasterize.h"
-#endif
 
 namespace gr::python {
 
@@ -21,29 +17,6 @@ template <>
 std::vector<double>& ImageScratch::buffer<double>(Buffer b) {
   return d_[b];
 }
-
-namespace {
-
-// The Vulkan context's rasterizer, for what it covers: float32 positions
-// outside a depth peeler (which needs the exact key depths the CPU kernel
-// writes, so the caller never asks then); the others take the CPU kernel,
-// which gives the same bits. Both read the caller's positions with y_up
-// (p.settings.y_up).
-template <class T>
-bool rasterize_on_gpu(Context& ctx, const raster::RasterParams<T>& p, ImageScratch& s) {
-#ifdef GRADRASTER_HAS_VULKAN
-  if constexpr (std::is_same_v<T, float>) {
-    if (!ctx.gpu) return false;
-    vulkan::rasterize_forward(*ctx.gpu, p, s.tri_id.data(), s.buffer<float>(ImageScratch::kUv).data(),
-                              s.buffer<float>(ImageScratch::kDepth).data());
-    return true;
-  }
-#endif
-  (void)ctx, (void)p, (void)s;
-  return false;
-}
-
-}  // namespace
 
 void rasterize_forward(Context& ctx, const pybind11::object& pos, const pybind11::object& tri, Ranges ranges,
                        const pybind11::object& rast_, const pybind11::object& db_, raster::DepthPeelState* peel,
@@ -81,10 +54,11 @@ void rasterize_forward(Context& ctx, const pybind11::object& pos, const pybind11
       p.settings.width = width;
       p.settings.height = height;
       p.settings.y_up = true;  // nvdiffrast's row 0 is the bottom row
+      // On the Vulkan context's device where it covers p (float32), with the same bits.
       if (peel)
-        peel->rasterize_image(p, b, s.tri_id.data(), uv, depth);
-      else if (!rasterize_on_gpu(ctx, p, s))
-        raster::rasterize_forward(p, s.tri_id.data(), uv, depth);
+        peel->rasterize_image(p, b, s.tri_id.data(), uv, depth, nullptr, ctx.backend.get());
+      else
+        raster::rasterize_forward_on(ctx.backend.get(), p, s.tri_id.data(), uv, depth);
       const raster::BarycentricGBufferParams<T> g{p.clip, mesh.vertices, mesh.tris(), mesh.triangles, width, height,
                                                   true};
       raster::barycentric_gbuffer_forward(g, s.tri_id.data(), first, rast.out<T>() + 4 * pixels * b,

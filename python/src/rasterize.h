@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "python/src/common.h"
+#include "raster/backend.h"
 #include "raster/depth_peel_state.h"
 
 namespace gr::vulkan {
@@ -33,8 +34,10 @@ struct ImageScratch {
 struct Context {
   std::vector<ImageScratch> images;
   // RasterizeVulkanContext: the device that rasterizes float32 positions
-  // (null: the CPU kernels). Same G-buffer bits either way.
+  // (null: the CPU kernels), and it as the kernels' backend. Same G-buffer
+  // bits either way.
   std::shared_ptr<vulkan::Device> gpu;
+  std::shared_ptr<const raster::RasterBackend> backend;
   ImageScratch& image(std::int64_t b) { return images[static_cast<std::size_t>(b)]; }
   void reserve(std::int64_t count) {
     if (static_cast<std::int64_t>(images.size()) < count) images.resize(static_cast<std::size_t>(count));

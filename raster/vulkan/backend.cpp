@@ -15,10 +15,9 @@ class VulkanBackend : public raster::RasterBackend {
  public:
   explicit VulkanBackend(std::shared_ptr<Device> device) : device_(std::move(device)) {}
   std::string name() const override { return "vulkan: " + device_->info().name; }
-  bool rasterize_forward(const raster::RasterParams<float>& p, std::int32_t* tri_id, float* uv,
-                         float* depth) const override {
-    if (p.floor_id || p.floor_z) return false;
-    vulkan::rasterize_forward(*device_, p, tri_id, uv, depth);
+  bool rasterize_forward(const raster::RasterParams<float>& p, std::int32_t* tri_id, float* uv, float* depth,
+                         double* key_depth) const override {
+    vulkan::rasterize_forward(*device_, p, tri_id, uv, depth, {}, nullptr, key_depth);
     return true;
   }
   bool texture_forward(const raster::TextureParams<float>& p, float* out) const override {

@@ -1,5 +1,5 @@
 // A Vulkan device as a raster::RasterBackend: the ops' rasterize runs its
-// forward there for float32 clip positions without a peeling floor (the
+// forward there for float32 clip positions, depth peeling included (the
 // rest stays on the CPU), with the same G-buffer bit for bit; the texture and
 // cube_texture ops run their forward and adjoint there for float32
 // (raster/vulkan/texture.h, raster/vulkan/cube_texture.h).

@@ -2,6 +2,7 @@
 // command buffer with timestamps between them, submits it and waits.
 #include "raster/vulkan/frame.h"
 
+#include <cmath>
 #include <cstring>
 #include <limits>
 #include <string>
@@ -55,6 +56,7 @@ enum Role {
   kHostGradGBuffer,  // rasterize_backward's from the host, in the same layout
   kSums, kLargest, kFinished,  // an adjoint's fixed-point sums, their scales, its result
   kNeighbour, kAaImage, kAaOut, kAaPairs, kAaGradOut, kAaGradImage,  // antialias
+  kFloor,  // depth peeling: the previous layer's key per pixel (FloorKey)
   kRoles
 };
 
@@ -140,6 +142,33 @@ std::vector<std::int32_t> neighbours_of(const std::vector<std::int32_t>& tris) {
   return std::vector<std::int32_t>(topo.neighbour.begin(), topo.neighbour.end());
 }
 
+// raster_common.glsl's depth_key on the host (an order-preserving map of a
+// double's bits, -0 as +0) and its inverse for the winning keys; the key of
+// no fragment (all ones, the cleared value) gives +inf, as the CPU's key_depth.
+std::uint64_t depth_key(double z) {
+  std::uint64_t bits;
+  std::memcpy(&bits, &z, sizeof bits);
+  constexpr std::uint64_t kSign = 0x8000000000000000ull;
+  if (bits == kSign) bits = 0;
+  return (bits & kSign) ? ~bits : bits | kSign;
+}
+
+double depth_of_key(std::uint64_t key) {
+  if (key == ~std::uint64_t(0)) return std::numeric_limits<double>::infinity();
+  constexpr std::uint64_t kSign = 0x8000000000000000ull;
+  const std::uint64_t bits = (key & kSign) ? key & ~kSign : ~key;
+  double z;
+  std::memcpy(&z, &bits, sizeof z);
+  return z;
+}
+
+// A pixel's peeling floor as raster_pixels.glsl reads it.
+struct FloorKey {
+  std::uint64_t key;
+  std::int32_t id, pad;
+};
+static_assert(sizeof(FloorKey) == 16, "FloorKey is 16 bytes (std430)");
+
 // dst[0, n) += src[0, n) when dst is given (the adjoints accumulate, as on the CPU).
 void add_to(float* dst, const float* src, std::int64_t n) {
   if (dst)
@@ -188,26 +217,27 @@ Frame::~Frame() {
 }
 
 GpuTimes Frame::rasterize(const raster::RasterParams<float>& p, const GpuRasterOptions& options, std::int32_t* tri_id,
-                          float* rast, float* db) {
+                          float* rast, float* db, double* key_depth) {
   if (db && !options.derivatives)
     throw ValueError("vulkan rasterize: db asked for without options.derivatives");
   void* const outs[3] = {tri_id, rast, db};
-  return rasterize_into(p, options, false, outs);
+  return rasterize_into(p, options, false, outs, key_depth);
 }
 
 GpuTimes Frame::rasterize_coverage(const raster::RasterParams<float>& p, const GpuRasterOptions& options,
-                                   std::int32_t* tri_id, float* uv, float* depth) {
+                                   std::int32_t* tri_id, float* uv, float* depth, double* key_depth) {
   void* const outs[3] = {tri_id, uv, depth};
-  return rasterize_into(p, options, true, outs);
+  return rasterize_into(p, options, true, outs, key_depth);
 }
 
 // coverage: the resolve pass also writes the coverage kernel's uv and depth
 // (outs: tri_id, uv, depth) and no G-buffer is made; else the G-buffer pass
 // follows (outs: tri_id, rast, db).
 GpuTimes Frame::rasterize_into(const raster::RasterParams<float>& p, const GpuRasterOptions& options, bool coverage,
-                               void* const (&outs)[3]) {
-  if (p.floor_id || p.floor_z)
-    throw ValueError("vulkan rasterize: depth peeling (floor_id, floor_z) is not on the GPU yet");
+                               void* const (&outs)[3], double* key_depth) {
+  if (!p.floor_id != !p.floor_z)
+    throw ValueError("vulkan rasterize: depth peeling needs both floor_id and floor_z (or neither)");
+  const bool peel = p.floor_id != nullptr;
   if (options.small_box < 1)
     throw ValueError("vulkan rasterize: small_box must be at least 1, got " + std::to_string(options.small_box));
   check_raster_params(p);
@@ -233,6 +263,12 @@ GpuTimes Frame::rasterize_into(const raster::RasterParams<float>& p, const GpuRa
   const bool made[3] = {true, true, coverage || s.derivatives};
   std::size_t out_bytes[3];
   for (int i = 0; i < 3; ++i) out_bytes[i] = outs[i] && made[i] ? px * values[i] * 4 : 0;
+  const std::size_t floor_bytes = peel ? px * sizeof(FloorKey) : 0;
+  const std::size_t key_bytes = key_depth ? px * sizeof(std::uint64_t) : 0;
+  // The floors and keys sit 16-byte aligned in the staging buffers, after the rest.
+  const auto aligned = [](std::size_t n) { return (n + 15) / 16 * 16; };
+  const std::size_t floor_at = aligned(clip_bytes + tri_bytes);
+  const std::size_t key_at = aligned(out_bytes[0] + out_bytes[1] + out_bytes[2]);
   s.reserve(kClip, clip_bytes);
   s.reserve(kTris, tri_bytes);
   s.reserve(kVerts, static_cast<std::size_t>(p.num_vertices) * 32);
@@ -241,20 +277,29 @@ GpuTimes Frame::rasterize_into(const raster::RasterParams<float>& p, const GpuRa
   s.reserve(kLarge, (static_cast<std::size_t>(p.num_tris) + 1) * 2 * sizeof(std::uint32_t));
   for (int i = 0; i < 3; ++i)
     if (made[i]) s.reserve(roles[i], px * values[i] * 4);
-  s.upload.reserve(s.dev, clip_bytes + tri_bytes, true);
-  s.download.reserve(s.dev, out_bytes[0] + out_bytes[1] + out_bytes[2], true);
-  if (clip_bytes) std::memcpy(s.upload.mapped(), p.clip, clip_bytes);
-  if (tri_bytes) std::memcpy(static_cast<char*>(s.upload.mapped()) + clip_bytes, p.tris, tri_bytes);
+  s.reserve(kFloor, floor_bytes);
+  s.upload.reserve(s.dev, floor_at + floor_bytes, true);
+  s.download.reserve(s.dev, key_at + key_bytes, true);
+  char* up = static_cast<char*>(s.upload.mapped());
+  if (clip_bytes) std::memcpy(up, p.clip, clip_bytes);
+  if (tri_bytes) std::memcpy(up + clip_bytes, p.tris, tri_bytes);
+  if (peel) {
+    // A NaN depth lets nothing through on the CPU (no comparison holds): as a background floor.
+    FloorKey* floors = reinterpret_cast<FloorKey*>(up + floor_at);
+    for (std::size_t i = 0; i < px; ++i)
+      floors[i] = {depth_key(p.floor_z[i]), std::isnan(p.floor_z[i]) ? 0 : p.floor_id[i], 0};
+  }
 
   // Raster shaders' bindings: 0 clip, 1 tris, 2 verts, 3 keys, 4 ids, 5 large list, 6 tri_id, 7-8 uv and
-  // depth (resolve, coverage) or rast and db (gbuffer; without db, binding 8 is unused: rast stands in).
+  // depth (resolve, coverage) or rast and db (gbuffer; without db, binding 8 is unused: rast stands in),
+  // 9 the peeling floor (unused without: keys stand in).
   const VkDescriptorSet set = s.bind(s.raster_set, {{0, kClip}, {1, kTris}, {2, kVerts}, {3, kKeys}, {4, kIds},
                                                     {5, kLarge}, {6, kTriId}, {7, roles[1]},
-                                                    {8, made[2] ? roles[2] : roles[1]}});
+                                                    {8, made[2] ? roles[2] : roles[1]}, {9, peel ? kFloor : kKeys}});
   const VkPipeline small = s.k.raster_small(options.small_box);
   RasterPush push{s.width, s.height, static_cast<std::int32_t>(p.num_vertices), static_cast<std::int32_t>(p.num_tris),
                   p.settings.cull == raster::Cull::Back ? 1 : p.settings.cull == raster::Cull::Front ? -1 : 0,
-                  0, s.y_up ? 1 : 0, coverage ? 1 : 0};
+                  0, s.y_up ? 1 : 0, (coverage ? 1 : 0) | (peel ? 2 : 0)};
   const GBufferPush gpush{s.width, s.height, static_cast<std::int32_t>(p.num_vertices),
                           static_cast<std::int32_t>(p.num_tris), 0, s.y_up ? 1 : 0, s.derivatives ? 1 : 0, 0};
   const std::uint32_t last = coverage ? 7 : 8;
@@ -262,6 +307,7 @@ GpuTimes Frame::rasterize_into(const raster::RasterParams<float>& p, const GpuRa
     s.timestamps.begin(cb, last + 1);
     copy(cb, s.upload.handle(), 0, s[kClip].handle(), 0, clip_bytes);
     copy(cb, s.upload.handle(), clip_bytes, s[kTris].handle(), 0, tri_bytes);
+    copy(cb, s.upload.handle(), floor_at, s[kFloor].handle(), 0, floor_bytes);
     barrier(cb);
     s.timestamps.stamp(cb, 1);
     // Keys "beyond everything", ids "none", an empty large list.
@@ -295,6 +341,7 @@ GpuTimes Frame::rasterize_into(const raster::RasterParams<float>& p, const GpuRa
       copy(cb, s[roles[i]].handle(), 0, s.download.handle(), offset, out_bytes[i]);
       offset += out_bytes[i];
     }
+    copy(cb, s[kKeys].handle(), 0, s.download.handle(), key_at, key_bytes);
     barrier(cb);
     s.timestamps.stamp(cb, last);
   });
@@ -302,6 +349,10 @@ GpuTimes Frame::rasterize_into(const raster::RasterParams<float>& p, const GpuRa
   for (int i = 0; i < 3; ++i) {
     if (out_bytes[i]) std::memcpy(outs[i], from, out_bytes[i]);
     from += out_bytes[i];
+  }
+  if (key_depth) {
+    const std::uint64_t* keys = reinterpret_cast<const std::uint64_t*>(static_cast<const char*>(s.download.mapped()) + key_at);
+    for (std::size_t i = 0; i < px; ++i) key_depth[i] = depth_of_key(keys[i]);
   }
   s.rasterized = !coverage;
   return s.timestamps.read();

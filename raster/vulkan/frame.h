@@ -49,8 +49,13 @@ class Frame {
   // clip; and what the shaders' 32-bit indices allow (at most 2^31 / 4
   // vertices, 2^31 / 3 triangles). pass_ms: clear, project, depth pass, id
   // pass, resolve, G-buffer.
+  // Depth peeling as on the CPU: p.floor_id and p.floor_z (both or neither)
+  // keep per pixel only triangles strictly behind the previous layer's
+  // (depth, id) key; key_depth (H x W, if not null) receives the winning
+  // depth in double (+inf on background), the next layer's floor_z.
   GpuTimes rasterize(const raster::RasterParams<float>& p, const GpuRasterOptions& options = {},
-                     std::int32_t* tri_id = nullptr, float* rast = nullptr, float* db = nullptr);
+                     std::int32_t* tri_id = nullptr, float* rast = nullptr, float* db = nullptr,
+                     double* key_depth = nullptr);
 
   // raster::rasterize_forward's own outputs: tri_id and the coverage
   // kernel's screen-space uv (H x W x 2) and depth (H x W), for
@@ -58,7 +63,7 @@ class Frame {
   // then has none for interpolate and antialias. pass_ms: clear, project,
   // depth pass, id pass, resolve.
   GpuTimes rasterize_coverage(const raster::RasterParams<float>& p, const GpuRasterOptions& options,
-                              std::int32_t* tri_id, float* uv, float* depth);
+                              std::int32_t* tri_id, float* uv, float* depth, double* key_depth = nullptr);
 
   // raster::barycentric_interpolate_forward of attr (num_vertices x
   // channels) over the last rasterize's G-buffer (zeros on background); out
@@ -109,7 +114,7 @@ class Frame {
  private:
   struct State;
   GpuTimes rasterize_into(const raster::RasterParams<float>& p, const GpuRasterOptions& options, bool coverage,
-                          void* const (&outs)[3]);
+                          void* const (&outs)[3], double* key_depth);
   std::shared_ptr<Device> device_;
   std::unique_ptr<State> state_;
 };

@@ -10,7 +10,7 @@
 namespace gr::vulkan {
 
 void rasterize_forward(Device& device, const raster::RasterParams<float>& p, std::int32_t* tri_id, float* uv,
-                       float* depth, const GpuRasterOptions& options, GpuTimes* times) {
+                       float* depth, const GpuRasterOptions& options, GpuTimes* times, double* key_depth) {
   Device::Impl& dev = device.impl();
   std::shared_ptr<Frame> frame;
   {
@@ -25,7 +25,7 @@ void rasterize_forward(Device& device, const raster::RasterParams<float>& p, std
     if (!dev.default_frame) dev.default_frame = made;
     frame = std::static_pointer_cast<Frame>(dev.default_frame);
   }
-  const GpuTimes t = frame->rasterize_coverage(p, options, tri_id, uv, depth);
+  const GpuTimes t = frame->rasterize_coverage(p, options, tri_id, uv, depth, key_depth);
   if (times) *times = t;
 }
 

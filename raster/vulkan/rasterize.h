@@ -4,8 +4,8 @@
 // and two order-independent atomic minima (depth, then id at that depth), so
 // the result does not depend on scheduling (docs/gpu.md).
 //
-// Not yet on the GPU: depth peeling (floor_id/floor_z must be null), the
-// adjoint, RasterStats and key_depth.
+// Depth peeling too (p.floor_id, p.floor_z; key_depth as on the CPU). Not
+// here: RasterStats (the G-buffer adjoint is on the Frame).
 #pragma once
 
 #include <cstdint>
@@ -28,10 +28,12 @@ struct GpuRasterOptions {
   bool derivatives = false;
 };
 
-// p is checked as the CPU op checks it (Frame::rasterize); peeling fields must be null.
-// times->pass_ms: clear, project, depth (pass 0), id (pass 1), resolve.
+// p is checked as the CPU op checks it (Frame::rasterize). key_depth (H x W,
+// optional): the winning depth in double, +inf on background (the next
+// peeling layer's floor_z). times->pass_ms: clear, project, depth (pass 0),
+// id (pass 1), resolve.
 void rasterize_forward(Device& device, const raster::RasterParams<float>& p, std::int32_t* tri_id,
                        float* uv, float* depth, const GpuRasterOptions& options = {},
-                       GpuTimes* times = nullptr);
+                       GpuTimes* times = nullptr, double* key_depth = nullptr);
 
 }  // namespace gr::vulkan

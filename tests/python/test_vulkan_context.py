@@ -83,17 +83,26 @@ def test_vulkan_pipeline_gradients_equal_the_cpu_contexts():
     assert torch.equal(image_g, image_c) and torch.equal(gp_g, gp_c) and torch.equal(gc_g, gc_c)
 
 
-def test_vulkan_float64_and_depth_peeling_take_the_cpu_kernels_with_the_same_result():
+def test_vulkan_float64_takes_the_cpu_kernels_with_the_same_result():
     pos, tri = random_mesh(6, images=1, triangles=30, dtype=torch.float64)
     (rast_c, _), (rast_g, _) = rasterize_both(pos, tri, (24, 24))
     assert torch.equal(rast_g, rast_c)
-    pos32 = pos.float()
-    layers = {}
+
+
+def test_vulkan_depth_peeling_gives_the_cpu_contexts_layers_and_gradients_bit_for_bit():
+    pos, tri = random_mesh(6, images=2, triangles=60, dtype=torch.float32)
+    attr = torch.rand(pos.shape[1], 3)
+    layers, grads = {}, {}
     for name, ctx in (('cpu', dr.RasterizeCpuContext()), ('gpu', vulkan_context())):
-        with dr.DepthPeeler(ctx, pos32, tri, (24, 24)) as peeler:
-            layers[name] = [peeler.rasterize_next_layer()[0] for _ in range(3)]
-    for a, b in zip(layers['cpu'], layers['gpu']):
+        p = pos.clone().requires_grad_(True)
+        with dr.DepthPeeler(ctx, p, tri, (24, 24)) as peeler:
+            layers[name] = [peeler.rasterize_next_layer() for _ in range(3)]
+        loss = sum((k + 1) * dr.interpolate(attr, rast, tri)[0].square().sum() for k, (rast, _) in enumerate(layers[name]))
+        grads[name] = torch.autograd.grad(loss, p)[0]
+    assert (layers['cpu'][1][0][..., 3] > 0).sum() > 20  # a second layer, so the floors were used
+    for (a, _), (b, _) in zip(layers['cpu'], layers['gpu']):
         assert torch.equal(a, b)
+    assert torch.equal(grads['cpu'], grads['gpu'])
 
 
 def test_vulkan_context_refuses_a_cuda_device_argument():

@@ -12,7 +12,8 @@ layout(push_constant) uniform Params {
   int cull;    // 0 none, +1 drop back faces, -1 drop front faces
   int pass;    // raster passes: 0 = nearest depth, 1 = smallest id at that depth
   int y_up;    // 1: row 0 is the bottom row (nvdiffrast); 0: the top row
-  int flags;   // resolve: bit 0 set to write the coverage kernel's uv and depth too
+  int flags;   // bit 0 (resolve): also write the coverage kernel's uv and depth;
+               // bit 1 (raster passes): depth peeling against binding 9's floor
 } P;
 
 #include "vert.glsl"

@@ -19,11 +19,29 @@ layout(std430, binding = 5) buffer LargeBuf {
   uvec2 large[];
 };
 
+// Depth peeling (flags bit 1): the previous layer's key per pixel (key =
+// depth_key of its depth, id 1-based, 0 where it was background). A fragment
+// counts only when its (depth, id) is strictly greater, and nowhere behind a
+// background: the CPU's rule (raster/detail/rasterize_scan.cpp).
+struct FloorKey {
+  uint64_t key;
+  int id;
+  int pad;
+};
+layout(std430, binding = 9) readonly buffer FloorBuf { FloorKey floors[]; };
+
+bool above_floor(int p, uint64_t key, int t) {
+  if ((P.flags & 2) == 0) return true;
+  FloorKey f = floors[p];
+  return f.id != 0 && (key > f.key || (key == f.key && t + 1 > f.id));
+}
+
 void raster_pixel(Setup s, int t, int x, int y) {
   double z, u, v;
   if (!shade_pixel(s, x, y, z, u, v)) return;
   int p = y * P.width + x;
   uint64_t key = depth_key(z);
+  if (!above_floor(p, key, t)) return;
   if (P.pass == 0)
     atomicMin(keys[p], key);
   else if (keys[p] == key)
