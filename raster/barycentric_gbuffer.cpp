@@ -108,51 +108,55 @@ struct Cotangents {
   double D, z[3];
 };
 
-// Adds pixel (ex, ey)'s cotangents to `sum` (nothing where S or D is zero or
-// not finite). With g_2 = 0, h the derivatives' gradients (or null):
+// Adds pixel (ex, ey)'s cotangents to `sum` and returns true, or returns
+// false where S is zero or not finite (the caller checks D once per
+// triangle). With g_2 = 0, h the derivatives' gradients (or null):
 //   dL/da_k = (g_k - sum_j g_j b_j) / S + g_z z_k / D - (h_k.x C.x + h_k.y C.y) / S^2 + dL/dS,
 //   dL/dS = sum_k (2 a_k (h_k.x C.x + h_k.y C.y) / S - (h_k.x c_k.x + h_k.y c_k.y)) / S^2,
 //   dL/dc_k = dL/da_k e + (h_k.x, h_k.y, 0) / S + dL/dC,  dL/dC.d = -sum_k h_k.d a_k / S^2,
 //   dL/dD = -g_z (z/w) / D,  dL/dz_k = g_z a_k / D.
 template <class T>
-void add_pixel_cotangents(const TriangleTerms& t, double ex, double ey, const T* g_rast, const T* g_db,
-                          Cotangents* sum) {
+bool add_pixel_cotangents(const TriangleTerms& t, double ex, double ey, const T* g_rast, const T* g_db,
+                          Cotangents& sum) {
   double a[3];
   for (int k = 0; k < 3; ++k) a[k] = ex * t.c[k].x + ey * t.c[k].y + t.c[k].w;  // a_k = e . c_k
-  const double S = a[0] + a[1] + a[2], D = t.D;
-  if (!(S != 0.0 && D != 0.0 && std::isfinite(S) && std::isfinite(D))) return;
+  const double S = a[0] + a[1] + a[2];
+  if (!(S != 0.0 && std::isfinite(S))) return false;
+  const double r = 1.0 / S;
   const double g0 = g_rast[0], g1 = g_rast[1], gz = g_rast[2];
   // b_k = a_k / S.
-  const double gb = (g0 * a[0] + g1 * a[1]) / S;
-  double bar_a[3] = {(g0 - gb) / S, (g1 - gb) / S, -gb / S};
+  const double gb = (g0 * a[0] + g1 * a[1]) * r;
+  double bar_a[3] = {(g0 - gb) * r, (g1 - gb) * r, -gb * r};
   if (gz != 0.0) {  // z/w = sum a_k z_k / D
-    const double zw = (a[0] * t.z[0] + a[1] * t.z[1] + a[2] * t.z[2]) / D;
+    const double gD = gz / t.D;
+    const double zw = a[0] * t.z[0] + a[1] * t.z[1] + a[2] * t.z[2];
     for (int k = 0; k < 3; ++k) {
-      bar_a[k] += gz * t.z[k] / D;
-      sum->z[k] += gz * a[k] / D;
+      bar_a[k] += gD * t.z[k];
+      sum.z[k] += gD * a[k];
     }
-    sum->D -= gz * zw / D;
+    sum.D -= gD * zw / t.D;
   }
   // db_k/dd = c_k.d / S - a_k C.d / S^2 for d in {x, y}.
   double bar_S = 0.0, bar_Cx = 0.0, bar_Cy = 0.0;
   if (g_db) {
-    const double S2 = S * S;
+    const double r2 = r * r;
     for (int k = 0; k < 2; ++k) {
       const double hx = g_db[2 * k], hy = g_db[2 * k + 1];
       const double hC = hx * t.C.x + hy * t.C.y;
-      sum->c[k].x += hx / S;
-      sum->c[k].y += hy / S;
-      bar_Cx -= hx * a[k] / S2;
-      bar_Cy -= hy * a[k] / S2;
-      bar_a[k] -= hC / S2;
-      bar_S += (2.0 * a[k] * hC / S - (hx * t.c[k].x + hy * t.c[k].y)) / S2;
+      sum.c[k].x += hx * r;
+      sum.c[k].y += hy * r;
+      bar_Cx -= hx * a[k] * r2;
+      bar_Cy -= hy * a[k] * r2;
+      bar_a[k] -= hC * r2;
+      bar_S += (2.0 * a[k] * hC * r - (hx * t.c[k].x + hy * t.c[k].y)) * r2;
     }
   }
   // a_k = e . c_k, S = sum a_k, C = sum c_k.
   for (int k = 0; k < 3; ++k) {
     const double ba = bar_a[k] + bar_S;
-    sum->c[k] = {sum->c[k].x + (ba * ex + bar_Cx), sum->c[k].y + (ba * ey + bar_Cy), sum->c[k].w + ba};
+    sum.c[k] = {sum.c[k].x + (ba * ex + bar_Cx), sum.c[k].y + (ba * ey + bar_Cy), sum.c[k].w + ba};
   }
+  return true;
 }
 
 // dL/dclip of the three vertices (12 values, vertex k at out[4 k]) from a
@@ -249,7 +253,11 @@ void barycentric_gbuffer_backward(const BarycentricGBufferParams<T>& p, const T*
     for (std::int64_t s = s0; s < s1; ++s) {
       const std::int32_t tri = by_tri.nonempty[s];
       std::optional<TriangleTerms> terms;  // computed at the first pixel with a gradient
+      bool d_valid = false;                // D nonzero and finite (else no pixel contributes)
       Cotangents sum{};
+      bool any_valid = false;
+      std::int64_t row_start = 0, row_end = 0;  // pixel q's row, kept across the ascending pixels
+      double ey = 0.0;
       for (std::int64_t e = by_tri.start[tri]; e < by_tri.start[tri + 1]; ++e) {
         const std::int64_t q = by_tri.item[e];
         const T* g = grad_rast + 4 * q;
@@ -257,13 +265,20 @@ void barycentric_gbuffer_backward(const BarycentricGBufferParams<T>& p, const T*
         bool any = g[0] != T(0) || g[1] != T(0) || g[2] != T(0);
         if (h) any = any || h[0] != T(0) || h[1] != T(0) || h[2] != T(0) || h[3] != T(0);
         if (!any) continue;
-        if (!terms) terms = triangle_terms(p, tri);
-        const std::int64_t y = q / width;
-        add_pixel_cotangents(*terms, static_cast<double>(q - y * width) + 0.5, static_cast<double>(y) + 0.5, g, h,
-                             &sum);
+        if (!terms) {
+          terms = triangle_terms(p, tri);
+          d_valid = terms->D != 0.0 && std::isfinite(terms->D);
+        }
+        if (!d_valid) break;
+        if (q >= row_end) {
+          const std::int64_t y = q / width;
+          row_start = y * width, row_end = row_start + width, ey = static_cast<double>(y) + 0.5;
+        }
+        any_valid |= add_pixel_cotangents(*terms, static_cast<double>(q - row_start) + 0.5, ey, g, h, sum);
       }
-      sc.live[s] = terms ? 1 : 0;
-      if (terms) triangle_adjoint(p, *terms, sum, partial + 12 * s);
+      // A triangle without a valid pixel adds nothing (its c_k or V_k may not be finite).
+      sc.live[s] = any_valid ? 1 : 0;
+      if (any_valid) triangle_adjoint(p, *terms, sum, partial + 12 * s);
     }
   });
   // 3. Each vertex adds its corners' sums in corner order, once.
