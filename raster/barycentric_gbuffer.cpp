@@ -110,20 +110,20 @@ struct Cotangents {
 
 // Adds pixel (ex, ey)'s cotangents to `sum` and returns true, or returns
 // false where S is zero or not finite (the caller checks D once per
-// triangle). With g_2 = 0, h the derivatives' gradients (or null):
+// triangle). With g_k the gradients of b_k (g_2 = 0), g_z of z/w and h the
+// derivatives' gradients (or null):
 //   dL/da_k = (g_k - sum_j g_j b_j) / S + g_z z_k / D - (h_k.x C.x + h_k.y C.y) / S^2 + dL/dS,
 //   dL/dS = sum_k (2 a_k (h_k.x C.x + h_k.y C.y) / S - (h_k.x c_k.x + h_k.y c_k.y)) / S^2,
 //   dL/dc_k = dL/da_k e + (h_k.x, h_k.y, 0) / S + dL/dC,  dL/dC.d = -sum_k h_k.d a_k / S^2,
 //   dL/dD = -g_z (z/w) / D,  dL/dz_k = g_z a_k / D.
 template <class T>
-bool add_pixel_cotangents(const TriangleTerms& t, double ex, double ey, const T* g_rast, const T* g_db,
-                          Cotangents& sum) {
+bool add_pixel_cotangents(const TriangleTerms& t, double ex, double ey, double g0, double g1, double gz,
+                          const T* g_db, Cotangents& sum) {
   double a[3];
   for (int k = 0; k < 3; ++k) a[k] = ex * t.c[k].x + ey * t.c[k].y + t.c[k].w;  // a_k = e . c_k
   const double S = a[0] + a[1] + a[2];
   if (!(S != 0.0 && std::isfinite(S))) return false;
   const double r = 1.0 / S;
-  const double g0 = g_rast[0], g1 = g_rast[1], gz = g_rast[2];
   // b_k = a_k / S.
   const double gb = (g0 * a[0] + g1 * a[1]) * r;
   double bar_a[3] = {(g0 - gb) * r, (g1 - gb) * r, -gb * r};
@@ -227,11 +227,20 @@ namespace {
 // The adjoint's buffers, reused across calls (no page faults after the first).
 detail::ScratchPool<detail::GatherScratch> g_backward_pool;
 
-}  // namespace
+// Where the adjoint reads pixel q's gradients of b0, b1 (uv[uv_stride q],
+// uv[uv_stride q + 1]) and z/w (depth[depth_stride q]): rast's layout or
+// the GBuffer's uv and depth planes; a missing plane reads a zero (stride 0).
+template <class T>
+struct RastGrads {
+  const T* uv;
+  std::int64_t uv_stride;
+  const T* depth;
+  std::int64_t depth_stride;
+};
 
 template <class T>
-void barycentric_gbuffer_backward(const BarycentricGBufferParams<T>& p, const T* rast, const T* grad_rast,
-                                  const T* grad_db, T* grad_clip) {
+void backward_impl(const BarycentricGBufferParams<T>& p, const T* rast, const RastGrads<T>& grads, const T* grad_db,
+                   T* grad_clip) {
   const std::int64_t pixels = static_cast<std::int64_t>(p.width) * p.height;
   // Scatter by gathering (docs/determinism.md): 1. covered pixels grouped by
   // triangle, in ascending pixel order; the used triangles numbered by first pixel.
@@ -260,9 +269,10 @@ void barycentric_gbuffer_backward(const BarycentricGBufferParams<T>& p, const T*
       double ey = 0.0;
       for (std::int64_t e = by_tri.start[tri]; e < by_tri.start[tri + 1]; ++e) {
         const std::int64_t q = by_tri.item[e];
-        const T* g = grad_rast + 4 * q;
+        const T* g = grads.uv + grads.uv_stride * q;
+        const T gz = grads.depth[grads.depth_stride * q];
         const T* h = grad_db ? grad_db + 4 * q : nullptr;
-        bool any = g[0] != T(0) || g[1] != T(0) || g[2] != T(0);
+        bool any = g[0] != T(0) || g[1] != T(0) || gz != T(0);
         if (h) any = any || h[0] != T(0) || h[1] != T(0) || h[2] != T(0) || h[3] != T(0);
         if (!any) continue;
         if (!terms) {
@@ -274,7 +284,8 @@ void barycentric_gbuffer_backward(const BarycentricGBufferParams<T>& p, const T*
           const std::int64_t y = q / width;
           row_start = y * width, row_end = row_start + width, ey = static_cast<double>(y) + 0.5;
         }
-        any_valid |= add_pixel_cotangents(*terms, static_cast<double>(q - row_start) + 0.5, ey, g, h, sum);
+        any_valid |= add_pixel_cotangents(*terms, static_cast<double>(q - row_start) + 0.5, ey, g[0], g[1], gz, h,
+                                          sum);
       }
       // A triangle without a valid pixel adds nothing (its c_k or V_k may not be finite).
       sc.live[s] = any_valid ? 1 : 0;
@@ -288,11 +299,30 @@ void barycentric_gbuffer_backward(const BarycentricGBufferParams<T>& p, const T*
                          });
 }
 
+}  // namespace
+
+template <class T>
+void barycentric_gbuffer_backward(const BarycentricGBufferParams<T>& p, const T* rast, const T* grad_rast,
+                                  const T* grad_db, T* grad_clip) {
+  backward_impl(p, rast, RastGrads<T>{grad_rast, 4, grad_rast + 2, 4}, grad_db, grad_clip);
+}
+
+template <class T>
+void barycentric_gbuffer_backward_planes(const BarycentricGBufferParams<T>& p, const T* grad_uv, const T* grad_depth,
+                                         const T* grad_db, T* grad_clip) {
+  static const T kZero[2] = {T(0), T(0)};
+  const RastGrads<T> grads{grad_uv ? grad_uv : kZero, grad_uv ? 2 : 0, grad_depth ? grad_depth : kZero,
+                           grad_depth ? 1 : 0};
+  backward_impl(p, static_cast<const T*>(nullptr), grads, grad_db, grad_clip);
+}
+
 #define GR_INSTANTIATE(T)                                                                                       \
   template void barycentric_gbuffer_forward<T>(const BarycentricGBufferParams<T>&, const std::int32_t*,         \
                                                std::int64_t, T*, T*);                                           \
   template void barycentric_gbuffer_backward<T>(const BarycentricGBufferParams<T>&, const T*, const T*, const T*, \
-                                                T*);
+                                                T*);                                                            \
+  template void barycentric_gbuffer_backward_planes<T>(const BarycentricGBufferParams<T>&, const T*, const T*,  \
+                                                       const T*, T*);
 GR_INSTANTIATE(float)
 GR_INSTANTIATE(double)
 #undef GR_INSTANTIATE

@@ -74,4 +74,11 @@ template <class T>
 void barycentric_gbuffer_backward(const BarycentricGBufferParams<T>& p, const T* rast, const T* grad_rast,
                                   const T* grad_db, T* grad_clip);
 
+// The same adjoint with rast's gradients as the GBuffer's planes (coverage
+// from p.tri_id, required): grad_uv H*W*2 (b0, b1) and grad_depth H*W (z/w),
+// either may be null (zero), so the op's adjoint needs no H*W*4 copy.
+template <class T>
+void barycentric_gbuffer_backward_planes(const BarycentricGBufferParams<T>& p, const T* grad_uv, const T* grad_depth,
+                                         const T* grad_db, T* grad_clip);
+
 }  // namespace gr::raster
