@@ -2,8 +2,9 @@
 // (formulas in barycentric_gbuffer.h). Per pixel everything is evaluated in
 // double from the three homogeneous screen vertices; the adjoint scatters by
 // gathering (docs/determinism.md): pixels grouped by triangle, each
-// triangle's terms computed once and its pixels' contributions summed per
-// corner in pixel order, then each vertex's corners in a fixed order.
+// triangle's terms computed once, its pixels' cotangents (dL/dc_k, dL/dD,
+// dL/dz_k) summed in pixel order and the chain to clip applied once per
+// triangle, then each vertex's corners added in a fixed order.
 #include "raster/barycentric_gbuffer.h"
 
 #include <algorithm>
@@ -98,57 +99,77 @@ std::int64_t pixel_id(const BarycentricGBufferParams<T>& p, const T* rast, std::
   return p.tri_id ? static_cast<std::int64_t>(p.tri_id[q]) : static_cast<std::int64_t>(rast[4 * q + 3]);
 }
 
-// dL/dclip of the three vertices (12 values) for one pixel.
+// The cotangents after which the adjoint is linear with per-triangle
+// constants (V_k, c_k): dL/dc_k, dL/dD and dL/dz_k. A triangle's pixels add
+// theirs into one sum (in pixel order) and the chain to clip runs once per
+// triangle (triangle_adjoint), not per pixel.
+struct Cotangents {
+  HVec c[3];
+  double D, z[3];
+};
+
+// Adds pixel (ex, ey)'s cotangents to `sum` and returns true, or returns
+// false where S is zero or not finite (the caller checks D once per
+// triangle). With g_k the gradients of b_k (g_2 = 0), g_z of z/w and h the
+// derivatives' gradients (or null):
+//   dL/da_k = (g_k - sum_j g_j b_j) / S + g_z z_k / D - (h_k.x C.x + h_k.y C.y) / S^2 + dL/dS,
+//   dL/dS = sum_k (2 a_k (h_k.x C.x + h_k.y C.y) / S - (h_k.x c_k.x + h_k.y c_k.y)) / S^2,
+//   dL/dc_k = dL/da_k e + (h_k.x, h_k.y, 0) / S + dL/dC,  dL/dC.d = -sum_k h_k.d a_k / S^2,
+//   dL/dD = -g_z (z/w) / D,  dL/dz_k = g_z a_k / D.
 template <class T>
-void pixel_adjoint(const BarycentricGBufferParams<T>& p, const TriangleTerms& t, std::int64_t pixel, const T* g_rast,
-                   const T* g_db, double* out) {
-  const PixelTerms q = pixel_terms(t, p.width, pixel);
-  std::fill(out, out + 12, 0.0);
-  if (!q.valid) return;
-  const double S = q.S, D = t.D;
-  const double* const a = q.a;
-  const double b[2] = {a[0] / S, a[1] / S};
-  const double g[3] = {static_cast<double>(g_rast[0]), static_cast<double>(g_rast[1]), 0.0};
-  const double gz = g_rast[2];
-  const double* const z = t.z;
-  double zw = 0.0;
-  for (int k = 0; k < 3; ++k) zw += a[k] * z[k];
-  zw /= D;
-  // b_k = a_k / S and z/w = sum a_k z_k / D.
-  const double gb = g[0] * b[0] + g[1] * b[1];
-  double bar_a[3], bar_z[3];
-  for (int k = 0; k < 3; ++k) {
-    bar_a[k] = (g[k] - gb) / S + gz * z[k] / D;
-    bar_z[k] = gz * a[k] / D;
+bool add_pixel_cotangents(const TriangleTerms& t, double ex, double ey, double g0, double g1, double gz,
+                          const T* g_db, Cotangents& sum) {
+  double a[3];
+  for (int k = 0; k < 3; ++k) a[k] = ex * t.c[k].x + ey * t.c[k].y + t.c[k].w;  // a_k = e . c_k
+  const double S = a[0] + a[1] + a[2];
+  if (!(S != 0.0 && std::isfinite(S))) return false;
+  const double r = 1.0 / S;
+  // b_k = a_k / S.
+  const double gb = (g0 * a[0] + g1 * a[1]) * r;
+  double bar_a[3] = {(g0 - gb) * r, (g1 - gb) * r, -gb * r};
+  if (gz != 0.0) {  // z/w = sum a_k z_k / D
+    const double gD = gz / t.D;
+    const double zw = a[0] * t.z[0] + a[1] * t.z[1] + a[2] * t.z[2];
+    for (int k = 0; k < 3; ++k) {
+      bar_a[k] += gD * t.z[k];
+      sum.z[k] += gD * a[k];
+    }
+    sum.D -= gD * zw / t.D;
   }
-  const double bar_D = -gz * zw / D;
   // db_k/dd = c_k.d / S - a_k C.d / S^2 for d in {x, y}.
-  HVec bar_c[3] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}};
-  HVec bar_C{0, 0, 0};
-  double bar_S = 0.0;
+  double bar_S = 0.0, bar_Cx = 0.0, bar_Cy = 0.0;
   if (g_db) {
-    const double S2 = S * S;
+    const double r2 = r * r;
     for (int k = 0; k < 2; ++k) {
       const double hx = g_db[2 * k], hy = g_db[2 * k + 1];
-      bar_c[k].x += hx / S;
-      bar_c[k].y += hy / S;
-      bar_C.x -= hx * a[k] / S2;
-      bar_C.y -= hy * a[k] / S2;
-      bar_a[k] -= (hx * t.C.x + hy * t.C.y) / S2;
-      bar_S += (2.0 * a[k] * (hx * t.C.x + hy * t.C.y) / S - (hx * t.c[k].x + hy * t.c[k].y)) / S2;
+      const double hC = hx * t.C.x + hy * t.C.y;
+      sum.c[k].x += hx * r;
+      sum.c[k].y += hy * r;
+      bar_Cx -= hx * a[k] * r2;
+      bar_Cy -= hy * a[k] * r2;
+      bar_a[k] -= hC * r2;
+      bar_S += (2.0 * a[k] * hC * r - (hx * t.c[k].x + hy * t.c[k].y)) * r2;
     }
   }
-  const double ex = static_cast<double>(pixel % p.width) + 0.5, ey = static_cast<double>(pixel / p.width) + 0.5;
-  HVec bar_V[3];
+  // a_k = e . c_k, S = sum a_k, C = sum c_k.
   for (int k = 0; k < 3; ++k) {
-    const double ba = bar_a[k] + bar_S;  // S = sum a_k
-    // a_k = e . c_k, C = sum c_k.
-    bar_c[k] = {bar_c[k].x + ba * ex + bar_C.x, bar_c[k].y + ba * ey + bar_C.y, bar_c[k].w + ba + bar_C.w};
-    bar_V[k] = {bar_D * t.c[k].x, bar_D * t.c[k].y, bar_D * t.c[k].w};  // dD/dV_k = c_k
+    const double ba = bar_a[k] + bar_S;
+    sum.c[k] = {sum.c[k].x + (ba * ex + bar_Cx), sum.c[k].y + (ba * ey + bar_Cy), sum.c[k].w + ba};
   }
+  return true;
+}
+
+// dL/dclip of the three vertices (12 values, vertex k at out[4 k]) from a
+// triangle's summed cotangents: dL/dV_j = dL/dD c_j + (c_k = V_k+1 x V_k+2:
+// dL/dV_k+1 += V_k+2 x dL/dc_k, dL/dV_k+2 += dL/dc_k x V_k+1), then V -> clip.
+template <class T>
+void triangle_adjoint(const BarycentricGBufferParams<T>& p, const TriangleTerms& t, const Cotangents& sum,
+                      double* out) {
+  HVec bar_V[3];
+  for (int k = 0; k < 3; ++k) bar_V[k] = {sum.D * t.c[k].x, sum.D * t.c[k].y, sum.D * t.c[k].w};
   for (int k = 0; k < 3; ++k) {
     const int k1 = (k + 1) % 3, k2 = (k + 2) % 3;
-    const HVec d1 = cross(t.V[k2], bar_c[k]), d2 = cross(bar_c[k], t.V[k1]);
+    const HVec d1 = cross(t.V[k2], sum.c[k]), d2 = cross(sum.c[k], t.V[k1]);
     bar_V[k1] = {bar_V[k1].x + d1.x, bar_V[k1].y + d1.y, bar_V[k1].w + d1.w};
     bar_V[k2] = {bar_V[k2].x + d2.x, bar_V[k2].y + d2.y, bar_V[k2].w + d2.w};
   }
@@ -159,7 +180,7 @@ void pixel_adjoint(const BarycentricGBufferParams<T>& p, const TriangleTerms& t,
     double* o = out + 4 * k;
     o[0] = hw * bar_V[k].x;
     o[1] = hy * bar_V[k].y;
-    o[2] = bar_z[k];
+    o[2] = sum.z[k];
     o[3] = hw * bar_V[k].x + hh * bar_V[k].y + bar_V[k].w;
   }
 }
@@ -206,11 +227,20 @@ namespace {
 // The adjoint's buffers, reused across calls (no page faults after the first).
 detail::ScratchPool<detail::GatherScratch> g_backward_pool;
 
-}  // namespace
+// Where the adjoint reads pixel q's gradients of b0, b1 (uv[uv_stride q],
+// uv[uv_stride q + 1]) and z/w (depth[depth_stride q]): rast's layout or
+// the GBuffer's uv and depth planes; a missing plane reads a zero (stride 0).
+template <class T>
+struct RastGrads {
+  const T* uv;
+  std::int64_t uv_stride;
+  const T* depth;
+  std::int64_t depth_stride;
+};
 
 template <class T>
-void barycentric_gbuffer_backward(const BarycentricGBufferParams<T>& p, const T* rast, const T* grad_rast,
-                                  const T* grad_db, T* grad_clip) {
+void backward_impl(const BarycentricGBufferParams<T>& p, const T* rast, const RastGrads<T>& grads, const T* grad_db,
+                   T* grad_clip) {
   const std::int64_t pixels = static_cast<std::int64_t>(p.width) * p.height;
   // Scatter by gathering (docs/determinism.md): 1. covered pixels grouped by
   // triangle, in ascending pixel order; the used triangles numbered by first pixel.
@@ -221,32 +251,45 @@ void barycentric_gbuffer_backward(const BarycentricGBufferParams<T>& p, const T*
     detail::bucket_items(pixels, p.num_tris, [&](std::int64_t q) { return pixel_id(p, rast, q) - 1; }, &sc.by_tri);
   const detail::Buckets& by_tri = shared ? *shared : sc.by_tri;
   const std::int64_t used = static_cast<std::int64_t>(by_tri.nonempty.size());
-  // 2. Per used triangle s, in parallel: its pixels' dL/dclip of the three
-  // vertices summed per corner in pixel order (corner k at partial[4 (3 s + k)]).
+  // 2. Per used triangle s, in parallel: its pixels' cotangents summed in
+  // pixel order, then the chain to the three vertices' dL/dclip once (corner
+  // k at partial[4 (3 s + k)]).
   sc.partial.resize(static_cast<std::size_t>(12 * used));
   sc.live.resize(static_cast<std::size_t>(used));
   double* const partial = sc.partial.data();
+  const std::int64_t width = p.width;
   parallel_for(0, used, 16, [&](std::int64_t s0, std::int64_t s1) {
-    double contrib[12];
     for (std::int64_t s = s0; s < s1; ++s) {
       const std::int32_t tri = by_tri.nonempty[s];
-      double* acc = partial + 12 * s;
-      std::fill(acc, acc + 12, 0.0);
-      std::uint8_t live = 0;
       std::optional<TriangleTerms> terms;  // computed at the first pixel with a gradient
+      bool d_valid = false;                // D nonzero and finite (else no pixel contributes)
+      Cotangents sum{};
+      bool any_valid = false;
+      std::int64_t row_start = 0, row_end = 0;  // pixel q's row, kept across the ascending pixels
+      double ey = 0.0;
       for (std::int64_t e = by_tri.start[tri]; e < by_tri.start[tri + 1]; ++e) {
         const std::int64_t q = by_tri.item[e];
-        const T* g = grad_rast + 4 * q;
+        const T* g = grads.uv + grads.uv_stride * q;
+        const T gz = grads.depth[grads.depth_stride * q];
         const T* h = grad_db ? grad_db + 4 * q : nullptr;
-        bool any = g[0] != T(0) || g[1] != T(0) || g[2] != T(0);
+        bool any = g[0] != T(0) || g[1] != T(0) || gz != T(0);
         if (h) any = any || h[0] != T(0) || h[1] != T(0) || h[2] != T(0) || h[3] != T(0);
         if (!any) continue;
-        if (!terms) terms = triangle_terms(p, tri);
-        pixel_adjoint(p, *terms, q, g, h, contrib);
-        for (int i = 0; i < 12; ++i) acc[i] += contrib[i];
-        live = 1;
+        if (!terms) {
+          terms = triangle_terms(p, tri);
+          d_valid = terms->D != 0.0 && std::isfinite(terms->D);
+        }
+        if (!d_valid) break;
+        if (q >= row_end) {
+          const std::int64_t y = q / width;
+          row_start = y * width, row_end = row_start + width, ey = static_cast<double>(y) + 0.5;
+        }
+        any_valid |= add_pixel_cotangents(*terms, static_cast<double>(q - row_start) + 0.5, ey, g[0], g[1], gz, h,
+                                          sum);
       }
-      sc.live[s] = live;
+      // A triangle without a valid pixel adds nothing (its c_k or V_k may not be finite).
+      sc.live[s] = any_valid ? 1 : 0;
+      if (any_valid) triangle_adjoint(p, *terms, sum, partial + 12 * s);
     }
   });
   // 3. Each vertex adds its corners' sums in corner order, once.
@@ -256,11 +299,30 @@ void barycentric_gbuffer_backward(const BarycentricGBufferParams<T>& p, const T*
                          });
 }
 
+}  // namespace
+
+template <class T>
+void barycentric_gbuffer_backward(const BarycentricGBufferParams<T>& p, const T* rast, const T* grad_rast,
+                                  const T* grad_db, T* grad_clip) {
+  backward_impl(p, rast, RastGrads<T>{grad_rast, 4, grad_rast + 2, 4}, grad_db, grad_clip);
+}
+
+template <class T>
+void barycentric_gbuffer_backward_planes(const BarycentricGBufferParams<T>& p, const T* grad_uv, const T* grad_depth,
+                                         const T* grad_db, T* grad_clip) {
+  static const T kZero[2] = {T(0), T(0)};
+  const RastGrads<T> grads{grad_uv ? grad_uv : kZero, grad_uv ? 2 : 0, grad_depth ? grad_depth : kZero,
+                           grad_depth ? 1 : 0};
+  backward_impl(p, static_cast<const T*>(nullptr), grads, grad_db, grad_clip);
+}
+
 #define GR_INSTANTIATE(T)                                                                                       \
   template void barycentric_gbuffer_forward<T>(const BarycentricGBufferParams<T>&, const std::int32_t*,         \
                                                std::int64_t, T*, T*);                                           \
   template void barycentric_gbuffer_backward<T>(const BarycentricGBufferParams<T>&, const T*, const T*, const T*, \
-                                                T*);
+                                                T*);                                                            \
+  template void barycentric_gbuffer_backward_planes<T>(const BarycentricGBufferParams<T>&, const T*, const T*,  \
+                                                       const T*, T*);
 GR_INSTANTIATE(float)
 GR_INSTANTIATE(double)
 #undef GR_INSTANTIATE

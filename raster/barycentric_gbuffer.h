@@ -65,11 +65,20 @@ void barycentric_gbuffer_forward(const BarycentricGBufferParams<T>& p, const std
 //   dL/dz_k = g_z a_k / D,  dL/dD = -g_z (z/w) / D,
 //   dL/dc_k += dL/da_k e + dL/dC,  dL/dV_j += dL/dD c_j,
 //   c_k = V_k+1 x V_k+2: dL/dV_k+1 += V_k+2 x dL/dc_k, dL/dV_k+2 += dL/dc_k x V_k+1,
-// then V -> clip. Contributions are summed per triangle in pixel order
-// (float64), then per vertex over its triangles in the order of their first
-// pixels, so the result is bit-identical for any thread count.
+// then V -> clip. Everything after dL/dc_k, dL/dD and dL/dz_k is linear with
+// per-triangle constants, so those 13 cotangents are summed per triangle in
+// pixel order (float64) and the rest runs once per triangle; then per vertex
+// over its triangles in the order of their first pixels, so the result is
+// bit-identical for any thread count.
 template <class T>
 void barycentric_gbuffer_backward(const BarycentricGBufferParams<T>& p, const T* rast, const T* grad_rast,
                                   const T* grad_db, T* grad_clip);
+
+// The same adjoint with rast's gradients as the GBuffer's planes (coverage
+// from p.tri_id, required): grad_uv H*W*2 (b0, b1) and grad_depth H*W (z/w),
+// either may be null (zero), so the op's adjoint needs no H*W*4 copy.
+template <class T>
+void barycentric_gbuffer_backward_planes(const BarycentricGBufferParams<T>& p, const T* grad_uv, const T* grad_depth,
+                                         const T* grad_db, T* grad_clip);
 
 }  // namespace gr::raster

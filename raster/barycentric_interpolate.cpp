@@ -148,8 +148,8 @@ void backward_channels(const BarycentricInterpolateParams<T>& p, const T* grad_o
   const std::int64_t C = kC > 0 ? kC : p.channels, K = grad_da ? p.num_diff : 0;
   // Per pixel: gradients of the barycentrics and their derivatives.
   const bool per_pixel = grads.rast || (grads.rast_db && K > 0);
-  auto pixel_grads = [&](std::int64_t q, const std::int32_t* tri) {
-    const T* a[3] = {p.attr + tri[0] * C, p.attr + tri[1] * C, p.attr + tri[2] * C};
+  // Pixel q's gradients, a = its triangle's three attribute rows.
+  auto pixel_grads = [&](std::int64_t q, const T* const* a) {
     if (grads.rast) {
       const T* g = grad_out + q * C;
       double g0 = 0.0, g1 = 0.0;
@@ -179,7 +179,10 @@ void backward_channels(const BarycentricInterpolateParams<T>& p, const T* grad_o
       parallel_for(0, p.pixels, 2048, [&](std::int64_t lo, std::int64_t hi) {
         for (std::int64_t q = lo; q < hi; ++q) {
           const std::int64_t t = pixel_triangle(p, q);
-          if (t >= 0) pixel_grads(q, p.tris + 3 * t);
+          if (t < 0) continue;
+          const std::int32_t* tri = p.tris + 3 * t;
+          const T* a[3] = {p.attr + tri[0] * C, p.attr + tri[1] * C, p.attr + tri[2] * C};
+          pixel_grads(q, a);
         }
       });
     return;
@@ -202,11 +205,15 @@ void backward_channels(const BarycentricInterpolateParams<T>& p, const T* grad_o
     for (std::int64_t s = s0; s < s1; ++s) {
       const std::int32_t t = by_tri.nonempty[s];
       const std::int32_t* tri = p.tris + 3 * static_cast<std::int64_t>(t);
-      double* acc = partial + 3 * s * C;
+      const T* a[3] = {p.attr + tri[0] * C, p.attr + tri[1] * C, p.attr + tri[2] * C};
+      // The corners' sums: in a local array for the unrolled channel counts
+      // (kept in registers), else in place; the same additions in the same order.
+      double local[kC > 0 ? 3 * kC : 1];
+      double* acc = kC > 0 ? local : partial + 3 * s * C;
       std::fill(acc, acc + 3 * C, 0.0);
       for (std::int64_t e = by_tri.start[t]; e < by_tri.start[t + 1]; ++e) {
         const std::int64_t q = by_tri.item[e];
-        if (per_pixel) pixel_grads(q, tri);
+        if (per_pixel) pixel_grads(q, a);
         // dL/dA_k += b_k g + (db_k/dx h_x + db_k/dy h_y) on the selected channels.
         const Weights w = pixel_weights(p, q);
         const T* g = grad_out + q * C;
@@ -217,6 +224,7 @@ void backward_channels(const BarycentricInterpolateParams<T>& p, const T* grad_o
           for (std::int64_t j = 0; j < K; ++j) o[p.diff[j]] += w.dx[k] * h[2 * j] + w.dy[k] * h[2 * j + 1];
         }
       }
+      if (kC > 0) std::copy(acc, acc + 3 * C, partial + 3 * s * C);
     }
   });
   // 3. Each vertex adds its corners' sums in corner order, once.

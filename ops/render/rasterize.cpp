@@ -113,30 +113,21 @@ void finish_gbuffer(GBuffer& gb, const char* op) {
     const Tensor& g_depth = ctx.grad_output(1);
     const Tensor g_db = db ? ctx.grad_output(2) : Tensor();
     Tensor g = Tensor::zeros(clip.shape(), clip.dtype());
-    Tensor g_rast = Tensor::empty({images * P * 4}, clip.dtype());
     dispatch_float(clip.dtype(), op, [&](auto tag) {
       using T = decltype(tag);
-      T* gr = g_rast.data<T>();
       const T* gu = g_uv.defined() ? g_uv.data<T>() : nullptr;
       const T* gd = g_depth.defined() ? g_depth.data<T>() : nullptr;
-      parallel_for(0, images * P, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
-        for (std::int64_t q = lo; q < hi; ++q) {
-          gr[4 * q] = gu ? gu[2 * q] : T(0);
-          gr[4 * q + 1] = gu ? gu[2 * q + 1] : T(0);
-          gr[4 * q + 2] = gd ? gd[q] : T(0);
-          gr[4 * q + 3] = T(0);
-        }
-      });
       // Image by image, in image order: a shared clip's sum is the same for any thread count.
       const std::int64_t n = clip.size(clip.rank() - 2);
-      // The coverage from tri_id (int32: exact for any triangle count, unlike float32 ids).
+      // The coverage from tri_id (int32: exact for any triangle count, unlike float32 ids);
+      // the gradients read from the uv and depth planes as they are.
       for (std::int64_t b = 0; b < images; ++b) {
         raster::BarycentricGBufferParams<T> p = image_params<T>(clip, triangles, b, w, h);
         p.tri_id = tri_id.data<std::int32_t>() + b * P;
         p.groups = groups.get();
-        raster::barycentric_gbuffer_backward(p, static_cast<const T*>(nullptr), gr + 4 * P * b,
-                                             g_db.defined() ? g_db.data<T>() + 4 * P * b : nullptr,
-                                             g.data<T>() + (clip.rank() == 3 ? b * n * 4 : 0));
+        raster::barycentric_gbuffer_backward_planes(p, gu ? gu + 2 * P * b : nullptr, gd ? gd + P * b : nullptr,
+                                                    g_db.defined() ? g_db.data<T>() + 4 * P * b : nullptr,
+                                                    g.data<T>() + (clip.rank() == 3 ? b * n * 4 : 0));
       }
     });
     ctx.accumulate(0, g);
