@@ -84,7 +84,7 @@ void rasterize_forward(Context& ctx, const pybind11::object& pos, const pybind11
       if (peel)
         peel->rasterize_image(p, b, s.tri_id.data(), uv, depth);
       else if (!rasterize_on_gpu(ctx, p, s))
-        raster::rasterize_forward(p, s.tri_id.data(), uv, depth);
+        raster::rasterize_forward(p, s.tri_id.data(), static_cast<T*>(nullptr), static_cast<T*>(nullptr));  // coverage only
       const raster::BarycentricGBufferParams<T> g{p.clip, mesh.vertices, mesh.tris(), mesh.triangles, width, height,
                                                   true};
       raster::barycentric_gbuffer_forward(g, s.tri_id.data(), first, rast.out<T>() + 4 * pixels * b,
