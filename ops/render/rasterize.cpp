@@ -1,5 +1,5 @@
 // Tape op over raster::rasterize_forward (coverage) and
-// raster::barycentric_gbuffer_forward / _backward (the values and their adjoint).
+// raster::barycentric_gbuffer_forward_planes / _backward (the values and their adjoint).
 #include "ops/render/rasterize.h"
 
 #include <algorithm>
