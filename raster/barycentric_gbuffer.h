@@ -54,6 +54,14 @@ template <class T>
 void barycentric_gbuffer_forward(const BarycentricGBufferParams<T>& p, const std::int32_t* tri_id,
                                  std::int64_t id_offset, T* rast, T* db);
 
+// The forward into the C++ GBuffer's planes (ops/render/rasterize.h), ids
+// indexing `tris` (no offset): uv (H*W*2: b0, b1) and depth (H*W: z/w on
+// covered pixels, background_depth on the background) get rast's channels 0
+// to 2 bit for bit, db (H*W*4 or null) the same as above.
+template <class T>
+void barycentric_gbuffer_forward_planes(const BarycentricGBufferParams<T>& p, const std::int32_t* tri_id, T* uv,
+                                        T* depth, T background_depth, T* db);
+
 // Adjoint, ACCUMULATED (+=) into grad_clip (num_vertices x 4), for the
 // coverage stored in rast's id channel or p.tri_id (ids relative to `tris`). grad_rast:
 // H*W*4 (the id channel is ignored); grad_db: H*W*4 or null. Per pixel, with

@@ -345,13 +345,13 @@ void fill_bins(std::int64_t num_tris, const Grid& g, ForwardScratch& sc) {
   });
 }
 
-// Phase 5: background everywhere (one parallel pass).
+// Phase 5: background everywhere (one parallel pass; uv and depth when asked for).
 template <class T>
 void clear_background(std::int64_t pixels, std::int32_t* tri_id, T* uv, T* depth) {
   parallel_for(0, pixels, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
     std::fill(tri_id + lo, tri_id + hi, 0);
-    std::fill(uv + 2 * lo, uv + 2 * hi, T(0));
-    std::fill(depth + lo, depth + hi, T(kBackgroundDepth));
+    if (uv) std::fill(uv + 2 * lo, uv + 2 * hi, T(0));
+    if (depth) std::fill(depth + lo, depth + hi, T(kBackgroundDepth));
   });
 }
 
@@ -378,9 +378,11 @@ void scan_tiles(const RasterParams<T>& p, const Grid& g, const ForwardScratch& s
           if (tb->id[q] < 0) continue;
           const std::int64_t px = static_cast<std::int64_t>(ty0 + y) * W + tx0 + x;
           tri_id[px] = tb->id[q] + 1;
-          uv[2 * px] = saturate<T>(tb->u[q]);
-          uv[2 * px + 1] = saturate<T>(tb->v[q]);
-          depth[px] = saturate<T>(tb->z[q]);
+          if (uv) {
+            uv[2 * px] = saturate<T>(tb->u[q]);
+            uv[2 * px + 1] = saturate<T>(tb->v[q]);
+          }
+          if (depth) depth[px] = saturate<T>(tb->z[q]);
           if (key_depth) key_depth[px] = tb->z[q];
         }
     }

@@ -76,6 +76,8 @@ struct RasterParams {
 // row 0 at the top (at the bottom with settings.y_up). Background: tri_id 0, uv (0, 0), depth kBackgroundDepth.
 // key_depth (optional, H*W): the winning depth in double, unrounded (for the
 // next peeling layer's floor_z); background pixels get +inf.
+// uv and depth may both be null: coverage only (tri_id, and key_depth), for
+// callers that make the values from tri_id (raster/barycentric_gbuffer.h).
 template <class T>
 void rasterize_forward(const RasterParams<T>& p, std::int32_t* tri_id, T* uv, T* depth,
                        RasterStats* stats = nullptr, double* key_depth = nullptr);

@@ -129,12 +129,12 @@ GBuffer rasterize_images(const Tensor& clip, const Tensor& triangles, const rast
       const raster::RasterParams<T> p{clip.data<T>() + batch.pos_offset(b), batch.vertices, tris + 3 * first, count,
                                       settings};
       std::int32_t* id = gb.tri_id.data<std::int32_t>() + b * P;
-      T* uv = gb.uv.data<T>() + 2 * b * P;
-      T* depth = gb.depth.data<T>() + b * P;
+      // The coverage only (finish_gbuffer writes uv and depth).
+      T* const no_values = nullptr;
       if (peel)
-        peel->rasterize_image(p, b, id, uv, depth, &stats[b], o.backend.get());
+        peel->rasterize_image(p, b, id, no_values, no_values, &stats[b], o.backend.get());
       else
-        raster::rasterize_forward_on(o.backend.get(), p, id, uv, depth, &stats[b]);
+        raster::rasterize_forward_on(o.backend.get(), p, id, no_values, no_values, &stats[b]);
       // Ids index the whole triangle list.
       if (first != 0)
         for (std::int64_t q = 0; q < P; ++q) id[q] += id[q] ? static_cast<std::int32_t>(first) : 0;

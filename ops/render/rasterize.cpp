@@ -1,5 +1,5 @@
 // Tape op over raster::rasterize_forward (coverage) and
-// raster::barycentric_gbuffer_forward / _backward (the values and their adjoint).
+// raster::barycentric_gbuffer_forward_planes / _backward (the values and their adjoint).
 #include "ops/render/rasterize.h"
 
 #include <algorithm>
@@ -57,15 +57,17 @@ GBuffer rasterize_layer(const Tensor& clip, const Tensor& triangles, const Raste
   gb.uv = Tensor::empty({h, w, 2}, clip.dtype());
   gb.depth = Tensor::empty({h, w}, clip.dtype());
   if (options.derivatives) gb.db = Tensor::empty({h, w, 4}, clip.dtype());
-  // The coverage kernel's own (screen-space) uv and depth land in gb.uv and
-  // gb.depth and are overwritten by finish_gbuffer.
+  // The coverage only: finish_gbuffer writes uv and depth (a backend's own
+  // screen-space uv and depth land there first and are overwritten).
   dispatch_float(clip.dtype(), op, [&](auto tag) {
     using T = decltype(tag);
     raster::RasterParams<T> p = params<T>(clip, triangles, settings);
     p.floor_id = floor_id;
     p.floor_z = floor_z;
-    raster::rasterize_forward_on(options.backend.get(), p, gb.tri_id.data<std::int32_t>(), gb.uv.data<T>(),
-                                 gb.depth.data<T>(), &gb.stats, key_depth);
+    // The coverage only (finish_gbuffer writes uv and depth).
+    T* const no_values = nullptr;
+    raster::rasterize_forward_on(options.backend.get(), p, gb.tri_id.data<std::int32_t>(), no_values, no_values,
+                                 &gb.stats, key_depth);
   });
   finish_gbuffer(gb, op);
   return gb;
@@ -77,27 +79,16 @@ void finish_gbuffer(GBuffer& gb, const char* op) {
   const std::int64_t images = rank == 3 ? gb.tri_id.size(0) : 1;
   const int h = static_cast<int>(gb.tri_id.size(rank - 2)), w = static_cast<int>(gb.tri_id.size(rank - 1));
   const std::int64_t P = std::int64_t(h) * w;
-  // nvdiffrast's rast (u, v, z/w, id) per pixel, split into uv and depth.
-  Tensor rast = Tensor::empty({images * P * 4}, clip.dtype());
+  // nvdiffrast's rast (u, v, z/w, id) per pixel, written as the planes uv and depth.
   const bool db = gb.db.defined();
   dispatch_float(clip.dtype(), op, [&](auto tag) {
     using T = decltype(tag);
-    T* r = rast.data<T>();
     parallel_for(0, images, 1, [&](std::int64_t lo, std::int64_t hi) {
       for (std::int64_t b = lo; b < hi; ++b)
-        raster::barycentric_gbuffer_forward(image_params<T>(clip, triangles, b, w, h),
-                                            gb.tri_id.data<std::int32_t>() + b * P, 0, r + 4 * P * b,
-                                            db ? gb.db.data<T>() + 4 * P * b : nullptr);
-    });
-    T* uv = gb.uv.data<T>();
-    T* depth = gb.depth.data<T>();
-    const std::int32_t* id = gb.tri_id.data<std::int32_t>();
-    parallel_for(0, images * P, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
-      for (std::int64_t q = lo; q < hi; ++q) {
-        uv[2 * q] = r[4 * q];
-        uv[2 * q + 1] = r[4 * q + 1];
-        depth[q] = id[q] ? r[4 * q + 2] : static_cast<T>(raster::kBackgroundDepth);
-      }
+        raster::barycentric_gbuffer_forward_planes(image_params<T>(clip, triangles, b, w, h),
+                                                   gb.tri_id.data<std::int32_t>() + b * P, gb.uv.data<T>() + 2 * P * b,
+                                                   gb.depth.data<T>() + P * b, static_cast<T>(raster::kBackgroundDepth),
+                                                   db ? gb.db.data<T>() + 4 * P * b : nullptr);
     });
   });
   if (!should_record({clip})) return;

@@ -41,10 +41,6 @@ void rasterize_forward(Context& ctx, const pybind11::object& pos, const pybind11
     raster::for_each_image(mesh.images, [&](std::int64_t b) {
       ImageScratch& s = ctx.image(b);
       s.tri_id.resize(static_cast<std::size_t>(pixels));
-      s.buffer<T>(ImageScratch::kUv).resize(2 * static_cast<std::size_t>(pixels));
-      s.buffer<T>(ImageScratch::kDepth).resize(static_cast<std::size_t>(pixels));
-      T* uv = s.buffer<T>(ImageScratch::kUv).data();
-      T* depth = s.buffer<T>(ImageScratch::kDepth).data();
       const auto [first, count] = mesh.range(b);
       raster::RasterParams<T> p;
       p.clip = mesh.positions<T>(b);
@@ -54,11 +50,13 @@ void rasterize_forward(Context& ctx, const pybind11::object& pos, const pybind11
       p.settings.width = width;
       p.settings.height = height;
       p.settings.y_up = true;  // nvdiffrast's row 0 is the bottom row
-      // On the Vulkan context's device where it covers p (float32), with the same bits.
+      // The coverage only, on the Vulkan context's device where it covers p
+      // (float32; the same bits); barycentric_gbuffer_forward writes the values.
+      T* const no_values = nullptr;
       if (peel)
-        peel->rasterize_image(p, b, s.tri_id.data(), uv, depth, nullptr, ctx.backend.get());
+        peel->rasterize_image(p, b, s.tri_id.data(), no_values, no_values, nullptr, ctx.backend.get());
       else
-        raster::rasterize_forward_on(ctx.backend.get(), p, s.tri_id.data(), uv, depth);
+        raster::rasterize_forward_on(ctx.backend.get(), p, s.tri_id.data(), no_values, no_values);
       const raster::BarycentricGBufferParams<T> g{p.clip, mesh.vertices, mesh.tris(), mesh.triangles, width, height,
                                                   true};
       raster::barycentric_gbuffer_forward(g, s.tri_id.data(), first, rast.out<T>() + 4 * pixels * b,

@@ -14,11 +14,11 @@ class Device;  // raster/vulkan/device.h (built with the GPU path only)
 
 namespace gr::python {
 
-// Scratch of one image of a call: the rasterizer's own outputs and a
-// gradient buffer, per dtype. (The kernels read the caller's positions: they
-// run with y_up, nvdiffrast's row 0 at the bottom.)
+// Scratch of one image of a call: the coverage (tri_id), a depth buffer
+// (antialias) and a gradient buffer, per dtype. (The kernels read the
+// caller's positions: they run with y_up, nvdiffrast's row 0 at the bottom.)
 struct ImageScratch {
-  enum Buffer { kUv, kDepth, kGrad, kBuffers };
+  enum Buffer { kDepth, kGrad, kBuffers };
   std::vector<std::int32_t> tri_id;
   template <class T>
   std::vector<T>& buffer(Buffer b);
