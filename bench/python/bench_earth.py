@@ -73,9 +73,11 @@ def child(iterations, size, tex_side, threads):
             marks.append((resource.getrusage(resource.RUSAGE_SELF), time.perf_counter()))
 
     def between(a, b):
-        return {'user': b[0].ru_utime - a[0].ru_utime, 'sys': b[0].ru_stime - a[0].ru_stime, 'wall': b[1] - a[1]}
+        return {'user': b[0].ru_utime - a[0].ru_utime, 'sys': b[0].ru_stime - a[0].ru_stime, 'wall': b[1] - a[1],
+                'faults': b[0].ru_minflt - a[0].ru_minflt}
 
-    print(json.dumps({'loop': between(marks[0], marks[-1]), 'later': between(marks[1], marks[-1]),
+    print(json.dumps({'loop': between(marks[0], marks[-1]), 'first': between(marks[0], marks[1]),
+                      'later': between(marks[1], marks[-1]),
                       'loss': loss.item(), 'threads': torch.get_num_threads()}))
 
 
