@@ -69,32 +69,73 @@ void mip_build(const T* base, std::int64_t C, const MipLayout& layout, T* pyrami
   }
 }
 
-void mip_backward(std::int64_t C, const MipLayout& layout, double* grad) {
-  for (int l = layout.count() - 1; l >= 1; --l) {
+namespace {
+
+// Calls f(parent texel, its child's gradient, 1 / the child's block size) for
+// the texels [first, last) of level `up` (row-major), whose child level `lv`
+// has its gradients at `child`.
+template <class F>
+void parents(std::int64_t C, const MipLevel& up, const MipLevel& lv, const double* child, std::int64_t first,
+             std::int64_t last, const F& f) {
+  for (std::int64_t i = first; i < last;) {
+    const std::int64_t py = i / up.width;
+    const int cy = child_of(int(py), lv.height);
+    const int ny = block_last(cy, up.height, lv.height) - block_first(cy);
+    const std::int64_t row_end = std::min(last, (py + 1) * up.width);
+    for (; i < row_end; ++i) {
+      const int px = static_cast<int>(i - py * up.width);
+      const int cx = child_of(px, lv.width);
+      const int nx = block_last(cx, up.width, lv.width) - block_first(cx);
+      // d(child)/d(parent) = 1 / block size.
+      const double inv = 1.0 / (nx * ny);
+      f(i, child + (static_cast<std::int64_t>(cy) * lv.width + cx) * C, inv);
+    }
+  }
+}
+
+// Levels last .. stop + 1 into their parents (rows in parallel, each parent
+// once), level l's gradients at grad + (levels[l].offset - levels[stop].offset) * C.
+void push_down(std::int64_t C, const MipLayout& layout, int stop, double* grad) {
+  const std::int64_t origin = layout.levels[stop].offset;
+  for (int l = layout.count() - 1; l > stop; --l) {
     const MipLevel& up = layout.levels[l - 1];
     const MipLevel& lv = layout.levels[l];
-    const double* child = grad + lv.offset * C;
-    double* parent = grad + up.offset * C;
+    double* parent = grad + (up.offset - origin) * C;
+    const double* child = grad + (lv.offset - origin) * C;
     parallel_for(0, up.height, std::max<std::int64_t>(1, 16384 / std::max(1, up.width)),
                  [&](std::int64_t y0, std::int64_t y1) {
-      for (std::int64_t py = y0; py < y1; ++py) {
-        const int cy = child_of(int(py), lv.height);
-        const int ny = block_last(cy, up.height, lv.height) - block_first(cy);
-        for (int px = 0; px < up.width; ++px) {
-          const int cx = child_of(px, lv.width);
-          const int nx = block_last(cx, up.width, lv.width) - block_first(cx);
-          // d(child)/d(parent) = 1 / block size.
-          const double inv = 1.0 / (nx * ny);
-          const double* g = child + (static_cast<std::int64_t>(cy) * lv.width + cx) * C;
-          double* p = parent + (py * up.width + px) * C;
-          for (std::int64_t c = 0; c < C; ++c) p[c] += g[c] * inv;
-        }
-      }
+      parents(C, up, lv, child, y0 * up.width, y1 * up.width, [&](std::int64_t i, const double* g, double inv) {
+        double* p = parent + i * C;
+        for (std::int64_t c = 0; c < C; ++c) p[c] += g[c] * inv;
+      });
     });
   }
 }
 
+}  // namespace
+
+void mip_backward(std::int64_t C, const MipLayout& layout, double* grad) { push_down(C, layout, 0, grad); }
+
+void mip_backward_levels(std::int64_t C, const MipLayout& layout, double* levels) {
+  if (layout.count() > 2) push_down(C, layout, 1, levels);
+}
+
+template <class T>
+void mip_backward_base(std::int64_t C, const MipLayout& layout, const double* level1, std::int64_t first,
+                       std::int64_t last, const double* base, T* out) {
+  if (layout.count() < 2) return;
+  // As mip_backward's last step, level 0's sum plus the child's share, then rounded once.
+  parents(C, layout.levels[0], layout.levels[1], level1, first, last, [&](std::int64_t i, const double* g, double inv) {
+    const double* b = base + (i - first) * C;
+    for (std::int64_t c = 0; c < C; ++c) out[i * C + c] += static_cast<T>(b[c] + g[c] * inv);
+  });
+}
+
 template void mip_build<float>(const float*, std::int64_t, const MipLayout&, float*);
 template void mip_build<double>(const double*, std::int64_t, const MipLayout&, double*);
+template void mip_backward_base<float>(std::int64_t, const MipLayout&, const double*, std::int64_t, std::int64_t,
+                                       const double*, float*);
+template void mip_backward_base<double>(std::int64_t, const MipLayout&, const double*, std::int64_t, std::int64_t,
+                                        const double*, double*);
 
 }  // namespace gr::raster

@@ -45,4 +45,19 @@ void mip_build(const T* base, std::int64_t channels, const MipLayout& layout, T*
 // the thread count.
 void mip_backward(std::int64_t channels, const MipLayout& layout, double* grad);
 
+// mip_backward in two steps, for a caller that sums level 0 a part at a time
+// (raster/texture_backward.cpp: level 0's double sums are 3/4 of the whole
+// buffer). The same sums in the same order, so the same bits:
+// mip_backward_levels: levels L-1 .. 2 into their parents, on a buffer of
+// levels 1.. (level l at (levels[l].offset - levels[1].offset) * C);
+void mip_backward_levels(std::int64_t channels, const MipLayout& layout, double* levels);
+// mip_backward_base: then, for level 0's texels [first, last) (row-major),
+// level 1 (`level1`) into their sums `base` ([last - first] x C), each total
+// rounded once and added to out (level 0's gradient, H x W x C):
+// out[k] += T(base[k - first] + level1[child] / block size). Serial: callers
+// run parts in parallel.
+template <class T>
+void mip_backward_base(std::int64_t channels, const MipLayout& layout, const double* level1, std::int64_t first,
+                       std::int64_t last, const double* base, T* out);
+
 }  // namespace gr::raster

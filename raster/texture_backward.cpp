@@ -39,6 +39,24 @@ struct TapBuckets {
 template <class T>
 detail::ScratchPool<TapBuckets<T>> g_bucket_pool;
 
+// A tap on level 0 of a mipmapped texture, kept until level 1's sums are
+// final (TexelSums): dL/d texel += w grad_out[sample].
+template <class T>
+struct [[gnu::packed]] BaseTap {
+  std::uint32_t texel;
+  T w;
+  std::uint32_t sample;  // below 2^30: at most 32768 x 32768 samples per image
+};
+// Level 0's taps by piece of 2^shift texels, each in sample order; reused across calls.
+template <class T>
+struct BaseTapLists {
+  std::vector<std::vector<BaseTap<T>>> pieces;
+};
+template <class T>
+detail::ScratchPool<BaseTapLists<T>> g_base_tap_pool;
+detail::ScratchPool<std::vector<double>> g_piece_sums_pool;  // one piece's level-0 sums
+constexpr int kPieceShift = 14;  // level-0 texels per piece: 2^14 (384 KiB of sums for RGB)
+
 // Samples x bands whose buckets exist at once (a chunk of 32768 samples with
 // two bands): fewer, larger chunks mean fewer fork/joins; the buckets' size
 // stays the same for any number of bands.
@@ -267,6 +285,38 @@ struct TapPass {
     });
   }
 
+  // As scatter, with mip levels: taps on levels 1.. added to `levels` (level
+  // 1's first texel at 0); taps on level 0 appended, in the same order, to
+  // the list of their piece of 2^piece_shift texels (pieces null: dropped).
+  // A piece lies in one band (piece_shift <= bands.shift), so one task fills it.
+  void scatter_levels(double* levels, std::vector<BaseTap<T>>* pieces, int piece_shift, std::int64_t c0,
+                      std::int64_t c1) const {
+    const std::int64_t blocks = (c1 - c0 + kBlock - 1) / kBlock;
+    parallel_for(0, bands.count, 1, [&](std::int64_t b0, std::int64_t b1) {
+      for (std::int64_t b = b0; b < b1; ++b)
+        for (std::int64_t j = 0; j < blocks; ++j) {
+          const TapEntry<T>* e = &entries[(j * bands.count + b) * bucket_size];
+          const std::int32_t n = count[j * bands.count + b];
+          for (std::int32_t q = 0; q < n; ++q) {
+            const std::int64_t s = c0 + j * kBlock + e[q].sample;
+            const std::int64_t texel = e[q].texel;
+            if (texel < base_texels) {
+              if (pieces)
+                pieces[texel >> piece_shift].push_back(
+                    {e[q].texel, e[q].w, static_cast<std::uint32_t>(s)});
+              continue;
+            }
+            if (q + kScatterAhead < n && e[q + kScatterAhead].texel >= base_texels)
+              __builtin_prefetch(levels + (e[q + kScatterAhead].texel - base_texels) * C, 1);
+            double* a = levels + (texel - base_texels) * C;
+            const T* g = grad_out + s * C;
+            const double w = e[q].w;
+            for (std::int64_t c = 0; c < C; ++c) a[c] += w * g[c];
+          }
+        }
+    });
+  }
+
   // dL/d texel_t += w_t g for the chunk [c0, c1)'s taps: each band's task
   // walks its buckets block by block. sums: grad_tex (T) or the level sums (double).
   template <class A>
@@ -290,9 +340,15 @@ struct TapPass {
 };
 
 // Where the texel gradients are summed: level 0 alone straight into grad_tex
-// (in T, as the tape sums); with mip levels, every level's in double (acc,
-// through the storage cache: no fresh pages in an optimization loop), rounded
-// once when finish() hands them on.
+// (in T, as the tape sums); with mip levels, in double, rounded once when
+// finish() hands them on. Levels 1.. are summed in one buffer as the taps come
+// (through the storage cache: no fresh pages in an optimization loop). Level
+// 0's sums, 3/4 of all texels, are not kept whole: its taps are listed by
+// piece of 2^14 texels, in sample order, and once level 1's sums are final
+// each piece is summed in a small buffer, level 1's share added
+// (mip_backward_base) and the total rounded into grad_tex. Every texel's sum
+// takes its terms in the order one whole buffer did, so the bits are the same,
+// and a 2048 x 2048 RGB texture's first call maps 32 MiB of sums, not 128.
 template <class T>
 struct TexelSums {
   const TextureParams<T>& p;
@@ -300,46 +356,78 @@ struct TexelSums {
   int levels_used;          // 1, or every level of the layout (mipmapped filters)
   bool direct;              // level 0 alone, into want.tex
   std::int64_t texels;      // texels whose gradients are summed (all levels' when mipmapped)
+  std::int64_t base_texels;
   Tensor scratch;
-  double* acc = nullptr;    // every level's sums, when not direct
+  double* levels = nullptr;  // levels 1..'s sums, when not direct
+  int piece_shift = kPieceShift;
+  std::int64_t piece_count = 0;
+  std::vector<std::vector<BaseTap<T>>>* pieces = nullptr;  // level 0's taps, when grad_tex is wanted
+  typename detail::ScratchPool<BaseTapLists<T>>::Lease lists;
 
-  TexelSums(const TextureParams<T>& params, const WantedGrads<T>& w) : p(params), want(w) {
+  TexelSums(const TextureParams<T>& params, const WantedGrads<T>& w)
+      : p(params), want(w), lists(g_base_tap_pool<T>.take()) {
     levels_used = mipmapped(p.filter) ? p.layout.count() : 1;
     direct = levels_used == 1 && want.tex;
-    texels = levels_used == 1 ? base_texel_count(p) : p.layout.total_texels;
-    if (want.texels && !direct) {
-      scratch = Tensor::zeros({p.layout.total_texels * p.channels}, DType::Float64);
-      acc = scratch.data<double>();
-    }
+    base_texels = base_texel_count(p);
+    texels = levels_used == 1 ? base_texels : p.layout.total_texels;
+    if (!want.texels || direct) return;
+    scratch = Tensor::zeros({(p.layout.total_texels - base_texels) * p.channels}, DType::Float64);
+    levels = scratch.data<double>();
   }
 
-  // The chunk [c0, c1)'s taps added.
+  // Sizes the level-0 pieces to the pass's bands (each piece in one band).
+  void prepare(const TapPass<T>& pass) {
+    if (!want.texels || direct || !want.tex) return;
+    piece_shift = std::min(kPieceShift, pass.bands.shift);
+    piece_count = ((base_texels - 1) >> piece_shift) + 1;
+    lists->pieces.resize(static_cast<std::size_t>(std::max<std::int64_t>(piece_count, lists->pieces.size())));
+    for (std::int64_t i = 0; i < piece_count; ++i) lists->pieces[i].clear();
+    pieces = &lists->pieces;
+  }
+
+  // The chunk [c0, c1)'s taps added (or listed).
   void scatter(const TapPass<T>& pass, std::int64_t c0, std::int64_t c1) const {
     if (!want.texels) return;
     if (direct)
       pass.scatter(want.tex, c0, c1);
     else
-      pass.scatter(acc, c0, c1);
+      pass.scatter_levels(levels, pieces ? pieces->data() : nullptr, piece_shift, c0, c1);
   }
 
   // The level sums to the gradients: the user's levels keep their own; the
-  // built pyramid's go down to level 0 (mip_backward); then level 0's into
-  // grad_tex.
-  void finish() {
+  // built pyramid's go down to level 1 (mip_backward_levels). Then level 0,
+  // a piece at a time: its taps summed, level 1's share added unless the
+  // levels are the user's, rounded into grad_tex.
+  void finish(const T* grad_out) {
     if (!want.texels || direct) return;
     const std::int64_t C = p.channels;
-    const std::int64_t base_texels = base_texel_count(p);
     if (p.user_pyramid) {
       if (want.pyramid)
-        parallel_for(base_texels * C, texels * C, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
-          for (std::int64_t k = lo; k < hi; ++k) want.pyramid[k - base_texels * C] += static_cast<T>(acc[k]);
+        parallel_for(0, (texels - base_texels) * C, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
+          for (std::int64_t k = lo; k < hi; ++k) want.pyramid[k] += static_cast<T>(levels[k]);
         });
-    } else if (levels_used > 1) {
-      mip_backward(C, p.layout, acc);  // every level's gradient down to level 0
+    } else {
+      mip_backward_levels(C, p.layout, levels);
     }
     if (!want.tex) return;
-    parallel_for(0, base_texels * C, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
-      for (std::int64_t k = lo; k < hi; ++k) want.tex[k] += static_cast<T>(acc[k]);
+    parallel_for(0, piece_count, 1, [&](std::int64_t i0, std::int64_t i1) {
+      auto sums = g_piece_sums_pool.take();
+      for (std::int64_t i = i0; i < i1; ++i) {
+        const std::int64_t first = i << piece_shift, last = std::min(base_texels, (i + 1) << piece_shift);
+        sums->assign(static_cast<std::size_t>((last - first) * C), 0.0);
+        double* b = sums->data();
+        for (const BaseTap<T>& t : (*pieces)[i]) {
+          double* a = b + (static_cast<std::int64_t>(t.texel) - first) * C;
+          const T* g = grad_out + static_cast<std::int64_t>(t.sample) * C;
+          const double w = t.w;
+          for (std::int64_t c = 0; c < C; ++c) a[c] += w * g[c];
+        }
+        if (p.user_pyramid) {
+          for (std::int64_t k = first * C; k < last * C; ++k) want.tex[k] += static_cast<T>(b[k - first * C]);
+        } else {
+          mip_backward_base(C, p.layout, levels, first, last, b, want.tex);
+        }
+      }
     });
   }
 };
@@ -363,12 +451,13 @@ void texture_backward(const TextureParams<T>& p, const T* grad_out, const Textur
   // Pooled, so an optimization loop does not fault in fresh pages every call.
   auto lease = g_bucket_pool<T>.take();
   const TapPass<T> pass(p, grad_out, uv_jacobian, want, sums.texels, *lease);
+  sums.prepare(pass);
   for (std::int64_t c0 = 0; c0 < p.num_samples; c0 += pass.chunk) {
     const std::int64_t c1 = std::min(p.num_samples, c0 + pass.chunk);
     pass.gradients_and_taps(c0, c1);
     sums.scatter(pass, c0, c1);
   }
-  sums.finish();
+  sums.finish(grad_out);
 }
 
 #define GR_INSTANTIATE(T) \

@@ -2,6 +2,7 @@
 
 #include "autodiff/base/error.h"
 #include "autodiff/base/memory.h"
+#include "autodiff/base/parallel.h"
 
 #if defined(__GLIBC__)
 #include <malloc.h>
@@ -64,17 +65,31 @@ Cache& cache() {
 // virtual machine a fault costs several microseconds (docs/performance.md).
 // Pages already mapped (memory malloc reuses) are left as they are; an older
 // kernel refuses the call and the pages fault in as before. Larger buffers are
-// left to fault in as written (one that is never filled takes no memory).
-void populate(void* p, std::size_t bytes) {
+// left to fault in as written (one that is never filled takes no memory),
+// unless `filled` says the caller writes them whole now (Tensor::zeros: a
+// 2048 x 2048 x 3 texture's mip-level gradient sums are 128 MiB); those are
+// mapped in 8 MiB pieces in parallel, as the threads would fault them in.
+void populate(void* p, std::size_t bytes, bool filled) {
 #if defined(__linux__) && defined(MADV_POPULATE_WRITE)
   constexpr std::size_t kMinBytes = std::size_t(64) << 10, kMaxBytes = std::size_t(64) << 20;
-  if (bytes < kMinBytes || bytes > kMaxBytes) return;
+  constexpr std::int64_t kPiece = std::int64_t(8) << 20;  // a multiple of the page size
+  if (bytes < kMinBytes || (bytes > kMaxBytes && !filled)) return;
   static const std::uintptr_t page = static_cast<std::uintptr_t>(sysconf(_SC_PAGESIZE));
   const std::uintptr_t begin = (reinterpret_cast<std::uintptr_t>(p) + page - 1) / page * page;
   const std::uintptr_t end = (reinterpret_cast<std::uintptr_t>(p) + bytes) / page * page;
-  if (end > begin) madvise(reinterpret_cast<void*>(begin), end - begin, MADV_POPULATE_WRITE);
+  if (end <= begin) return;
+  const std::int64_t span = static_cast<std::int64_t>(end - begin);
+  if (span <= kPiece) {
+    madvise(reinterpret_cast<void*>(begin), end - begin, MADV_POPULATE_WRITE);
+    return;
+  }
+  parallel_for(0, (span + kPiece - 1) / kPiece, 1, [&](std::int64_t i0, std::int64_t i1) {
+    const std::uintptr_t lo = begin + static_cast<std::uintptr_t>(i0 * kPiece);
+    const std::uintptr_t hi = std::min(end, begin + static_cast<std::uintptr_t>(i1 * kPiece));
+    madvise(reinterpret_cast<void*>(lo), hi - lo, MADV_POPULATE_WRITE);
+  });
 #else
-  (void)p, (void)bytes;
+  (void)p, (void)bytes, (void)filled;
 #endif
 }
 
@@ -142,7 +157,7 @@ void unreserve(Cache& c, std::size_t bytes) {
 
 }  // namespace
 
-Storage::Storage(std::size_t bytes) {
+Storage::Storage(std::size_t bytes, bool filled) {
   // Refuse before rounding to a bucket: a request near SIZE_MAX cannot be rounded.
   if (bytes > memory_limit())
     throw detail::memory_limit_error(bytes, "a tensor buffer", memory_in_use(), memory_limit());
@@ -167,7 +182,7 @@ Storage::Storage(std::size_t bytes) {
     unreserve(c, bytes_);
     throw MemoryError("a tensor buffer of " + std::to_string(bytes_) + " bytes: the system refused the allocation");
   }
-  populate(ptr_, bytes_);
+  populate(ptr_, bytes_, filled);
   std::lock_guard<std::mutex> lock(c.mutex);
   c.stats.fresh_allocations++;
   count_live(c, static_cast<std::int64_t>(bytes_));

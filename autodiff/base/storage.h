@@ -14,7 +14,9 @@
 // release_cached_storage() empties it on demand. A recycled buffer is handed
 // out as it was left, never cleared (Tensor::zeros clears, Tensor::empty not).
 // A fresh buffer of 64 KiB to 64 MiB has its pages mapped in one call (Linux:
-// MADV_POPULATE_WRITE) rather than page-faulted in one by one as it is written.
+// MADV_POPULATE_WRITE) rather than page-faulted in one by one as it is written;
+// so does a larger one that its maker writes whole at once (Tensor::zeros,
+// Tensor::full: `filled`).
 //
 // Each Storage counts the in-place writes made into it (its version): the
 // non-const Tensor::data<T>() bumps it, the gradient tape saves it when it
@@ -31,7 +33,8 @@ namespace gr {
 
 class Storage {
  public:
-  explicit Storage(std::size_t bytes);  // contents uninitialized
+  // Contents uninitialized. filled: the caller writes every byte right away.
+  explicit Storage(std::size_t bytes, bool filled = false);
   ~Storage();
   Storage(const Storage&) = delete;
   Storage& operator=(const Storage&) = delete;

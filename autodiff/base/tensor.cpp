@@ -19,23 +19,27 @@ std::int32_t to_int32(double v, const char* what, std::int64_t index) {
   return static_cast<std::int32_t>(v);
 }
 
-}  // namespace
-
-Tensor Tensor::empty(const Shape& shape, DType dtype) {
+// A tensor of uninitialized storage; filled: the caller writes it whole right
+// away (its fresh pages are then mapped in one call, autodiff/base/storage.h).
+std::shared_ptr<TensorImpl> new_impl(const Shape& shape, DType dtype, bool filled) {
   auto impl = std::make_shared<TensorImpl>();
   impl->shape = shape;
   impl->dtype = dtype;
   try {
     // Cannot overflow: a Shape holds at most 2^60 - 1 elements (autodiff/base/shape.h).
-    impl->storage = std::make_shared<Storage>(static_cast<std::size_t>(shape.numel()) * dtype_size(dtype));
+    impl->storage = std::make_shared<Storage>(static_cast<std::size_t>(shape.numel()) * dtype_size(dtype), filled);
   } catch (const MemoryError& e) {
     throw MemoryError("tensor " + std::string(dtype_name(dtype)) + shape.str() + ": " + e.what());
   }
-  return Tensor(std::move(impl));
+  return impl;
 }
 
+}  // namespace
+
+Tensor Tensor::empty(const Shape& shape, DType dtype) { return Tensor(new_impl(shape, dtype, false)); }
+
 Tensor Tensor::zeros(const Shape& shape, DType dtype) {
-  Tensor t = empty(shape, dtype);
+  Tensor t(new_impl(shape, dtype, true));
   // Large buffers (gradients of images) are cleared by all threads.
   constexpr std::int64_t kChunk = std::int64_t(1) << 20;  // bytes per task
   auto* bytes = static_cast<unsigned char*>(t.impl_->storage->data());
@@ -48,7 +52,7 @@ Tensor Tensor::zeros(const Shape& shape, DType dtype) {
 }
 
 Tensor Tensor::full(const Shape& shape, double value, DType dtype) {
-  Tensor t = empty(shape, dtype);
+  Tensor t(new_impl(shape, dtype, true));
   const std::int64_t n = shape.numel();
   switch (dtype) {
     case DType::Float32: { float* d = t.data<float>(); for (std::int64_t i = 0; i < n; ++i) d[i] = float(value); break; }

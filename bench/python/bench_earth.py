@@ -15,9 +15,9 @@ without tuning each one is mapped, faulted in page by page and unmapped.
 Each configuration runs in its own process (the tuning is process-wide and
 applied at import): `tuned` as shipped, `defaults` with
 GRADRASTER_MALLOC_DEFAULTS=1 (glibc's own settings). Runs are interleaved and
-the medians of user, system and wall time (resource.getrusage,
-time.perf_counter) are printed for the whole loop and for the iterations after
-the first: the first one faults in the working set (Adam's state, the
+the medians of user, system and wall time and of minor page faults
+(resource.getrusage: every page mapped, by a trap or populated; time.perf_counter)
+are printed for the whole loop and for the iterations after the first: the first one faults in the working set (Adam's state, the
 gradients) whichever the settings, the later ones show what each iteration
 costs once the loop runs.
 """
@@ -73,9 +73,11 @@ def child(iterations, size, tex_side, threads):
             marks.append((resource.getrusage(resource.RUSAGE_SELF), time.perf_counter()))
 
     def between(a, b):
-        return {'user': b[0].ru_utime - a[0].ru_utime, 'sys': b[0].ru_stime - a[0].ru_stime, 'wall': b[1] - a[1]}
+        return {'user': b[0].ru_utime - a[0].ru_utime, 'sys': b[0].ru_stime - a[0].ru_stime, 'wall': b[1] - a[1],
+                'faults': b[0].ru_minflt - a[0].ru_minflt}
 
-    print(json.dumps({'loop': between(marks[0], marks[-1]), 'later': between(marks[1], marks[-1]),
+    print(json.dumps({'loop': between(marks[0], marks[-1]), 'first': between(marks[0], marks[1]),
+                      'later': between(marks[1], marks[-1]),
                       'loss': loss.item(), 'threads': torch.get_num_threads()}))
 
 
@@ -109,9 +111,9 @@ def main():
     for part, title in (('loop', f'all {a.iterations} iterations'), ('later', f'iterations 2..{a.iterations}')):
         print(title)
         for name, results in runs.items():
-            m = {k: statistics.median(r[part][k] for r in results) for k in ('user', 'sys', 'wall')}
+            m = {k: statistics.median(r[part][k] for r in results) for k in ('user', 'sys', 'wall', 'faults')}
             print(f'  {name:9s} user {m["user"]:6.2f} s   sys {m["sys"]:6.2f} s ({100 * m["sys"] / m["user"]:5.1f} % of '
-                  f'user)   wall {m["wall"]:6.2f} s   final loss {results[-1]["loss"]:.5f}')
+                  f'user)   wall {m["wall"]:6.2f} s   faults {m["faults"]:8.0f}   final loss {results[-1]["loss"]:.5f}')
 
 
 if __name__ == '__main__':

@@ -4,6 +4,7 @@
 // image file, the LOD rule and bad input.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -96,6 +97,35 @@ TEST_CASE("mip backward is the transpose of mip build", "[raster][texture]") {
     double rhs = 0;
     for (std::int64_t i = 0; i < base_n; ++i) rhs += gb[i] * x[i];
     CHECK(lhs == Approx(rhs).epsilon(1e-12));
+  }
+}
+
+TEST_CASE("mip backward in two steps, level 0 in parts of any size, gives the bits of mip backward rounded once",
+          "[raster][texture]") {
+  // texture_backward sums level 0 a piece at a time (raster/texture_backward.cpp).
+  for (auto hw : {std::pair<int, int>{8, 8}, {7, 12}, {1, 5}, {9, 3}, {33, 17}}) {
+    const int h = hw.first, w = hw.second, C = 3;
+    INFO(h << " x " << w);
+    const MipLayout layout = mip_layout(h, w);
+    const std::int64_t base_texels = std::int64_t(h) * w, all_n = layout.total_texels * C;
+    const std::vector<double> g = random_vector(all_n, -1, 1, 5);
+    std::vector<double> whole = g;
+    mip_backward(C, layout, whole.data());
+    const std::vector<float> start(base_texels * C, 0.5f);  // the adjoint adds (+=) into grad_tex
+    std::vector<float> want = start;
+    for (std::int64_t k = 0; k < base_texels * C; ++k) want[k] += static_cast<float>(whole[k]);
+    for (std::int64_t part : {std::int64_t(1), std::int64_t(5), std::int64_t(16), base_texels}) {
+      INFO("parts of " << part << " texels");
+      std::vector<double> levels(g.begin() + base_texels * C, g.end());
+      mip_backward_levels(C, layout, levels.data());
+      std::vector<float> got = start;
+      for (std::int64_t first = 0; first < base_texels; first += part) {
+        const std::int64_t last = std::min(base_texels, first + part);
+        mip_backward_base(C, layout, levels.data(), first, last, g.data() + first * C, got.data());
+      }
+      CHECK(got == want);
+      CHECK(std::equal(levels.begin(), levels.end(), whole.begin() + base_texels * C));  // levels 1.. as mip_backward left them
+    }
   }
 }
 

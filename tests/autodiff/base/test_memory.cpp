@@ -4,6 +4,7 @@
 #include <malloc.h>
 #endif
 
+#include <algorithm>
 #include <atomic>
 #include <cstdlib>
 #include <new>
@@ -97,6 +98,31 @@ TEST_CASE("storage: a 48 MiB buffer given back is served again from the cache, n
   CHECK(address(b) == first);  // the same pages, already faulted in
   CHECK(storage_stats().reused == before.reused + 1);
   CHECK(storage_stats().fresh_allocations == before.fresh_allocations);
+}
+
+TEST_CASE("storage: Tensor::zeros above 64 MiB gives zeros, fresh or recycled after writes, on 1 and 3 threads",
+          "[autodiff][memory][storage]") {
+  // Above 64 MiB a fresh zeros buffer is mapped in parallel pieces before it is
+  // cleared (autodiff/base/storage.cpp, populate); a recycled one is only cleared.
+  for (int threads : {1, 3}) {
+    set_num_threads(threads);
+    release_cached_storage();
+    const std::int64_t n = (std::int64_t(96) << 20) / 4 + 3;  // not a whole number of pages
+    const void* first = nullptr;
+    {
+      Tensor a = Tensor::zeros({n});
+      const float* d = static_cast<const Tensor&>(a).data<float>();
+      CHECK(std::all_of(d, d + n, [](float v) { return v == 0.0f; }));
+      float* w = a.data<float>();
+      std::fill(w, w + n, 1.5f);  // left dirty for the next request of its size
+      first = address(a);
+    }
+    const Tensor b = Tensor::zeros({n});
+    CHECK(address(b) == first);  // the same buffer, from the cache
+    const float* d = b.data<float>();
+    CHECK(std::all_of(d, d + n, [](float v) { return v == 0.0f; }));
+  }
+  set_num_threads(0);
 }
 
 TEST_CASE("storage: the cache never holds more than a quarter of the memory limit, giving back the oldest buffers first",
