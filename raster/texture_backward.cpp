@@ -285,56 +285,54 @@ struct TapPass {
     });
   }
 
+  // visit(e, n, first): each band's task walks its buckets block by block;
+  // a bucket's taps are e[0, n), tap q on sample first + e[q].sample.
+  template <class Visit>
+  void for_each_bucket(std::int64_t c0, std::int64_t c1, Visit visit) const {
+    const std::int64_t blocks = (c1 - c0 + kBlock - 1) / kBlock;
+    parallel_for(0, bands.count, 1, [&](std::int64_t b0, std::int64_t b1) {
+      for (std::int64_t b = b0; b < b1; ++b)
+        for (std::int64_t j = 0; j < blocks; ++j)
+          visit(&entries[(j * bands.count + b) * bucket_size], count[j * bands.count + b], c0 + j * kBlock);
+    });
+  }
+
   // As scatter, with mip levels: taps on levels 1.. added to `levels` (level
   // 1's first texel at 0); taps on level 0 appended, in the same order, to
   // the list of their piece of 2^piece_shift texels (pieces null: dropped).
   // A piece lies in one band (piece_shift <= bands.shift), so one task fills it.
   void scatter_levels(double* levels, std::vector<BaseTap<T>>* pieces, int piece_shift, std::int64_t c0,
                       std::int64_t c1) const {
-    const std::int64_t blocks = (c1 - c0 + kBlock - 1) / kBlock;
-    parallel_for(0, bands.count, 1, [&](std::int64_t b0, std::int64_t b1) {
-      for (std::int64_t b = b0; b < b1; ++b)
-        for (std::int64_t j = 0; j < blocks; ++j) {
-          const TapEntry<T>* e = &entries[(j * bands.count + b) * bucket_size];
-          const std::int32_t n = count[j * bands.count + b];
-          for (std::int32_t q = 0; q < n; ++q) {
-            const std::int64_t s = c0 + j * kBlock + e[q].sample;
-            const std::int64_t texel = e[q].texel;
-            if (texel < base_texels) {
-              if (pieces)
-                pieces[texel >> piece_shift].push_back(
-                    {e[q].texel, e[q].w, static_cast<std::uint32_t>(s)});
-              continue;
-            }
-            if (q + kScatterAhead < n && e[q + kScatterAhead].texel >= base_texels)
-              __builtin_prefetch(levels + (e[q + kScatterAhead].texel - base_texels) * C, 1);
-            double* a = levels + (texel - base_texels) * C;
-            const T* g = grad_out + s * C;
-            const double w = e[q].w;
-            for (std::int64_t c = 0; c < C; ++c) a[c] += w * g[c];
-          }
+    for_each_bucket(c0, c1, [&](const TapEntry<T>* e, std::int32_t n, std::int64_t first) {
+      for (std::int32_t q = 0; q < n; ++q) {
+        const std::int64_t s = first + e[q].sample;
+        const std::int64_t texel = e[q].texel;
+        if (texel < base_texels) {
+          if (pieces) pieces[texel >> piece_shift].push_back({e[q].texel, e[q].w, static_cast<std::uint32_t>(s)});
+          continue;
         }
+        if (q + kScatterAhead < n && e[q + kScatterAhead].texel >= base_texels)
+          __builtin_prefetch(levels + (e[q + kScatterAhead].texel - base_texels) * C, 1);
+        double* a = levels + (texel - base_texels) * C;
+        const T* g = grad_out + s * C;
+        const double w = e[q].w;
+        for (std::int64_t c = 0; c < C; ++c) a[c] += w * g[c];
+      }
     });
   }
 
-  // dL/d texel_t += w_t g for the chunk [c0, c1)'s taps: each band's task
-  // walks its buckets block by block. sums: grad_tex (T) or the level sums (double).
+  // dL/d texel_t += w_t g for the chunk [c0, c1)'s taps. sums: grad_tex (T)
+  // or the level sums (double).
   template <class A>
   void scatter(A* sums, std::int64_t c0, std::int64_t c1) const {
-    const std::int64_t blocks = (c1 - c0 + kBlock - 1) / kBlock;
-    parallel_for(0, bands.count, 1, [&](std::int64_t b0, std::int64_t b1) {
-      for (std::int64_t b = b0; b < b1; ++b)
-        for (std::int64_t j = 0; j < blocks; ++j) {
-          const TapEntry<T>* e = &entries[(j * bands.count + b) * bucket_size];
-          const std::int32_t n = count[j * bands.count + b];
-          for (std::int32_t q = 0; q < n; ++q) {
-            if (q + kScatterAhead < n) __builtin_prefetch(sums + e[q + kScatterAhead].texel * C, 1);
-            auto* a = sums + e[q].texel * C;
-            const T* g = grad_out + (c0 + j * kBlock + e[q].sample) * C;
-            const double w = e[q].w;
-            for (std::int64_t c = 0; c < C; ++c) a[c] += w * g[c];
-          }
-        }
+    for_each_bucket(c0, c1, [&](const TapEntry<T>* e, std::int32_t n, std::int64_t first) {
+      for (std::int32_t q = 0; q < n; ++q) {
+        if (q + kScatterAhead < n) __builtin_prefetch(sums + e[q + kScatterAhead].texel * C, 1);
+        auto* a = sums + e[q].texel * C;
+        const T* g = grad_out + (first + e[q].sample) * C;
+        const double w = e[q].w;
+        for (std::int64_t c = 0; c < C; ++c) a[c] += w * g[c];
+      }
     });
   }
 };
