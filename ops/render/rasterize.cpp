@@ -51,6 +51,7 @@ GBuffer rasterize_layer(const Tensor& clip, const Tensor& triangles, const Raste
   const raster::RasterSettings settings{options.width, options.height, options.cull, options.front_to_back};
   const std::int64_t h = options.height, w = options.width;
   GBuffer gb;
+  gb.backend = options.backend;
   gb.clip = clip;
   gb.triangles = triangles;
   gb.tri_id = Tensor::empty({h, w}, DType::Int32);
@@ -112,7 +113,8 @@ void finish_gbuffer(GBuffer& gb, const char* op) {
   const Tensor tri_id = gb.tri_id;
   if (images == 1)
     gb.groups = std::make_shared<raster::TriangleGroups>(tri_id.data<std::int32_t>(), std::make_shared<Tensor>(tri_id));
-  auto adjoint = [clip, triangles, tri_id, images, w, h, P, db, op, groups = gb.groups](AdjointContext& ctx) {
+  auto adjoint = [clip, triangles, tri_id, images, w, h, P, db, op, groups = gb.groups,
+                  backend = gb.backend](AdjointContext& ctx) {
     const Tensor& g_uv = ctx.grad_output(0);
     const Tensor& g_depth = ctx.grad_output(1);
     const Tensor g_db = db ? ctx.grad_output(2) : Tensor();
@@ -138,6 +140,10 @@ void finish_gbuffer(GBuffer& gb, const char* op) {
         raster::BarycentricGBufferParams<T> p = image_params<T>(clip, triangles, b, w, h);
         p.tri_id = tri_id.data<std::int32_t>() + b * P;
         p.groups = groups.get();
+        if constexpr (std::is_same_v<T, float>)
+          if (backend && images == 1 &&
+              backend->gbuffer_backward(p, gr, g_db.defined() ? g_db.data<T>() : nullptr, g.data<T>()))
+            continue;
         raster::barycentric_gbuffer_backward(p, static_cast<const T*>(nullptr), gr + 4 * P * b,
                                              g_db.defined() ? g_db.data<T>() + 4 * P * b : nullptr,
                                              g.data<T>() + (clip.rank() == 3 ? b * n * 4 : 0));
