@@ -3,8 +3,10 @@
 // bit and, with interpolate, antialias and the rasterize adjoint on the
 // device too, the image bit for bit on lavapipe and the gradients within 1e-5;
 // the fit example with its G-buffers on the GPU (gradraster-fit --device
-// vulkan) gives the CPU run's IoU, and gradraster-render --device vulkan
-// writes the CPU run's files byte for byte. The whole chain on hard scenes:
+// vulkan) gives the CPU run's loss and IoU exactly (its gradients come out bit
+// for bit the CPU's here: the fixed-point sums round to the CPU's double
+// sums), and gradraster-render --device vulkan writes the CPU run's files
+// byte for byte. The whole chain on hard scenes:
 // test_vulkan_backend_chain.cpp.
 #include <catch2/catch.hpp>
 
