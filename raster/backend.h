@@ -1,17 +1,21 @@
 // Where the raster kernels run: the CPU (no backend) or another device
 // (raster/vulkan/backend.h gives a Vulkan one), the ops' execution context
-// (RasterizeOptions::backend, TextureOptions::backend,
-// CubeTextureOptions::backend). A backend gives
-// rasterize_forward's G-buffer bit for bit, so everything that reads it (the
-// rasterize adjoint, which runs on the CPU from tri_id, interpolate,
-// antialias) is unchanged; texture and cube-map lookups give the CPU kernel's
-// samples (within an ulp of float) and gradients (within 1e-5 of the largest).
+// (RasterizeOptions::backend, which the G-buffer keeps for interpolate,
+// antialias and the rasterize adjoint; TextureOptions::backend,
+// CubeTextureOptions::backend). A backend gives rasterize_forward's coverage
+// bit for bit; interpolate, antialias and the G-buffer adjoint the CPU
+// kernels' values within 1e-6 and gradients within 1e-5 of the largest;
+// texture and cube-map lookups the CPU kernel's samples (within an ulp of
+// float) and gradients (within 1e-5 of the largest).
 #pragma once
 
 #include <cstdint>
 #include <string>
 #include <type_traits>
 
+#include "raster/antialias.h"
+#include "raster/barycentric_gbuffer.h"
+#include "raster/barycentric_interpolate.h"
 #include "raster/cube_texture.h"
 #include "raster/rasterize.h"
 #include "raster/texture.h"
@@ -41,6 +45,37 @@ class RasterBackend {
   virtual bool cube_texture_forward(const CubeTextureParams<float>& /*p*/, float* /*out*/) const { return false; }
   virtual bool cube_texture_backward(const CubeTextureParams<float>& /*p*/, const float* /*grad_out*/,
                                      const CubeTextureGrads<float>& /*grads*/) const {
+    return false;
+  }
+  // The ops' G-buffer chain, float32, one image of width x height pixels
+  // (the ops pass the G-buffer's arrays; a backend uploads what it reads).
+  // Each gives the CPU kernel's results within issue 33's tolerances (values
+  // 1e-6, gradients 1e-5 relative to the largest), deterministic, or returns
+  // false (the caller then runs the CPU kernel). Adjoints ACCUMULATE (+=).
+  // barycentric_interpolate_forward / _backward (p.tri_id and p.rast with
+  // its stride given; p.groups is the CPU's and ignored):
+  virtual bool interpolate_forward(const BarycentricInterpolateParams<float>& /*p*/, int /*width*/, int /*height*/,
+                                   float* /*out*/, float* /*out_da*/) const {
+    return false;
+  }
+  virtual bool interpolate_backward(const BarycentricInterpolateParams<float>& /*p*/, int /*width*/,
+                                    int /*height*/, const float* /*grad_out*/, const float* /*grad_da*/,
+                                    const BarycentricInterpolateGrads<float>& /*grads*/) const {
+    return false;
+  }
+  // antialias_forward / antialias_backward (raster/antialias.h); the adjoint
+  // takes the forward's whole p (a backend may recompute the pairs) instead
+  // of its pairs.
+  virtual bool antialias_forward(const AntialiasParams<float>& /*p*/, float* /*out*/) const { return false; }
+  virtual bool antialias_backward(const AntialiasParams<float>& /*p*/, const float* /*grad_out*/,
+                                  const AntialiasGrads<float>& /*grads*/) const {
+    return false;
+  }
+  // barycentric_gbuffer_backward (raster/barycentric_gbuffer.h) for
+  // grad_rast (H x W x 4: u, v, z/w; the id channel ignored) and grad_db
+  // (H x W x 4, or null), into grad_clip (N x 4).
+  virtual bool gbuffer_backward(const BarycentricGBufferParams<float>& /*p*/, const float* /*grad_rast*/,
+                                const float* /*grad_db*/, float* /*grad_clip*/) const {
     return false;
   }
 };

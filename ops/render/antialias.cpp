@@ -1,10 +1,12 @@
-// Tape op over raster::antialias_forward / antialias_backward.
+// Tape op over raster::antialias_forward / antialias_backward; on the
+// G-buffer's backend (RasterBackend::antialias_*) when it has one (float32).
 #include "ops/render/antialias.h"
 
 #include <algorithm>
 #include <cmath>
 #include <memory>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "autodiff/base/memory.h"
@@ -34,6 +36,40 @@ raster::AntialiasParams<T> image_params(const Tensor& image, const Tensor& clip)
   p.clip = clip.data<T>();
   p.num_vertices = clip.size(0);
   return p;
+}
+
+// Multiplies dL/dclip by nvdiffrast's pos_gradient_boost.
+template <class T>
+void boost_gradient(Tensor& g_clip, double boost) {
+  if (!g_clip.defined() || boost == 1.0) return;
+  T* d = g_clip.data<T>();
+  for (std::int64_t i = 0; i < g_clip.numel(); ++i) d[i] = static_cast<T>(boost * d[i]);
+}
+
+// The adjoint of an antialias run on a backend (float32): the backend's
+// antialias_backward, which takes the forward's inputs (it recomputes the pairs).
+void record_on_backend(const Tensor& image, const GBuffer& gbuffer, const Tensor& clip, const Tensor& triangles,
+                       const AntialiasTopology& topology, const std::shared_ptr<const raster::RasterBackend>& backend,
+                       double boost, Tensor* out) {
+  record("antialias", {image, clip}, {out},
+         [image = image.detach(), clip = clip.detach(), tri_id = gbuffer.tri_id, depth = gbuffer.depth, triangles,
+          topology, backend, boost](AdjointContext& ctx) {
+           const Tensor& g = ctx.grad_output();
+           Tensor g_image = ctx.needs_grad(0) ? Tensor::zeros(image.shape(), image.dtype()) : Tensor();
+           Tensor g_clip = ctx.needs_grad(1) ? Tensor::zeros(clip.shape(), clip.dtype()) : Tensor();
+           raster::AntialiasParams<float> p = image_params<float>(image, clip);
+           p.tri_id = tri_id.data<std::int32_t>();
+           p.depth = depth.data<float>();
+           p.tris = triangles.data<std::int32_t>();
+           p.num_tris = triangles.size(0);
+           p.topology = topology.get();
+           auto ptr = [](Tensor& t) { return t.defined() ? t.data<float>() : nullptr; };
+           if (!backend->antialias_backward(p, g.data<float>(), {ptr(g_image), ptr(g_clip)}))
+             throw Error("antialias: the backend ran the forward but refused the adjoint");
+           boost_gradient<float>(g_clip, boost);
+           if (g_image.defined()) ctx.accumulate(0, g_image);
+           if (g_clip.defined()) ctx.accumulate(1, g_clip);
+         });
 }
 
 }  // namespace
@@ -101,6 +137,12 @@ Tensor antialias(const Tensor& image, const GBuffer& gbuffer, const Tensor& clip
   Tensor out = Tensor::empty(image.shape(), image.dtype());
   const bool rec = should_record({image, clip});
   auto pairs = std::make_shared<raster::BlendedPairs>();
+  // The G-buffer's backend runs the silhouette antialias (float32) unless pair
+  // counts are asked for (the CPU kernel's).
+  const std::shared_ptr<const raster::RasterBackend> backend =
+      gbuffer.backend && !options.visibility && !options.stats && clip.dtype() == DType::Float32 ? gbuffer.backend
+                                                                                                  : nullptr;
+  bool on_backend = false;
   dispatch_float(clip.dtype(), op, [&](auto tag) {
     using T = decltype(tag);
     // Default topology: weld vertices with equal clip rows.
@@ -111,10 +153,17 @@ Tensor antialias(const Tensor& image, const GBuffer& gbuffer, const Tensor& clip
     p.tris = triangles.data<std::int32_t>();
     p.num_tris = m;
     p.topology = topology.get();
+    if constexpr (std::is_same_v<T, float>)
+      if (backend && backend->antialias_forward(p, out.data<T>())) {
+        on_backend = true;
+        return;
+      }
     raster::blend_boundaries_forward(options.visibility, p, out.data<T>(), rec ? pairs.get() : nullptr,
                                      {options.stats, options.visibility_stats});
   });
-  if (rec) {
+  if (rec && on_backend) {
+    record_on_backend(image, gbuffer, clip, triangles, topology, backend, boost, &out);
+  } else if (rec) {
     record(name, {image, clip}, {&out},
            [image = image.detach(), clip = clip.detach(), pairs, boost, name](AdjointContext& ctx) {
              const Tensor& g = ctx.grad_output();
@@ -125,10 +174,7 @@ Tensor antialias(const Tensor& image, const GBuffer& gbuffer, const Tensor& clip
                auto ptr = [](Tensor& t) { return t.defined() ? t.data<T>() : nullptr; };
                raster::blend_boundaries_backward(image_params<T>(image, clip), *pairs, g.data<T>(),
                                                  {ptr(g_image), ptr(g_clip)});
-               if (g_clip.defined() && boost != 1.0) {
-                 T* d = g_clip.data<T>();
-                 for (std::int64_t i = 0; i < g_clip.numel(); ++i) d[i] = static_cast<T>(boost * d[i]);
-               }
+               boost_gradient<T>(g_clip, boost);
              });
              if (g_image.defined()) ctx.accumulate(0, g_image);
              if (g_clip.defined()) ctx.accumulate(1, g_clip);

@@ -1,9 +1,11 @@
 // Tape op over raster::barycentric_interpolate_forward / _backward, image and
 // fragment forms: both validate here, give the kernels the items' uv and ids
-// (BarycentricInterpolateParams' planar form) and record one adjoint.
+// (BarycentricInterpolateParams' planar form) and record one adjoint. The
+// image form runs on the G-buffer's backend when it has one (float32).
 #include "ops/render/interpolate.h"
 
 #include <algorithm>
+#include <type_traits>
 
 #include "autodiff/base/parallel.h"
 #include "autodiff/tape.h"
@@ -118,6 +120,9 @@ struct Items {
   Tensor tri_id, uv, db, pixel_index;
   Shape shape;
   std::shared_ptr<raster::TriangleGroups> groups;  // the G-buffer's (or null)
+  // The G-buffer's backend (image form only; null: the CPU) and image size.
+  std::shared_ptr<const raster::RasterBackend> backend;
+  int width = 0, height = 0;
   std::int64_t count() const { return tri_id.numel(); }
 };
 
@@ -156,7 +161,12 @@ std::vector<Tensor> interpolate_items(const Tensor& attributes, const Tensor& tr
   dispatch_float(attributes.dtype(), kOp, [&](auto tag) {
     using T = decltype(tag);
     Tensor da = K > 0 ? Tensor::empty({n * 2 * K}, attributes.dtype()) : Tensor();
-    raster::barycentric_interpolate_forward(params(tag), out[0].data<T>(), K > 0 ? da.data<T>() : nullptr);
+    bool on_backend = false;
+    if constexpr (std::is_same_v<T, float>)
+      on_backend = items.backend && items.backend->interpolate_forward(params(tag), items.width, items.height,
+                                                                         out[0].data<T>(), K > 0 ? da.data<T>() : nullptr);
+    if (!on_backend)
+      raster::barycentric_interpolate_forward(params(tag), out[0].data<T>(), K > 0 ? da.data<T>() : nullptr);
     const std::int32_t* id = items.tri_id.data<std::int32_t>();
     if (background.defined()) {
       T* o = out[0].data<T>();
@@ -185,7 +195,8 @@ std::vector<Tensor> interpolate_items(const Tensor& attributes, const Tensor& tr
   // The index tensors get no gradient; listed so that backward() refuses them written in place.
   record(items.pixel_index.defined() ? "interpolate_fragments" : "interpolate",
          {attributes, uv, db, triangles, items.tri_id, items.pixel_index}, outputs,
-         [params, n, C, K, dtype = attributes.dtype()](AdjointContext& ctx) {
+         [params, n, C, K, dtype = attributes.dtype(), backend = items.backend, w = items.width,
+          h = items.height](AdjointContext& ctx) {
            // The kernel adds (+=) into the gradients summed so far.
            Tensor g_attr = ctx.accumulation_buffer(0);
            Tensor g_uv = ctx.accumulation_buffer(1);
@@ -213,6 +224,9 @@ std::vector<Tensor> interpolate_items(const Tensor& attributes, const Tensor& tr
              grads.attr = g_attr.defined() ? g_attr.data<T>() : nullptr;
              grads.rast = g_uv.defined() ? g_uv.data<T>() : nullptr;
              grads.rast_db = g_db.defined() ? g_db.data<T>() : nullptr;
+             if constexpr (std::is_same_v<T, float>)
+               if (backend && backend->interpolate_backward(p, w, h, go.data<T>(), K > 0 ? gda.data<T>() : nullptr, grads))
+                 return;
              raster::barycentric_interpolate_backward(p, go.data<T>(), K > 0 ? gda.data<T>() : nullptr, grads);
            });
          });
@@ -226,7 +240,8 @@ Tensor interpolate(const Tensor& attributes, const GBuffer& gbuffer, const Tenso
   check_attributes(attributes, triangles, gbuffer.clip);
   check_gbuffer(gbuffer, attributes, triangles, false);
   check_background(options.background, attributes);
-  const Items items{gbuffer.tri_id, gbuffer.uv, Tensor(), Tensor(), gbuffer.tri_id.shape(), gbuffer.groups};
+  const Items items{gbuffer.tri_id, gbuffer.uv, Tensor(), Tensor(), gbuffer.tri_id.shape(), gbuffer.groups,
+                    gbuffer.backend, gbuffer.width(), gbuffer.height()};
   return interpolate_items(attributes, triangles, items, nullptr, options.background)[0];
 }
 
@@ -237,7 +252,8 @@ Tensor interpolate(const Tensor& attributes, const Fragments& fragments, const T
     throw ValueError("interpolate: options.background has no meaning for fragments (every fragment is covered); "
                      "pass it to to_image");
   check_fragments(fragments, attributes, triangles);
-  const Items items{fragments.tri_id, fragments.uv, Tensor(), fragments.pixel_index, {fragments.count()}, nullptr};
+  const Items items{fragments.tri_id, fragments.uv, Tensor(), fragments.pixel_index, {fragments.count()},
+                    nullptr, nullptr, 0, 0};  // no backend: the fragment form runs on the CPU
   return interpolate_items(attributes, triangles, items, nullptr, Tensor())[0];
 }
 
@@ -247,7 +263,8 @@ InterpolatedWithDerivatives interpolate_with_derivatives(const Tensor& attribute
   check_gbuffer(gbuffer, attributes, triangles, true);
   check_background(options.background, attributes);
   const std::vector<std::int32_t> diff = diff_channels(options, attributes.size(1));
-  const Items items{gbuffer.tri_id, gbuffer.uv, gbuffer.db, Tensor(), gbuffer.tri_id.shape(), gbuffer.groups};
+  const Items items{gbuffer.tri_id, gbuffer.uv, gbuffer.db, Tensor(), gbuffer.tri_id.shape(), gbuffer.groups,
+                    gbuffer.backend, gbuffer.width(), gbuffer.height()};
   std::vector<Tensor> out = interpolate_items(attributes, triangles, items, &diff, options.background);
   return {out[0], out[1], out[2]};
 }

@@ -51,6 +51,7 @@ GBuffer rasterize_layer(const Tensor& clip, const Tensor& triangles, const Raste
   const raster::RasterSettings settings{options.width, options.height, options.cull, options.front_to_back};
   const std::int64_t h = options.height, w = options.width;
   GBuffer gb;
+  gb.backend = options.backend;
   gb.clip = clip;
   gb.triangles = triangles;
   gb.tri_id = Tensor::empty({h, w}, DType::Int32);
@@ -99,7 +100,8 @@ void finish_gbuffer(GBuffer& gb, const char* op) {
   const Tensor tri_id = gb.tri_id;
   if (images == 1)
     gb.groups = std::make_shared<raster::TriangleGroups>(tri_id.data<std::int32_t>(), std::make_shared<Tensor>(tri_id));
-  auto adjoint = [clip, triangles, tri_id, images, w, h, P, db, op, groups = gb.groups](AdjointContext& ctx) {
+  auto adjoint = [clip, triangles, tri_id, images, w, h, P, db, op, groups = gb.groups,
+                  backend = gb.backend](AdjointContext& ctx) {
     const Tensor& g_uv = ctx.grad_output(0);
     const Tensor& g_depth = ctx.grad_output(1);
     const Tensor g_db = db ? ctx.grad_output(2) : Tensor();
@@ -116,6 +118,17 @@ void finish_gbuffer(GBuffer& gb, const char* op) {
         raster::BarycentricGBufferParams<T> p = image_params<T>(clip, triangles, b, w, h);
         p.tri_id = tri_id.data<std::int32_t>() + b * P;
         p.groups = groups.get();
+        if constexpr (std::is_same_v<T, float>)
+          if (backend && images == 1) {
+            // The device's adjoint reads nvdiffrast's H x W x 4 layout (u, v, z/w, id).
+            std::vector<float> gr(static_cast<std::size_t>(4 * P), 0.0f);
+            for (std::int64_t q = 0; q < P; ++q) {
+              if (gu) gr[4 * q] = gu[2 * q], gr[4 * q + 1] = gu[2 * q + 1];
+              if (gd) gr[4 * q + 2] = gd[q];
+            }
+            if (backend->gbuffer_backward(p, gr.data(), g_db.defined() ? g_db.data<T>() : nullptr, g.data<T>()))
+              continue;
+          }
         raster::barycentric_gbuffer_backward_planes(p, gu ? gu + 2 * P * b : nullptr, gd ? gd + P * b : nullptr,
                                                     g_db.defined() ? g_db.data<T>() + 4 * P * b : nullptr,
                                                     g.data<T>() + (clip.rank() == 3 ? b * n * 4 : 0));

@@ -28,8 +28,11 @@ struct RasterizeOptions {
   bool front_to_back = false;  // work order only; same G-buffer (raster::RasterSettings)
   // Where the coverage is decided (null: the CPU), e.g.
   // gr::vulkan::raster_backend(device) for float32 clip positions: the same
-  // tri_id bit for bit; the values and the adjoint run on the CPU, so the
-  // G-buffer is the same too. GBuffer::stats stays zero when a backend ran it.
+  // tri_id bit for bit; the values run on the CPU, so the G-buffer is the
+  // same too. The G-buffer keeps the backend (GBuffer::backend): its adjoint
+  // and the interpolate and antialias ops reading it run there too (float32;
+  // values within 1e-6 and gradients within 1e-5 of the CPU's, deterministic).
+  // GBuffer::stats stays zero when a backend ran it.
   std::shared_ptr<const raster::RasterBackend> backend = nullptr;
   // Also make GBuffer::db, the barycentrics' screen derivatives (nvdiffrast's
   // rast_db), for interpolate's attribute derivatives.
@@ -55,6 +58,10 @@ struct GBuffer {
   // the first adjoint that needs it and reused by the others over this
   // tri_id (raster/detail/triangle_groups.h).
   std::shared_ptr<raster::TriangleGroups> groups;
+  // RasterizeOptions::backend of the rasterize that made it (null: the CPU):
+  // the execution context of the rasterize adjoint and of the interpolate
+  // (image form) and antialias ops that read this G-buffer, for float32.
+  std::shared_ptr<const raster::RasterBackend> backend;
   int width() const { return static_cast<int>(tri_id.size(1)); }
   int height() const { return static_cast<int>(tri_id.size(0)); }
 };

@@ -358,6 +358,86 @@ GpuTimes Frame::rasterize_into(const raster::RasterParams<float>& p, const GpuRa
   return s.timestamps.read();
 }
 
+GpuTimes Frame::load_gbuffer(const raster::RasterParams<float>& p, const GpuRasterOptions& options,
+                             const std::int32_t* tri_id, const float* uv, int uv_stride, const float* depth,
+                             const float* db) {
+  const char* op = "vulkan load_gbuffer";
+  if (p.floor_id || p.floor_z) throw ValueError(std::string(op) + ": depth peeling fields must be null");
+  check_raster_params(p);
+  if (!tri_id) throw ValueError(std::string(op) + ": tri_id is missing");
+  if (uv && uv_stride < 2) throw ValueError(std::string(op) + ": uv_stride must be at least 2");
+  const std::int64_t px = std::int64_t(p.settings.width) * p.settings.height;
+  for (std::int64_t q = 0; q < px; ++q)
+    if (tri_id[q] < 0 || tri_id[q] > p.num_tris)
+      throw IndexError(std::string(op) + ": tri_id of pixel " + std::to_string(q) + " is " +
+                       std::to_string(tri_id[q]) + ", outside [0, " + std::to_string(p.num_tris) + "]");
+  State& s = *state_;
+  std::lock_guard<std::mutex> lock(s.dev.mutex);
+  s.rasterized = false;
+  s.width = p.settings.width;
+  s.height = p.settings.height;
+  s.num_vertices = p.num_vertices;
+  s.num_tris = p.num_tris;
+  s.y_up = options.y_up || p.settings.y_up;
+  s.derivatives = options.derivatives;
+  s.channels = -1;
+  s.aa_channels = -1;
+  s.grad_rast = s.grad_db = false;
+  s.note_triangles(p.tris, p.num_tris);
+  s.topology_ready = false;  // the caller's triangles may come with another topology
+  const std::size_t clip_bytes = static_cast<std::size_t>(p.num_vertices) * 4 * sizeof(float);
+  const std::size_t tri_bytes = static_cast<std::size_t>(p.num_tris) * 3 * sizeof(std::int32_t);
+  const std::size_t id_bytes = static_cast<std::size_t>(px) * sizeof(std::int32_t);
+  const std::size_t plane = static_cast<std::size_t>(px) * 4 * sizeof(float);
+  const std::size_t db_bytes = db ? plane : 0;
+  s.reserve(kClip, clip_bytes);
+  s.reserve(kTris, tri_bytes);
+  s.reserve(kVerts, static_cast<std::size_t>(p.num_vertices) * 32);
+  s.reserve(kKeys, 16);
+  s.reserve(kIds, 16);
+  s.reserve(kLarge, 16);
+  s.reserve(kTriId, id_bytes);
+  s.reserve(kRast, plane);
+  s.reserve(kDb, s.derivatives ? plane : 16);
+  s.upload.reserve(s.dev, clip_bytes + tri_bytes + id_bytes + plane + db_bytes, true);
+  char* up = static_cast<char*>(s.upload.mapped());
+  if (clip_bytes) std::memcpy(up, p.clip, clip_bytes);
+  if (tri_bytes) std::memcpy(up + clip_bytes, p.tris, tri_bytes);
+  std::memcpy(up + clip_bytes + tri_bytes, tri_id, id_bytes);
+  // rast as the G-buffer pass writes it: u, v, z/w, id.
+  float* rast = reinterpret_cast<float*>(up + clip_bytes + tri_bytes + id_bytes);
+  for (std::int64_t q = 0; q < px; ++q) {
+    rast[4 * q] = uv ? uv[uv_stride * q] : 0.0f;
+    rast[4 * q + 1] = uv ? uv[uv_stride * q + 1] : 0.0f;
+    rast[4 * q + 2] = depth ? depth[q] : 0.0f;
+    rast[4 * q + 3] = static_cast<float>(tri_id[q]);
+  }
+  if (db_bytes) std::memcpy(up + clip_bytes + tri_bytes + id_bytes + plane, db, db_bytes);
+  const VkDescriptorSet set = s.bind(s.raster_set, {{0, kClip}, {1, kTris}, {2, kVerts}, {3, kKeys}, {4, kIds},
+                                                    {5, kLarge}, {6, kTriId}, {7, kRast}, {8, kDb}});
+  const RasterPush push{s.width, s.height, static_cast<std::int32_t>(p.num_vertices),
+                        static_cast<std::int32_t>(p.num_tris), 0, 0, s.y_up ? 1 : 0, 0};
+  s.dev.run([&](VkCommandBuffer cb) {
+    s.timestamps.begin(cb, 3);
+    std::size_t offset = 0;
+    const std::pair<Role, std::size_t> parts[5] = {
+        {kClip, clip_bytes}, {kTris, tri_bytes}, {kTriId, id_bytes}, {kRast, plane}, {kDb, db_bytes}};
+    for (const auto& part : parts) {
+      copy(cb, s.upload.handle(), offset, s[part.first].handle(), 0, part.second);
+      offset += part.second;
+    }
+    if (s.derivatives && !db) vkCmdFillBuffer(cb, s[kDb].handle(), 0, plane, 0u);
+    barrier(cb);
+    s.timestamps.stamp(cb, 1);
+    s.use(cb, set);
+    dispatch(cb, s.k, s.k.project, &push, p.num_vertices, 256);
+    barrier(cb);
+    s.timestamps.stamp(cb, 2);
+  });
+  s.rasterized = true;
+  return s.timestamps.read();
+}
+
 GpuTimes Frame::interpolate(const float* attr, std::int64_t channels, float* out, const std::int32_t* diff,
                             std::int64_t num_diff, float* out_da) {
   State& s = *state_;
@@ -492,7 +572,7 @@ GpuTimes Frame::interpolate_backward(const float* grad_out, const float* grad_da
   return s.timestamps.read();
 }
 
-GpuTimes Frame::antialias(const float* image, int channels, float* out) {
+GpuTimes Frame::antialias(const float* image, int channels, float* out, const raster::EdgeTopology* topology) {
   State& s = *state_;
   if (!s.rasterized) throw ValueError("vulkan antialias: the frame has no G-buffer (call rasterize first)");
   if (channels < 1) throw ValueError("vulkan antialias: channels must be at least 1, got " + std::to_string(channels));
@@ -507,13 +587,19 @@ GpuTimes Frame::antialias(const float* image, int channels, float* out) {
   const std::size_t image_bytes = px * static_cast<std::size_t>(channels) * sizeof(float);
   // No image: the last interpolate's output, copied on the device.
   const std::size_t upload_image = image ? image_bytes : 0;
-  // The topology only when the triangles changed since it was uploaded.
-  const std::vector<std::int32_t> neighbours = s.topology_ready ? std::vector<std::int32_t>() : neighbours_of(s.tris);
+  if (topology && topology->num_tris != s.num_tris)
+    throw ValueError("vulkan antialias: the topology was built for " + std::to_string(topology->num_tris) +
+                     " triangles, the frame has " + std::to_string(s.num_tris));
+  // The caller's topology, else the triangles' own (only when they changed since it was uploaded).
+  const std::vector<std::int32_t> neighbours =
+      topology ? std::vector<std::int32_t>(topology->neighbour.begin(), topology->neighbour.end())
+               : s.topology_ready ? std::vector<std::int32_t>() : neighbours_of(s.tris);
+  if (topology) s.topology_ready = false;  // uploaded below; not the triangles' own
   const std::size_t neighbour_bytes = neighbours.size() * sizeof(std::int32_t);
   s.reserve(kAaImage, image_bytes);
   s.reserve(kAaOut, image_bytes);
   s.reserve(kAaPairs, 2 * px * kPairBytes);
-  if (!s.topology_ready) s.reserve(kNeighbour, neighbour_bytes);
+  if (!s.topology_ready || topology) s.reserve(kNeighbour, neighbour_bytes);
   s.upload.reserve(s.dev, upload_image + neighbour_bytes, true);
   s.download.reserve(s.dev, out ? image_bytes : 0, true);
   if (upload_image) std::memcpy(s.upload.mapped(), image, upload_image);
@@ -544,7 +630,7 @@ GpuTimes Frame::antialias(const float* image, int channels, float* out) {
     barrier(cb);
     s.timestamps.stamp(cb, 4);
   });
-  s.topology_ready = true;
+  s.topology_ready = !topology;
   s.aa_channels = channels;
   if (out) std::memcpy(out, s.download.mapped(), image_bytes);
   return s.timestamps.read();

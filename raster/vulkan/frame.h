@@ -25,6 +25,7 @@
 #include <cstdint>
 #include <memory>
 
+#include "raster/antialias.h"
 #include "raster/rasterize.h"
 #include "raster/vulkan/device.h"
 #include "raster/vulkan/rasterize.h"
@@ -56,6 +57,19 @@ class Frame {
   GpuTimes rasterize(const raster::RasterParams<float>& p, const GpuRasterOptions& options = {},
                      std::int32_t* tri_id = nullptr, float* rast = nullptr, float* db = nullptr,
                      double* key_depth = nullptr);
+
+  // A G-buffer made elsewhere (the ops keep theirs on the host), in place of
+  // rasterize's, for interpolate, antialias and rasterize_backward: p's clip,
+  // triangles, image size and y_up (or options.y_up), its coverage tri_id
+  // (H x W, ids in [0, M]) and, each may be null (zeros then), uv (H x W x
+  // uv_stride: u, v in channels 0 and 1), depth (H x W: z/w, read on covered
+  // pixels only) and db (H x W x 4: rast_db). options.derivatives marks the
+  // frame as having rast_db (interpolate's derivatives, rasterize_backward's
+  // grad_db). Checks p as rasterize does, and the ids. The edge topology is
+  // rebuilt at the next antialias. pass_ms: upload, project.
+  GpuTimes load_gbuffer(const raster::RasterParams<float>& p, const GpuRasterOptions& options,
+                        const std::int32_t* tri_id, const float* uv, int uv_stride, const float* depth,
+                        const float* db);
 
   // raster::rasterize_forward's own outputs: tri_id and the coverage
   // kernel's screen-space uv (H x W x 2) and depth (H x W), for
@@ -103,8 +117,12 @@ class Frame {
   // call after a rasterize whose triangles differ from the last ones; else
   // the device's copy is reused. The pairs stay on the device for the
   // adjoint. image null: the last interpolate's output, which stays on the
-  // device (its channel count must be `channels`). pass_ms: pairs, blend.
-  GpuTimes antialias(const float* image, int channels, float* out = nullptr);
+  // device (its channel count must be `channels`). topology: the edge
+  // topology to use instead (e.g. welded, raster::build_edge_topology with
+  // positions; built for these triangles), uploaded at this call.
+  // pass_ms: pairs, blend.
+  GpuTimes antialias(const float* image, int channels, float* out = nullptr,
+                     const raster::EdgeTopology* topology = nullptr);
 
   // The adjoint of the last antialias for grad_out (H x W x channels),
   // ACCUMULATED (+=) into grad_image (H x W x channels) and grad_clip (N x 4),

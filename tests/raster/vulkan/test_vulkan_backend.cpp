@@ -1,8 +1,14 @@
 // A Vulkan device as the ops' execution context (raster/vulkan/backend.h):
-// rasterize with RasterizeOptions::backend gives the CPU op's G-buffer and
-// gradients bit for bit, depth peeling too (one image and a batch), the fit example with its G-buffers on the GPU
-// (gradraster-fit --device vulkan) gives the CPU run's loss and IoU exactly,
-// and gradraster-render --device vulkan writes the CPU run's files byte for byte.
+// rasterize with RasterizeOptions::backend gives the CPU op's G-buffer bit for
+// bit and, with interpolate, antialias and the rasterize adjoint on the
+// device too, the image bit for bit on lavapipe and the gradients within 1e-5;
+// depth peeling gives the CPU's layers bit for bit (one image and a batch);
+// the fit example with its G-buffers on the GPU (gradraster-fit --device
+// vulkan) gives the CPU run's loss and IoU exactly (its gradients come out bit
+// for bit the CPU's here: the fixed-point sums round to the CPU's double
+// sums), and gradraster-render --device vulkan writes the CPU run's files
+// byte for byte. The whole chain on hard scenes:
+// test_vulkan_backend_chain.cpp.
 #include <catch2/catch.hpp>
 
 #include <cstring>
@@ -10,6 +16,7 @@
 #include <iterator>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "examples/fit/fit.h"
 #include "examples/render/render_tool.h"
@@ -30,7 +37,7 @@ bool same_bits(const Tensor& a, const Tensor& b) {
 
 }  // namespace
 
-TEST_CASE("rasterize on a Vulkan backend gives the CPU op's G-buffer and gradients bit for bit", "[vulkan]") {
+TEST_CASE("rasterize on a Vulkan backend gives the CPU op's G-buffer bit for bit and its gradients", "[vulkan]") {
   if (!shared_gpu()) return;
   const raster::Mesh mesh = raster::make_torus(40, 20);
   const Tensor view = look_at(Tensor::from_values({0.4, 1.6, 2.2}, {3}), Tensor::zeros({3}),
@@ -40,7 +47,7 @@ TEST_CASE("rasterize on a Vulkan backend gives the CPU op's G-buffer and gradien
   gpu.backend = vulkan::raster_backend(shared_gpu());
   CHECK(gpu.backend->name().find("vulkan") == 0);
   const Tensor colours = Tensor::uniform({mesh.num_vertices(), 3}, 0, 1, 5);
-  Tensor grads[2];
+  Tensor grads[2], images[2];
   GBuffer gbs[2];
   for (int run = 0; run < 2; ++run) {
     Tensor positions = mesh.positions.copy().set_requires_grad();
@@ -49,14 +56,17 @@ TEST_CASE("rasterize on a Vulkan backend gives the CPU op's G-buffer and gradien
     const Tensor image = antialias(interpolate(colours, gbs[run], mesh.triangles), gbs[run], clip, mesh.triangles);
     backward(sum(pow(image, 2.0)));
     grads[run] = positions.grad();
+    images[run] = image;
   }
   REQUIRE(std::memcmp(gbs[0].tri_id.data<std::int32_t>(), gbs[1].tri_id.data<std::int32_t>(), 96 * 80 * 4) == 0);
   REQUIRE(same_bits(gbs[0].uv, gbs[1].uv));
   REQUIRE(same_bits(gbs[0].depth, gbs[1].depth));
-  REQUIRE(same_bits(grads[0], grads[1]));
+  const auto values = [](const Tensor& t) { return std::vector<float>(t.data<float>(), t.data<float>() + t.numel()); };
+  CHECK(relative_error(values(images[1]), values(images[0])) <= 1e-6);
+  CHECK(relative_error(values(grads[1]), values(grads[0])) <= 1e-5);
 }
 
-TEST_CASE("depth peeling on a Vulkan backend gives the CPU's layers and gradients bit for bit, one image or a batch",
+TEST_CASE("depth peeling on a Vulkan backend gives the CPU's layers bit for bit and its gradients, one image or a batch",
           "[vulkan]") {
   if (!shared_gpu()) return;
   const raster::Mesh mesh = raster::make_torus(30, 16);
@@ -97,7 +107,8 @@ TEST_CASE("depth peeling on a Vulkan backend gives the CPU's layers and gradient
     std::int64_t second = 0;
     for (std::int64_t i = 0; i < layers[0][1].tri_id.numel(); ++i) second += layers[0][1].tri_id.data<std::int32_t>()[i] > 0;
     CHECK(second > 0);  // the torus has a second layer somewhere
-    REQUIRE(same_bits(grads[0], grads[1]));
+    const auto values = [](const Tensor& t) { return std::vector<float>(t.data<float>(), t.data<float>() + t.numel()); };
+    CHECK(relative_error(values(grads[1]), values(grads[0])) <= 1e-5);
   }
 }
 
