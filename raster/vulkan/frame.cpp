@@ -96,6 +96,21 @@ struct Frame::State {
     for (const auto& [binding, role] : bindings) handles[binding] = buffers[role].handle();
     return set.bind(handles);
   }
+  // A new G-buffer of p's mesh and size (rasterized or loaded): what the ops
+  // before it left on the device no longer applies.
+  void begin_gbuffer(const raster::RasterParams<float>& p, bool y_up_option, bool with_derivatives) {
+    rasterized = false;
+    width = p.settings.width;
+    height = p.settings.height;
+    num_vertices = p.num_vertices;
+    num_tris = p.num_tris;
+    y_up = y_up_option || p.settings.y_up;
+    derivatives = with_derivatives;
+    channels = -1;
+    aa_channels = -1;
+    grad_rast = grad_db = false;
+    note_triangles(p.tris, p.num_tris);
+  }
   // Keeps the host copy of the triangles; the topology is stale when they changed.
   void note_triangles(const std::int32_t* t, std::int64_t num_tris) {
     const std::size_t n = static_cast<std::size_t>(3 * num_tris);
@@ -243,17 +258,7 @@ GpuTimes Frame::rasterize_into(const raster::RasterParams<float>& p, const GpuRa
   check_raster_params(p);
   State& s = *state_;
   std::lock_guard<std::mutex> lock(s.dev.mutex);
-  s.rasterized = false;
-  s.width = p.settings.width;
-  s.height = p.settings.height;
-  s.num_vertices = p.num_vertices;
-  s.num_tris = p.num_tris;
-  s.y_up = options.y_up || p.settings.y_up;
-  s.derivatives = !coverage && options.derivatives;
-  s.channels = -1;
-  s.aa_channels = -1;
-  s.grad_rast = s.grad_db = false;
-  s.note_triangles(p.tris, p.num_tris);
+  s.begin_gbuffer(p, options.y_up, !coverage && options.derivatives);
   const std::size_t px = static_cast<std::size_t>(s.pixels());
   const std::size_t clip_bytes = static_cast<std::size_t>(p.num_vertices) * 4 * sizeof(float);
   const std::size_t tri_bytes = static_cast<std::size_t>(p.num_tris) * 3 * sizeof(std::int32_t);
@@ -373,17 +378,7 @@ GpuTimes Frame::load_gbuffer(const raster::RasterParams<float>& p, const GpuRast
                        std::to_string(tri_id[q]) + ", outside [0, " + std::to_string(p.num_tris) + "]");
   State& s = *state_;
   std::lock_guard<std::mutex> lock(s.dev.mutex);
-  s.rasterized = false;
-  s.width = p.settings.width;
-  s.height = p.settings.height;
-  s.num_vertices = p.num_vertices;
-  s.num_tris = p.num_tris;
-  s.y_up = options.y_up || p.settings.y_up;
-  s.derivatives = options.derivatives;
-  s.channels = -1;
-  s.aa_channels = -1;
-  s.grad_rast = s.grad_db = false;
-  s.note_triangles(p.tris, p.num_tris);
+  s.begin_gbuffer(p, options.y_up, options.derivatives);
   s.topology_ready = false;  // the caller's triangles may come with another topology
   const std::size_t clip_bytes = static_cast<std::size_t>(p.num_vertices) * 4 * sizeof(float);
   const std::size_t tri_bytes = static_cast<std::size_t>(p.num_tris) * 3 * sizeof(std::int32_t);
