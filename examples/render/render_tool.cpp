@@ -224,7 +224,7 @@ std::vector<float> face_normals(const raster::Mesh& mesh) {
 }
 
 // Lambert shading, two-sided: colour = albedo (ambient + (1 - ambient) |n . l|).
-Tensor shade(const raster::Mesh& mesh, const Tensor& clip, const GBuffer& gb, const Vec3& light, bool flat) {
+Tensor shade(const raster::Mesh& mesh, const GBuffer& gb, const Vec3& light, bool flat) {
   const std::int64_t h = gb.height(), w = gb.width();
   const std::int32_t* id = gb.tri_id.data<std::int32_t>();
   Tensor image = Tensor::empty({h, w, 3});
@@ -372,7 +372,7 @@ int render(const RenderArgs& a, std::ostream& out, std::ostream& err) {
   if (!a.out_triid.empty()) stage("--out-triid", a.out_triid, triid_bytes(gb));
   if (!a.out_depth.empty()) stage("--out-depth", a.out_depth, depth_bytes(gb));
   if (!a.out_png.empty()) {
-    const Tensor image = shade(mesh, clip, gb, headlight(m), a.flat);
+    const Tensor image = shade(mesh, gb, headlight(m), a.flat);
     stage("--out", a.out_png, raster::encode_png(image, "--out '" + a.out_png + "'"));
   }
   outputs.commit();
