@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <string>
 #include <type_traits>
 #include <vector>
@@ -294,8 +295,8 @@ struct CubeTexelSums {
     if (!grad_faces) return;
     if constexpr (std::is_same_v<T, double>) direct = total == base;
     if (direct) return;
-    if (faces_texels > std::int64_t(UINT32_MAX) || p.num_samples > std::int64_t(UINT32_MAX))
-      throw ShapeError("cube_texture backward: at most 2^32 - 1 samples (dir) and texels of level 0 (tex) per call");
+    if (p.num_samples > std::int64_t(UINT32_MAX))
+      throw ShapeError("cube_texture backward: at most 2^32 - 1 samples (dir) per call");
     if (total > base) {
       scratch = Tensor::zeros({6 * (total - base) * C}, DType::Float64);
       upper = scratch.data<double>();

@@ -38,7 +38,7 @@ inline Bands texel_bands(std::int64_t texels, std::int64_t threads) {
 // A level-0 tap kept for later: dL/d texel += w grad_out[sample].
 template <class W>
 struct [[gnu::packed]] BaseTap {
-  std::uint32_t texel;
+  std::uint32_t offset;  // the texel within its piece
   W w;
   std::uint32_t sample;
 };
@@ -50,7 +50,7 @@ template <class W>
 inline ScratchPool<BaseTapLists<W>> g_base_tap_pool;
 inline ScratchPool<std::vector<double>> g_piece_sums_pool;
 
-// Level 0's taps (texels [0, texels), below 2^32; samples below 2^32), by piece.
+// Level 0's taps (texels [0, texels); samples below 2^32), by piece.
 template <class W>
 class BaseTapPieces {
  public:
@@ -67,8 +67,8 @@ class BaseTapPieces {
 
   // Appends a tap to its piece (from the task of the piece's band).
   void add(std::int64_t texel, W w, std::int64_t sample) {
-    (*lists_)[texel >> shift_].push_back(
-        {static_cast<std::uint32_t>(texel), w, static_cast<std::uint32_t>(sample)});
+    (*lists_)[texel >> shift_].push_back({static_cast<std::uint32_t>(texel & ((std::int64_t(1) << shift_) - 1)), w,
+                                          static_cast<std::uint32_t>(sample)});
   }
 
   // Pieces in parallel: each one's sums, in list order, in a pooled buffer b;
@@ -82,7 +82,7 @@ class BaseTapPieces {
         sums->assign(static_cast<std::size_t>((last - first) * C), 0.0);
         double* b = sums->data();
         for (const BaseTap<W>& t : (*lists_)[i]) {
-          double* a = b + (static_cast<std::int64_t>(t.texel) - first) * C;
+          double* a = b + static_cast<std::int64_t>(t.offset) * C;
           const G* g = grad_out + static_cast<std::int64_t>(t.sample) * C;
           const double w = t.w;
           for (std::int64_t c = 0; c < C; ++c) a[c] += w * g[c];
