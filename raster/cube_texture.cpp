@@ -270,9 +270,10 @@ inline bool all_finite(const double* v, int n) {
 // Where the texel gradients are summed, in double, each total rounded once
 // into grad_faces. Without mip levels and in double: straight into grad_faces.
 // Otherwise levels 1.. of every face in one buffer (face f's at
-// f (total - base) C, summed as the taps come), and level 0, 3/4 of all
-// texels, listed by piece (raster/detail/texel_pieces.h) and summed a piece
-// at a time once level 1's sums are final, level 1's share added
+// f (total - base) C, summed as the taps come), and level 0 (3/4 of all
+// texels) either in a buffer of its own or, where that would be the larger,
+// listed by piece (raster/detail/texel_pieces.h) and summed a piece at a time
+// once level 1's sums are final. Then level 1's share is added
 // (mip_backward_base). Every texel takes its terms in the order one buffer of
 // all levels gave them: the same bits, and a 6 x 1024 x 1024 RGB cube map
 // with mips maps 48 MiB of sums, not 192.
@@ -283,8 +284,10 @@ struct CubeTexelSums {
   std::int64_t C, base, total, faces_texels;  // faces_texels: level 0 of the 6 faces
   detail::Bands bands;                        // for the scatter, over all 6 total texels
   bool direct = false;
-  Tensor scratch;
-  double* upper = nullptr;  // levels 1.. of every face, when there are some
+  bool listed = false;  // level 0 listed by piece (else summed in base_sums)
+  Tensor upper_scratch, base_scratch;
+  double* upper = nullptr;      // levels 1.. of every face, when there are some
+  double* base_sums = nullptr;  // level 0 of the 6 faces, when not listed
   detail::BaseTapPieces<double> pieces;
 
   CubeTexelSums(const CubeTextureParams<T>& params, T* grad) : p(params), grad_faces(grad), C(params.channels) {
@@ -295,46 +298,64 @@ struct CubeTexelSums {
     if (!grad_faces) return;
     if constexpr (std::is_same_v<T, double>) direct = total == base;
     if (direct) return;
-    if (p.num_samples > std::int64_t(UINT32_MAX))
-      throw ShapeError("cube_texture backward: at most 2^32 - 1 samples (dir) per call");
     if (total > base) {
-      scratch = Tensor::zeros({6 * (total - base) * C}, DType::Float64);
-      upper = scratch.data<double>();
+      upper_scratch = Tensor::zeros({6 * (total - base) * C}, DType::Float64);
+      upper = upper_scratch.data<double>();
     }
-    pieces.reset(faces_texels, bands.shift);
+    // Lists where they stay smaller than level 0's sums: at most 4 level-0
+    // taps a sample (bilinear on level 0; 1 for nearest), 16 bytes each.
+    const std::int64_t taps = (p.filter == CubeFilter::Nearest ? 1 : 4) * p.num_samples;
+    listed = taps * std::int64_t(sizeof(detail::BaseTap<double>)) < faces_texels * C * std::int64_t(sizeof(double)) &&
+             p.num_samples <= std::int64_t(UINT32_MAX);
+    if (listed) {
+      pieces.reset(faces_texels, bands.shift);
+    } else {
+      base_scratch = Tensor::zeros({faces_texels * C}, DType::Float64);
+      base_sums = base_scratch.data<double>();
+    }
   }
 
   // dL/d texel_t += w g of sample i (from the task of t's band, in sample order).
   void add(std::int64_t t, double w, std::int64_t i, const T* g) {
-    if (t >= faces_texels) {
-      double* a = upper + (t - faces_texels) * C;
+    if (listed && t < faces_texels) return pieces.add(t, w, i);
+    auto sum = [&](auto* a) {
       for (std::int64_t c = 0; c < C; ++c) a[c] += w * g[c];
-    } else if (direct) {
-      T* a = grad_faces + t * C;
-      for (std::int64_t c = 0; c < C; ++c) a[c] += w * g[c];
-    } else {
-      pieces.add(t, w, i);
-    }
+    };
+    if (t >= faces_texels)
+      sum(upper + (t - faces_texels) * C);
+    else if (direct)
+      sum(grad_faces + t * C);
+    else
+      sum(base_sums + t * C);
   }
 
-  // Levels L-1 .. 1 down to level 1, face by face; then level 0 a piece at a
-  // time (a piece may span faces), level 1's share added, into grad_faces.
+  // Levels L-1 .. 1 down to level 1, face by face; then level 0 in parts
+  // (pieces, or ranges of its buffer), level 1's share added, into grad_faces.
   void finish(const T* grad_out) {
     if (!grad_faces || direct) return;
     if (upper)
       for (std::int64_t f = 0; f < 6; ++f) mip_backward_levels(C, p.layout, upper + f * (total - base) * C);
-    pieces.sum_pieces(C, grad_out, [&](std::int64_t first, std::int64_t last, const double* b) {
-      for (std::int64_t x = first; x < last;) {
-        const std::int64_t f = x / base, end = std::min(last, (f + 1) * base);
-        const double* bx = b + (x - first) * C;
-        if (upper)
-          mip_backward_base(C, p.layout, upper + f * (total - base) * C, x - f * base, end - f * base, bx,
-                            grad_faces + f * base * C);
-        else
-          for (std::int64_t k = 0; k < (end - x) * C; ++k) grad_faces[x * C + k] += static_cast<T>(bx[k]);
-        x = end;
-      }
-    });
+    auto hand_on = [&](std::int64_t first, std::int64_t last, const double* b) { finish_level0(first, last, b); };
+    if (listed)
+      pieces.sum_pieces(C, grad_out, hand_on);
+    else
+      parallel_for(0, faces_texels, std::int64_t(1) << detail::kPieceShift,
+                   [&](std::int64_t lo, std::int64_t hi) { hand_on(lo, hi, base_sums + lo * C); });
+  }
+
+  // Level 0's texels [first, last) (sums b, [last - first] x C), which may span
+  // faces: level 1's share added, each total rounded once into grad_faces.
+  void finish_level0(std::int64_t first, std::int64_t last, const double* b) {
+    for (std::int64_t x = first; x < last;) {
+      const std::int64_t f = x / base, end = std::min(last, (f + 1) * base);
+      const double* bx = b + (x - first) * C;
+      if (upper)
+        mip_backward_base(C, p.layout, upper + f * (total - base) * C, x - f * base, end - f * base, bx,
+                          grad_faces + f * base * C);
+      else
+        for (std::int64_t k = 0; k < (end - x) * C; ++k) grad_faces[x * C + k] += static_cast<T>(bx[k]);
+      x = end;
+    }
   }
 };
 
