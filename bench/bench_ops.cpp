@@ -146,6 +146,26 @@ void BM_CubeTextureBilinear(benchmark::State& state) {
   time_op(state, [&] { return cube_texture(faces, dir); }, {faces, dir});
 }
 
+// Trilinear cube map of 6 faces of 1024 x 1024 (RGB, per-face pyramids built
+// in the forward), looked up as above with the LOD from a bias in [0, 2]: the
+// adjoint's level-0 sums are listed by piece (raster/detail/texel_pieces.h),
+// so its double sums are levels 1.. alone (48 MiB, not 192; run it under
+// /usr/bin/time -v for the minor faults and the peak).
+void BM_CubeTextureTrilinear(benchmark::State& state) {
+  Scene s = make_scene(static_cast<int>(state.range(0)));
+  const Tensor faces = Tensor::uniform({6, 1024, 1024, 3}, 0, 1, 4).set_requires_grad();
+  Tensor dir, bias;
+  {
+    NoGradGuard no_grad;
+    dir = slice(interpolate(s.clip.detach(), s.gbuffer, s.triangles), 2, 0, 3);
+    bias = Tensor::uniform({dir.shape()[0], dir.shape()[1]}, 0, 2, 5);
+  }
+  dir.set_requires_grad();
+  CubeTextureOptions options;
+  options.filter = CubeFilter::Trilinear;
+  time_op(state, [&] { return cube_texture(faces, dir, options, Tensor(), bias); }, {faces, dir});
+}
+
 // Bilinear texture forward+backward against its forward alone (issue 11's
 // goal: at most 3x), timed in alternating iterations of one run so that both
 // see the same machine: counters fwd_ms, fwd_bwd_ms (medians), ratio (of the
@@ -281,6 +301,7 @@ BENCHMARK(BM_TextureBilinear)->Apply(Sizes);
 BENCHMARK(BM_TextureBilinearNoGrad)->ArgName("size")->Arg(256)->Arg(1024)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_TextureTrilinear)->Apply(Sizes);
 BENCHMARK(BM_CubeTextureBilinear)->Apply(Sizes);
+BENCHMARK(BM_CubeTextureTrilinear)->Apply(Sizes);
 BENCHMARK(BM_DownsampleBox2)->Apply(Sizes);
 BENCHMARK(BM_TextureBilinearRatio)->ArgName("size")->Arg(256)->Arg(1024)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_Batch16x128)->ArgName("batched")->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->UseRealTime();

@@ -2,14 +2,15 @@
 // is reduced to at most 8 taps (texel index in the all-levels buffer, weight,
 // d weight/ds, d weight/dt, d weight/dlod): the forward sums weight * texel,
 // the direction adjoint sums the weight derivatives, the texel adjoint scatters
-// weight * g. The all-levels buffer holds face f's levels at f * total_texels
-// (levels[l].offset within a face), so the box-filter adjoint runs per face.
-// Samples run in parallel; texel gradients are scattered in sample order (fixed
-// chunks, texel bands), so they do not depend on the thread count.
+// weight * g. A tap's index is in the all-levels buffer of the inputs: level 0
+// of the 6 faces first (as `faces`), then each face's levels 1.. (as
+// `pyramid`). Samples run in parallel; texel gradients are scattered in sample
+// order (fixed chunks, texel bands), so they do not depend on the thread count.
 #include "raster/cube_texture.h"
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <string>
 #include <type_traits>
 #include <vector>
@@ -18,6 +19,7 @@
 #include "autodiff/base/parallel.h"
 #include "autodiff/base/tensor.h"
 #include "raster/cube_map.h"
+#include "raster/detail/texel_pieces.h"
 #include "raster/mesh_checks.h"  // detail::check_finite
 
 namespace gr::raster {
@@ -27,7 +29,7 @@ constexpr int kMaxTaps = 8;
 
 struct Taps {
   int n = 0;
-  std::int64_t index[kMaxTaps];  // face * total_texels + level offset + row * S_l + column
+  std::int64_t index[kMaxTaps];  // in the all-levels buffer (LevelIndex)
   double w[kMaxTaps], dw_ds[kMaxTaps], dw_dt[kMaxTaps];
   double dw_dlod[kMaxTaps];  // trilinear: -bilinear weight on level l0, + on level l0 + 1
 };
@@ -41,6 +43,17 @@ struct Lod {
   double sX = 0, sY = 0, tX = 0, tY = 0;        // face texels per pixel step
   double A = 0, B = 0, C = 0, r = 0, M = 0;
 };
+
+// Where a level's texels lie in the all-levels buffer: texel (col, row) of
+// face f at origin + f * face_stride + row * S_l + col.
+struct LevelIndex {
+  std::int64_t origin, face_stride;
+};
+inline LevelIndex level_index(const MipLayout& layout, int level) {
+  const std::int64_t base = std::int64_t(layout.levels[0].width) * layout.levels[0].width;
+  if (level == 0) return {0, base};
+  return {6 * base + layout.levels[level].offset - base, layout.total_texels - base};
+}
 
 inline double dot3(const double* a, const double* b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
 
@@ -71,7 +84,7 @@ Lod compute_lod(const CubeProjection& pr, const double* da, int size, int levels
 // Bilinear taps of level `lv` on `face` at (s, t), scaled by the level weight
 // `scale`; lod_sign: the sign of d(level weight)/d lod.
 template <bool kDerivatives>
-inline void bilinear_taps(const MipLevel& lv, std::int64_t total, int face, double s, double t, double scale,
+inline void bilinear_taps(const MipLevel& lv, LevelIndex at, int face, double s, double t, double scale,
                           Taps& taps, double lod_sign = 0.0) {
   // Continuous texel coordinates: x = s S_l - 0.5, y = t S_l - 0.5.
   const int n = lv.width;
@@ -100,7 +113,7 @@ inline void bilinear_taps(const MipLevel& lv, std::int64_t total, int face, doub
         continue;
       }
       const int k = taps.n++;
-      taps.index[k] = tx.face * total + lv.offset + std::int64_t(tx.row) * n + tx.col;
+      taps.index[k] = at.origin + tx.face * at.face_stride + std::int64_t(tx.row) * n + tx.col;
       taps.w[k] = w;
       taps.dw_ds[k] = ds;
       taps.dw_dt[k] = dt;
@@ -124,8 +137,8 @@ inline Taps sample_taps(const CubeTextureParams<T>& p, std::int64_t i, CubeProje
   pr = cube_project(p.dir[3 * i], p.dir[3 * i + 1], p.dir[3 * i + 2]);
   if (pr.face < 0) return taps;
   const MipLevel& base = p.layout.levels[0];
-  const std::int64_t total = p.layout.total_texels;
   const int L = p.layout.count();
+  auto level = [&](int l) { return level_index(p.layout, l); };
   if (is_mipmapped(p.filter)) {
     double da[6];
     if (p.dir_da)
@@ -139,15 +152,15 @@ inline Taps sample_taps(const CubeTextureParams<T>& p, std::int64_t i, CubeProje
       const int n = base.width;
       const int col = std::min(n - 1, int(pr.s * n)), row = std::min(n - 1, int(pr.t * n));
       taps.n = 1;
-      taps.index[0] = pr.face * total + std::int64_t(row) * n + col;
+      taps.index[0] = (std::int64_t(pr.face) * n + row) * n + col;
       taps.w[0] = 1.0;
       taps.dw_ds[0] = taps.dw_dt[0] = taps.dw_dlod[0] = 0.0;
       break;
     }
-    case CubeFilter::Bilinear: bilinear_taps<kDerivatives>(base, total, pr.face, pr.s, pr.t, 1.0, taps); break;
+    case CubeFilter::Bilinear: bilinear_taps<kDerivatives>(base, level(0), pr.face, pr.s, pr.t, 1.0, taps); break;
     case CubeFilter::LinearMipmapNearest: {
       const int l0 = std::min(static_cast<int>(lod.value), L - 1);
-      bilinear_taps<kDerivatives>(p.layout.levels[l0], total, pr.face, pr.s, pr.t, 1.0, taps);
+      bilinear_taps<kDerivatives>(p.layout.levels[l0], level(l0), pr.face, pr.s, pr.t, 1.0, taps);
       break;
     }
     case CubeFilter::Trilinear: {
@@ -155,9 +168,9 @@ inline Taps sample_taps(const CubeTextureParams<T>& p, std::int64_t i, CubeProje
       // derivatives, level l0 + 1 is kept at f = 0 too (its taps give dw/dlod).
       const int l0 = std::min(static_cast<int>(lod.value), L - 1);
       const double f = l0 == L - 1 ? 0.0 : lod.value - l0;
-      bilinear_taps<kDerivatives>(p.layout.levels[l0], total, pr.face, pr.s, pr.t, 1.0 - f, taps, -1.0);
+      bilinear_taps<kDerivatives>(p.layout.levels[l0], level(l0), pr.face, pr.s, pr.t, 1.0 - f, taps, -1.0);
       if (f > 0.0 || (kDerivatives && lod.free))
-        bilinear_taps<kDerivatives>(p.layout.levels[l0 + 1], total, pr.face, pr.s, pr.t, f, taps, 1.0);
+        bilinear_taps<kDerivatives>(p.layout.levels[l0 + 1], level(l0 + 1), pr.face, pr.s, pr.t, f, taps, 1.0);
       break;
     }
   }
@@ -167,11 +180,8 @@ inline Taps sample_taps(const CubeTextureParams<T>& p, std::int64_t i, CubeProje
 // Texel `index` of the all-levels buffer: level 0 from faces, the rest from pyramid.
 template <class T>
 inline const T* texel(const CubeTextureParams<T>& p, std::int64_t index) {
-  const std::int64_t total = p.layout.total_texels;
-  const std::int64_t base = std::int64_t(p.layout.levels[0].width) * p.layout.levels[0].width;
-  const std::int64_t face = index / total, r = index - face * total;
-  return r < base ? p.faces + (face * base + r) * p.channels
-                  : p.pyramid + (face * (total - base) + r - base) * p.channels;
+  const std::int64_t faces_texels = 6 * std::int64_t(p.layout.levels[0].width) * p.layout.levels[0].width;
+  return index < faces_texels ? p.faces + index * p.channels : p.pyramid + (index - faces_texels) * p.channels;
 }
 
 template <class T>
@@ -257,6 +267,98 @@ inline bool all_finite(const double* v, int n) {
   return true;
 }
 
+// Where the texel gradients are summed, in double, each total rounded once
+// into grad_faces. Without mip levels and in double: straight into grad_faces.
+// Otherwise levels 1.. of every face in one buffer (face f's at
+// f (total - base) C, summed as the taps come), and level 0 (3/4 of all
+// texels) either in a buffer of its own or, where that would be the larger,
+// listed by piece (raster/detail/texel_pieces.h) and summed a piece at a time
+// once level 1's sums are final. Then level 1's share is added
+// (mip_backward_base). Every texel takes its terms in the order one buffer of
+// all levels gave them: the same bits, and a 6 x 1024 x 1024 RGB cube map
+// with mips maps 48 MiB of sums, not 192.
+template <class T>
+struct CubeTexelSums {
+  const CubeTextureParams<T>& p;
+  T* grad_faces;
+  std::int64_t C, base, total, faces_texels;  // faces_texels: level 0 of the 6 faces
+  detail::Bands bands;                        // for the scatter, over all 6 total texels
+  bool direct = false;
+  bool listed = false;  // level 0 listed by piece (else summed in base_sums)
+  Tensor upper_scratch, base_scratch;
+  double* upper = nullptr;      // levels 1.. of every face, when there are some
+  double* base_sums = nullptr;  // level 0 of the 6 faces, when not listed
+  detail::BaseTapPieces<double> pieces;
+
+  CubeTexelSums(const CubeTextureParams<T>& params, T* grad) : p(params), grad_faces(grad), C(params.channels) {
+    base = std::int64_t(p.layout.levels[0].width) * p.layout.levels[0].width;
+    total = p.layout.total_texels;
+    faces_texels = 6 * base;
+    bands = detail::texel_bands(6 * total, std::max(1, num_threads()));
+    if (!grad_faces) return;
+    if constexpr (std::is_same_v<T, double>) direct = total == base;
+    if (direct) return;
+    if (total > base) {
+      upper_scratch = Tensor::zeros({6 * (total - base) * C}, DType::Float64);
+      upper = upper_scratch.data<double>();
+    }
+    // Lists where they stay smaller than level 0's sums: at most 4 level-0
+    // taps a sample (bilinear on level 0; 1 for nearest), 16 bytes each.
+    const std::int64_t taps = (p.filter == CubeFilter::Nearest ? 1 : 4) * p.num_samples;
+    listed = taps * std::int64_t(sizeof(detail::BaseTap<double>)) < faces_texels * C * std::int64_t(sizeof(double)) &&
+             p.num_samples <= std::int64_t(UINT32_MAX);
+    if (listed) {
+      pieces.reset(faces_texels, bands.shift);
+    } else {
+      base_scratch = Tensor::zeros({faces_texels * C}, DType::Float64);
+      base_sums = base_scratch.data<double>();
+    }
+  }
+
+  // dL/d texel_t += w g of sample i (from the task of t's band, in sample order).
+  void add(std::int64_t t, double w, std::int64_t i, const T* g) {
+    if (listed && t < faces_texels) return pieces.add(t, w, i);
+    auto sum = [&](auto* a) {
+      for (std::int64_t c = 0; c < C; ++c) a[c] += w * g[c];
+    };
+    if (t >= faces_texels)
+      sum(upper + (t - faces_texels) * C);
+    else if (direct)
+      sum(grad_faces + t * C);
+    else
+      sum(base_sums + t * C);
+  }
+
+  // Levels L-1 .. 1 down to level 1, face by face; then level 0 in parts
+  // (pieces, or ranges of its buffer), level 1's share added, into grad_faces.
+  void finish(const T* grad_out) {
+    if (!grad_faces || direct) return;
+    if (upper)
+      for (std::int64_t f = 0; f < 6; ++f) mip_backward_levels(C, p.layout, upper + f * (total - base) * C);
+    auto hand_on = [&](std::int64_t first, std::int64_t last, const double* b) { finish_level0(first, last, b); };
+    if (listed)
+      pieces.sum_pieces(C, grad_out, hand_on);
+    else
+      parallel_for(0, faces_texels, std::int64_t(1) << detail::kPieceShift,
+                   [&](std::int64_t lo, std::int64_t hi) { hand_on(lo, hi, base_sums + lo * C); });
+  }
+
+  // Level 0's texels [first, last) (sums b, [last - first] x C), which may span
+  // faces: level 1's share added, each total rounded once into grad_faces.
+  void finish_level0(std::int64_t first, std::int64_t last, const double* b) {
+    for (std::int64_t x = first; x < last;) {
+      const std::int64_t f = x / base, end = std::min(last, (f + 1) * base);
+      const double* bx = b + (x - first) * C;
+      if (upper)
+        mip_backward_base(C, p.layout, upper + f * (total - base) * C, x - f * base, end - f * base, bx,
+                          grad_faces + f * base * C);
+      else
+        for (std::int64_t k = 0; k < (end - x) * C; ++k) grad_faces[x * C + k] += static_cast<T>(bx[k]);
+      x = end;
+    }
+  }
+};
+
 }  // namespace
 
 template <class T>
@@ -272,23 +374,7 @@ void cube_texture_backward(const CubeTextureParams<T>& p, const T* grad_out, con
   if (!grad_faces && !grad_dir && !lod_grads) return;
   const std::int64_t C = p.channels, N = p.num_samples;
   const int S = p.layout.levels[0].width;
-  const std::int64_t base = std::int64_t(S) * S, total = p.layout.total_texels;
-  const std::int64_t acc_texels = 6 * total;
-
-  // Texel gradients of every level used, in double (straight into grad_faces
-  // when that is double and there is no level but 0).
-  Tensor scratch;
-  double* acc = nullptr;
-  bool direct = false;
-  if (grad_faces) {
-    if constexpr (std::is_same_v<T, double>) {
-      if (total == base) acc = grad_faces, direct = true;
-    }
-    if (!acc) {
-      scratch = Tensor::zeros({acc_texels * C}, DType::Float64);
-      acc = scratch.data<double>();
-    }
-  }
+  CubeTexelSums<T> sums(p, grad_faces);
 
   // Samples in chunks: taps, direction and LOD gradients in parallel, texel
   // sums in sample order.
@@ -298,8 +384,8 @@ void cube_texture_backward(const CubeTextureParams<T>& p, const T* grad_out, con
   std::vector<std::int64_t> tap_index(grad_faces ? stride * chunk : 0);
   std::vector<double> tap_w(grad_faces ? stride * chunk : 0);
   std::vector<std::uint8_t> tap_n(chunk);  // 0: sample skipped
-  const std::int64_t bands = std::max(1, num_threads());
-  const std::int64_t band_size = (acc_texels + bands - 1) / bands;
+  const detail::Bands bands = sums.bands;
+  const std::int64_t acc_texels = 6 * p.layout.total_texels;
   for (std::int64_t c0 = 0; c0 < N; c0 += kChunk) {
     const std::int64_t c1 = std::min(N, c0 + kChunk);
     parallel_for(c0, c1, 1024, [&](std::int64_t lo, std::int64_t hi) {
@@ -347,31 +433,20 @@ void cube_texture_backward(const CubeTextureParams<T>& p, const T* grad_out, con
     if (!grad_faces) continue;
     // Scatter in sample order, dL/d texel_t += w_t g: one task per texel band,
     // each walking all taps in sample order (the same adds for any thread count).
-    parallel_for(0, bands, 1, [&](std::int64_t b0, std::int64_t b1) {
-      const std::int64_t lo = band_size * b0, hi = std::min(acc_texels, band_size * b1);
+    // A piece of level 0 lies in one band (BaseTapPieces), so one task lists it.
+    parallel_for(0, bands.count, 1, [&](std::int64_t b0, std::int64_t b1) {
+      const std::int64_t lo = b0 << bands.shift, hi = std::min(acc_texels, b1 << bands.shift);
       for (std::int64_t i = c0; i < c1; ++i) {
         const std::int64_t j = i - c0;
         const T* g = grad_out + i * C;
         for (int k = 0; k < tap_n[j]; ++k) {
           const std::int64_t t = tap_index[stride * j + k];
-          if (t < lo || t >= hi) continue;
-          double* a = acc + t * C;
-          const double w = tap_w[stride * j + k];
-          for (std::int64_t c = 0; c < C; ++c) a[c] += w * g[c];
+          if (t >= lo && t < hi) sums.add(t, tap_w[stride * j + k], i, g);
         }
       }
     });
   }
-  if (!grad_faces || direct) return;
-  // Every level's gradient down to level 0, face by face, then into grad_faces.
-  if (total > base)
-    for (std::int64_t f = 0; f < 6; ++f) mip_backward(C, p.layout, acc + f * total * C);
-  parallel_for(0, 6 * base * C, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
-    for (std::int64_t k = lo; k < hi; ++k) {
-      const std::int64_t texel_index = k / C, f = texel_index / base;
-      grad_faces[k] += static_cast<T>(acc[(f * total + texel_index - f * base) * C + k % C]);
-    }
-  });
+  sums.finish(grad_out);
 }
 
 #define GR_INSTANTIATE(T)                                                                                     \

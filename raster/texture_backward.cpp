@@ -10,12 +10,17 @@
 #include "autodiff/base/parallel.h"
 #include "autodiff/base/tensor.h"
 #include "raster/detail/rasterize_setup.h"  // detail::ScratchPool
+#include "raster/detail/texel_pieces.h"
 #include "raster/texture.h"
 #include "raster/detail/texture_taps.h"
 
 namespace gr::raster {
 using namespace texture_taps;
 namespace {
+
+using detail::Bands;
+using detail::BaseTapPieces;
+using detail::texel_bands;
 
 constexpr int kScatterAhead = 32;  // taps ahead whose texel gradients the scatter prefetches
 
@@ -39,43 +44,11 @@ struct TapBuckets {
 template <class T>
 detail::ScratchPool<TapBuckets<T>> g_bucket_pool;
 
-// A tap on level 0 of a mipmapped texture, kept until level 1's sums are
-// final (TexelSums): dL/d texel += w grad_out[sample].
-template <class T>
-struct [[gnu::packed]] BaseTap {
-  std::uint32_t texel;
-  T w;
-  std::uint32_t sample;  // below 2^30: at most 32768 x 32768 samples per image
-};
-// Level 0's taps by piece of 2^shift texels, each in sample order; reused across calls.
-template <class T>
-struct BaseTapLists {
-  std::vector<std::vector<BaseTap<T>>> pieces;
-};
-template <class T>
-detail::ScratchPool<BaseTapLists<T>> g_base_tap_pool;
-detail::ScratchPool<std::vector<double>> g_piece_sums_pool;  // one piece's level-0 sums
-constexpr int kPieceShift = 14;  // level-0 texels per piece: 2^14 (384 KiB of sums for RGB)
-
 // Samples x bands whose buckets exist at once (a chunk of 32768 samples with
 // two bands): fewer, larger chunks mean fewer fork/joins; the buckets' size
 // stays the same for any number of bands.
 constexpr std::int64_t kChunkTimesBands = 65536;
 constexpr std::int64_t kBlock = 256;   // samples per bucket block (one task; TapEntry::sample fits)
-
-// Texel bands for the scatter: about one per thread, a power of two texels wide
-// (band = texel >> shift), so a tap finds its band with a shift.
-struct Bands {
-  int shift = 0;
-  std::int64_t count = 1;
-};
-Bands texel_bands(std::int64_t texels, std::int64_t threads) {
-  Bands b;
-  const std::int64_t want = (texels + threads - 1) / std::max<std::int64_t>(1, threads);
-  while ((std::int64_t(1) << b.shift) < want) ++b.shift;
-  b.count = (texels + (std::int64_t(1) << b.shift) - 1) >> b.shift;
-  return b;
-}
 
 // True if the sample's incoming gradient has a non-zero channel (a zero one adds nothing).
 template <class T>
@@ -299,16 +272,15 @@ struct TapPass {
 
   // As scatter, with mip levels: taps on levels 1.. added to `levels` (level
   // 1's first texel at 0); taps on level 0 appended, in the same order, to
-  // the list of their piece of 2^piece_shift texels (pieces null: dropped).
-  // A piece lies in one band (piece_shift <= bands.shift), so one task fills it.
-  void scatter_levels(double* levels, std::vector<BaseTap<T>>* pieces, int piece_shift, std::int64_t c0,
-                      std::int64_t c1) const {
+  // the list of their piece (pieces null: dropped). A piece lies in one band
+  // (BaseTapPieces::reset), so one task fills it.
+  void scatter_levels(double* levels, BaseTapPieces<T>* pieces, std::int64_t c0, std::int64_t c1) const {
     for_each_bucket(c0, c1, [&](const TapEntry<T>* e, std::int32_t n, std::int64_t first) {
       for (std::int32_t q = 0; q < n; ++q) {
         const std::int64_t s = first + e[q].sample;
         const std::int64_t texel = e[q].texel;
         if (texel < base_texels) {
-          if (pieces) pieces[texel >> piece_shift].push_back({e[q].texel, e[q].w, static_cast<std::uint32_t>(s)});
+          if (pieces) pieces->add(texel, e[q].w, s);
           continue;
         }
         if (q + kScatterAhead < n && e[q + kScatterAhead].texel >= base_texels)
@@ -342,11 +314,12 @@ struct TapPass {
 // finish() hands them on. Levels 1.. are summed in one buffer as the taps come
 // (through the storage cache: no fresh pages in an optimization loop). Level
 // 0's sums, 3/4 of all texels, are not kept whole: its taps are listed by
-// piece of 2^14 texels, in sample order, and once level 1's sums are final
-// each piece is summed in a small buffer, level 1's share added
-// (mip_backward_base) and the total rounded into grad_tex. Every texel's sum
-// takes its terms in the order one whole buffer did, so the bits are the same,
-// and a 2048 x 2048 RGB texture's first call maps 32 MiB of sums, not 128.
+// piece of 2^14 texels (raster/detail/texel_pieces.h), in sample order, and
+// once level 1's sums are final each piece is summed in a small buffer, level
+// 1's share added (mip_backward_base) and the total rounded into grad_tex.
+// Every texel's sum takes its terms in the order one whole buffer did, so the
+// bits are the same, and a 2048 x 2048 RGB texture's first call maps 32 MiB of
+// sums, not 128.
 template <class T>
 struct TexelSums {
   const TextureParams<T>& p;
@@ -357,13 +330,10 @@ struct TexelSums {
   std::int64_t base_texels;
   Tensor scratch;
   double* levels = nullptr;  // levels 1..'s sums, when not direct
-  int piece_shift = kPieceShift;
-  std::int64_t piece_count = 0;
-  std::vector<std::vector<BaseTap<T>>>* pieces = nullptr;  // level 0's taps, when grad_tex is wanted
-  typename detail::ScratchPool<BaseTapLists<T>>::Lease lists;
+  BaseTapPieces<T> pieces;    // level 0's taps, when listed
+  bool list_base = false;     // mipmapped and grad_tex wanted
 
-  TexelSums(const TextureParams<T>& params, const WantedGrads<T>& w)
-      : p(params), want(w), lists(g_base_tap_pool<T>.take()) {
+  TexelSums(const TextureParams<T>& params, const WantedGrads<T>& w) : p(params), want(w) {
     levels_used = mipmapped(p.filter) ? p.layout.count() : 1;
     direct = levels_used == 1 && want.tex;
     base_texels = base_texel_count(p);
@@ -376,20 +346,17 @@ struct TexelSums {
   // Sizes the level-0 pieces to the pass's bands (each piece in one band).
   void prepare(const TapPass<T>& pass) {
     if (!want.texels || direct || !want.tex) return;
-    piece_shift = std::min(kPieceShift, pass.bands.shift);
-    piece_count = ((base_texels - 1) >> piece_shift) + 1;
-    lists->pieces.resize(static_cast<std::size_t>(std::max<std::int64_t>(piece_count, lists->pieces.size())));
-    for (std::int64_t i = 0; i < piece_count; ++i) lists->pieces[i].clear();
-    pieces = &lists->pieces;
+    pieces.reset(base_texels, pass.bands.shift);
+    list_base = true;
   }
 
   // The chunk [c0, c1)'s taps added (or listed).
-  void scatter(const TapPass<T>& pass, std::int64_t c0, std::int64_t c1) const {
+  void scatter(const TapPass<T>& pass, std::int64_t c0, std::int64_t c1) {
     if (!want.texels) return;
     if (direct)
       pass.scatter(want.tex, c0, c1);
     else
-      pass.scatter_levels(levels, pieces ? pieces->data() : nullptr, piece_shift, c0, c1);
+      pass.scatter_levels(levels, list_base ? &pieces : nullptr, c0, c1);
   }
 
   // The level sums to the gradients: the user's levels keep their own; the
@@ -408,23 +375,11 @@ struct TexelSums {
       mip_backward_levels(C, p.layout, levels);
     }
     if (!want.tex) return;
-    parallel_for(0, piece_count, 1, [&](std::int64_t i0, std::int64_t i1) {
-      auto sums = g_piece_sums_pool.take();
-      for (std::int64_t i = i0; i < i1; ++i) {
-        const std::int64_t first = i << piece_shift, last = std::min(base_texels, (i + 1) << piece_shift);
-        sums->assign(static_cast<std::size_t>((last - first) * C), 0.0);
-        double* b = sums->data();
-        for (const BaseTap<T>& t : (*pieces)[i]) {
-          double* a = b + (static_cast<std::int64_t>(t.texel) - first) * C;
-          const T* g = grad_out + static_cast<std::int64_t>(t.sample) * C;
-          const double w = t.w;
-          for (std::int64_t c = 0; c < C; ++c) a[c] += w * g[c];
-        }
-        if (p.user_pyramid) {
-          for (std::int64_t k = first * C; k < last * C; ++k) want.tex[k] += static_cast<T>(b[k - first * C]);
-        } else {
-          mip_backward_base(C, p.layout, levels, first, last, b, want.tex);
-        }
+    pieces.sum_pieces(C, grad_out, [&](std::int64_t first, std::int64_t last, const double* b) {
+      if (p.user_pyramid) {
+        for (std::int64_t k = first * C; k < last * C; ++k) want.tex[k] += static_cast<T>(b[k - first * C]);
+      } else {
+        mip_backward_base(C, p.layout, levels, first, last, b, want.tex);
       }
     });
   }
