@@ -1,0 +1,43 @@
+// Where a call of the binding runs its kernels: on the device of a
+// RasterizeVulkanContext (Context::backend) for float32, image by image
+// through raster::RasterBackend's virtuals, else on the CPU kernels.
+// gradraster.torch decides which context a call gets (the one that made its
+// rast or uv: docs/python.md, "Vulkan"); a backend that declines a call
+// (returns false) leaves it to the CPU kernel.
+#pragma once
+
+#include <cstdint>
+#include <type_traits>
+#include <vector>
+
+#include "python/src/rasterize.h"
+#include "raster/backend.h"
+#include "raster/image_batch.h"
+
+namespace gr::python {
+
+// ctx's backend for T = float (null: none, a CPU context, no context, float64).
+template <class T>
+const raster::RasterBackend* backend_for(const Context* ctx) {
+  if constexpr (std::is_same_v<T, float>) return ctx ? ctx->backend.get() : nullptr;
+  return nullptr;
+}
+
+// The int32 ids (H*W, 0 = background) of rast's id channel (H*W*4, ids
+// already checked to be integers in [0, triangles]), what a backend reads.
+template <class T>
+void rast_ids(const T* rast, std::int64_t pixels, std::vector<std::int32_t>* ids) {
+  ids->resize(static_cast<std::size_t>(pixels));
+  for (std::int64_t q = 0; q < pixels; ++q) (*ids)[q] = static_cast<std::int32_t>(rast[4 * q + 3]);
+}
+
+// body(b) for every image: in parallel on the CPU; in image order with a
+// backend, which runs one call at a time and is parallel inside (its lock
+// is never awaited inside a parallel region).
+template <class F>
+void for_each_image_on(const raster::RasterBackend* backend, std::int64_t images, F&& body) {
+  if (!backend) return raster::for_each_image(images, body);
+  for (std::int64_t b = 0; b < images; ++b) body(b);
+}
+
+}  // namespace gr::python
