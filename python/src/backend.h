@@ -6,7 +6,10 @@
 // (returns false) leaves it to the CPU kernel.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
+#include <memory>
+#include <string>
 #include <type_traits>
 #include <vector>
 
@@ -15,6 +18,44 @@
 #include "raster/image_batch.h"
 
 namespace gr::python {
+
+// A backend that counts the calls it ran (those its inner backend did not
+// decline), per image: Context.device_calls, by which a program (and the
+// tests) can see that its ops ran on the device. It forwards every virtual
+// of raster::RasterBackend; one added there must be forwarded here too.
+class CountedBackend : public raster::RasterBackend {
+ public:
+  explicit CountedBackend(std::shared_ptr<const raster::RasterBackend> inner) : inner_(std::move(inner)) {}
+  std::int64_t calls() const { return calls_.load(); }
+
+  std::string name() const override { return inner_->name(); }
+  bool rasterize_forward(const raster::RasterParams<float>& p, std::int32_t* tri_id, float* uv, float* depth,
+                         double* key_depth) const override;
+  bool texture_forward(const raster::TextureParams<float>& p, float* out) const override;
+  bool texture_backward(const raster::TextureParams<float>& p, const float* grad_out,
+                        const raster::TextureGrads<float>& grads) const override;
+  bool cube_texture_forward(const raster::CubeTextureParams<float>& p, float* out) const override;
+  bool cube_texture_backward(const raster::CubeTextureParams<float>& p, const float* grad_out,
+                             const raster::CubeTextureGrads<float>& grads) const override;
+  bool interpolate_forward(const raster::BarycentricInterpolateParams<float>& p, int width, int height, float* out,
+                           float* out_da) const override;
+  bool interpolate_backward(const raster::BarycentricInterpolateParams<float>& p, int width, int height,
+                            const float* grad_out, const float* grad_da,
+                            const raster::BarycentricInterpolateGrads<float>& grads) const override;
+  bool antialias_forward(const raster::AntialiasParams<float>& p, float* out) const override;
+  bool antialias_backward(const raster::AntialiasParams<float>& p, const float* grad_out,
+                          const raster::AntialiasGrads<float>& grads) const override;
+  bool gbuffer_backward(const raster::BarycentricGBufferParams<float>& p, const float* grad_rast,
+                        const float* grad_db, float* grad_clip) const override;
+
+ private:
+  bool count(bool ran) const {
+    if (ran) ++calls_;
+    return ran;
+  }
+  std::shared_ptr<const raster::RasterBackend> inner_;
+  mutable std::atomic<std::int64_t> calls_{0};
+};
 
 // ctx's backend for T = float (null: none, a CPU context, no context, float64).
 template <class T>

@@ -11,6 +11,7 @@
 #include "autodiff/base/memory.h"
 #include "autodiff/base/parallel.h"
 #include "python/src/antialias.h"
+#include "python/src/backend.h"
 #include "python/src/image.h"
 #include "python/src/interpolate.h"
 #include "python/src/rasterize.h"
@@ -65,7 +66,7 @@ PYBIND11_MODULE(_core, m) {
                     auto device = gr::vulkan::Device::open(&why);
                     if (!device) throw std::runtime_error("RasterizeVulkanContext: " + why);
                     Context ctx;
-                    ctx.backend = gr::vulkan::raster_backend(device);
+                    ctx.backend = std::make_shared<CountedBackend>(gr::vulkan::raster_backend(device));
                     ctx.gpu = std::move(device);
                     return ctx;
 #else
@@ -80,6 +81,11 @@ PYBIND11_MODULE(_core, m) {
         if (ctx.gpu) return ctx.gpu->info().name;
 #endif
         return "cpu";
+      })
+      // Per-image kernel calls its device has run (0 for a CPU context).
+      .def_property_readonly("device_calls", [](const Context& ctx) -> std::int64_t {
+        const auto* counted = dynamic_cast<const CountedBackend*>(ctx.backend.get());
+        return counted ? counted->calls() : 0;
       });
   m.attr("HAS_VULKAN") =
 #ifdef GRADRASTER_HAS_VULKAN

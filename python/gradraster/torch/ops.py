@@ -176,6 +176,12 @@ class RasterizeVulkanContext(RasterizeCpuContext):
         """The Vulkan device's name, e.g. 'NVIDIA H200' or 'llvmpipe (LLVM 15.0.6, 256 bits)'."""
         return self.cpp_wrapper.device_name
 
+    @property
+    def device_calls(self):
+        """How many per-image kernel calls (forward or backward, of any op) have run on the device: a program can
+        check that its interpolate, antialias and texture calls found this context (docs/python.md, "Vulkan")."""
+        return self.cpp_wrapper.device_calls
+
 
 # nvdiffrast's two context classes, by name, so that programs that name them
 # (in type annotations, isinstance checks or construction) run unchanged:
