@@ -399,7 +399,9 @@ def interpolate(attr, rast, tri, rast_db=None, diff_attrs=None):
     rasterize. Returns (out [minibatch, height, width, num_attributes],
     out_da [minibatch, height, width, 2 len(diff_attrs)]) with out_da holding
     (dA/dX, dA/dY) per selected attribute ('all' = every attribute); without
-    diff_attrs out_da is empty. Background pixels are 0.
+    diff_attrs out_da is empty. Background pixels are 0. Runs on the device
+    of the RasterizeVulkanContext that made rast (float32), whose out and
+    out_da then take texture there too (docs/python.md, "Vulkan").
     """
     diff = _diff_list(diff_attrs, attr.shape[-1] if isinstance(attr, torch.Tensor) and attr.dim() >= 1 else 0)
     if diff and rast_db is None:
@@ -499,7 +501,8 @@ def antialias(color, rast, pos, tri, topology_hash=None, pos_gradient_boost=1.0)
     output for the same pos and tri; pos: as given to rasterize. Returns the
     antialiased color; gradients flow to color and pos (the latter multiplied
     by pos_gradient_boost). topology_hash: from
-    antialias_construct_topology_hash(tri), built here when None.
+    antialias_construct_topology_hash(tri), built here when None. Runs on the
+    device of the RasterizeVulkanContext that made rast (float32).
     """
     return _apply_antialias(color, rast, pos, tri, topology_hash, pos_gradient_boost, False)
 
@@ -671,7 +674,8 @@ def texture(tex, uv, uv_da=None, mip_level_bias=None, mip=None, filter_mode='aut
     'linear-mipmap-linear'; boundary_mode: 'wrap', 'clamp', 'zero' or 'cube'
     (tex [minibatch, 6, size, size, channels] looked up by uv = directions
     [minibatch, height, width, 3], uv_da [..., 6]; docs/cube_maps.md).
-    Returns [minibatch, height, width, channels].
+    Returns [minibatch, height, width, channels]. Runs on the device of a
+    RasterizeVulkanContext when uv is interpolate's output for its rast (float32).
     """
     if filter_mode == 'auto':
         filter_mode = 'linear-mipmap-linear' if (uv_da is not None or mip_level_bias is not None) else 'linear'
