@@ -62,15 +62,15 @@ class Direct:
     def __call__(self, threads):
         clip, tri, attr = self.clip, self.tri, self.attr
         _core.rasterize_forward(self.ctx, clip, tri, [], self.rast, self.db, None, threads)
-        _core.interpolate_forward(attr, self.rast, tri, None, [], self.color, None, threads)
+        _core.interpolate_forward(None, attr, self.rast, tri, None, [], self.color, None, threads)
         state = _core.antialias_forward(self.aa_ctx, clip, tri, [], self.topology, self.color, self.rast, self.image,
                                         False, threads)
         for t in (self.g_color, self.g_rast, self.g_attr, self.g_clip):
             t.zero_()
         _core.antialias_backward(self.aa_ctx, clip, tri, [], self.topology, state, self.color, self.rast, self.weight,
                                  self.g_color, self.g_clip, 1.0, threads)
-        _core.interpolate_backward(attr, self.rast, tri, None, [], self.g_color, None, self.g_attr, self.g_rast, None,
-                                   threads)
+        _core.interpolate_backward(None, attr, self.rast, tri, None, [], self.g_color, None, self.g_attr, self.g_rast,
+                                   None, threads)
         _core.rasterize_backward(self.ctx, clip, tri, [], self.rast, self.g_rast, None, self.g_clip, threads)
         return self.g_clip
 

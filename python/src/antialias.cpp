@@ -5,9 +5,11 @@
 #include <cmath>
 #include <cstdint>
 #include <string>
+#include <type_traits>
 
 #include "autodiff/base/error.h"
 #include "autodiff/base/memory.h"
+#include "python/src/backend.h"
 #include "raster/mesh_checks.h"
 
 namespace gr::python {
@@ -121,15 +123,23 @@ std::shared_ptr<AntialiasState> antialias_forward(Context& ctx, const pybind11::
   state->vertices = mesh.vertices;
   state->triangles = mesh.triangles;
   state->visibility = visibility;
+  state->on_backend.assign(static_cast<std::size_t>(mesh.images), 0);
   ctx.reserve(mesh.images);
   dispatch(mesh.f64, [&](auto tag) {
     using T = decltype(tag);
+    if (!visibility && backend_for<T>(&ctx)) state->backend = ctx.backend;
     std::atomic<bool> bad_ids{false};
-    raster::for_each_image(mesh.images, [&](std::int64_t b) {
+    for_each_image_on(state->backend.get(), mesh.images, [&](std::int64_t b) {
       bool ids_ok = true;
       const auto p = image_params<T>(ctx.image(b), mesh, topology, color, rast, b, &ids_ok);
       if (!ids_ok) return bad_ids.store(true);
-      raster::blend_boundaries_forward(visibility, p, out.out<T>() + pixels * channels * b, &state->pairs[b]);
+      T* o = out.out<T>() + pixels * channels * b;
+      if constexpr (std::is_same_v<T, float>)
+        if (state->backend && state->backend->antialias_forward(p, o)) {
+          state->on_backend[b] = 1;
+          return;
+        }
+      raster::blend_boundaries_forward(visibility, p, o, &state->pairs[b]);
     });
     if (bad_ids) raster::detail::check_rast_ids(rast.in<T>(), mesh.images * pixels, mesh.triangles, "rast", op);  // throws
   });
@@ -154,6 +164,9 @@ void antialias_backward(Context& ctx, const pybind11::object& pos, const pybind1
                      " images of " + std::to_string(state.height) + " x " + std::to_string(state.width) + " x " +
                      std::to_string(state.channels) + ", " + std::to_string(state.vertices) + " vertices and " +
                      std::to_string(state.triangles) + " triangles; these inputs differ");
+  if (state.backend && mesh.f64)
+    throw DTypeError(std::string(op) + ": the state is of a float32 forward call on the device; these inputs are "
+                     "float64");
   if (!std::isfinite(pos_gradient_boost))
     throw ValueError(std::string(op) + ": 'pos_gradient_boost' must be a finite number, got " +
                      std::to_string(pos_gradient_boost));
@@ -171,7 +184,7 @@ void antialias_backward(Context& ctx, const pybind11::object& pos, const pybind1
     std::atomic<bool> bad_ids{false};
     // Per image: the colour gradient in place, the position gradient in the
     // image's buffer (scaled by the boost), then added as rasterize's is.
-    raster::for_each_image(mesh.images, [&](std::int64_t b) {
+    for_each_image_on(state.backend.get(), mesh.images, [&](std::int64_t b) {
       ImageScratch& s = ctx.image(b);
       bool ids_ok = true;
       const auto p = image_params<T>(s, mesh, topology, color, rast, b, &ids_ok);
@@ -183,7 +196,13 @@ void antialias_backward(Context& ctx, const pybind11::object& pos, const pybind1
         grad.assign(4 * static_cast<std::size_t>(mesh.vertices), T(0));
         g.clip = grad.data();
       }
-      raster::blend_boundaries_backward(p, state.pairs[b], grad_out.in<T>() + pixels * channels * b, g);
+      const T* g_out = grad_out.in<T>() + pixels * channels * b;
+      if (!state.on_backend[b]) {
+        raster::blend_boundaries_backward(p, state.pairs[b], g_out, g);
+      } else if constexpr (std::is_same_v<T, float>) {
+        if (!state.backend->antialias_backward(p, g_out, g))
+          throw Error(std::string(op) + ": the device ran the forward but refused the adjoint");
+      }
       if (!grad_pos) return;
       for (T& v : grad) v = static_cast<T>(pos_gradient_boost * v);
       const T* part = grad.data();

@@ -26,9 +26,12 @@ struct Topology {
 std::shared_ptr<Topology> build_topology(const pybind11::object& tri, std::int64_t vertices, const std::string& op);
 
 // What the backward needs: per image, the blended pixel pairs (of
-// visibility_antialias when `visibility`), and the sizes they index.
+// visibility_antialias when `visibility`), or that the backend ran it (it
+// recomputes the pairs in its adjoint), and the sizes they index.
 struct AntialiasState {
   std::vector<raster::BlendedPairs> pairs;
+  std::shared_ptr<const raster::RasterBackend> backend;
+  std::vector<char> on_backend;  // per image
   std::int64_t height = 0, width = 0, channels = 0, vertices = 0, triangles = 0;
   bool visibility = false;
 };
@@ -36,7 +39,9 @@ struct AntialiasState {
 // pos, tri, ranges: a Mesh (range mode: one range per image of rast).
 // color, out: [images, H, W, C] of pos's dtype, C >= 1; rast: the G-buffer
 // [images, H, W, 4] for the mesh. visibility: visibility_antialias instead
-// of antialias.
+// of antialias. ctx: scratch, and the device of a RasterizeVulkanContext,
+// which runs antialias (not visibility_antialias) for float32, forward and
+// adjoint (the backward then runs on the state's backend).
 std::shared_ptr<AntialiasState> antialias_forward(Context& ctx, const pybind11::object& pos,
                                                   const pybind11::object& tri, Ranges ranges, const Topology& topology,
                                                   const pybind11::object& color, const pybind11::object& rast,

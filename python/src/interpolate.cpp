@@ -1,8 +1,10 @@
 #include "python/src/interpolate.h"
 
 #include <string>
+#include <type_traits>
 
 #include "autodiff/base/error.h"
+#include "python/src/backend.h"
 #include "raster/barycentric_interpolate.h"
 #include "raster/mesh_checks.h"
 
@@ -25,6 +27,14 @@ raster::BarycentricInterpolateParams<T> image_params(const InterpolateArgs& a, s
     p.diff = a.diff.data();
     p.num_diff = static_cast<std::int64_t>(a.diff.size());
   }
+  return p;
+}
+
+// p with its coverage as int32 ids (what a backend reads), kept in s.
+template <class T>
+raster::BarycentricInterpolateParams<T> with_ids(raster::BarycentricInterpolateParams<T> p, ImageScratch& s) {
+  rast_ids(p.rast, p.pixels, &s.tri_id);
+  p.tri_id = s.tri_id.data();
   return p;
 }
 
@@ -64,9 +74,9 @@ InterpolateArgs::InterpolateArgs(const pybind11::object& attr_, const pybind11::
   if (!diff.empty()) rast_db.required("'diff_attrs' needs it (the second output of rasterize)");
 }
 
-void interpolate_forward(const pybind11::object& attr, const pybind11::object& rast, const pybind11::object& tri,
-                         const pybind11::object& rast_db, std::vector<std::int32_t> diff, const pybind11::object& out_,
-                         const pybind11::object& out_da_, int threads) {
+void interpolate_forward(Context* ctx, const pybind11::object& attr, const pybind11::object& rast,
+                         const pybind11::object& tri, const pybind11::object& rast_db, std::vector<std::int32_t> diff,
+                         const pybind11::object& out_, const pybind11::object& out_da_, int threads) {
   const char* op = "interpolate";
   const InterpolateArgs a(attr, rast, tri, rast_db, std::move(diff), op);
   const std::int64_t K = static_cast<std::int64_t>(a.diff.size());
@@ -81,15 +91,22 @@ void interpolate_forward(const pybind11::object& attr, const pybind11::object& r
   dispatch(a.rast.elem() == Elem::F64, [&](auto tag) {
     using T = decltype(tag);
     check_values<T>(a, op);
-    raster::for_each_image(a.images, [&](std::int64_t b) {
-      raster::barycentric_interpolate_forward(image_params<T>(a, b), out.out<T>() + b * pixels * a.channels,
-                                              out_da ? out_da.out<T>() + b * pixels * 2 * K : nullptr);
+    const raster::RasterBackend* backend = backend_for<T>(ctx);
+    if (backend) ctx->reserve(a.images);
+    for_each_image_on(backend, a.images, [&](std::int64_t b) {
+      raster::BarycentricInterpolateParams<T> p = image_params<T>(a, b);
+      T* o = out.out<T>() + b * pixels * a.channels;
+      T* o_da = out_da ? out_da.out<T>() + b * pixels * 2 * K : nullptr;
+      if constexpr (std::is_same_v<T, float>)
+        if (backend && backend->interpolate_forward(with_ids(p, ctx->image(b)), int(a.width), int(a.height), o, o_da))
+          return;
+      raster::barycentric_interpolate_forward(p, o, o_da);
     });
   });
 }
 
-void interpolate_backward(const pybind11::object& attr, const pybind11::object& rast, const pybind11::object& tri,
-                          const pybind11::object& rast_db, std::vector<std::int32_t> diff,
+void interpolate_backward(Context* ctx, const pybind11::object& attr, const pybind11::object& rast,
+                          const pybind11::object& tri, const pybind11::object& rast_db, std::vector<std::int32_t> diff,
                           const pybind11::object& grad_out_, const pybind11::object& grad_da_,
                           const pybind11::object& grad_attr_, const pybind11::object& grad_rast_,
                           const pybind11::object& grad_db_, int threads) {
@@ -116,7 +133,9 @@ void interpolate_backward(const pybind11::object& attr, const pybind11::object& 
     const bool shared = grad_attr && a.attr_images == 1 && a.images > 1;
     const std::int64_t attr_values = a.vertices * a.channels;
     std::vector<std::vector<T>> parts(shared ? static_cast<std::size_t>(a.images) : 0);
-    raster::for_each_image(a.images, [&](std::int64_t b) {
+    const raster::RasterBackend* backend = backend_for<T>(ctx);
+    if (backend) ctx->reserve(a.images);
+    for_each_image_on(backend, a.images, [&](std::int64_t b) {
       raster::BarycentricInterpolateGrads<T> g;
       if (shared) {
         parts[b].assign(static_cast<std::size_t>(attr_values), T(0));
@@ -126,8 +145,14 @@ void interpolate_backward(const pybind11::object& attr, const pybind11::object& 
       }
       if (grad_rast) g.rast = grad_rast.out<T>() + 4 * pixels * b;
       if (grad_db) g.rast_db = grad_db.out<T>() + 4 * pixels * b;
-      raster::barycentric_interpolate_backward(image_params<T>(a, b), grad_out.in<T>() + b * pixels * a.channels,
-                                               grad_da ? grad_da.in<T>() + b * pixels * 2 * K : nullptr, g);
+      const raster::BarycentricInterpolateParams<T> p = image_params<T>(a, b);
+      const T* g_out = grad_out.in<T>() + b * pixels * a.channels;
+      const T* g_da = grad_da ? grad_da.in<T>() + b * pixels * 2 * K : nullptr;
+      if constexpr (std::is_same_v<T, float>)
+        if (backend && backend->interpolate_backward(with_ids(p, ctx->image(b)), int(a.width), int(a.height), g_out,
+                                                     g_da, g))
+          return;
+      raster::barycentric_interpolate_backward(p, g_out, g_da, g);
     });
     if (shared) {
       std::vector<const T*> order;

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "python/src/common.h"
+#include "python/src/rasterize.h"
 
 namespace gr::python {
 
@@ -23,16 +24,18 @@ struct InterpolateArgs {
   std::vector<std::int32_t> diff;  // channels to differentiate
 };
 
+// ctx: None (the CPU kernels) or the context that made rast, whose device
+// (a RasterizeVulkanContext's) then runs float32 calls, forward and adjoint.
 // out: [images, H, W, C]; out_da: [images, H, W, 2 len(diff)], required
 // with diff, else None.
-void interpolate_forward(const pybind11::object& attr, const pybind11::object& rast, const pybind11::object& tri,
-                         const pybind11::object& rast_db, std::vector<std::int32_t> diff, const pybind11::object& out,
-                         const pybind11::object& out_da, int threads);
+void interpolate_forward(Context* ctx, const pybind11::object& attr, const pybind11::object& rast,
+                         const pybind11::object& tri, const pybind11::object& rast_db, std::vector<std::int32_t> diff,
+                         const pybind11::object& out, const pybind11::object& out_da, int threads);
 // grad_out: out's shape; grad_da: out_da's shape or None. Accumulates into
 // grad_attr, grad_rast and grad_db (zeroed, shaped like attr, rast, rast_db;
 // each None when not needed).
-void interpolate_backward(const pybind11::object& attr, const pybind11::object& rast, const pybind11::object& tri,
-                          const pybind11::object& rast_db, std::vector<std::int32_t> diff,
+void interpolate_backward(Context* ctx, const pybind11::object& attr, const pybind11::object& rast,
+                          const pybind11::object& tri, const pybind11::object& rast_db, std::vector<std::int32_t> diff,
                           const pybind11::object& grad_out, const pybind11::object& grad_da,
                           const pybind11::object& grad_attr, const pybind11::object& grad_rast,
                           const pybind11::object& grad_db, int threads);

@@ -11,6 +11,7 @@
 #include "autodiff/base/memory.h"
 #include "autodiff/base/parallel.h"
 #include "python/src/antialias.h"
+#include "python/src/backend.h"
 #include "python/src/image.h"
 #include "python/src/interpolate.h"
 #include "python/src/rasterize.h"
@@ -65,7 +66,7 @@ PYBIND11_MODULE(_core, m) {
                     auto device = gr::vulkan::Device::open(&why);
                     if (!device) throw std::runtime_error("RasterizeVulkanContext: " + why);
                     Context ctx;
-                    ctx.backend = gr::vulkan::raster_backend(device);
+                    ctx.backend = std::make_shared<CountedBackend>(gr::vulkan::raster_backend(device));
                     ctx.gpu = std::move(device);
                     return ctx;
 #else
@@ -80,6 +81,11 @@ PYBIND11_MODULE(_core, m) {
         if (ctx.gpu) return ctx.gpu->info().name;
 #endif
         return "cpu";
+      })
+      // Per-image kernel calls its device has run (0 for a CPU context).
+      .def_property_readonly("device_calls", [](const Context& ctx) -> std::int64_t {
+        const auto* counted = dynamic_cast<const CountedBackend*>(ctx.backend.get());
+        return counted ? counted->calls() : 0;
       });
   m.attr("HAS_VULKAN") =
 #ifdef GRADRASTER_HAS_VULKAN
@@ -96,11 +102,12 @@ PYBIND11_MODULE(_core, m) {
         py::arg("ranges"), py::arg("rast"), py::arg("grad_rast"), py::arg("grad_db"), py::arg("grad_pos"),
         py::arg("threads"));
 
-  m.def("interpolate_forward", &interpolate_forward, py::arg("attr"), py::arg("rast"), py::arg("tri"),
-        py::arg("rast_db"), py::arg("diff"), py::arg("out"), py::arg("out_da"), py::arg("threads"));
-  m.def("interpolate_backward", &interpolate_backward, py::arg("attr"), py::arg("rast"), py::arg("tri"),
-        py::arg("rast_db"), py::arg("diff"), py::arg("grad_out"), py::arg("grad_da"), py::arg("grad_attr"),
-        py::arg("grad_rast"), py::arg("grad_db"), py::arg("threads"));
+  // ctx: None, or the context whose device runs the call (python/src/backend.h).
+  m.def("interpolate_forward", &interpolate_forward, py::arg("ctx"), py::arg("attr"), py::arg("rast"),
+        py::arg("tri"), py::arg("rast_db"), py::arg("diff"), py::arg("out"), py::arg("out_da"), py::arg("threads"));
+  m.def("interpolate_backward", &interpolate_backward, py::arg("ctx"), py::arg("attr"), py::arg("rast"),
+        py::arg("tri"), py::arg("rast_db"), py::arg("diff"), py::arg("grad_out"), py::arg("grad_da"),
+        py::arg("grad_attr"), py::arg("grad_rast"), py::arg("grad_db"), py::arg("threads"));
 
   py::class_<Topology, std::shared_ptr<Topology>>(m, "Topology").def_readonly("triangles", &Topology::triangles);
   py::class_<AntialiasState, std::shared_ptr<AntialiasState>>(m, "AntialiasState");
@@ -122,13 +129,13 @@ PYBIND11_MODULE(_core, m) {
       .def_readwrite("cube", &TextureMode::cube);
   m.def("mip_sizes", &mip_sizes);
   m.def("mip_build", &mip_build, py::arg("mode"), py::arg("tex"), py::arg("pyramid"), py::arg("threads"));
-  m.def("texture_forward", &texture_forward, py::arg("mode"), py::arg("tex"), py::arg("uv"), py::arg("uv_dx"),
-        py::arg("uv_dy"), py::arg("bias"), py::arg("pyramid"), py::arg("out"), py::arg("uv_jacobian"),
-        py::arg("threads"));
-  m.def("texture_backward", &texture_backward, py::arg("mode"), py::arg("tex"), py::arg("uv"), py::arg("uv_dx"),
-        py::arg("uv_dy"), py::arg("bias"), py::arg("pyramid"), py::arg("uv_jacobian"), py::arg("grad_out"),
-        py::arg("grad_tex"), py::arg("grad_uv"), py::arg("grad_uv_dx"), py::arg("grad_uv_dy"), py::arg("grad_bias"),
-        py::arg("grad_pyramid"), py::arg("threads"));
+  m.def("texture_forward", &texture_forward, py::arg("ctx"), py::arg("mode"), py::arg("tex"), py::arg("uv"),
+        py::arg("uv_dx"), py::arg("uv_dy"), py::arg("bias"), py::arg("pyramid"), py::arg("out"),
+        py::arg("uv_jacobian"), py::arg("threads"));
+  m.def("texture_backward", &texture_backward, py::arg("ctx"), py::arg("mode"), py::arg("tex"), py::arg("uv"),
+        py::arg("uv_dx"), py::arg("uv_dy"), py::arg("bias"), py::arg("pyramid"), py::arg("uv_jacobian"),
+        py::arg("grad_out"), py::arg("grad_tex"), py::arg("grad_uv"), py::arg("grad_uv_dx"), py::arg("grad_uv_dy"),
+        py::arg("grad_bias"), py::arg("grad_pyramid"), py::arg("threads"));
 
   m.def("write_png", &write_png, py::arg("path"), py::arg("image"));
 }

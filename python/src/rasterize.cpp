@@ -1,8 +1,10 @@
 #include "python/src/rasterize.h"
 
 #include <string>
+#include <type_traits>
 
 #include "autodiff/base/error.h"
+#include "python/src/backend.h"
 #include "raster/barycentric_gbuffer.h"
 #include "raster/mesh_checks.h"
 #include "raster/rasterize.h"
@@ -88,18 +90,29 @@ void rasterize_backward(Context& ctx, const pybind11::object& pos, const pybind1
     raster::detail::check_rast_ids(rast.in<T>(), mesh.images * pixels, mesh.triangles, "rast", op);
     // Instanced images own their positions and add straight into grad_pos;
     // range-mode images share them: each in its own buffer, summed in image
-    // order.
-    raster::for_each_image(mesh.images, [&](std::int64_t b) {
+    // order. On the context's device (float32), image by image.
+    const raster::RasterBackend* backend = backend_for<T>(&ctx);
+    for_each_image_on(backend, mesh.images, [&](std::int64_t b) {
+      ImageScratch& s = ctx.image(b);
       T* out = grad_pos.out<T>() + mesh.pos_offset(b);
       if (!mesh.instanced) {
-        std::vector<T>& grad = ctx.image(b).buffer<T>(ImageScratch::kGrad);
+        std::vector<T>& grad = s.buffer<T>(ImageScratch::kGrad);
         grad.assign(4 * static_cast<std::size_t>(mesh.vertices), T(0));
         out = grad.data();
       }
-      const raster::BarycentricGBufferParams<T> g{mesh.positions<T>(b), mesh.vertices, mesh.tris(), mesh.triangles,
-                                                  width, height, true};
-      raster::barycentric_gbuffer_backward(g, rast.in<T>() + 4 * pixels * b, grad_rast.in<T>() + 4 * pixels * b,
-                                           grad_db ? grad_db.in<T>() + 4 * pixels * b : nullptr, out);
+      raster::BarycentricGBufferParams<T> g{mesh.positions<T>(b), mesh.vertices, mesh.tris(), mesh.triangles,
+                                            width, height, true};
+      const T* image_rast = rast.in<T>() + 4 * pixels * b;
+      const T* g_rast = grad_rast.in<T>() + 4 * pixels * b;
+      const T* g_db = grad_db ? grad_db.in<T>() + 4 * pixels * b : nullptr;
+      if constexpr (std::is_same_v<T, float>)
+        if (backend) {
+          // The device reads the coverage as int32 ids (rast's id channel).
+          rast_ids(image_rast, pixels, &s.tri_id);
+          g.tri_id = s.tri_id.data();
+          if (backend->gbuffer_backward(g, g_rast, g_db, out)) return;
+        }
+      raster::barycentric_gbuffer_backward(g, image_rast, g_rast, g_db, out);
     });
     if (!mesh.instanced)
       raster::sum_in_image_order(ctx.grads<T>(mesh.images).data(), mesh.images, 4 * mesh.vertices, grad_pos.out<T>());

@@ -33,9 +33,10 @@ struct ImageScratch {
 // Images of a minibatch run in parallel, each on its own slot.
 struct Context {
   std::vector<ImageScratch> images;
-  // RasterizeVulkanContext: the device that rasterizes float32 positions
-  // (null: the CPU kernels), and it as the kernels' backend. Same G-buffer
-  // bits either way.
+  // RasterizeVulkanContext: the device that runs float32 calls (null: the
+  // CPU kernels), and it as the kernels' backend (python/src/backend.h):
+  // rasterize (the same G-buffer bits) and its adjoint, and interpolate,
+  // antialias and texture when handed this context.
   std::shared_ptr<vulkan::Device> gpu;
   std::shared_ptr<const raster::RasterBackend> backend;
   ImageScratch& image(std::int64_t b) { return images[static_cast<std::size_t>(b)]; }
@@ -60,6 +61,7 @@ void rasterize_forward(Context& ctx, const pybind11::object& pos, const pybind11
                        int threads);
 // grad_pos (zeroed by the caller, pos's shape) += the adjoint for the
 // coverage in rast; grad_rast: rast's shape; grad_db: None or rast's shape.
+// On ctx's device for float32 (RasterizeVulkanContext), else the CPU kernel.
 void rasterize_backward(Context& ctx, const pybind11::object& pos, const pybind11::object& tri, Ranges ranges,
                         const pybind11::object& rast, const pybind11::object& grad_rast,
                         const pybind11::object& grad_db, const pybind11::object& grad_pos, int threads);

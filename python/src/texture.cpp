@@ -1,8 +1,10 @@
 #include "python/src/texture.h"
 
 #include <string>
+#include <type_traits>
 
 #include "autodiff/base/error.h"
+#include "python/src/backend.h"
 #include "raster/cube_texture.h"
 #include "raster/mipmap.h"
 #include "raster/mesh_checks.h"
@@ -149,6 +151,15 @@ raster::TextureParams<T> image_params(const TextureArgs& a, std::int64_t b) {
   return p;
 }
 
+// The backend that runs a's lookups (ctx's, for float32; null: the CPU
+// kernels). Its adjoint reads the texels, so no uv Jacobian is kept for it.
+const raster::RasterBackend* lookups_backend(const Context* ctx, const TextureArgs& a, const char* op) {
+  const raster::RasterBackend* backend = a.f64() ? nullptr : backend_for<float>(ctx);
+  if (backend && a.uv_jacobian)
+    throw ValueError(std::string(op) + ": 'uv_jacobian' is for the CPU kernels; the device's lookups keep none");
+  return backend;
+}
+
 // Image b's part of the saved uv Jacobian, or null.
 template <class T>
 T* jacobian(const TextureArgs& a, std::int64_t b) {
@@ -186,18 +197,23 @@ void mip_build(const TextureMode& mode, Objects tex, Objects pyramid, int thread
   });
 }
 
-void texture_forward(const TextureMode& mode, Objects tex, Objects uv, Objects uv_dx, Objects uv_dy, Objects bias,
-                     Objects pyramid, Objects out_, Objects uv_jacobian, int threads) {
+void texture_forward(Context* ctx, const TextureMode& mode, Objects tex, Objects uv, Objects uv_dx, Objects uv_dy,
+                     Objects bias, Objects pyramid, Objects out_, Objects uv_jacobian, int threads) {
   const char* op = "texture";
   const TextureArgs a(mode, tex, uv, uv_dx, uv_dy, bias, pyramid, uv_jacobian, op, true);
   const Array out(out_, op, "out");
   out.same_elem(a.tex).shape({a.images, a.uv.size(1), a.uv.size(2), a.channels});
   check_disjoint(op, {&out, &a.uv_jacobian}, {&a.tex, &a.pyramid, &a.uv, &a.uv_dx, &a.uv_dy, &a.bias});
+  const raster::RasterBackend* backend = lookups_backend(ctx, a, op);
   KernelCall call(threads);
   dispatch(a.f64(), [&](auto tag) {
     using T = decltype(tag);
-    raster::for_each_image(a.images, [&](std::int64_t b) {
+    for_each_image_on(backend, a.images, [&](std::int64_t b) {
       T* o = out.out<T>() + b * a.samples * a.channels;
+      if constexpr (std::is_same_v<T, float>)
+        if (backend && (a.mode.cube ? backend->cube_texture_forward(cube_params<T>(a, b), o)
+                                    : backend->texture_forward(image_params<T>(a, b), o)))
+          return;
       if (a.mode.cube)
         raster::cube_texture_forward(cube_params<T>(a, b), o);
       else
@@ -206,10 +222,10 @@ void texture_forward(const TextureMode& mode, Objects tex, Objects uv, Objects u
   });
 }
 
-void texture_backward(const TextureMode& mode, Objects tex, Objects uv, Objects uv_dx, Objects uv_dy, Objects bias,
-                      Objects pyramid, Objects uv_jacobian, Objects grad_out_, Objects grad_tex_, Objects grad_uv_,
-                      Objects grad_uv_dx_, Objects grad_uv_dy_, Objects grad_bias_, Objects grad_pyramid_,
-                      int threads) {
+void texture_backward(Context* ctx, const TextureMode& mode, Objects tex, Objects uv, Objects uv_dx, Objects uv_dy,
+                      Objects bias, Objects pyramid, Objects uv_jacobian, Objects grad_out_, Objects grad_tex_,
+                      Objects grad_uv_, Objects grad_uv_dx_, Objects grad_uv_dy_, Objects grad_bias_,
+                      Objects grad_pyramid_, int threads) {
   const char* op = "texture backward";
   const TextureArgs a(mode, tex, uv, uv_dx, uv_dy, bias, pyramid, uv_jacobian, op, true);
   const Array grad_out(grad_out_, op, "grad_out"), grad_tex(grad_tex_, op, "grad_tex", true),
@@ -230,6 +246,7 @@ void texture_backward(const TextureMode& mode, Objects tex, Objects uv, Objects 
     throw ValueError(std::string(op) + ": 'grad_pyramid' is for a user mip stack only");
   check_disjoint(op, {&grad_tex, &grad_uv, &grad_uv_dx, &grad_uv_dy, &grad_bias, &grad_pyramid},
                  {&a.tex, &a.pyramid, &a.uv, &a.uv_dx, &a.uv_dy, &a.bias, &a.uv_jacobian, &grad_out});
+  const raster::RasterBackend* backend = lookups_backend(ctx, a, op);
   KernelCall call(threads);
   dispatch(a.f64(), [&](auto tag) {
     using T = decltype(tag);
@@ -247,6 +264,8 @@ void texture_backward(const TextureMode& mode, Objects tex, Objects uv, Objects 
         if (grad_uv) g.dir = grad_uv.out<T>() + 3 * a.samples * b;
         if (grad_uv_dx) g.dir_da = grad_uv_dx.out<T>() + 6 * a.samples * b;  // the cube's uv_da gradient
         if (grad_bias) g.mip_level_bias = grad_bias.out<T>() + a.samples * b;
+        if constexpr (std::is_same_v<T, float>)
+          if (backend && backend->cube_texture_backward(cube_params<T>(a, b), g_out, g)) return;
         raster::cube_texture_backward(cube_params<T>(a, b), g_out, g);
         return;
       }
@@ -257,11 +276,14 @@ void texture_backward(const TextureMode& mode, Objects tex, Objects uv, Objects 
       if (grad_uv_dy) g.uv_dy = grad_uv_dy.out<T>() + 2 * a.samples * b;
       if (grad_bias) g.mip_level_bias = grad_bias.out<T>() + a.samples * b;
       if (grad_pyramid) g.pyramid = grad_pyramid.out<T>() + t * a.pyramid_values();
+      if constexpr (std::is_same_v<T, float>)
+        if (backend && backend->texture_backward(image_params<T>(a, b), g_out, g)) return;
       raster::texture_backward(image_params<T>(a, b), g_out, g, jacobian<T>(a, b));
     };
-    // A broadcast texture collects every image's gradient: images in order
-    // (each lookup parallel inside); otherwise images in parallel.
-    if (a.tex_images == 1 && (grad_tex || grad_pyramid))
+    // A broadcast texture collects every image's gradient, and a device runs
+    // one call at a time: images in order (each lookup parallel inside);
+    // otherwise images in parallel.
+    if (backend || (a.tex_images == 1 && (grad_tex || grad_pyramid)))
       for (std::int64_t b = 0; b < a.images; ++b) image(b);
     else
       raster::for_each_image(a.images, image);

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "python/src/common.h"
+#include "python/src/rasterize.h"
 
 namespace gr::python {
 
@@ -45,8 +46,11 @@ std::vector<std::pair<int, int>> mip_sizes(int height, int width, int max_level)
 // Writes levels 1..levels-1 of every texture image into pyramid (box filter).
 void mip_build(const TextureMode& mode, const pybind11::object& tex, const pybind11::object& pyramid, int threads);
 
+// ctx: None (the CPU kernels) or the context that made uv, whose device (a
+// RasterizeVulkanContext's) then runs float32 lookups and their adjoint
+// (2D and cube maps; uv_jacobian must be None: its adjoint reads the texels).
 // out: [images, h, w, C].
-void texture_forward(const TextureMode& mode, const pybind11::object& tex, const pybind11::object& uv,
+void texture_forward(Context* ctx, const TextureMode& mode, const pybind11::object& tex, const pybind11::object& uv,
                      const pybind11::object& uv_dx, const pybind11::object& uv_dy, const pybind11::object& bias,
                      const pybind11::object& pyramid, const pybind11::object& out,
                      const pybind11::object& uv_jacobian, int threads);
@@ -54,7 +58,7 @@ void texture_forward(const TextureMode& mode, const pybind11::object& tex, const
 // caller, shaped like their inputs; None when not needed; grad_pyramid only
 // for a user stack). For a cube map, grad_uv_dx receives uv_da's gradient and
 // grad_uv_dy is None.
-void texture_backward(const TextureMode& mode, const pybind11::object& tex, const pybind11::object& uv,
+void texture_backward(Context* ctx, const TextureMode& mode, const pybind11::object& tex, const pybind11::object& uv,
                       const pybind11::object& uv_dx, const pybind11::object& uv_dy, const pybind11::object& bias,
                       const pybind11::object& pyramid, const pybind11::object& uv_jacobian,
                       const pybind11::object& grad_out, const pybind11::object& grad_tex,

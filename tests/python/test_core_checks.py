@@ -49,7 +49,7 @@ def test_wrong_dtypes_are_type_errors(scene):
     with pytest.raises(TypeError, match="rasterize: 'tri' must have dtype int32, got float32"):
         raster_call(pos, tri.float(), out)
     with pytest.raises(TypeError, match="'attr' has dtype float32 but 'rast' has float64"):
-        _core.interpolate_forward(torch.zeros(4, 2), rast, tri, None, [], torch.empty(1, 8, 8, 2), None, 1)
+        _core.interpolate_forward(None, torch.zeros(4, 2), rast, tri, None, [], torch.empty(1, 8, 8, 2), None, 1)
     with pytest.raises(TypeError, match="write_png: 'image' must have dtype float32"):
         _core.write_png('/nonexistent/x.png', np.zeros((2, 2, 3)))
     with pytest.raises(RuntimeError, match="require gradient"):  # torch refuses to export it
@@ -89,23 +89,23 @@ def test_wrong_shapes_and_too_small_outputs_are_value_errors(scene):
     # interpolate: outputs too small, derivatives without their buffer, bad diff indices.
     attr = pos[0]
     with pytest.raises(ValueError, match=r"interpolate: 'out' must have shape \[1, 8, 8, 4\], got \[1, 8, 8, 3\]"):
-        _core.interpolate_forward(attr, rast, tri, None, [], torch.empty(1, 8, 8, 3, dtype=F64), None, 1)
+        _core.interpolate_forward(None, attr, rast, tri, None, [], torch.empty(1, 8, 8, 3, dtype=F64), None, 1)
     with pytest.raises(ValueError, match="'out_da' is required"):
-        _core.interpolate_forward(attr, rast, tri, db, [0], torch.empty(1, 8, 8, 4, dtype=F64), None, 1)
+        _core.interpolate_forward(None, attr, rast, tri, db, [0], torch.empty(1, 8, 8, 4, dtype=F64), None, 1)
     with pytest.raises(ValueError, match=r"'out_da' must have shape \[1, 8, 8, 2\]"):
-        _core.interpolate_forward(attr, rast, tri, db, [0], torch.empty(1, 8, 8, 4, dtype=F64),
+        _core.interpolate_forward(None, attr, rast, tri, db, [0], torch.empty(1, 8, 8, 4, dtype=F64),
                                   torch.empty(1, 8, 8, 1, dtype=F64), 1)
     with pytest.raises(ValueError, match="'diff_attrs' index 4 is outside 0..3"):
-        _core.interpolate_forward(attr, rast, tri, db, [4], torch.empty(1, 8, 8, 4, dtype=F64),
+        _core.interpolate_forward(None, attr, rast, tri, db, [4], torch.empty(1, 8, 8, 4, dtype=F64),
                                   torch.empty(1, 8, 8, 2, dtype=F64), 1)
     with pytest.raises(ValueError, match="'rast_db' is required"):
-        _core.interpolate_forward(attr, rast, tri, None, [0], torch.empty(1, 8, 8, 4, dtype=F64),
+        _core.interpolate_forward(None, attr, rast, tri, None, [0], torch.empty(1, 8, 8, 4, dtype=F64),
                                   torch.empty(1, 8, 8, 2, dtype=F64), 1)
     with pytest.raises(ValueError, match="'attr' has minibatch size 2 but 'rast' has 1"):
-        _core.interpolate_forward(torch.zeros(2, 4, 3, dtype=F64), rast, tri, None, [],
+        _core.interpolate_forward(None, torch.zeros(2, 4, 3, dtype=F64), rast, tri, None, [],
                                   torch.empty(1, 8, 8, 3, dtype=F64), None, 1)
     with pytest.raises(ValueError, match=r"interpolate backward: 'grad_attr' must have shape \[4, 4\]"):
-        _core.interpolate_backward(attr, rast, tri, None, [], torch.ones(1, 8, 8, 4, dtype=F64), None,
+        _core.interpolate_backward(None, attr, rast, tri, None, [], torch.ones(1, 8, 8, 4, dtype=F64), None,
                                    torch.zeros(3, 4, dtype=F64), None, None, 1)
     # antialias: the colour must match rast, the output the colour.
     topology = _core.build_topology(tri, 4, 'antialias')
@@ -150,7 +150,7 @@ def test_backward_passes_check_the_values_they_index_with(scene):
         _core.rasterize_backward(_core.Context(), pos, tri, [], bad, torch.ones_like(rast), None,
                                  torch.zeros_like(pos), 1)
     with pytest.raises(IndexError, match="interpolate backward"):
-        _core.interpolate_backward(pos[0], bad, tri, None, [], torch.ones(1, 8, 8, 4, dtype=F64), None,
+        _core.interpolate_backward(None, pos[0], bad, tri, None, [], torch.ones(1, 8, 8, 4, dtype=F64), None,
                                    torch.zeros(4, 4, dtype=F64), None, None, 1)
     topology = _core.build_topology(tri, 4, 'antialias')
     color = torch.rand(1, 8, 8, 3, dtype=F64)
@@ -172,7 +172,7 @@ def test_backward_passes_check_the_values_they_index_with(scene):
     uv = torch.rand(1, 2, 2, 2, dtype=F64)
     uv[0, 1, 1, 0] = float('nan')
     with pytest.raises(ValueError, match="texture backward.*uv"):
-        _core.texture_backward(mode, tex, uv, None, None, None, None, None, torch.ones(1, 2, 2, 3, dtype=F64),
+        _core.texture_backward(None, mode, tex, uv, None, None, None, None, None, torch.ones(1, 2, 2, 3, dtype=F64),
                                torch.zeros_like(tex), torch.zeros_like(uv), None, None, None, None, 1)
 
 
@@ -183,7 +183,7 @@ def test_texture_arguments_are_checked_against_each_other():
     mode = _core.TextureMode()
 
     def forward(mode=mode, tex=tex, uv=uv, uv_dx=None, uv_dy=None, bias=None, pyramid=None, out=out, jac=None):
-        _core.texture_forward(mode, tex, uv, uv_dx, uv_dy, bias, pyramid, out, jac, 1)
+        _core.texture_forward(None, mode, tex, uv, uv_dx, uv_dy, bias, pyramid, out, jac, 1)
 
     forward()  # the baseline call is fine
     with pytest.raises(ValueError, match=r"texture: 'out' must have shape \[2, 3, 3, 3\]"):
@@ -212,10 +212,10 @@ def test_texture_arguments_are_checked_against_each_other():
     with pytest.raises(ValueError, match="shares memory with the input 'uv'"):
         forward(uv=shared[:36].view(2, 3, 3, 2), out=shared.view(2, 3, 3, 3))
     with pytest.raises(ValueError, match="'grad_pyramid' is given but 'pyramid' is not"):
-        _core.texture_backward(mode, tex, uv, None, None, None, None, None, torch.ones_like(out),
+        _core.texture_backward(None, mode, tex, uv, None, None, None, None, None, torch.ones_like(out),
                                None, None, None, None, None, torch.zeros(2, 21, 3, dtype=F64), 1)
     with pytest.raises(ValueError, match=r"'grad_tex' must have shape \[2, 8, 8, 3\]"):
-        _core.texture_backward(mode, tex, uv, None, None, None, None, None, torch.ones_like(out),
+        _core.texture_backward(None, mode, tex, uv, None, None, None, None, None, torch.ones_like(out),
                                torch.zeros(1, 8, 8, 3, dtype=F64), None, None, None, None, None, 1)
     mip.levels = 4
     with pytest.raises(ValueError, match="texture_construct_mip: 'pyramid' is required"):
@@ -249,10 +249,10 @@ def test_tensors_dropped_by_python_after_the_call_starts_stay_alive_until_it_ret
     pos, tri, rast, db = scene
     attr = torch.rand(4, 5, dtype=F64)
     want = torch.empty(1, 8, 8, 5, dtype=F64)
-    _core.interpolate_forward(attr, rast, tri, None, [], want, None, 1)
+    _core.interpolate_forward(None, attr, rast, tri, None, [], want, None, 1)
     vanishing = Vanishing(attr.clone())
     got = torch.empty_like(want)
-    _core.interpolate_forward(vanishing, rast, tri, None, [], got, None, 1)
+    _core.interpolate_forward(None, vanishing, rast, tri, None, [], got, None, 1)
     assert torch.equal(got, want)
     gc.collect()
     assert vanishing.ref() is None  # released after the call: nothing kept, nothing leaked
@@ -263,10 +263,10 @@ def test_tensors_dropped_by_python_after_the_call_starts_stay_alive_until_it_ret
     dy = torch.rand(1, 8, 8, 3, dtype=F64)
     mode = _core.TextureMode()
     want = torch.zeros_like(tex)
-    _core.texture_backward(mode, tex, uv, None, None, None, None, None, dy, want, None, None, None, None, None, 1)
+    _core.texture_backward(None, mode, tex, uv, None, None, None, None, None, dy, want, None, None, None, None, None, 1)
     got = torch.zeros_like(tex)
-    _core.texture_backward(mode, tex, uv, None, None, None, None, None, Vanishing(dy.clone()), got, None, None, None,
-                           None, None, 1)
+    _core.texture_backward(None, mode, tex, uv, None, None, None, None, None, Vanishing(dy.clone()), got, None, None,
+                           None, None, None, 1)
     assert torch.equal(got, want)
 
 

@@ -2,7 +2,7 @@
 then `glctx = dr.RasterizeCpuContext()` where nvdiffrast code creates a
 RasterizeCudaContext, and CPU tensors. The names RasterizeCudaContext and
 RasterizeGLContext exist too; constructing either gives a CPU context.
-RasterizeVulkanContext() rasterizes on a Vulkan device (docs/gpu.md)."""
+RasterizeVulkanContext() runs the ops on a Vulkan device (docs/python.md, "Vulkan")."""
 import re as _re
 
 import torch as _torch

@@ -19,6 +19,7 @@ import torch
 from torch.autograd.function import once_differentiable
 
 from .. import _core
+from ._origin import origin, record_origin
 
 _MAX_SIDE = _core.MAX_SIDE  # pixels per side (the rasterizer's limit, raster::kMaxSide)
 _MAX_FLOAT32_IDS = 1 << 24  # float32 holds every triangle id + 1 exactly up to here
@@ -149,12 +150,18 @@ def _check_cpu_device(context, device):
 
 
 class RasterizeVulkanContext(RasterizeCpuContext):
-    """A context whose rasterizer runs on a Vulkan device (any vendor's GPU,
-    or Mesa's lavapipe on the CPU), with CPU tensors in and out: accepted by
-    every function that takes a context. The G-buffer is the CPU context's
-    bit for bit (docs/gpu.md). On the GPU so far: rasterize's forward for
-    float32 positions (not within a DepthPeeler); the rest (float64, peeling, the
-    backward passes, interpolate, texture, antialias) runs on the CPU kernels.
+    """A context whose ops run on a Vulkan device (any vendor's GPU, or Mesa's
+    lavapipe on the CPU), with CPU tensors in and out: accepted by every
+    function that takes a context. On the device, for float32, forward and
+    backward: rasterize (depth peeling included; the G-buffer is the CPU
+    context's bit for bit), and interpolate, antialias and texture (2D and
+    cube maps) when their inputs come from this context: interpolate and
+    antialias when `rast` is the very tensor rasterize returned, texture when
+    `uv` is the very tensor interpolate returned for such a rast. Any other
+    tensor (a slice, a copy, one computed by torch), float64 and
+    visibility_antialias run on the CPU kernels (docs/python.md, "Vulkan").
+    Values match the CPU kernels' within 1e-6 relative and gradients within
+    1e-5 of the largest, bit-identical run to run (docs/gpu.md).
     The device is the first discrete GPU, else any GPU, else a CPU device;
     the environment variable GRADRASTER_VULKAN_DEVICE (part of the device's
     name) chooses another. Raises RuntimeError, saying why, when there is none.
@@ -168,6 +175,12 @@ class RasterizeVulkanContext(RasterizeCpuContext):
     def vulkan_device(self):
         """The Vulkan device's name, e.g. 'NVIDIA H200' or 'llvmpipe (LLVM 15.0.6, 256 bits)'."""
         return self.cpp_wrapper.device_name
+
+    @property
+    def device_calls(self):
+        """How many per-image kernel calls (forward or backward, of any op) have run on the device: a program can
+        check that its interpolate, antialias and texture calls found this context (docs/python.md, "Vulkan")."""
+        return self.cpp_wrapper.device_calls
 
 
 # nvdiffrast's two context classes, by name, so that programs that name them
@@ -253,8 +266,14 @@ def rasterize(glctx, pos, tri, resolution, ranges=None, grad_db=True):
     return _rasterize(glctx, pos, tri, resolution, ranges, grad_db, None)
 
 
+def _device(glctx):
+    """glctx's _core.Context when its device runs the ops (a RasterizeVulkanContext), else None (the CPU kernels)."""
+    return glctx.cpp_wrapper if isinstance(glctx, RasterizeVulkanContext) else None
+
+
 def _rasterize(glctx, pos, tri, resolution, ranges, grad_db, peel):
     rast, db = _RasterizeFunc.apply(glctx, pos, tri, resolution, ranges, grad_db and glctx.output_db, peel)
+    record_origin(rast, glctx)  # interpolate and antialias run on its device
     if not glctx.output_db:  # RasterizeGLContext(output_db=False), as nvdiffrast's
         db = db.new_zeros(db.shape[:3] + (0,))
     return rast, db
@@ -348,14 +367,14 @@ def _interpolate_args(attr, rast, tri, rast_db, diff):
 
 class _InterpolateFunc(torch.autograd.Function):
     @staticmethod
-    def forward(ctx, attr, rast, tri, rast_db, diff):
+    def forward(ctx, attr, rast, tri, rast_db, diff, device):
         args = _interpolate_args(attr, rast, tri, rast_db, diff)
         images, h, w = rast.shape[:3]
         out = attr.new_empty((images, h, w, attr.shape[-1]))
         out_da = attr.new_empty((images, h, w, 2 * len(diff)))
-        _core.interpolate_forward(*args, out, out_da if diff else None, _threads())
+        _core.interpolate_forward(device, *args, out, out_da if diff else None, _threads())
         ctx.save_for_backward(attr, rast, tri, rast_db)
-        ctx.diff = diff
+        ctx.diff, ctx.device = diff, device
         return out, out_da
 
     @staticmethod
@@ -363,13 +382,13 @@ class _InterpolateFunc(torch.autograd.Function):
     def backward(ctx, dy, dda):
         attr, rast, tri, rast_db = ctx.saved_tensors
         args = _interpolate_args(attr, rast, tri, rast_db, ctx.diff)
-        need_attr, need_rast, _, need_db, _ = ctx.needs_input_grad
+        need_attr, need_rast, _, need_db = ctx.needs_input_grad[:4]
         g_attr = torch.zeros_like(attr) if need_attr else None
         g_rast = torch.zeros_like(rast) if need_rast else None
         g_db = torch.zeros_like(rast_db) if need_db and rast_db is not None else None
-        _core.interpolate_backward(*args, _d(dy.contiguous()), _d(dda.contiguous()) if ctx.diff else None, g_attr,
-                                   g_rast, g_db, _threads())
-        return g_attr, g_rast, None, g_db, None
+        _core.interpolate_backward(ctx.device, *args, _d(dy.contiguous()), _d(dda.contiguous()) if ctx.diff else None,
+                                   g_attr, g_rast, g_db, _threads())
+        return g_attr, g_rast, None, g_db, None, None
 
 
 def interpolate(attr, rast, tri, rast_db=None, diff_attrs=None):
@@ -380,12 +399,19 @@ def interpolate(attr, rast, tri, rast_db=None, diff_attrs=None):
     rasterize. Returns (out [minibatch, height, width, num_attributes],
     out_da [minibatch, height, width, 2 len(diff_attrs)]) with out_da holding
     (dA/dX, dA/dY) per selected attribute ('all' = every attribute); without
-    diff_attrs out_da is empty. Background pixels are 0.
+    diff_attrs out_da is empty. Background pixels are 0. Runs on the device
+    of the RasterizeVulkanContext that made rast (float32), whose out and
+    out_da then take texture there too (docs/python.md, "Vulkan").
     """
     diff = _diff_list(diff_attrs, attr.shape[-1] if isinstance(attr, torch.Tensor) and attr.dim() >= 1 else 0)
     if diff and rast_db is None:
         raise ValueError("'diff_attrs' needs 'rast_db' (the second output of rasterize)")
-    return _InterpolateFunc.apply(attr, rast, tri, rast_db if diff else None, diff)
+    glctx = origin(rast)  # rasterize's context: its device runs this call, and texture on out
+    out, out_da = _InterpolateFunc.apply(attr, rast, tri, rast_db if diff else None, diff, _device(glctx))
+    if glctx is not None:
+        record_origin(out, glctx)
+        record_origin(out_da, glctx)
+    return out, out_da
 
 
 # ----------------------------------------------------------------------------
@@ -432,13 +458,14 @@ _ANTIALIAS_SCRATCH = _core.Context()
 
 class _AntialiasFunc(torch.autograd.Function):
     @staticmethod
-    def forward(ctx, color, rast, pos, tri, topology, boost, visibility):
+    def forward(ctx, color, rast, pos, tri, topology, boost, visibility, device):
         mesh = _antialias_mesh(color, rast, pos, tri)
         out = torch.empty_like(color)
-        state = _core.antialias_forward(_ANTIALIAS_SCRATCH, *mesh, topology, _d(color), _d(rast), out, visibility,
-                                        _threads())
+        # rast's context's device (with its scratch), else the CPU kernels with the module's scratch.
+        scratch = device if device is not None else _ANTIALIAS_SCRATCH
+        state = _core.antialias_forward(scratch, *mesh, topology, _d(color), _d(rast), out, visibility, _threads())
         ctx.save_for_backward(color, rast, pos, tri)
-        ctx.topology, ctx.state, ctx.boost = topology, state, boost
+        ctx.topology, ctx.state, ctx.boost, ctx.scratch = topology, state, boost, scratch
         return out
 
     @staticmethod
@@ -449,9 +476,9 @@ class _AntialiasFunc(torch.autograd.Function):
         need_color, _, need_pos = ctx.needs_input_grad[:3]
         g_color = torch.zeros_like(color) if need_color else None
         g_pos = torch.zeros_like(pos) if need_pos else None
-        _core.antialias_backward(_ANTIALIAS_SCRATCH, *mesh, ctx.topology, ctx.state, _d(color), _d(rast),
+        _core.antialias_backward(ctx.scratch, *mesh, ctx.topology, ctx.state, _d(color), _d(rast),
                                  _d(dy.contiguous()), g_color, g_pos, ctx.boost, _threads())
-        return g_color, None, g_pos, None, None, None, None
+        return g_color, None, g_pos, None, None, None, None, None
 
 
 def _apply_antialias(color, rast, pos, tri, topology_hash, pos_gradient_boost, visibility):
@@ -463,7 +490,8 @@ def _apply_antialias(color, rast, pos, tri, topology_hash, pos_gradient_boost, v
         topology_hash = _topology(tri, pos.shape[-2], 'visibility_antialias' if visibility else 'antialias')
     elif not isinstance(topology_hash, _core.Topology):
         raise TypeError("'topology_hash' must come from antialias_construct_topology_hash(tri)")
-    return _AntialiasFunc.apply(color, rast, pos, tri, topology_hash, float(pos_gradient_boost), visibility)
+    return _AntialiasFunc.apply(color, rast, pos, tri, topology_hash, float(pos_gradient_boost), visibility,
+                                _device(origin(rast)))
 
 
 def antialias(color, rast, pos, tri, topology_hash=None, pos_gradient_boost=1.0):
@@ -473,7 +501,8 @@ def antialias(color, rast, pos, tri, topology_hash=None, pos_gradient_boost=1.0)
     output for the same pos and tri; pos: as given to rasterize. Returns the
     antialiased color; gradients flow to color and pos (the latter multiplied
     by pos_gradient_boost). topology_hash: from
-    antialias_construct_topology_hash(tri), built here when None.
+    antialias_construct_topology_hash(tri), built here when None. Runs on the
+    device of the RasterizeVulkanContext that made rast (float32).
     """
     return _apply_antialias(color, rast, pos, tri, topology_hash, pos_gradient_boost, False)
 
@@ -553,7 +582,7 @@ def _build_pyramid(tex, sizes, cube=False):
 
 class _TextureFunc(torch.autograd.Function):
     @staticmethod
-    def forward(ctx, filter_mode, boundary, levels, prebuilt, tex, uv, uv_dx, uv_dy, bias, *mip_levels):
+    def forward(ctx, device, filter_mode, boundary, levels, prebuilt, tex, uv, uv_dx, uv_dy, bias, *mip_levels):
         user = len(mip_levels) > 0
         if user:  # the user's levels in one buffer per texture image
             pyramid = torch.cat([m.reshape(m.shape[0], -1, m.shape[3]) for m in mip_levels], 1).contiguous()
@@ -564,14 +593,15 @@ class _TextureFunc(torch.autograd.Function):
             pyramid = None
         mode = _texture_mode(levels, user, filter_mode, boundary)
         out = tex.new_empty(uv.shape[:3] + (tex.shape[-1],))
-        # Bilinear with a uv gradient: keep d out/d(u, v), so the backward reads no texel for it.
+        # Bilinear with a uv gradient: keep d out/d(u, v), so the backward reads no texel for it (the CPU
+        # kernels; a device's backward reads the texels).
         jacobian = None
-        if filter_mode == _FILTERS['linear'] and boundary != _CUBE and ctx.needs_input_grad[5]:
+        if filter_mode == _FILTERS['linear'] and boundary != _CUBE and ctx.needs_input_grad[6] and device is None:
             jacobian = tex.new_empty(uv.shape[:3] + (2, tex.shape[-1]))
-        _core.texture_forward(mode, _d(tex), _d(uv), _d(uv_dx), _d(uv_dy), _d(bias), _d(pyramid), out, jacobian,
+        _core.texture_forward(device, mode, _d(tex), _d(uv), _d(uv_dx), _d(uv_dy), _d(bias), _d(pyramid), out, jacobian,
                               _threads())
         ctx.save_for_backward(tex, uv, uv_dx, uv_dy, bias, pyramid, jacobian)
-        ctx.filter_mode, ctx.boundary, ctx.levels, ctx.user = filter_mode, boundary, levels, user
+        ctx.filter_mode, ctx.boundary, ctx.levels, ctx.user, ctx.device = filter_mode, boundary, levels, user, device
         ctx.mip_shapes = [m.shape for m in mip_levels]
         return out
 
@@ -579,20 +609,20 @@ class _TextureFunc(torch.autograd.Function):
     @once_differentiable
     def backward(ctx, dy):
         tex, uv, uv_dx, uv_dy, bias, pyramid, jacobian = ctx.saved_tensors
-        needs = ctx.needs_input_grad
+        needs = ctx.needs_input_grad[1:]  # as forward's arguments after `device`
         zeros = lambda t, need: torch.zeros_like(t) if need and t is not None else None
         g_tex, g_uv = zeros(tex, needs[4]), zeros(uv, needs[5] and ctx.filter_mode != 0)
         g_dx, g_dy, g_bias = zeros(uv_dx, needs[6]), zeros(uv_dy, needs[7]), zeros(bias, needs[8])
         g_pyr = zeros(pyramid, ctx.user and any(needs[9:]))
         mode = _texture_mode(ctx.levels, ctx.user, ctx.filter_mode, ctx.boundary)
-        _core.texture_backward(mode, _d(tex), _d(uv), _d(uv_dx), _d(uv_dy), _d(bias), _d(pyramid), _d(jacobian),
-                               _d(dy.contiguous()), g_tex, g_uv, g_dx, g_dy, g_bias, g_pyr, _threads())
+        _core.texture_backward(ctx.device, mode, _d(tex), _d(uv), _d(uv_dx), _d(uv_dy), _d(bias), _d(pyramid),
+                               _d(jacobian), _d(dy.contiguous()), g_tex, g_uv, g_dx, g_dy, g_bias, g_pyr, _threads())
         g_levels, start = [], 0
         for shape in ctx.mip_shapes:
             n = shape[1] * shape[2]
             g_levels.append(g_pyr[:, start:start + n].reshape(shape) if g_pyr is not None else None)
             start += n
-        return (None, None, None, None, g_tex, g_uv, g_dx, g_dy, g_bias, *g_levels)
+        return (None, None, None, None, None, g_tex, g_uv, g_dx, g_dy, g_bias, *g_levels)
 
 
 def _texture_tensor(tex, cube=False):
@@ -644,7 +674,8 @@ def texture(tex, uv, uv_da=None, mip_level_bias=None, mip=None, filter_mode='aut
     'linear-mipmap-linear'; boundary_mode: 'wrap', 'clamp', 'zero' or 'cube'
     (tex [minibatch, 6, size, size, channels] looked up by uv = directions
     [minibatch, height, width, 3], uv_da [..., 6]; docs/cube_maps.md).
-    Returns [minibatch, height, width, channels].
+    Returns [minibatch, height, width, channels]. Runs on the device of a
+    RasterizeVulkanContext when uv is interpolate's output for its rast (float32).
     """
     if filter_mode == 'auto':
         filter_mode = 'linear-mipmap-linear' if (uv_da is not None or mip_level_bias is not None) else 'linear'
@@ -715,5 +746,7 @@ def texture(tex, uv, uv_da=None, mip_level_bias=None, mip=None, filter_mode='aut
                                      f"{list(m.shape)}")
         else:
             raise TypeError("'mip' must be a texture_construct_mip result or a list of tensors")
-    return _TextureFunc.apply(_FILTERS[filter_mode], _BOUNDARIES[boundary_mode], len(sizes), prebuilt, tex, uv,
-                              uv_dx, uv_dy, bias, *levels)
+    # uv from interpolate on a RasterizeVulkanContext's rast: the lookups run on its device (float32).
+    device = _device(origin(uv)) if tex.dtype == torch.float32 else None
+    return _TextureFunc.apply(device, _FILTERS[filter_mode], _BOUNDARIES[boundary_mode], len(sizes), prebuilt, tex,
+                              uv, uv_dx, uv_dy, bias, *levels)
