@@ -9,3 +9,9 @@ if(TARGET gradraster_vulkan)
   add_executable(bench_gpu_texture ${CMAKE_CURRENT_SOURCE_DIR}/gpu_texture.cpp)
   target_link_libraries(bench_gpu_texture PRIVATE gradraster::gradraster gradraster::vulkan benchmark::benchmark)
 endif()
+# bench_gpu_op_chain: the ops' rasterize -> interpolate -> antialias -> backward on a backend.
+if(TARGET gradraster_vulkan)
+  add_executable(bench_gpu_op_chain ${CMAKE_CURRENT_SOURCE_DIR}/gpu_op_chain.cpp ${CMAKE_CURRENT_SOURCE_DIR}/mesh_framing.cpp)
+  target_link_libraries(bench_gpu_op_chain PRIVATE gradraster::gradraster gradraster::vulkan benchmark::benchmark
+                        gradraster_example_common)
+endif()

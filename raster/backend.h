@@ -7,9 +7,17 @@
 // kernels' values within 1e-6 and gradients within 1e-5 of the largest;
 // texture and cube-map lookups the CPU kernel's samples (within an ulp of
 // float) and gradients (within 1e-5 of the largest).
+//
+// Residency: a backend may make the whole G-buffer on its device and keep it
+// there (rasterize_gbuffer, which returns a DeviceGBuffer handle); the
+// interpolate, antialias and G-buffer adjoint calls given that handle read the
+// device's copy instead of uploading the arrays, while the backend still holds
+// it, and upload the arrays as the plain calls do otherwise. Results are the
+// same either way (the arrays are the device's copy, downloaded).
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <type_traits>
 
@@ -22,6 +30,15 @@
 
 namespace gr::raster {
 
+// A G-buffer kept on a backend's device (RasterBackend::rasterize_gbuffer):
+// opaque to the caller, who holds it as long as it keeps the G-buffer's
+// arrays unchanged. The backend may let the device's copy go at any time (to
+// make another G-buffer); the handle then only costs an upload.
+class DeviceGBuffer {
+ public:
+  virtual ~DeviceGBuffer() = default;
+};
+
 class RasterBackend {
  public:
   virtual ~RasterBackend() = default;
@@ -32,6 +49,20 @@ class RasterBackend {
   // (the caller then runs the CPU kernel). p is validated; key_depth may be null.
   virtual bool rasterize_forward(const RasterParams<float>& p, std::int32_t* tri_id, float* uv, float* depth,
                                  double* key_depth) const = 0;
+  // rasterize_forward's coverage tri_id (H x W) and, for it,
+  // barycentric_gbuffer_forward_planes' values (uv H x W x 2, depth H x W with
+  // kBackgroundDepth on the background, db H x W x 4 when not null), bit for
+  // bit the CPU kernels', made on the device, downloaded into these arrays and
+  // kept there: returns its handle, or null when the backend does not make
+  // G-buffers (the caller then runs the CPU kernels; the arrays may have been
+  // written). p is validated; depth peeling and key_depth (may be null) as in
+  // rasterize_forward.
+  virtual std::shared_ptr<const DeviceGBuffer> rasterize_gbuffer(const RasterParams<float>& /*p*/,
+                                                                 std::int32_t* /*tri_id*/, float* /*uv*/,
+                                                                 float* /*depth*/, float* /*db*/,
+                                                                 double* /*key_depth*/) const {
+    return nullptr;
+  }
   // texture_forward(p, out) / texture_backward(p, grad_out, grads) (raster/texture.h,
   // ACCUMULATED like it) for what the backend covers; false when it does not
   // (the caller then runs the CPU kernel). p is validated by the op.
@@ -77,6 +108,32 @@ class RasterBackend {
   virtual bool gbuffer_backward(const BarycentricGBufferParams<float>& /*p*/, const float* /*grad_rast*/,
                                 const float* /*grad_db*/, float* /*grad_clip*/) const {
     return false;
+  }
+  // The same five calls on the G-buffer that rasterize_gbuffer made and
+  // `resident` holds: p still describes it (the arrays are that call's, the
+  // caller's unchanged since), and a backend reads its device's copy where it
+  // still holds it, else uploads p's arrays as the calls above do (the
+  // defaults just call them).
+  virtual bool interpolate_forward(const DeviceGBuffer& /*resident*/, const BarycentricInterpolateParams<float>& p,
+                                   int width, int height, float* out, float* out_da) const {
+    return interpolate_forward(p, width, height, out, out_da);
+  }
+  virtual bool interpolate_backward(const DeviceGBuffer& /*resident*/, const BarycentricInterpolateParams<float>& p,
+                                    int width, int height, const float* grad_out, const float* grad_da,
+                                    const BarycentricInterpolateGrads<float>& grads) const {
+    return interpolate_backward(p, width, height, grad_out, grad_da, grads);
+  }
+  virtual bool antialias_forward(const DeviceGBuffer& /*resident*/, const AntialiasParams<float>& p,
+                                 float* out) const {
+    return antialias_forward(p, out);
+  }
+  virtual bool antialias_backward(const DeviceGBuffer& /*resident*/, const AntialiasParams<float>& p,
+                                  const float* grad_out, const AntialiasGrads<float>& grads) const {
+    return antialias_backward(p, grad_out, grads);
+  }
+  virtual bool gbuffer_backward(const DeviceGBuffer& /*resident*/, const BarycentricGBufferParams<float>& p,
+                                const float* grad_rast, const float* grad_db, float* grad_clip) const {
+    return gbuffer_backward(p, grad_rast, grad_db, grad_clip);
   }
 };
 

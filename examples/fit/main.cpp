@@ -112,6 +112,13 @@ int run(int argc, char** argv, const fit::Job& job) {
       for (const fit::PhaseTime& p : r.phases)
         out << "  " << std::left << std::setw(34) << p.name << std::right << std::setw(8)
             << 1000 * p.seconds / r.iterations << "\n";
+#ifdef GRADRASTER_HAS_VULKAN
+      if (o.raster_backend) {
+        const gr::vulkan::ResidencyStats g = gr::vulkan::residency_stats(*o.raster_backend);
+        out << "G-buffers on the device: " << g.gbuffers << " made, " << g.resident_calls
+            << " calls read them there, " << g.uploads << " uploaded from the host, " << g.frames << " frames\n";
+      }
+#endif
     }
   } catch (const gr::ProcessFailed& e) {  // every process of the job knows: each ends cleanly
     if (job.root || (job.comm && e.failed_rank == job.comm->rank())) std::cerr << program << ": " << e.what() << "\n";

@@ -1,5 +1,6 @@
 // Tape op over raster::antialias_forward / antialias_backward; on the
-// G-buffer's backend (RasterBackend::antialias_*) when it has one (float32).
+// G-buffer's backend (RasterBackend::antialias_*) when it has one (float32),
+// on the device's copy of the G-buffer while it matches the host's.
 #include "ops/render/antialias.h"
 
 #include <algorithm>
@@ -12,6 +13,7 @@
 #include "autodiff/base/memory.h"
 #include "autodiff/tape.h"
 #include "ops/check.h"
+#include "ops/render/resident_gbuffer.h"
 #include "raster/blended_pairs.h"
 
 namespace gr {
@@ -51,9 +53,11 @@ void boost_gradient(Tensor& g_clip, double boost) {
 void record_on_backend(const Tensor& image, const GBuffer& gbuffer, const Tensor& clip, const Tensor& triangles,
                        const AntialiasTopology& topology, const std::shared_ptr<const raster::RasterBackend>& backend,
                        double boost, Tensor* out) {
+  // The G-buffer, to find the device's copy of it at the adjoint.
+  const std::shared_ptr<const GBuffer> made = gbuffer.resident ? std::make_shared<const GBuffer>(gbuffer) : nullptr;
   record("antialias", {image, clip}, {out},
          [image = image.detach(), clip = clip.detach(), tri_id = gbuffer.tri_id, depth = gbuffer.depth, triangles,
-          topology, backend, boost](AdjointContext& ctx) {
+          topology, backend, boost, made](AdjointContext& ctx) {
            const Tensor& g = ctx.grad_output();
            Tensor g_image = ctx.needs_grad(0) ? Tensor::zeros(image.shape(), image.dtype()) : Tensor();
            Tensor g_clip = ctx.needs_grad(1) ? Tensor::zeros(clip.shape(), clip.dtype()) : Tensor();
@@ -64,7 +68,10 @@ void record_on_backend(const Tensor& image, const GBuffer& gbuffer, const Tensor
            p.num_tris = triangles.size(0);
            p.topology = topology.get();
            auto ptr = [](Tensor& t) { return t.defined() ? t.data<float>() : nullptr; };
-           if (!backend->antialias_backward(p, g.data<float>(), {ptr(g_image), ptr(g_clip)}))
+           const raster::AntialiasGrads<float> grads{ptr(g_image), ptr(g_clip)};
+           const raster::DeviceGBuffer* kept = made ? detail::resident_of(*made) : nullptr;
+           if (!(kept ? backend->antialias_backward(*kept, p, g.data<float>(), grads)
+                      : backend->antialias_backward(p, g.data<float>(), grads)))
              throw Error("antialias: the backend ran the forward but refused the adjoint");
            boost_gradient<float>(g_clip, boost);
            if (g_image.defined()) ctx.accumulate(0, g_image);
@@ -154,9 +161,12 @@ Tensor antialias(const Tensor& image, const GBuffer& gbuffer, const Tensor& clip
     p.num_tris = m;
     p.topology = topology.get();
     if constexpr (std::is_same_v<T, float>)
-      if (backend && backend->antialias_forward(p, out.data<T>())) {
-        on_backend = true;
-        return;
+      if (backend) {
+        const raster::DeviceGBuffer* kept = detail::resident_of(gbuffer);
+        if (kept ? backend->antialias_forward(*kept, p, out.data<T>()) : backend->antialias_forward(p, out.data<T>())) {
+          on_backend = true;
+          return;
+        }
       }
     raster::blend_boundaries_forward(options.visibility, p, out.data<T>(), rec ? pairs.get() : nullptr,
                                      {options.stats, options.visibility_stats});

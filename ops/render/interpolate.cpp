@@ -1,7 +1,8 @@
 // Tape op over raster::barycentric_interpolate_forward / _backward, image and
 // fragment forms: both validate here, give the kernels the items' uv and ids
 // (BarycentricInterpolateParams' planar form) and record one adjoint. The
-// image form runs on the G-buffer's backend when it has one (float32).
+// image form runs on the G-buffer's backend when it has one (float32), on the
+// device's copy of the G-buffer while it matches the host's.
 #include "ops/render/interpolate.h"
 
 #include <algorithm>
@@ -10,6 +11,7 @@
 #include "autodiff/base/parallel.h"
 #include "autodiff/tape.h"
 #include "ops/check.h"
+#include "ops/render/resident_gbuffer.h"
 #include "raster/barycentric_interpolate.h"
 #include "raster/detail/triangle_groups.h"
 
@@ -123,8 +125,22 @@ struct Items {
   // The G-buffer's backend (image form only; null: the CPU) and image size.
   std::shared_ptr<const raster::RasterBackend> backend;
   int width = 0, height = 0;
+  // The G-buffer, when its backend keeps a copy on the device (else null).
+  std::shared_ptr<const GBuffer> resident_source;
   std::int64_t count() const { return tri_id.numel(); }
 };
+
+// The image form's items: the G-buffer's pixels, on its backend.
+Items gbuffer_items(const GBuffer& gbuffer, bool derivatives) {
+  return {gbuffer.tri_id, gbuffer.uv, derivatives ? gbuffer.db : Tensor(), Tensor(), gbuffer.tri_id.shape(),
+          gbuffer.groups, gbuffer.backend, gbuffer.width(), gbuffer.height(),
+          gbuffer.resident ? std::make_shared<const GBuffer>(gbuffer) : nullptr};
+}
+
+// The device's copy of the items' G-buffer, while it matches the host's (else null).
+const raster::DeviceGBuffer* resident(const std::shared_ptr<const GBuffer>& source) {
+  return source ? detail::resident_of(*source) : nullptr;
+}
 
 // Runs the forward and records the adjoint to attributes, uv and db. diff
 // null: values only; else [values, d_dx, d_dy].
@@ -163,8 +179,13 @@ std::vector<Tensor> interpolate_items(const Tensor& attributes, const Tensor& tr
     Tensor da = K > 0 ? Tensor::empty({n * 2 * K}, attributes.dtype()) : Tensor();
     bool on_backend = false;
     if constexpr (std::is_same_v<T, float>)
-      on_backend = items.backend && items.backend->interpolate_forward(params(tag), items.width, items.height,
-                                                                         out[0].data<T>(), K > 0 ? da.data<T>() : nullptr);
+      if (items.backend) {
+        T* o = out[0].data<T>();
+        T* d = K > 0 ? da.data<T>() : nullptr;
+        const raster::DeviceGBuffer* kept = resident(items.resident_source);
+        on_backend = kept ? items.backend->interpolate_forward(*kept, params(tag), items.width, items.height, o, d)
+                          : items.backend->interpolate_forward(params(tag), items.width, items.height, o, d);
+      }
     if (!on_backend)
       raster::barycentric_interpolate_forward(params(tag), out[0].data<T>(), K > 0 ? da.data<T>() : nullptr);
     const std::int32_t* id = items.tri_id.data<std::int32_t>();
@@ -196,7 +217,7 @@ std::vector<Tensor> interpolate_items(const Tensor& attributes, const Tensor& tr
   record(items.pixel_index.defined() ? "interpolate_fragments" : "interpolate",
          {attributes, uv, db, triangles, items.tri_id, items.pixel_index}, outputs,
          [params, n, C, K, dtype = attributes.dtype(), backend = items.backend, w = items.width,
-          h = items.height](AdjointContext& ctx) {
+          h = items.height, source = items.resident_source](AdjointContext& ctx) {
            // The kernel adds (+=) into the gradients summed so far.
            Tensor g_attr = ctx.accumulation_buffer(0);
            Tensor g_uv = ctx.accumulation_buffer(1);
@@ -225,8 +246,13 @@ std::vector<Tensor> interpolate_items(const Tensor& attributes, const Tensor& tr
              grads.rast = g_uv.defined() ? g_uv.data<T>() : nullptr;
              grads.rast_db = g_db.defined() ? g_db.data<T>() : nullptr;
              if constexpr (std::is_same_v<T, float>)
-               if (backend && backend->interpolate_backward(p, w, h, go.data<T>(), K > 0 ? gda.data<T>() : nullptr, grads))
-                 return;
+               if (backend) {
+                 const T* gd = K > 0 ? gda.data<T>() : nullptr;
+                 const raster::DeviceGBuffer* kept = resident(source);
+                 if (kept ? backend->interpolate_backward(*kept, p, w, h, go.data<T>(), gd, grads)
+                          : backend->interpolate_backward(p, w, h, go.data<T>(), gd, grads))
+                   return;
+               }
              raster::barycentric_interpolate_backward(p, go.data<T>(), K > 0 ? gda.data<T>() : nullptr, grads);
            });
          });
@@ -240,9 +266,7 @@ Tensor interpolate(const Tensor& attributes, const GBuffer& gbuffer, const Tenso
   check_attributes(attributes, triangles, gbuffer.clip);
   check_gbuffer(gbuffer, attributes, triangles, false);
   check_background(options.background, attributes);
-  const Items items{gbuffer.tri_id, gbuffer.uv, Tensor(), Tensor(), gbuffer.tri_id.shape(), gbuffer.groups,
-                    gbuffer.backend, gbuffer.width(), gbuffer.height()};
-  return interpolate_items(attributes, triangles, items, nullptr, options.background)[0];
+  return interpolate_items(attributes, triangles, gbuffer_items(gbuffer, false), nullptr, options.background)[0];
 }
 
 Tensor interpolate(const Tensor& attributes, const Fragments& fragments, const Tensor& triangles,
@@ -253,7 +277,7 @@ Tensor interpolate(const Tensor& attributes, const Fragments& fragments, const T
                      "pass it to to_image");
   check_fragments(fragments, attributes, triangles);
   const Items items{fragments.tri_id, fragments.uv, Tensor(), fragments.pixel_index, {fragments.count()},
-                    nullptr, nullptr, 0, 0};  // no backend: the fragment form runs on the CPU
+                    nullptr, nullptr, 0, 0, nullptr};  // no backend: the fragment form runs on the CPU
   return interpolate_items(attributes, triangles, items, nullptr, Tensor())[0];
 }
 
@@ -263,9 +287,8 @@ InterpolatedWithDerivatives interpolate_with_derivatives(const Tensor& attribute
   check_gbuffer(gbuffer, attributes, triangles, true);
   check_background(options.background, attributes);
   const std::vector<std::int32_t> diff = diff_channels(options, attributes.size(1));
-  const Items items{gbuffer.tri_id, gbuffer.uv, gbuffer.db, Tensor(), gbuffer.tri_id.shape(), gbuffer.groups,
-                    gbuffer.backend, gbuffer.width(), gbuffer.height()};
-  std::vector<Tensor> out = interpolate_items(attributes, triangles, items, &diff, options.background);
+  std::vector<Tensor> out =
+      interpolate_items(attributes, triangles, gbuffer_items(gbuffer, true), &diff, options.background);
   return {out[0], out[1], out[2]};
 }
 

@@ -8,6 +8,7 @@
 #include "autodiff/base/parallel.h"
 #include "autodiff/tape.h"
 #include "ops/check.h"
+#include "ops/render/resident_gbuffer.h"
 #include "raster/barycentric_gbuffer.h"
 #include "raster/detail/triangle_groups.h"
 
@@ -58,6 +59,20 @@ GBuffer rasterize_layer(const Tensor& clip, const Tensor& triangles, const Raste
   gb.uv = Tensor::empty({h, w, 2}, clip.dtype());
   gb.depth = Tensor::empty({h, w}, clip.dtype());
   if (options.derivatives) gb.db = Tensor::empty({h, w, 4}, clip.dtype());
+  if (options.backend && clip.dtype() == DType::Float32) {
+    // The whole G-buffer on the backend, kept there for the ops that read it.
+    raster::RasterParams<float> p = params<float>(clip, triangles, settings);
+    p.floor_id = floor_id;
+    p.floor_z = floor_z;
+    std::shared_ptr<const raster::DeviceGBuffer> kept = options.backend->rasterize_gbuffer(
+        p, gb.tri_id.data<std::int32_t>(), gb.uv.data<float>(), gb.depth.data<float>(),
+        options.derivatives ? gb.db.data<float>() : nullptr, key_depth);
+    if (kept) {
+      gb.resident = keep_resident(std::move(kept), gb);
+      record_gbuffer_adjoint(gb, op);
+      return gb;
+    }
+  }
   // The coverage only: finish_gbuffer writes uv and depth (a backend's own
   // screen-space uv and depth land there first and are overwritten).
   dispatch_float(clip.dtype(), op, [&](auto tag) {
@@ -92,6 +107,16 @@ void finish_gbuffer(GBuffer& gb, const char* op) {
                                                    db ? gb.db.data<T>() + 4 * P * b : nullptr);
     });
   });
+  record_gbuffer_adjoint(gb, op);
+}
+
+void record_gbuffer_adjoint(GBuffer& gb, const char* op) {
+  const Tensor clip = gb.clip, triangles = gb.triangles;
+  const int rank = gb.tri_id.rank();
+  const std::int64_t images = rank == 3 ? gb.tri_id.size(0) : 1;
+  const int h = static_cast<int>(gb.tri_id.size(rank - 2)), w = static_cast<int>(gb.tri_id.size(rank - 1));
+  const std::int64_t P = std::int64_t(h) * w;
+  const bool db = gb.db.defined();
   if (!should_record({clip})) return;
   std::vector<Tensor*> outputs = {&gb.uv, &gb.depth};
   if (db) outputs.push_back(&gb.db);
@@ -100,8 +125,10 @@ void finish_gbuffer(GBuffer& gb, const char* op) {
   const Tensor tri_id = gb.tri_id;
   if (images == 1)
     gb.groups = std::make_shared<raster::TriangleGroups>(tri_id.data<std::int32_t>(), std::make_shared<Tensor>(tri_id));
-  auto adjoint = [clip, triangles, tri_id, images, w, h, P, db, op, groups = gb.groups,
-                  backend = gb.backend](AdjointContext& ctx) {
+  // The G-buffer as made, to find the device's copy of it at the adjoint.
+  const std::shared_ptr<const GBuffer> made = gb.resident ? std::make_shared<const GBuffer>(gb) : nullptr;
+  auto adjoint = [clip, triangles, tri_id, images, w, h, P, db, op, groups = gb.groups, backend = gb.backend,
+                  made](AdjointContext& ctx) {
     const Tensor& g_uv = ctx.grad_output(0);
     const Tensor& g_depth = ctx.grad_output(1);
     const Tensor g_db = db ? ctx.grad_output(2) : Tensor();
@@ -126,7 +153,10 @@ void finish_gbuffer(GBuffer& gb, const char* op) {
               if (gu) gr[4 * q] = gu[2 * q], gr[4 * q + 1] = gu[2 * q + 1];
               if (gd) gr[4 * q + 2] = gd[q];
             }
-            if (backend->gbuffer_backward(p, gr.data(), g_db.defined() ? g_db.data<T>() : nullptr, g.data<T>()))
+            const float* gdb = g_db.defined() ? g_db.data<T>() : nullptr;
+            const raster::DeviceGBuffer* kept = made ? resident_of(*made) : nullptr;
+            if (kept ? backend->gbuffer_backward(*kept, p, gr.data(), gdb, g.data<T>())
+                     : backend->gbuffer_backward(p, gr.data(), gdb, g.data<T>()))
               continue;
           }
         raster::barycentric_gbuffer_backward_planes(p, gu ? gu + 2 * P * b : nullptr, gd ? gd + P * b : nullptr,

@@ -20,19 +20,21 @@ class TriangleGroups;  // raster/detail/triangle_groups.h
 namespace gr {
 
 using raster::Cull;
+struct ResidentGBuffer;  // ops/render/resident_gbuffer.h
 
 struct RasterizeOptions {
   int width = 0;
   int height = 0;
   Cull cull = Cull::None;  // front face = counter-clockwise in NDC
   bool front_to_back = false;  // work order only; same G-buffer (raster::RasterSettings)
-  // Where the coverage is decided (null: the CPU), e.g.
+  // Where the G-buffer is made (null: the CPU), e.g.
   // gr::vulkan::raster_backend(device) for float32 clip positions: the same
-  // tri_id bit for bit; the values run on the CPU, so the G-buffer is the
-  // same too. The G-buffer keeps the backend (GBuffer::backend): its adjoint
-  // and the interpolate and antialias ops reading it run there too (float32;
-  // values within 1e-6 and gradients within 1e-5 of the CPU's, deterministic).
-  // GBuffer::stats stays zero when a backend ran it.
+  // tri_id, uv, depth and db bit for bit, downloaded once and also kept on
+  // the device (GBuffer::resident). The G-buffer keeps the backend
+  // (GBuffer::backend): its adjoint and the interpolate and antialias ops
+  // reading it run there too (float32; values within 1e-6 and gradients
+  // within 1e-5 of the CPU's, deterministic), reading the device's copy while
+  // the backend keeps it. GBuffer::stats stays zero when a backend ran it.
   std::shared_ptr<const raster::RasterBackend> backend = nullptr;
   // Also make GBuffer::db, the barycentrics' screen derivatives (nvdiffrast's
   // rast_db), for interpolate's attribute derivatives.
@@ -62,6 +64,11 @@ struct GBuffer {
   // the execution context of the rasterize adjoint and of the interpolate
   // (image form) and antialias ops that read this G-buffer, for float32.
   std::shared_ptr<const raster::RasterBackend> backend;
+  // The backend's copy of this G-buffer on its device (null: none), which the
+  // ops above read instead of uploading the tensors while these are the
+  // tensors it was made with, not written in place since (else, and once the
+  // backend has let it go, they upload them: results never depend on it).
+  std::shared_ptr<const ResidentGBuffer> resident;
   int width() const { return static_cast<int>(tri_id.size(1)); }
   int height() const { return static_cast<int>(tri_id.size(0)); }
 };
@@ -89,6 +96,8 @@ GBuffer rasterize_layer(const Tensor& clip, const Tensor& triangles, const Raste
 // and records their adjoint to gb.clip: [N, 4] shared by the images (their
 // gradients added in image order) or [B, N, 4].
 void finish_gbuffer(GBuffer& gb, const char* op);
+// finish_gbuffer's second half: records the adjoint of gb's values.
+void record_gbuffer_adjoint(GBuffer& gb, const char* op);
 }  // namespace detail
 
 }  // namespace gr

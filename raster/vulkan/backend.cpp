@@ -1,8 +1,10 @@
 // The Vulkan RasterBackend: rasterize_forward through the device's own Frame,
 // the texture lookups through raster/vulkan/texture.h, the cube maps'
-// through raster/vulkan/cube_texture.h; interpolate, antialias and the
-// G-buffer adjoint through one Frame of its own, into which each call loads
-// the ops' G-buffer (Frame::load_gbuffer: nothing is kept between calls).
+// through raster/vulkan/cube_texture.h; the G-buffer chain (rasterize_gbuffer,
+// interpolate, antialias, the G-buffer adjoint) through a FramePool: each
+// G-buffer it makes stays in a frame tagged with the handle's serial, which
+// the calls given that handle read; the others load the ops' G-buffer into a
+// frame first (Frame::load_gbuffer).
 #include "raster/vulkan/backend.h"
 
 #include <mutex>
@@ -12,20 +14,75 @@
 #include "autodiff/base/error.h"
 #include "raster/vulkan/cube_texture.h"
 #include "raster/vulkan/frame.h"
+#include "raster/vulkan/frame_pool.h"
 #include "raster/vulkan/rasterize.h"
 #include "raster/vulkan/texture.h"
 
 namespace gr::vulkan {
 namespace {
 
+// A G-buffer a VulkanBackend keeps: its frame's tag in the backend's pool and
+// what the calls on it must describe.
+struct VulkanGBuffer final : raster::DeviceGBuffer {
+  const void* owner = nullptr;
+  std::uint64_t serial = 0;
+  int width = 0, height = 0;
+  std::int64_t num_vertices = 0, num_tris = 0;
+  bool y_up = false, derivatives = false;
+};
+
+// What a call on a G-buffer describes, to match against the kept one.
+struct Described {
+  int width, height;
+  std::int64_t num_vertices, num_tris;
+  bool y_up, needs_db;
+};
+
+void check_pixels(const raster::BarycentricInterpolateParams<float>& p, int width, int height) {
+  if (std::int64_t(width) * height != p.pixels)
+    throw ValueError("vulkan interpolate: " + std::to_string(width) + " x " + std::to_string(height) +
+                     " pixels, but the parameters hold " + std::to_string(p.pixels));
+}
+
 class VulkanBackend : public raster::RasterBackend {
  public:
-  explicit VulkanBackend(std::shared_ptr<Device> device) : device_(std::move(device)) {}
+  VulkanBackend(std::shared_ptr<Device> device, int frames) : device_(device), pool_(device, frames) {}
   std::string name() const override { return "vulkan: " + device_->info().name; }
   bool rasterize_forward(const raster::RasterParams<float>& p, std::int32_t* tri_id, float* uv, float* depth,
                          double* key_depth) const override {
     vulkan::rasterize_forward(*device_, p, tri_id, uv, depth, {}, nullptr, key_depth);
     return true;
+  }
+  std::shared_ptr<const raster::DeviceGBuffer> rasterize_gbuffer(const raster::RasterParams<float>& p,
+                                                                 std::int32_t* tri_id, float* uv, float* depth,
+                                                                 float* db, double* key_depth) const override {
+    std::lock_guard<std::mutex> lock(mutex_);
+    GpuRasterOptions options;
+    options.derivatives = db != nullptr;
+    const std::int64_t px = std::int64_t(p.settings.width) * p.settings.height;
+    rast_.resize(static_cast<std::size_t>(4 * px));
+    Frame& f = pool_.take();
+    f.rasterize(p, options, tri_id, rast_.data(), db, key_depth);
+    // rast (u, v, z/w, id) as the op's planes, the background's depth the far
+    // plane (barycentric_gbuffer_forward_planes).
+    const float background = static_cast<float>(raster::kBackgroundDepth);
+    for (std::int64_t q = 0; q < px; ++q) {
+      if (uv) uv[2 * q] = rast_[4 * q], uv[2 * q + 1] = rast_[4 * q + 1];
+      if (depth) depth[q] = tri_id[q] != 0 ? rast_[4 * q + 2] : background;
+    }
+    auto kept = std::make_shared<VulkanGBuffer>();
+    kept->owner = this;
+    kept->serial = ++serial_;
+    kept->width = p.settings.width;
+    kept->height = p.settings.height;
+    kept->num_vertices = p.num_vertices;
+    kept->num_tris = p.num_tris;
+    kept->y_up = p.settings.y_up;
+    kept->derivatives = options.derivatives;
+    pool_.tag(f, kept->serial, kept);
+    ++stats_.gbuffers;
+    stats_.frames = pool_.frames();
+    return kept;
   }
   bool texture_forward(const raster::TextureParams<float>& p, float* out) const override {
     vulkan::texture_forward(*device_, p, out);
@@ -45,21 +102,46 @@ class VulkanBackend : public raster::RasterBackend {
     vulkan::cube_texture_backward(*device_, p, grad_out, grads);
     return true;
   }
+
+  // The G-buffer chain, each call as a resident one with no handle.
   bool interpolate_forward(const raster::BarycentricInterpolateParams<float>& p, int width, int height, float* out,
                            float* out_da) const override {
-    if (!p.tri_id) return false;
-    std::lock_guard<std::mutex> lock(mutex_);
-    Frame& f = load_for_interpolate(p, width, height);
-    f.interpolate(p.attr, p.channels, out, p.diff, p.num_diff, out_da);
-    return true;
+    return interpolate_forward(no_handle_, p, width, height, out, out_da);
   }
   bool interpolate_backward(const raster::BarycentricInterpolateParams<float>& p, int width, int height,
                             const float* grad_out, const float* grad_da,
                             const raster::BarycentricInterpolateGrads<float>& grads) const override {
+    return interpolate_backward(no_handle_, p, width, height, grad_out, grad_da, grads);
+  }
+  bool antialias_forward(const raster::AntialiasParams<float>& p, float* out) const override {
+    return antialias_forward(no_handle_, p, out);
+  }
+  bool antialias_backward(const raster::AntialiasParams<float>& p, const float* grad_out,
+                          const raster::AntialiasGrads<float>& grads) const override {
+    return antialias_backward(no_handle_, p, grad_out, grads);
+  }
+  bool gbuffer_backward(const raster::BarycentricGBufferParams<float>& p, const float* grad_rast,
+                        const float* grad_db, float* grad_clip) const override {
+    return gbuffer_backward(no_handle_, p, grad_rast, grad_db, grad_clip);
+  }
+
+  bool interpolate_forward(const raster::DeviceGBuffer& resident, const raster::BarycentricInterpolateParams<float>& p,
+                           int width, int height, float* out, float* out_da) const override {
     if (!p.tri_id) return false;
+    check_pixels(p, width, height);
     std::lock_guard<std::mutex> lock(mutex_);
-    Frame& f = load_for_interpolate(p, width, height);
-    f.interpolate(p.attr, p.channels, nullptr, p.diff, p.num_diff, nullptr);
+    Frame& f = for_interpolate(resident, p, width, height);
+    f.interpolate(p.attr, p.channels, out, p.diff, p.num_diff, out_da);
+    return true;
+  }
+  bool interpolate_backward(const raster::DeviceGBuffer& resident, const raster::BarycentricInterpolateParams<float>& p,
+                            int width, int height, const float* grad_out, const float* grad_da,
+                            const raster::BarycentricInterpolateGrads<float>& grads) const override {
+    if (!p.tri_id) return false;
+    check_pixels(p, width, height);
+    std::lock_guard<std::mutex> lock(mutex_);
+    Frame& f = for_interpolate(resident, p, width, height);
+    f.interpolate(p.attr, p.channels, nullptr, p.diff, p.num_diff, nullptr);  // the frame's "last interpolate"
     // The G-buffer's gradient comes back as rast (H x W x 4) and rast_db;
     // its u, v go to grads.rast at the caller's stride, as the CPU adds them.
     const std::size_t plane = static_cast<std::size_t>(p.pixels) * 4;
@@ -72,74 +154,108 @@ class VulkanBackend : public raster::RasterBackend {
       }
     return true;
   }
-  bool antialias_forward(const raster::AntialiasParams<float>& p, float* out) const override {
+  bool antialias_forward(const raster::DeviceGBuffer& resident, const raster::AntialiasParams<float>& p,
+                         float* out) const override {
     std::lock_guard<std::mutex> lock(mutex_);
-    load_for_antialias(p).antialias(p.image, p.channels, out, p.topology);
+    for_antialias(resident, p).antialias(p.image, p.channels, out, p.topology);
     return true;
   }
-  bool antialias_backward(const raster::AntialiasParams<float>& p, const float* grad_out,
-                          const raster::AntialiasGrads<float>& grads) const override {
+  bool antialias_backward(const raster::DeviceGBuffer& resident, const raster::AntialiasParams<float>& p,
+                          const float* grad_out, const raster::AntialiasGrads<float>& grads) const override {
     std::lock_guard<std::mutex> lock(mutex_);
-    Frame& f = load_for_antialias(p);
+    Frame& f = for_antialias(resident, p);
     f.antialias(p.image, p.channels, nullptr, p.topology);  // the pairs, on the device
     f.antialias_backward(grad_out, grads.image, grads.clip);
     return true;
   }
-  bool gbuffer_backward(const raster::BarycentricGBufferParams<float>& p, const float* grad_rast,
-                        const float* grad_db, float* grad_clip) const override {
+  bool gbuffer_backward(const raster::DeviceGBuffer& resident, const raster::BarycentricGBufferParams<float>& p,
+                        const float* grad_rast, const float* grad_db, float* grad_clip) const override {
     if (!p.tri_id) return false;
     std::lock_guard<std::mutex> lock(mutex_);
-    raster::RasterParams<float> rp{p.clip, p.num_vertices, p.tris, p.num_tris, {p.width, p.height}};
-    GpuRasterOptions options;
-    options.y_up = p.y_up;
-    options.derivatives = grad_db != nullptr;
-    Frame& f = frame();
-    f.load_gbuffer(rp, options, p.tri_id, nullptr, 2, nullptr, nullptr);
-    f.rasterize_backward(grad_rast, grad_db, grad_clip);
+    Frame* f = kept_frame(resident, {p.width, p.height, p.num_vertices, p.num_tris, p.y_up, grad_db != nullptr});
+    if (!f) {
+      raster::RasterParams<float> rp{p.clip, p.num_vertices, p.tris, p.num_tris, {p.width, p.height}};
+      GpuRasterOptions options;
+      options.y_up = p.y_up;
+      options.derivatives = grad_db != nullptr;
+      f = &pool_.take();
+      f->load_gbuffer(rp, options, p.tri_id, nullptr, 2, nullptr, nullptr);
+      ++stats_.uploads;
+    }
+    // The ops carry the G-buffer's gradient on the host (grad_rast, grad_db):
+    // what interpolate adjoints may have left on the device is not added again.
+    f->discard_gbuffer_gradient();
+    f->rasterize_backward(grad_rast, grad_db, grad_clip);
     return true;
   }
 
- private:
-  Frame& frame() const {
-    if (!frame_) frame_ = std::make_unique<Frame>(device_);
-    return *frame_;
+  ResidencyStats stats() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return stats_;
   }
-  // Interpolation reads no clip positions: the frame gets the triangles and
-  // as many (unread) vertices as the attributes have rows.
-  Frame& load_for_interpolate(const raster::BarycentricInterpolateParams<float>& p, int width, int height) const {
-    if (std::int64_t(width) * height != p.pixels)
-      throw ValueError("vulkan interpolate: " + std::to_string(width) + " x " + std::to_string(height) +
-                       " pixels, but the parameters hold " + std::to_string(p.pixels));
+
+ private:
+  // The frame that holds `resident`'s G-buffer, if this backend made it, still
+  // keeps it and it is the one `d` describes; else null (the caller uploads).
+  Frame* kept_frame(const raster::DeviceGBuffer& resident, const Described& d) const {
+    const auto* g = dynamic_cast<const VulkanGBuffer*>(&resident);
+    if (!g || g->owner != this || g->width != d.width || g->height != d.height ||
+        g->num_vertices != d.num_vertices || g->num_tris != d.num_tris || g->y_up != d.y_up ||
+        (d.needs_db && !g->derivatives))
+      return nullptr;
+    Frame* f = pool_.find(g->serial);
+    if (f) ++stats_.resident_calls;
+    return f;
+  }
+  // Interpolation reads no clip positions: an uploaded frame gets the
+  // triangles and as many (unread) vertices as the attributes have rows.
+  Frame& for_interpolate(const raster::DeviceGBuffer& resident, const raster::BarycentricInterpolateParams<float>& p,
+                         int width, int height) const {
+    if (Frame* f = kept_frame(resident, {width, height, p.num_vertices, p.num_tris, false, p.num_diff > 0})) return *f;
     zero_clip_.assign(static_cast<std::size_t>(4 * p.num_vertices), 0.0f);
     raster::RasterParams<float> rp{zero_clip_.data(), p.num_vertices, p.tris, p.num_tris, {width, height}};
     GpuRasterOptions options;
     options.derivatives = p.num_diff > 0;
-    Frame& f = frame();
+    Frame& f = pool_.take();
     f.load_gbuffer(rp, options, p.tri_id, p.rast, static_cast<int>(p.rast_stride), nullptr,
                    p.num_diff > 0 ? p.rast_db : nullptr);
+    ++stats_.uploads;
     return f;
   }
-  Frame& load_for_antialias(const raster::AntialiasParams<float>& p) const {
+  Frame& for_antialias(const raster::DeviceGBuffer& resident, const raster::AntialiasParams<float>& p) const {
+    if (Frame* f = kept_frame(resident, {p.width, p.height, p.num_vertices, p.num_tris, p.y_up, false})) return *f;
     raster::RasterParams<float> rp{p.clip, p.num_vertices, p.tris, p.num_tris, {p.width, p.height}};
     GpuRasterOptions options;
     options.y_up = p.y_up;
-    Frame& f = frame();
+    Frame& f = pool_.take();
     f.load_gbuffer(rp, options, p.tri_id, nullptr, 2, p.depth, nullptr);
+    ++stats_.uploads;
     return f;
   }
 
   std::shared_ptr<Device> device_;
-  // The G-buffer chain's frame, made at its first use; one call at a time.
+  // The G-buffer chain's frames and what they did; one call at a time.
   mutable std::mutex mutex_;
-  mutable std::unique_ptr<Frame> frame_;
-  mutable std::vector<float> zero_clip_;
+  mutable FramePool pool_;
+  mutable std::uint64_t serial_ = 0;
+  mutable ResidencyStats stats_;
+  mutable std::vector<float> zero_clip_, rast_;
+  // The calls without a handle: one no frame is tagged for.
+  const VulkanGBuffer no_handle_{};
 };
 
 }  // namespace
 
-std::shared_ptr<const raster::RasterBackend> raster_backend(std::shared_ptr<Device> device) {
+std::shared_ptr<const raster::RasterBackend> raster_backend(std::shared_ptr<Device> device, int frames) {
   if (!device) throw ValueError("vulkan raster_backend: no device");
-  return std::make_shared<VulkanBackend>(std::move(device));
+  if (frames < 1) throw ValueError("vulkan raster_backend: frames must be at least 1, got " + std::to_string(frames));
+  return std::make_shared<VulkanBackend>(std::move(device), frames);
+}
+
+ResidencyStats residency_stats(const raster::RasterBackend& backend) {
+  const auto* vulkan = dynamic_cast<const VulkanBackend*>(&backend);
+  if (!vulkan) throw ValueError("vulkan residency_stats: '" + backend.name() + "' is not a vulkan raster_backend");
+  return vulkan->stats();
 }
 
 }  // namespace gr::vulkan

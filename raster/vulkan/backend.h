@@ -1,13 +1,18 @@
-// A Vulkan device as a raster::RasterBackend: the ops' rasterize runs its
-// forward there for float32 clip positions, depth peeling included (the
-// rest stays on the CPU), with the same G-buffer bit for bit, and its adjoint;
-// the interpolate and antialias ops reading that G-buffer run their forward
-// and adjoint there (through a Frame of the backend's own, into which each
-// call uploads the G-buffer: Frame::load_gbuffer); the texture and
-// cube_texture ops run their forward and adjoint there for float32
-// (raster/vulkan/texture.h, raster/vulkan/cube_texture.h).
+// A Vulkan device as a raster::RasterBackend: the ops' rasterize makes its
+// whole G-buffer there (tri_id, then rast and rast_db: Frame::rasterize) for
+// float32 clip positions, depth peeling included, the CPU's bit for bit,
+// downloads it once and keeps it on the device (rasterize_gbuffer's
+// DeviceGBuffer handle); the interpolate and antialias ops reading that
+// G-buffer and the rasterize adjoint run their forward and adjoint there,
+// reading the device's copy while the backend keeps it (up to `frames`
+// G-buffers at once, least recently used let go first) and uploading the
+// G-buffer from the host otherwise (Frame::load_gbuffer), as the calls
+// without a handle always do. The texture and cube_texture ops run their
+// forward and adjoint there for float32 (raster/vulkan/texture.h,
+// raster/vulkan/cube_texture.h). Thread-safe: one call at a time.
 #pragma once
 
+#include <cstdint>
 #include <memory>
 
 #include "raster/backend.h"
@@ -15,6 +20,23 @@
 
 namespace gr::vulkan {
 
-std::shared_ptr<const raster::RasterBackend> raster_backend(std::shared_ptr<Device> device);
+// The G-buffers a backend keeps on the device by default: one per view of a
+// fit running its views on 4 threads (each frame holds its G-buffer and the
+// buffers of the calls on it; docs/gpu.md, "Memory").
+constexpr int kResidentGBuffers = 4;
+
+// frames: the G-buffers kept on the device at once (at least 1).
+std::shared_ptr<const raster::RasterBackend> raster_backend(std::shared_ptr<Device> device,
+                                                            int frames = kResidentGBuffers);
+
+// What a backend from raster_backend did so far, for tests and profiling.
+struct ResidencyStats {
+  std::int64_t gbuffers = 0;        // G-buffers made and kept on the device (rasterize_gbuffer)
+  std::int64_t resident_calls = 0;  // calls that read a G-buffer kept on the device: no upload
+  std::int64_t uploads = 0;         // calls that uploaded the G-buffer from the host (Frame::load_gbuffer)
+  int frames = 0;                   // frames made so far (at most `frames`)
+};
+// ValueError if `backend` is not one of raster_backend's.
+ResidencyStats residency_stats(const raster::RasterBackend& backend);
 
 }  // namespace gr::vulkan

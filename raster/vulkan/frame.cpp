@@ -671,6 +671,12 @@ GpuTimes Frame::antialias_backward(const float* grad_out, float* grad_image, flo
   return s.timestamps.read();
 }
 
+void Frame::discard_gbuffer_gradient() {
+  State& s = *state_;
+  std::lock_guard<std::mutex> lock(s.dev.mutex);
+  s.grad_rast = s.grad_db = false;  // stale: zeroed on first use, read only where flagged
+}
+
 GpuTimes Frame::rasterize_backward(const float* grad_rast, const float* grad_db, float* grad_clip) {
   State& s = *state_;
   if (!s.rasterized) throw ValueError("vulkan rasterize_backward: the frame has no G-buffer (call rasterize first)");

@@ -109,6 +109,12 @@ class Frame {
   GpuTimes rasterize_backward(const float* grad_rast = nullptr, const float* grad_db = nullptr,
                               float* grad_clip = nullptr);
 
+  // Drops the G-buffer gradient the interpolate adjoints left on the device
+  // since the rasterize (or the last rasterize_backward), so that the next
+  // rasterize_backward reads only the gradients it is given: for callers that
+  // carry the G-buffer's gradient on the host (the ops' tape). No device work.
+  void discard_gbuffer_gradient();
+
   // antialias_forward (raster/antialias.h) of image (H x W x channels) over
   // the last rasterize's G-buffer (tri_id, and z/w as the depth), clip
   // positions and triangles; out (H x W x

@@ -1,0 +1,73 @@
+// The ops' G-buffer chain on a RasterBackend, as a fit iteration runs it:
+// rasterize (with rast_db) -> interpolate_with_derivatives (3 channels) and
+// interpolate (3 more channels) on one G-buffer -> antialias -> loss ->
+// backward (the adjoints of antialias, both interpolates and the rasterize).
+//   BM_OpChain/backend/size: wall time of one iteration (host transfers
+//                          included); backend 0 = the CPU kernels, 1 = Vulkan
+//                          (Device::open()'s device; GRADRASTER_VULKAN_DEVICE
+//                          selects). A torus (20,000 triangles) framed by
+//                          bench/mesh_framing.h, size x size pixels.
+#include <benchmark/benchmark.h>
+
+#include <memory>
+
+#include "mesh_framing.h"
+#include "ops/ops.h"
+#include "raster/procedural.h"
+#include "raster/vulkan/backend.h"
+
+namespace {
+
+struct ChainScene {
+  gr::Tensor clip, tris, colours, normals, weights;
+};
+
+const ChainScene& chain_scene(int size) {
+  static ChainScene s;
+  static int made = 0;
+  if (made == size) return s;
+  const gr::raster::Mesh m = gr::raster::make_torus(200, 50);
+  const std::int64_t n = m.positions.size(0);
+  s.clip = gr::bench::frame_mesh(m);
+  s.tris = m.triangles;
+  s.colours = gr::Tensor::uniform({n, 3}, 0, 1, 3);
+  s.normals = gr::Tensor::uniform({n, 3}, -1, 1, 4);
+  s.weights = gr::Tensor::uniform({size, size, 3}, -1, 1, 5);
+  made = size;
+  return s;
+}
+
+void BM_OpChain(benchmark::State& state) {
+  std::shared_ptr<const gr::raster::RasterBackend> backend;
+  if (state.range(0) == 1) {
+    static const std::shared_ptr<gr::vulkan::Device> device = gr::vulkan::Device::open();
+    if (!device) {
+      state.SkipWithError("no Vulkan device");
+      return;
+    }
+    static const auto made = gr::vulkan::raster_backend(device);
+    backend = made;
+    state.SetLabel(backend->name());
+  }
+  const int size = static_cast<int>(state.range(1));
+  const ChainScene& s = chain_scene(size);
+  for (auto _ : state) {
+    gr::Tensor clip = s.clip.detach().set_requires_grad();
+    gr::Tensor colours = s.colours.detach().set_requires_grad();
+    gr::RasterizeOptions ro{size, size};
+    ro.derivatives = true;
+    ro.backend = backend;
+    const gr::GBuffer gb = gr::rasterize(clip, s.tris, ro);
+    const gr::InterpolatedWithDerivatives c = gr::interpolate_with_derivatives(colours, gb, s.tris);
+    const gr::Tensor n = gr::interpolate(s.normals, gb, s.tris);
+    const gr::Tensor image = gr::antialias(c.values * n, gb, clip, s.tris);
+    gr::backward(gr::sum(image * s.weights) + gr::sum(c.d_dx * c.d_dy));
+    benchmark::DoNotOptimize(clip.grad().data<float>());
+  }
+}
+
+}  // namespace
+
+BENCHMARK(BM_OpChain)->ArgNames({"backend", "size"})->Args({0, 256})->Args({1, 256})->Unit(benchmark::kMillisecond);
+
+BENCHMARK_MAIN();
