@@ -4,13 +4,16 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <string>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
 #include "autodiff/base/parallel.h"
 #include "autodiff/tape.h"
 #include "ops/check.h"
+#include "ops/render/resident_gbuffer.h"
 #include "raster/blended_pairs.h"
 #include "raster/barycentric_interpolate.h"
 
@@ -65,6 +68,21 @@ struct GradOf {
   }
 };
 
+// Runs call(on, p) for image b on the backend: p (image b's
+// interpolate parameters over all the triangles) as the device's copy of the
+// image drew it, with that copy while `made` still matches it
+// (detail::image_on_device). Returns call's answer (false: the CPU runs it).
+template <class Call>
+bool on_device(const std::shared_ptr<const raster::RasterBackend>& backend, const GBuffer* made, std::int64_t b,
+               raster::BarycentricInterpolateParams<float> p, const Tensor& triangles, const Call& call) {
+  if (!backend) return false;
+  const detail::ImageOnDevice on = detail::image_on_device(made, b, triangles, p.tri_id, p.pixels, false);
+  p.tris = on.tris;
+  p.num_tris = on.num_tris;
+  p.tri_id = on.ids();
+  return call(on, p);
+}
+
 void check_batched_gbuffer(const GBuffer& g, std::int64_t images, const Tensor& clip, const Tensor& triangles,
                            const std::string& op) {
   if (!g.tri_id.defined() || g.tri_id.dtype() != DType::Int32 || g.tri_id.rank() != 3 || g.tri_id.size(0) != images)
@@ -83,6 +101,38 @@ void check_batched_gbuffer(const GBuffer& g, std::int64_t images, const Tensor& 
 }  // namespace
 
 namespace detail {
+namespace {
+
+// rasterize_images on the backend: each image's whole G-buffer made there
+// (RasterBackend::rasterize_gbuffer), in image order, downloaded into gb's
+// slices and kept (gb.resident, one handle per image). False, gb's arrays
+// partly written, when the backend makes no G-buffers.
+bool gbuffers_on_device(const Tensor& clip, const Tensor& triangles, const raster::ImageBatch& batch,
+                        const RasterizeOptions& o, raster::DepthPeelState* peel, GBuffer& gb) {
+  const std::int64_t P = std::int64_t(o.height) * o.width;
+  const raster::RasterSettings settings{o.width, o.height, o.cull, o.front_to_back};
+  std::vector<ResidentGBuffer::Image> images;
+  for (std::int64_t b = 0; b < batch.images; ++b) {
+    const auto [first, count] = batch.range(b);
+    raster::RasterParams<float> p{clip.data<float>() + batch.pos_offset(b), batch.vertices,
+                                  triangles.data<std::int32_t>() + 3 * first, count, settings};
+    if (peel) p.floor_id = peel->floor_id(b), p.floor_z = peel->floor_z(b);
+    std::int32_t* id = gb.tri_id.data<std::int32_t>() + b * P;
+    std::shared_ptr<const raster::DeviceGBuffer> kept = o.backend->rasterize_gbuffer(
+        p, id, gb.uv.data<float>() + 2 * b * P, gb.depth.data<float>() + b * P,
+        gb.db.defined() ? gb.db.data<float>() + 4 * b * P : nullptr, peel ? peel->key_z(b) : nullptr);
+    if (!kept) return false;
+    if (peel) peel->keep_ids(b, id);
+    // Ids index the whole triangle list (the device's copy keeps the range's).
+    if (first != 0)
+      for (std::int64_t q = 0; q < P; ++q) id[q] += id[q] ? static_cast<std::int32_t>(first) : 0;
+    images.push_back({std::move(kept), first, count});
+  }
+  gb.resident = keep_resident(std::move(images), gb);
+  return true;
+}
+
+}  // namespace
 
 raster::ImageBatch check_instanced(const Tensor& clip, const Tensor& triangles, const RasterizeOptions& options,
                                    const std::string& op) {
@@ -118,7 +168,13 @@ GBuffer rasterize_images(const Tensor& clip, const Tensor& triangles, const rast
   gb.uv = Tensor::empty({B, h, w, 2}, clip.dtype());
   gb.depth = Tensor::empty({B, h, w}, clip.dtype());
   if (o.derivatives) gb.db = Tensor::empty({B, h, w, 4}, clip.dtype());
+  gb.backend = o.backend;
   if (peel) peel->begin_layer(B, w, h);
+  if (o.backend && clip.dtype() == DType::Float32 && gbuffers_on_device(clip, triangles, batch, o, peel, gb)) {
+    if (peel) peel->end_layer();
+    record_gbuffer_adjoint(gb, op);
+    return gb;
+  }
   std::vector<raster::RasterStats> stats(static_cast<std::size_t>(B));
   const std::int32_t* tris = triangles.data<std::int32_t>();
   dispatch_float(clip.dtype(), op, [&](auto tag) {
@@ -204,12 +260,27 @@ Tensor interpolate_batch(const Tensor& attributes, const GBuffer& gbuffer, const
     p.pixels = P;
     return p;
   };
+  // The G-buffer's backend (float32), image by image in image order.
+  const std::shared_ptr<const raster::RasterBackend> backend =
+      attributes.dtype() == DType::Float32 ? gbuffer.backend : nullptr;
+  const std::shared_ptr<const GBuffer> made = backend && gbuffer.resident ? std::make_shared<const GBuffer>(gbuffer)
+                                                                          : nullptr;
   Tensor out = Tensor::empty({B, h, w, C}, attributes.dtype());
   dispatch_float(attributes.dtype(), op, [&](auto tag) {
     using T = decltype(tag);
+    std::vector<char> on_backend(static_cast<std::size_t>(B), 0);
+    if constexpr (std::is_same_v<T, float>)
+      if (backend)
+        for (std::int64_t b = 0; b < B; ++b)
+          on_backend[b] = on_device(backend, made.get(), b, params(tag, attr, b), triangles, [&](const auto& on,
+                                                                                                const auto& p) {
+            float* o = out.data<float>() + b * P * C;
+            return on.device ? backend->interpolate_forward(*on.device, p, int(w), int(h), o, nullptr)
+                             : backend->interpolate_forward(p, int(w), int(h), o, nullptr);
+          });
     for_each_image(B, [&](std::int64_t b) {
       T* o = out.data<T>() + b * P * C;
-      raster::barycentric_interpolate_forward(params(tag, attr, b), o, static_cast<T*>(nullptr));
+      if (!on_backend[b]) raster::barycentric_interpolate_forward(params(tag, attr, b), o, static_cast<T*>(nullptr));
       if (!background.defined()) return;
       const std::int32_t* id = tri_id.data<std::int32_t>() + b * P;
       for (std::int64_t q = 0; q < P; ++q)
@@ -219,19 +290,35 @@ Tensor interpolate_batch(const Tensor& attributes, const GBuffer& gbuffer, const
   if (should_record({attributes, uv})) {
     // triangles and tri_id: no gradient, checked for in-place writes (autodiff/tape.h).
     record("interpolate_batch", {attributes, uv, triangles, tri_id}, {&out},
-           [attributes, attr, params, B, P](AdjointContext& ctx) {
+           [attributes, attr, params, B, P, w, h, backend, made, triangles](AdjointContext& ctx) {
              PerImage a = attr;
              a.t = &attributes;
              dispatch_float(attributes.dtype(), "interpolate_batch", [&](auto tag) {
                using T = decltype(tag);
                GradOf g_attr(a, ctx.needs_grad(0) ? B : 0);
                Tensor g_uv = ctx.accumulation_buffer(1);  // the kernel adds (+=)
-               for_each_image(B, [&](std::int64_t b) {
+               auto grads = [&](std::int64_t b) {
                  raster::BarycentricInterpolateGrads<T> g;
                  if (ctx.needs_grad(0)) g.attr = g_attr.at<T>(a, b);
                  if (g_uv.defined()) g.rast = g_uv.data<T>() + 2 * b * P;
+                 return g;
+               };
+               std::vector<char> on_backend(static_cast<std::size_t>(B), 0);
+               if constexpr (std::is_same_v<T, float>)
+                 if (backend)
+                   for (std::int64_t b = 0; b < B; ++b)
+                     on_backend[b] = on_device(backend, made.get(), b, params(tag, a, b), triangles,
+                                               [&](const auto& on, const auto& p) {
+                                                 const float* go = ctx.grad_output().data<float>() + b * P * a.cols;
+                                                 return on.device ? backend->interpolate_backward(
+                                                                        *on.device, p, int(w), int(h), go, nullptr, grads(b))
+                                                                  : backend->interpolate_backward(p, int(w), int(h), go,
+                                                                                                  nullptr, grads(b));
+                                               });
+               for_each_image(B, [&](std::int64_t b) {
+                 if (on_backend[b]) return;
                  raster::barycentric_interpolate_backward(params(tag, a, b),
-                                                          ctx.grad_output().data<T>() + b * P * a.cols, static_cast<const T*>(nullptr), g);
+                                                          ctx.grad_output().data<T>() + b * P * a.cols, static_cast<const T*>(nullptr), grads(b));
                });
                if (ctx.needs_grad(0)) ctx.accumulate(0, g_attr.finish<T>());
              });
@@ -283,23 +370,77 @@ Tensor antialias_batch(const Tensor& image, const GBuffer& gbuffer, const Tensor
   };
   Tensor out = Tensor::empty(image.shape(), image.dtype());
   const Tensor tri_id = gbuffer.tri_id, depth = gbuffer.depth;
+  // The G-buffer's backend runs the silhouette antialias (float32), image by
+  // image in image order, on the device's copy where it drew all the
+  // triangles (the topology indexes them all).
+  const std::shared_ptr<const raster::RasterBackend> backend =
+      !options.visibility && clip.dtype() == DType::Float32 ? gbuffer.backend : nullptr;
+  const std::shared_ptr<const GBuffer> made = backend && gbuffer.resident ? std::make_shared<const GBuffer>(gbuffer)
+                                                                          : nullptr;
+  // What the forward and, on the backend, the adjoint read of image b beyond image_params.
+  const AntialiasTopology given = options.topology;
+  auto gbuffer_params = [tri_id, depth, triangles, P, given](auto& p, std::int64_t b,
+                                                             const std::vector<AntialiasTopology>& built, bool shared) {
+    using T = std::remove_const_t<std::remove_pointer_t<decltype(p.depth)>>;
+    p.tri_id = tri_id.data<std::int32_t>() + b * P;
+    p.depth = depth.data<T>() + b * P;
+    p.tris = triangles.data<std::int32_t>();
+    p.num_tris = triangles.size(0);
+    p.topology = given ? given.get() : built[shared ? 0 : b].get();
+  };
+  bool on_backend = false;
   dispatch_float(clip.dtype(), op, [&](auto tag) {
     using T = decltype(tag);
     for_each_image(topologies, [&](std::int64_t b) {
       topology[b] = std::make_shared<const raster::EdgeTopology>(raster::build_edge_topology(
           triangles.data<std::int32_t>(), triangles.size(0), N, pos.at<T>(b), 4));
     });
+    if constexpr (std::is_same_v<T, float>)
+      if (backend) {
+        on_backend = true;
+        for (std::int64_t b = 0; b < B && on_backend; ++b) {
+          raster::AntialiasParams<float> p = image_params(tag, image, pos, b);
+          gbuffer_params(p, b, topology, pos.shared);
+          const detail::ImageOnDevice on = detail::image_on_device(made.get(), b, triangles, p.tri_id, P, true);
+          float* o = out.data<float>() + b * P * C;
+          on_backend = on.device ? backend->antialias_forward(*on.device, p, o) : backend->antialias_forward(p, o);
+        }
+        if (on_backend) return;
+      }
     for_each_image(B, [&](std::int64_t b) {
       raster::AntialiasParams<T> p = image_params(tag, image, pos, b);
-      p.tri_id = tri_id.data<std::int32_t>() + b * P;
-      p.depth = depth.data<T>() + b * P;
-      p.tris = triangles.data<std::int32_t>();
-      p.num_tris = triangles.size(0);
-      p.topology = options.topology ? options.topology.get() : topology[pos.shared ? 0 : b].get();
+      gbuffer_params(p, b, topology, pos.shared);
       raster::blend_boundaries_forward(options.visibility, p, out.data<T>() + b * P * C, &(*pairs)[b]);
     });
   });
-  if (should_record({image, clip})) {
+  if (on_backend && should_record({image, clip})) {
+    // The backend's adjoint takes the forward's inputs (it recomputes the pairs).
+    auto built = std::make_shared<const std::vector<AntialiasTopology>>(std::move(topology));
+    record(name, {image, clip}, {&out},
+           [image = image.detach(), clip = clip.detach(), pos, boost, B, P, C, N, image_params, gbuffer_params, built,
+            backend, made, triangles](AdjointContext& ctx) {
+             PerImage c = pos;
+             c.t = &clip;
+             Tensor g_image = ctx.needs_grad(0) ? Tensor::zeros(image.shape(), image.dtype()) : Tensor();
+             GradOf g_clip(c, ctx.needs_grad(1) ? B : 0);
+             for (std::int64_t b = 0; b < B; ++b) {  // image order: a shared clip's parts, then their sum
+               raster::AntialiasParams<float> p = image_params(float{}, image, c, b);
+               gbuffer_params(p, b, *built, c.shared);
+               raster::AntialiasGrads<float> g;
+               if (g_image.defined()) g.image = g_image.data<float>() + b * P * C;
+               if (ctx.needs_grad(1)) g.clip = g_clip.at<float>(c, b);
+               const detail::ImageOnDevice on = detail::image_on_device(made.get(), b, triangles, p.tri_id, P, true);
+               const float* go = ctx.grad_output().data<float>() + b * P * C;
+               if (!(on.device ? backend->antialias_backward(*on.device, p, go, g)
+                               : backend->antialias_backward(p, go, g)))
+                 throw Error("antialias_batch: the backend ran the forward but refused the adjoint");
+               if (g.clip && boost != 1.0)
+                 for (std::int64_t i = 0; i < 4 * N; ++i) g.clip[i] = static_cast<float>(boost * g.clip[i]);
+             }
+             if (g_image.defined()) ctx.accumulate(0, g_image);
+             if (ctx.needs_grad(1)) ctx.accumulate(1, g_clip.finish<float>());
+           });
+  } else if (should_record({image, clip})) {
     record(name, {image, clip}, {&out},
            [image = image.detach(), clip = clip.detach(), pos, pairs, boost, B, P, C, N, image_params, name](
                AdjointContext& ctx) {

@@ -11,6 +11,12 @@
 // thread count; the gradient of an input the images share (range mode's
 // positions, attributes without an image axis) is the sum of the images'
 // gradients in image order.
+//
+// With RasterizeOptions::backend (float32), each image's G-buffer is made on
+// the device (bit for bit the CPU's) and kept there, one handle per image
+// (GBuffer::resident); interpolate_batch, antialias_batch and the G-buffer's
+// adjoint then run image by image on that backend, in image order (values
+// and gradients within issue 33's tolerances of the CPU's; docs/gpu.md).
 #pragma once
 
 #include <cstdint>

@@ -62,9 +62,11 @@ struct GBuffer {
   std::shared_ptr<raster::TriangleGroups> groups;
   // RasterizeOptions::backend of the rasterize that made it (null: the CPU):
   // the execution context of the rasterize adjoint and of the interpolate
-  // (image form) and antialias ops that read this G-buffer, for float32.
+  // (image form) and antialias ops that read this G-buffer (their batch forms
+  // for a batch's, image by image), for float32.
   std::shared_ptr<const raster::RasterBackend> backend;
-  // The backend's copy of this G-buffer on its device (null: none), which the
+  // The backend's copy of this G-buffer on its device (null: none; a batch's:
+  // one per image, ops/render/resident_gbuffer.h), which the
   // ops above read instead of uploading the tensors while these are the
   // tensors it was made with, not written in place since (else, and once the
   // backend has let it go, they upload them: results never depend on it).

@@ -18,10 +18,9 @@ bool unchanged(const ResidentGBuffer::Source& then, const Tensor& t) {
 
 }  // namespace
 
-std::shared_ptr<const ResidentGBuffer> keep_resident(std::shared_ptr<const raster::DeviceGBuffer> device,
-                                                     const GBuffer& gb) {
+std::shared_ptr<const ResidentGBuffer> keep_resident(std::vector<ResidentGBuffer::Image> images, const GBuffer& gb) {
   auto kept = std::make_shared<ResidentGBuffer>();
-  kept->device = std::move(device);
+  kept->images = std::move(images);
   kept->tri_id = source_of(gb.tri_id);
   kept->uv = source_of(gb.uv);
   kept->depth = source_of(gb.depth);
@@ -31,12 +30,46 @@ std::shared_ptr<const ResidentGBuffer> keep_resident(std::shared_ptr<const raste
   return kept;
 }
 
-const raster::DeviceGBuffer* resident_of(const GBuffer& gb) {
+std::shared_ptr<const ResidentGBuffer> keep_resident(std::shared_ptr<const raster::DeviceGBuffer> device,
+                                                     const GBuffer& gb) {
+  const std::int64_t count = gb.triangles.defined() ? gb.triangles.size(0) : 0;
+  return keep_resident(std::vector<ResidentGBuffer::Image>{{std::move(device), 0, count}}, gb);
+}
+
+const ResidentGBuffer::Image* resident_image(const GBuffer& gb, std::int64_t b) {
   const ResidentGBuffer* r = gb.resident.get();
-  if (!r || !r->device) return nullptr;
+  if (!r || b < 0 || b >= static_cast<std::int64_t>(r->images.size()) || !r->images[b].device) return nullptr;
   const bool same = unchanged(r->tri_id, gb.tri_id) && unchanged(r->uv, gb.uv) && unchanged(r->depth, gb.depth) &&
                     unchanged(r->db, gb.db) && unchanged(r->clip, gb.clip) && unchanged(r->triangles, gb.triangles);
-  return same ? r->device.get() : nullptr;
+  return same ? &r->images[b] : nullptr;
+}
+
+const raster::DeviceGBuffer* resident_of(const GBuffer& gb) {
+  const ResidentGBuffer::Image* image = resident_image(gb, 0);
+  return image ? image->device.get() : nullptr;
+}
+
+ImageOnDevice image_on_device(const GBuffer* made, std::int64_t b, const Tensor& triangles,
+                              const std::int32_t* tri_id, std::int64_t pixels, bool whole_only) {
+  ImageOnDevice on;
+  on.tris = triangles.data<std::int32_t>();
+  on.num_tris = triangles.size(0);
+  on.host_ids = tri_id;
+  const ResidentGBuffer::Image* image = made ? resident_image(*made, b) : nullptr;
+  if (!image) return on;
+  const bool whole = image->first == 0 && image->count == on.num_tris;
+  if (whole_only && !whole) return on;
+  on.device = image->device.get();
+  if (whole) return on;
+  // The range's triangles, ids numbered from 1 in it (0 stays background).
+  on.tris += 3 * image->first;
+  on.num_tris = image->count;
+  const auto first = static_cast<std::int32_t>(image->first);
+  if (first != 0) {
+    on.local_ids.resize(static_cast<std::size_t>(pixels));
+    for (std::int64_t q = 0; q < pixels; ++q) on.local_ids[q] = tri_id[q] ? tri_id[q] - first : 0;
+  }
+  return on;
 }
 
 }  // namespace gr::detail

@@ -1,4 +1,5 @@
-// The device's copy of a G-buffer that rasterize made on its backend
+// The device's copy of a G-buffer that rasterize (or, image by image,
+// rasterize_batch / rasterize_ranges) made on its backend
 // (raster::RasterBackend::rasterize_gbuffer) and the host tensors it equals.
 // The ops reading the G-buffer (interpolate, antialias, the rasterize
 // adjoint) hand its handle to the backend only while the G-buffer's tensors
@@ -9,6 +10,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <vector>
 
 #include "autodiff/base/storage.h"
 #include "ops/render/rasterize.h"
@@ -17,7 +19,15 @@
 namespace gr {
 
 struct ResidentGBuffer {
-  std::shared_ptr<const raster::DeviceGBuffer> device;
+  // One image's copy (null: the backend made none) and the triangles it
+  // drew: rows first..first+count-1 of the G-buffer's triangles (a range
+  // mode image's range; all of them otherwise), its ids numbered from 1 in
+  // that range (the host's tri_id adds `first`).
+  struct Image {
+    std::shared_ptr<const raster::DeviceGBuffer> device;
+    std::int64_t first = 0, count = 0;
+  };
+  std::vector<Image> images;  // one per image, in image order (one for an [H, W] G-buffer)
   // A host tensor's storage and its write count when the device's copy was
   // made (defined false: the tensor was undefined).
   struct Source {
@@ -30,13 +40,35 @@ struct ResidentGBuffer {
 
 namespace detail {
 
-// device with gb's tensors as they are now (gb.db may be undefined).
+// The images' copies with gb's tensors as they are now (gb.db may be undefined).
+std::shared_ptr<const ResidentGBuffer> keep_resident(std::vector<ResidentGBuffer::Image> images, const GBuffer& gb);
+// One image that drew all of gb.triangles.
 std::shared_ptr<const ResidentGBuffer> keep_resident(std::shared_ptr<const raster::DeviceGBuffer> device,
                                                      const GBuffer& gb);
 
-// gb.resident's device handle while gb's tensors are the ones it was made
-// with, unwritten since; else null.
+// Image b's copy while gb's tensors are the ones it was made with, unwritten
+// since, and the backend made one; else null.
+const ResidentGBuffer::Image* resident_image(const GBuffer& gb, std::int64_t b);
+// resident_image(gb, 0)'s device handle (an [H, W] G-buffer's), or null.
 const raster::DeviceGBuffer* resident_of(const GBuffer& gb);
+
+// What a batch op hands the backend for image b: the device's copy and the
+// triangles and ids it drew (a range's, ids made local to it) while `made`
+// (the G-buffer as made, may be null) still matches it (with whole_only:
+// and it drew all the triangles, for antialias, whose topology indexes them
+// all); else no copy, all the triangles and the host's ids (the backend
+// uploads them). Either way the same image for the kernels.
+struct ImageOnDevice {
+  const raster::DeviceGBuffer* device = nullptr;
+  const std::int32_t* tris = nullptr;
+  std::int64_t num_tris = 0;
+  const std::int32_t* host_ids = nullptr;
+  std::vector<std::int32_t> local_ids;  // made local, or empty
+  const std::int32_t* ids() const { return local_ids.empty() ? host_ids : local_ids.data(); }
+};
+// tri_id: image b's host ids (pixels of them), indexing all of triangles.
+ImageOnDevice image_on_device(const GBuffer* made, std::int64_t b, const Tensor& triangles,
+                              const std::int32_t* tri_id, std::int64_t pixels, bool whole_only);
 
 }  // namespace detail
 }  // namespace gr
