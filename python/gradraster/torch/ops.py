@@ -251,7 +251,7 @@ class _RasterizeFunc(torch.autograd.Function):
     @staticmethod
     @once_differentiable
     def backward(ctx, drast, ddb):
-        pos, tri, rast = ctx.saved_tensors  # autograd refuses them if written in place since: the handles hold
+        pos, tri, rast = ctx.saved_tensors  # autograd refuses these if written in place since: ctx.kept holds
         mesh = _mesh(pos, tri, ctx.ranges, 'rasterize')
         grad_pos = torch.zeros_like(pos)
         _core.rasterize_backward(ctx.raster_ctx.cpp_wrapper, *mesh, _d(rast), _d(drast.contiguous()),
