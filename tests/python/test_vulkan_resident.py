@@ -152,3 +152,17 @@ def test_frames_must_be_none_or_a_positive_integer():
     with pytest.raises(TypeError, match="'frames'"):
         dr.RasterizeVulkanContext(frames=2.0)
 
+
+
+@pytest.mark.parametrize('written', ['rast', 'tri'])
+def test_a_tensor_written_between_a_forward_and_its_backward_is_refused_so_the_backward_never_reads_a_stale_copy(
+        written):
+    pos, tri, attr = scene(1)
+    tri = tri.clone()
+    a = leaf(attr)
+    rast, db = dr.rasterize(vulkan_context(), pos, tri, RESOLUTION)
+    out, _ = dr.interpolate(a, rast, tri, rast_db=db, diff_attrs='all')
+    with torch.no_grad():
+        {'rast': rast, 'tri': tri}[written].add_(0)
+    with pytest.raises(RuntimeError, match='modified by an inplace operation'):
+        out.sum().backward()
