@@ -104,7 +104,8 @@ std::shared_ptr<Topology> build_topology(const pybind11::object& tri_, std::int6
 std::shared_ptr<AntialiasState> antialias_forward(Context& ctx, const pybind11::object& pos,
                                                   const pybind11::object& tri, Ranges ranges, const Topology& topology,
                                                   const pybind11::object& color_, const pybind11::object& rast_,
-                                                  const pybind11::object& out_, bool visibility, int threads) {
+                                                  const pybind11::object& out_, bool visibility, int threads,
+                                                  std::shared_ptr<DeviceGBuffers> kept) {
   const char* op = visibility ? "visibility_antialias" : "antialias";
   const Mesh mesh(pos, tri, ranges, op);
   const Array color(color_, op, "color"), rast(rast_, op, "rast"), out(out_, op, "out");
@@ -114,6 +115,7 @@ std::shared_ptr<AntialiasState> antialias_forward(Context& ctx, const pybind11::
   KernelCall call(threads);
   check_mesh(mesh, op);
   check_topology(topology, mesh, op);
+  check_kept(kept.get(), mesh.images, op);
   const std::int64_t pixels = color.size(1) * color.size(2), channels = color.size(3);
   auto state = std::make_shared<AntialiasState>();
   state->pairs.resize(static_cast<std::size_t>(mesh.images));
@@ -127,7 +129,7 @@ std::shared_ptr<AntialiasState> antialias_forward(Context& ctx, const pybind11::
   ctx.reserve(mesh.images);
   dispatch(mesh.f64, [&](auto tag) {
     using T = decltype(tag);
-    if (!visibility && backend_for<T>(&ctx)) state->backend = ctx.backend;
+    if (!visibility && backend_for<T>(&ctx)) state->backend = ctx.backend, state->kept = kept;
     std::atomic<bool> bad_ids{false};
     for_each_image_on(state->backend.get(), mesh.images, [&](std::int64_t b) {
       bool ids_ok = true;
@@ -135,9 +137,13 @@ std::shared_ptr<AntialiasState> antialias_forward(Context& ctx, const pybind11::
       if (!ids_ok) return bad_ids.store(true);
       T* o = out.out<T>() + pixels * channels * b;
       if constexpr (std::is_same_v<T, float>)
-        if (state->backend && state->backend->antialias_forward(p, o)) {
-          state->on_backend[b] = 1;
-          return;
+        if (state->backend) {
+          const raster::DeviceGBuffer* on_device = state->kept ? state->kept->image(b) : nullptr;
+          if (counted(ctx, on_device ? state->backend->antialias_forward(*on_device, p, o)
+                                     : state->backend->antialias_forward(p, o))) {
+            state->on_backend[b] = 1;
+            return;
+          }
         }
       raster::blend_boundaries_forward(visibility, p, o, &state->pairs[b]);
     });
@@ -200,7 +206,9 @@ void antialias_backward(Context& ctx, const pybind11::object& pos, const pybind1
       if (!state.on_backend[b]) {
         raster::blend_boundaries_backward(p, state.pairs[b], g_out, g);
       } else if constexpr (std::is_same_v<T, float>) {
-        if (!state.backend->antialias_backward(p, g_out, g))
+        const raster::DeviceGBuffer* on_device = state.kept ? state.kept->image(b) : nullptr;
+        if (!counted(ctx, on_device ? state.backend->antialias_backward(*on_device, p, g_out, g)
+                                    : state.backend->antialias_backward(p, g_out, g)))
           throw Error(std::string(op) + ": the device ran the forward but refused the adjoint");
       }
       if (!grad_pos) return;

@@ -32,6 +32,7 @@ struct AntialiasState {
   std::vector<raster::BlendedPairs> pairs;
   std::shared_ptr<const raster::RasterBackend> backend;
   std::vector<char> on_backend;  // per image
+  std::shared_ptr<const DeviceGBuffers> kept;  // the forward's (the adjoint's inputs are the forward's)
   std::int64_t height = 0, width = 0, channels = 0, vertices = 0, triangles = 0;
   bool visibility = false;
 };
@@ -41,11 +42,15 @@ struct AntialiasState {
 // [images, H, W, 4] for the mesh. visibility: visibility_antialias instead
 // of antialias. ctx: scratch, and the device of a RasterizeVulkanContext,
 // which runs antialias (not visibility_antialias) for float32, forward and
-// adjoint (the backward then runs on the state's backend).
+// adjoint (the backward then runs on the state's backend). kept (may be
+// null): rasterize_forward's handles for this very rast, pos and tri,
+// unchanged since: the device then reads its copy of the G-buffer, forward
+// and adjoint.
 std::shared_ptr<AntialiasState> antialias_forward(Context& ctx, const pybind11::object& pos,
                                                   const pybind11::object& tri, Ranges ranges, const Topology& topology,
                                                   const pybind11::object& color, const pybind11::object& rast,
-                                                  const pybind11::object& out, bool visibility, int threads);
+                                                  const pybind11::object& out, bool visibility, int threads,
+                                                  std::shared_ptr<DeviceGBuffers> kept);
 // The forward's inputs and state; grad_out: color's shape. Accumulates into
 // grad_color (zeroed, color's shape, or None) and grad_pos (zeroed, pos's
 // shape, or None); the position gradient is multiplied by pos_gradient_boost.

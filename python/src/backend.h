@@ -3,13 +3,12 @@
 // through raster::RasterBackend's virtuals, else on the CPU kernels.
 // gradraster.torch decides which context a call gets (the one that made its
 // rast or uv: docs/python.md, "Vulkan"); a backend that declines a call
-// (returns false) leaves it to the CPU kernel.
+// (returns false) leaves it to the CPU kernel. Each call the device ran is
+// counted at its call site (counted: Context::device_calls).
 #pragma once
 
-#include <atomic>
 #include <cstdint>
 #include <memory>
-#include <string>
 #include <type_traits>
 #include <vector>
 
@@ -19,43 +18,34 @@
 
 namespace gr::python {
 
-// A backend that counts the calls it ran (those its inner backend did not
-// decline), per image: Context.device_calls, by which a program (and the
-// tests) can see that its ops ran on the device. It forwards every virtual
-// of raster::RasterBackend; one added there must be forwarded here too.
-class CountedBackend : public raster::RasterBackend {
- public:
-  explicit CountedBackend(std::shared_ptr<const raster::RasterBackend> inner) : inner_(std::move(inner)) {}
-  std::int64_t calls() const { return calls_.load(); }
-
-  std::string name() const override { return inner_->name(); }
-  bool rasterize_forward(const raster::RasterParams<float>& p, std::int32_t* tri_id, float* uv, float* depth,
-                         double* key_depth) const override;
-  bool texture_forward(const raster::TextureParams<float>& p, float* out) const override;
-  bool texture_backward(const raster::TextureParams<float>& p, const float* grad_out,
-                        const raster::TextureGrads<float>& grads) const override;
-  bool cube_texture_forward(const raster::CubeTextureParams<float>& p, float* out) const override;
-  bool cube_texture_backward(const raster::CubeTextureParams<float>& p, const float* grad_out,
-                             const raster::CubeTextureGrads<float>& grads) const override;
-  bool interpolate_forward(const raster::BarycentricInterpolateParams<float>& p, int width, int height, float* out,
-                           float* out_da) const override;
-  bool interpolate_backward(const raster::BarycentricInterpolateParams<float>& p, int width, int height,
-                            const float* grad_out, const float* grad_da,
-                            const raster::BarycentricInterpolateGrads<float>& grads) const override;
-  bool antialias_forward(const raster::AntialiasParams<float>& p, float* out) const override;
-  bool antialias_backward(const raster::AntialiasParams<float>& p, const float* grad_out,
-                          const raster::AntialiasGrads<float>& grads) const override;
-  bool gbuffer_backward(const raster::BarycentricGBufferParams<float>& p, const float* grad_rast,
-                        const float* grad_db, float* grad_clip) const override;
-
- private:
-  bool count(bool ran) const {
-    if (ran) ++calls_;
-    return ran;
-  }
-  std::shared_ptr<const raster::RasterBackend> inner_;
-  mutable std::atomic<std::int64_t> calls_{0};
+// The G-buffers one rasterize call kept on its context's device, one handle
+// per image (raster::RasterBackend::rasterize_gbuffer; null: none kept, e.g.
+// a range of some of the triangles, whose ids the ops' calls do not share).
+// gradraster.torch hands them to interpolate, antialias and the rasterize
+// adjoint only while rast and what they read (rast_db, pos, tri) are the
+// tensors rasterize made or read, unwritten since (_resident.py); these then
+// read the device's copy (a backend that let it go uploads the host's
+// arrays, as the calls without a handle do).
+struct DeviceGBuffers {
+  std::vector<std::shared_ptr<const raster::DeviceGBuffer>> images;
+  // Image b's handle, or null.
+  const raster::DeviceGBuffer* image(std::int64_t b) const { return images[static_cast<std::size_t>(b)].get(); }
 };
+
+// `kept` (may be null) for a call over `images` images: ValueError naming
+// `op` if it holds another count.
+const DeviceGBuffers* check_kept(const DeviceGBuffers* kept, std::int64_t images, const char* op);
+
+// Counts a call the context's device ran (ran: the backend did not decline
+// it) in ctx.device_calls (Context.device_calls in Python); returns ran.
+inline bool counted(Context& ctx, bool ran) {
+  ctx.device_calls += ran ? 1 : 0;
+  return ran;
+}
+
+// Before a rasterize of `images` images on a RasterizeVulkanContext whose
+// pool grows (frames=None): lets its backend keep that many G-buffers.
+void keep_gbuffers(const Context& ctx, std::int64_t images);
 
 // ctx's backend for T = float (null: none, a CPU context, no context, float64).
 template <class T>

@@ -76,7 +76,8 @@ InterpolateArgs::InterpolateArgs(const pybind11::object& attr_, const pybind11::
 
 void interpolate_forward(Context* ctx, const pybind11::object& attr, const pybind11::object& rast,
                          const pybind11::object& tri, const pybind11::object& rast_db, std::vector<std::int32_t> diff,
-                         const pybind11::object& out_, const pybind11::object& out_da_, int threads) {
+                         const pybind11::object& out_, const pybind11::object& out_da_, int threads,
+                         const DeviceGBuffers* kept) {
   const char* op = "interpolate";
   const InterpolateArgs a(attr, rast, tri, rast_db, std::move(diff), op);
   const std::int64_t K = static_cast<std::int64_t>(a.diff.size());
@@ -86,6 +87,7 @@ void interpolate_forward(Context* ctx, const pybind11::object& attr, const pybin
   if (!K && out_da) throw ValueError(std::string(op) + ": 'out_da' is given but 'diff_attrs' is empty");
   out_da.same_elem(a.rast).shape({a.images, a.height, a.width, 2 * K});
   check_disjoint(op, {&out, &out_da}, {&a.attr, &a.rast, &a.tri, &a.rast_db});
+  check_kept(kept, a.images, op);
   KernelCall call(threads);
   const std::int64_t pixels = a.height * a.width;
   dispatch(a.rast.elem() == Elem::F64, [&](auto tag) {
@@ -98,8 +100,14 @@ void interpolate_forward(Context* ctx, const pybind11::object& attr, const pybin
       T* o = out.out<T>() + b * pixels * a.channels;
       T* o_da = out_da ? out_da.out<T>() + b * pixels * 2 * K : nullptr;
       if constexpr (std::is_same_v<T, float>)
-        if (backend && backend->interpolate_forward(with_ids(p, ctx->image(b)), int(a.width), int(a.height), o, o_da))
-          return;
+        if (backend) {
+          const raster::BarycentricInterpolateParams<float> q = with_ids(p, ctx->image(b));
+          const int w = int(a.width), h = int(a.height);
+          const raster::DeviceGBuffer* on_device = kept ? kept->image(b) : nullptr;
+          if (counted(*ctx, on_device ? backend->interpolate_forward(*on_device, q, w, h, o, o_da)
+                                      : backend->interpolate_forward(q, w, h, o, o_da)))
+            return;
+        }
       raster::barycentric_interpolate_forward(p, o, o_da);
     });
   });
@@ -109,7 +117,7 @@ void interpolate_backward(Context* ctx, const pybind11::object& attr, const pybi
                           const pybind11::object& tri, const pybind11::object& rast_db, std::vector<std::int32_t> diff,
                           const pybind11::object& grad_out_, const pybind11::object& grad_da_,
                           const pybind11::object& grad_attr_, const pybind11::object& grad_rast_,
-                          const pybind11::object& grad_db_, int threads) {
+                          const pybind11::object& grad_db_, int threads, const DeviceGBuffers* kept) {
   const char* op = "interpolate backward";
   const InterpolateArgs a(attr, rast, tri, rast_db, std::move(diff), op);
   const std::int64_t K = static_cast<std::int64_t>(a.diff.size());
@@ -124,6 +132,7 @@ void interpolate_backward(Context* ctx, const pybind11::object& attr, const pybi
   if (grad_db && !a.rast_db) throw ValueError(std::string(op) + ": 'grad_db' is given but 'rast_db' is not");
   grad_db.same_elem(a.rast).shape(a.rast.shape());
   check_disjoint(op, {&grad_attr, &grad_rast, &grad_db}, {&a.attr, &a.rast, &a.tri, &a.rast_db, &grad_out, &grad_da});
+  check_kept(kept, a.images, op);
   KernelCall call(threads);
   const std::int64_t pixels = a.height * a.width;
   dispatch(a.rast.elem() == Elem::F64, [&](auto tag) {
@@ -149,9 +158,14 @@ void interpolate_backward(Context* ctx, const pybind11::object& attr, const pybi
       const T* g_out = grad_out.in<T>() + b * pixels * a.channels;
       const T* g_da = grad_da ? grad_da.in<T>() + b * pixels * 2 * K : nullptr;
       if constexpr (std::is_same_v<T, float>)
-        if (backend && backend->interpolate_backward(with_ids(p, ctx->image(b)), int(a.width), int(a.height), g_out,
-                                                     g_da, g))
-          return;
+        if (backend) {
+          const raster::BarycentricInterpolateParams<float> q = with_ids(p, ctx->image(b));
+          const int w = int(a.width), h = int(a.height);
+          const raster::DeviceGBuffer* on_device = kept ? kept->image(b) : nullptr;
+          if (counted(*ctx, on_device ? backend->interpolate_backward(*on_device, q, w, h, g_out, g_da, g)
+                                      : backend->interpolate_backward(q, w, h, g_out, g_da, g)))
+            return;
+        }
       raster::barycentric_interpolate_backward(p, g_out, g_da, g);
     });
     if (shared) {

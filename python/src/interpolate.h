@@ -25,12 +25,15 @@ struct InterpolateArgs {
 };
 
 // ctx: None (the CPU kernels) or the context that made rast, whose device
-// (a RasterizeVulkanContext's) then runs float32 calls, forward and adjoint.
+// (a RasterizeVulkanContext's) then runs float32 calls, forward and adjoint;
+// kept (may be null): rasterize_forward's handles for this very rast (and
+// rast_db, tri), unchanged since: the device then reads its copy of them.
 // out: [images, H, W, C]; out_da: [images, H, W, 2 len(diff)], required
 // with diff, else None.
 void interpolate_forward(Context* ctx, const pybind11::object& attr, const pybind11::object& rast,
                          const pybind11::object& tri, const pybind11::object& rast_db, std::vector<std::int32_t> diff,
-                         const pybind11::object& out, const pybind11::object& out_da, int threads);
+                         const pybind11::object& out, const pybind11::object& out_da, int threads,
+                         const DeviceGBuffers* kept);
 // grad_out: out's shape; grad_da: out_da's shape or None. Accumulates into
 // grad_attr, grad_rast and grad_db (zeroed, shaped like attr, rast, rast_db;
 // each None when not needed).
@@ -38,6 +41,6 @@ void interpolate_backward(Context* ctx, const pybind11::object& attr, const pybi
                           const pybind11::object& tri, const pybind11::object& rast_db, std::vector<std::int32_t> diff,
                           const pybind11::object& grad_out, const pybind11::object& grad_da,
                           const pybind11::object& grad_attr, const pybind11::object& grad_rast,
-                          const pybind11::object& grad_db, int threads);
+                          const pybind11::object& grad_db, int threads, const DeviceGBuffers* kept);
 
 }  // namespace gr::python

@@ -7,6 +7,9 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <optional>
+#include <string>
+
 #include "autodiff/base/error.h"
 #include "autodiff/base/memory.h"
 #include "autodiff/base/parallel.h"
@@ -58,24 +61,33 @@ PYBIND11_MODULE(_core, m) {
   py::class_<Context>(m, "Context")
       .def(py::init<>())
       // A context whose rasterizer runs on a Vulkan device (Device::open's
-      // choice); RuntimeError saying why when there is none.
-      .def_static("vulkan",
-                  [] {
+      // choice), keeping up to `frames` G-buffers there at once (None: as
+      // many as the largest minibatch rasterized, at least
+      // vulkan::kResidentGBuffers); RuntimeError saying why when there is no device.
+      .def_static(
+          "vulkan",
+          [](std::optional<int> frames) {
 #ifdef GRADRASTER_HAS_VULKAN
-                    std::string why;
-                    auto device = gr::vulkan::Device::open(&why);
-                    if (!device) throw std::runtime_error("RasterizeVulkanContext: " + why);
-                    Context ctx;
-                    ctx.backend = std::make_shared<CountedBackend>(gr::vulkan::raster_backend(device));
-                    ctx.gpu = std::move(device);
-                    return ctx;
+            if (frames && *frames < 1)
+              throw gr::ValueError("RasterizeVulkanContext: 'frames' must be at least 1, got " +
+                                   std::to_string(*frames));
+            std::string why;
+            auto device = gr::vulkan::Device::open(&why);
+            if (!device) throw std::runtime_error("RasterizeVulkanContext: " + why);
+            Context ctx;
+            ctx.backend = gr::vulkan::raster_backend(device, frames.value_or(gr::vulkan::kResidentGBuffers));
+            ctx.grow_frames = !frames;
+            ctx.gpu = std::move(device);
+            return ctx;
 #else
-                    throw std::runtime_error(
-                        "RasterizeVulkanContext: this build of gradraster has no GPU path (built without Vulkan: "
-                        "install libvulkan-dev and glslc, then rebuild)");
-                    return Context{};
+            (void)frames;
+            throw std::runtime_error(
+                "RasterizeVulkanContext: this build of gradraster has no GPU path (built without Vulkan: "
+                "install libvulkan-dev and glslc, then rebuild)");
+            return Context{};
 #endif
-                  })
+          },
+          py::arg("frames") = py::none())
       .def_property_readonly("device_name", [](const Context& ctx) -> std::string {
 #ifdef GRADRASTER_HAS_VULKAN
         if (ctx.gpu) return ctx.gpu->info().name;
@@ -83,10 +95,28 @@ PYBIND11_MODULE(_core, m) {
         return "cpu";
       })
       // Per-image kernel calls its device has run (0 for a CPU context).
-      .def_property_readonly("device_calls", [](const Context& ctx) -> std::int64_t {
-        const auto* counted = dynamic_cast<const CountedBackend*>(ctx.backend.get());
-        return counted ? counted->calls() : 0;
+      .def_readonly("device_calls", &Context::device_calls)
+      // What its backend did with the G-buffers (vulkan::residency_stats;
+      // all 0 for a CPU context): made and kept, calls that read a kept one,
+      // calls that uploaded one, frames made.
+      .def_property_readonly("residency", [](const Context& ctx) {
+        py::dict out;
+        std::int64_t gbuffers = 0, resident_calls = 0, uploads = 0, frames = 0;
+#ifdef GRADRASTER_HAS_VULKAN
+        if (ctx.gpu) {
+          const gr::vulkan::ResidencyStats s = gr::vulkan::residency_stats(*ctx.backend);
+          gbuffers = s.gbuffers, resident_calls = s.resident_calls, uploads = s.uploads, frames = s.frames;
+        }
+#endif
+        out["gbuffers"] = gbuffers;
+        out["resident_calls"] = resident_calls;
+        out["uploads"] = uploads;
+        out["frames"] = frames;
+        return out;
       });
+  // rasterize_forward's handles of the G-buffers it kept on the device
+  // (python/src/backend.h), opaque; gradraster.torch passes them on.
+  py::class_<DeviceGBuffers, std::shared_ptr<DeviceGBuffers>>(m, "DeviceGBuffers");
   m.attr("HAS_VULKAN") =
 #ifdef GRADRASTER_HAS_VULKAN
       true;
@@ -96,25 +126,29 @@ PYBIND11_MODULE(_core, m) {
   py::class_<gr::raster::DepthPeelState>(m, "PeelState")
       .def(py::init<>())
       .def_property_readonly("layers", &gr::raster::DepthPeelState::layers);
+  // rasterize_forward returns the DeviceGBuffers it kept (None: a CPU call).
   m.def("rasterize_forward", &rasterize_forward, py::arg("ctx"), py::arg("pos"), py::arg("tri"), py::arg("ranges"),
         py::arg("rast"), py::arg("rast_db"), py::arg("peel"), py::arg("threads"));
+  // kept: None, or rasterize_forward's DeviceGBuffers for these very tensors, unchanged since.
   m.def("rasterize_backward", &rasterize_backward, py::arg("ctx"), py::arg("pos"), py::arg("tri"),
         py::arg("ranges"), py::arg("rast"), py::arg("grad_rast"), py::arg("grad_db"), py::arg("grad_pos"),
-        py::arg("threads"));
+        py::arg("threads"), py::arg("kept") = py::none());
 
   // ctx: None, or the context whose device runs the call (python/src/backend.h).
   m.def("interpolate_forward", &interpolate_forward, py::arg("ctx"), py::arg("attr"), py::arg("rast"),
-        py::arg("tri"), py::arg("rast_db"), py::arg("diff"), py::arg("out"), py::arg("out_da"), py::arg("threads"));
+        py::arg("tri"), py::arg("rast_db"), py::arg("diff"), py::arg("out"), py::arg("out_da"), py::arg("threads"),
+        py::arg("kept") = py::none());
   m.def("interpolate_backward", &interpolate_backward, py::arg("ctx"), py::arg("attr"), py::arg("rast"),
         py::arg("tri"), py::arg("rast_db"), py::arg("diff"), py::arg("grad_out"), py::arg("grad_da"),
-        py::arg("grad_attr"), py::arg("grad_rast"), py::arg("grad_db"), py::arg("threads"));
+        py::arg("grad_attr"), py::arg("grad_rast"), py::arg("grad_db"), py::arg("threads"),
+        py::arg("kept") = py::none());
 
   py::class_<Topology, std::shared_ptr<Topology>>(m, "Topology").def_readonly("triangles", &Topology::triangles);
   py::class_<AntialiasState, std::shared_ptr<AntialiasState>>(m, "AntialiasState");
   m.def("build_topology", &build_topology, py::arg("tri"), py::arg("vertices"), py::arg("op"));
   m.def("antialias_forward", &antialias_forward, py::arg("ctx"), py::arg("pos"), py::arg("tri"), py::arg("ranges"),
         py::arg("topology"), py::arg("color"), py::arg("rast"), py::arg("out"), py::arg("visibility"),
-        py::arg("threads"));
+        py::arg("threads"), py::arg("kept") = py::none());
   m.def("antialias_backward", &antialias_backward, py::arg("ctx"), py::arg("pos"), py::arg("tri"),
         py::arg("ranges"), py::arg("topology"), py::arg("state"), py::arg("color"), py::arg("rast"),
         py::arg("grad_out"), py::arg("grad_color"), py::arg("grad_pos"), py::arg("pos_gradient_boost"),

@@ -20,9 +20,41 @@ std::vector<double>& ImageScratch::buffer<double>(Buffer b) {
   return d_[b];
 }
 
-void rasterize_forward(Context& ctx, const pybind11::object& pos, const pybind11::object& tri, Ranges ranges,
-                       const pybind11::object& rast_, const pybind11::object& db_, raster::DepthPeelState* peel,
-                       int threads) {
+namespace {
+
+// One image's G-buffer made on `backend` (rasterize_gbuffer: the CPU
+// kernels' bits) into rast (H*W*4) and db (H*W*4 or null) as
+// barycentric_gbuffer_forward writes them (ids offset by `first`, zeros on
+// the background); returns its handle, or null when the backend makes none
+// (the caller then runs the CPU kernels).
+std::shared_ptr<const raster::DeviceGBuffer> device_gbuffer(const raster::RasterBackend& backend,
+                                                            const raster::RasterParams<float>& p, std::int64_t first,
+                                                            ImageScratch& s, float* rast, float* db,
+                                                            double* key_depth) {
+  const std::int64_t pixels = static_cast<std::int64_t>(p.settings.width) * p.settings.height;
+  std::vector<float>& uv = s.buffer<float>(ImageScratch::kUv);
+  std::vector<float>& depth = s.buffer<float>(ImageScratch::kDepth);
+  uv.resize(static_cast<std::size_t>(2 * pixels));
+  depth.resize(static_cast<std::size_t>(pixels));
+  auto kept = backend.rasterize_gbuffer(p, s.tri_id.data(), uv.data(), depth.data(), db, key_depth);
+  if (!kept) return nullptr;
+  for (std::int64_t q = 0; q < pixels; ++q) {
+    const std::int32_t id = s.tri_id[static_cast<std::size_t>(q)];
+    float* r = rast + 4 * q;
+    r[0] = id ? uv[2 * q] : 0.0f;
+    r[1] = id ? uv[2 * q + 1] : 0.0f;
+    r[2] = id ? depth[q] : 0.0f;
+    r[3] = id ? static_cast<float>(first + id) : 0.0f;
+  }
+  return kept;
+}
+
+}  // namespace
+
+std::shared_ptr<DeviceGBuffers> rasterize_forward(Context& ctx, const pybind11::object& pos,
+                                                  const pybind11::object& tri, Ranges ranges,
+                                                  const pybind11::object& rast_, const pybind11::object& db_,
+                                                  raster::DepthPeelState* peel, int threads) {
   const char* op = "rasterize";
   const Mesh mesh(pos, tri, ranges, op);
   const Array rast(rast_, op, "rast"), db(db_, op, "rast_db", true);
@@ -38,9 +70,16 @@ void rasterize_forward(Context& ctx, const pybind11::object& pos, const pybind11
   // layer also refuses changed inputs; this guards the state's memory).
   if (peel) peel->begin_layer(mesh.images, width, height);
   ctx.reserve(mesh.images);
+  std::shared_ptr<DeviceGBuffers> kept;
   dispatch(mesh.f64, [&](auto tag) {
     using T = decltype(tag);
-    raster::for_each_image(mesh.images, [&](std::int64_t b) {
+    const raster::RasterBackend* backend = backend_for<T>(&ctx);
+    if (backend) {
+      keep_gbuffers(ctx, mesh.images);
+      kept = std::make_shared<DeviceGBuffers>();
+      kept->images.resize(static_cast<std::size_t>(mesh.images));
+    }
+    for_each_image_on(backend, mesh.images, [&](std::int64_t b) {
       ImageScratch& s = ctx.image(b);
       s.tri_id.resize(static_cast<std::size_t>(pixels));
       const auto [first, count] = mesh.range(b);
@@ -52,25 +91,43 @@ void rasterize_forward(Context& ctx, const pybind11::object& pos, const pybind11
       p.settings.width = width;
       p.settings.height = height;
       p.settings.y_up = true;  // nvdiffrast's row 0 is the bottom row
-      // The coverage only, on the Vulkan context's device where it covers p
-      // (float32; the same bits); barycentric_gbuffer_forward writes the values.
-      T* const no_values = nullptr;
-      if (peel)
-        peel->rasterize_image(p, b, s.tri_id.data(), no_values, no_values, nullptr, ctx.backend.get());
-      else
-        raster::rasterize_forward_on(ctx.backend.get(), p, s.tri_id.data(), no_values, no_values);
-      const raster::BarycentricGBufferParams<T> g{p.clip, mesh.vertices, mesh.tris(), mesh.triangles, width, height,
-                                                  true};
-      raster::barycentric_gbuffer_forward(g, s.tri_id.data(), first, rast.out<T>() + 4 * pixels * b,
-                                          db ? db.out<T>() + 4 * pixels * b : nullptr);
+      // A peeler's layer: only what lies behind the previous layer's key.
+      double* key_depth = nullptr;
+      if (peel) {
+        p.floor_id = peel->floor_id(b);
+        p.floor_z = peel->floor_z(b);
+        key_depth = peel->key_z(b);
+      }
+      T* image_rast = rast.out<T>() + 4 * pixels * b;
+      T* image_db = db ? db.out<T>() + 4 * pixels * b : nullptr;
+      bool done = false;
+      if constexpr (std::is_same_v<T, float>)
+        if (backend) {
+          auto handle = device_gbuffer(*backend, p, first, s, image_rast, image_db, key_depth);
+          done = counted(ctx, handle != nullptr);
+          // The ops' calls read all of tri (ids offset by first): a range of
+          // some of its triangles is another G-buffer to them.
+          if (count == mesh.triangles) kept->images[static_cast<std::size_t>(b)] = std::move(handle);
+        }
+      if (!done) {
+        // The coverage, then the values (barycentric_gbuffer_forward).
+        T* const no_values = nullptr;
+        raster::rasterize_forward(p, s.tri_id.data(), no_values, no_values, nullptr, key_depth);
+        const raster::BarycentricGBufferParams<T> g{p.clip, mesh.vertices, mesh.tris(), mesh.triangles, width, height,
+                                                    true};
+        raster::barycentric_gbuffer_forward(g, s.tri_id.data(), first, image_rast, image_db);
+      }
+      if (peel) peel->keep_ids(b, s.tri_id.data());
     });
   });
   if (peel) peel->end_layer();
+  return kept;
 }
 
 void rasterize_backward(Context& ctx, const pybind11::object& pos, const pybind11::object& tri, Ranges ranges,
                         const pybind11::object& rast_, const pybind11::object& grad_rast_,
-                        const pybind11::object& grad_db_, const pybind11::object& grad_pos_, int threads) {
+                        const pybind11::object& grad_db_, const pybind11::object& grad_pos_, int threads,
+                        const DeviceGBuffers* kept) {
   const char* op = "rasterize backward";
   const Mesh mesh(pos, tri, ranges, op);
   const Array rast(rast_, op, "rast"), grad_rast(grad_rast_, op, "grad_rast"), grad_db(grad_db_, op, "grad_db", true),
@@ -84,6 +141,7 @@ void rasterize_backward(Context& ctx, const pybind11::object& pos, const pybind1
   KernelCall call(threads);
   check_mesh(mesh, op);
   const std::int64_t pixels = static_cast<std::int64_t>(height) * width;
+  check_kept(kept, mesh.images, op);
   ctx.reserve(mesh.images);
   dispatch(mesh.f64, [&](auto tag) {
     using T = decltype(tag);
@@ -110,7 +168,10 @@ void rasterize_backward(Context& ctx, const pybind11::object& pos, const pybind1
           // The device reads the coverage as int32 ids (rast's id channel).
           rast_ids(image_rast, pixels, &s.tri_id);
           g.tri_id = s.tri_id.data();
-          if (backend->gbuffer_backward(g, g_rast, g_db, out)) return;
+          const raster::DeviceGBuffer* on_device = kept ? kept->image(b) : nullptr;
+          if (counted(ctx, on_device ? backend->gbuffer_backward(*on_device, g, g_rast, g_db, out)
+                                     : backend->gbuffer_backward(g, g_rast, g_db, out)))
+            return;
         }
       raster::barycentric_gbuffer_backward(g, image_rast, g_rast, g_db, out);
     });

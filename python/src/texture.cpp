@@ -211,8 +211,8 @@ void texture_forward(Context* ctx, const TextureMode& mode, Objects tex, Objects
     for_each_image_on(backend, a.images, [&](std::int64_t b) {
       T* o = out.out<T>() + b * a.samples * a.channels;
       if constexpr (std::is_same_v<T, float>)
-        if (backend && (a.mode.cube ? backend->cube_texture_forward(cube_params<T>(a, b), o)
-                                    : backend->texture_forward(image_params<T>(a, b), o)))
+        if (backend && counted(*ctx, a.mode.cube ? backend->cube_texture_forward(cube_params<T>(a, b), o)
+                                                 : backend->texture_forward(image_params<T>(a, b), o)))
           return;
       if (a.mode.cube)
         raster::cube_texture_forward(cube_params<T>(a, b), o);
@@ -265,7 +265,7 @@ void texture_backward(Context* ctx, const TextureMode& mode, Objects tex, Object
         if (grad_uv_dx) g.dir_da = grad_uv_dx.out<T>() + 6 * a.samples * b;  // the cube's uv_da gradient
         if (grad_bias) g.mip_level_bias = grad_bias.out<T>() + a.samples * b;
         if constexpr (std::is_same_v<T, float>)
-          if (backend && backend->cube_texture_backward(cube_params<T>(a, b), g_out, g)) return;
+          if (backend && counted(*ctx, backend->cube_texture_backward(cube_params<T>(a, b), g_out, g))) return;
         raster::cube_texture_backward(cube_params<T>(a, b), g_out, g);
         return;
       }
@@ -277,7 +277,7 @@ void texture_backward(Context* ctx, const TextureMode& mode, Objects tex, Object
       if (grad_bias) g.mip_level_bias = grad_bias.out<T>() + a.samples * b;
       if (grad_pyramid) g.pyramid = grad_pyramid.out<T>() + t * a.pyramid_values();
       if constexpr (std::is_same_v<T, float>)
-        if (backend && backend->texture_backward(image_params<T>(a, b), g_out, g)) return;
+        if (backend && counted(*ctx, backend->texture_backward(image_params<T>(a, b), g_out, g))) return;
       raster::texture_backward(image_params<T>(a, b), g_out, g, jacobian<T>(a, b));
     };
     // A broadcast texture collects every image's gradient, and a device runs

@@ -31,11 +31,13 @@ struct VulkanGBuffer final : raster::DeviceGBuffer {
   bool y_up = false, derivatives = false;
 };
 
-// What a call on a G-buffer describes, to match against the kept one.
+// What a call on a G-buffer describes, to match against the kept one; y_up
+// only where the call reads the clip positions (interpolate reads the
+// G-buffer's values alone, the same either way).
 struct Described {
   int width, height;
   std::int64_t num_vertices, num_tris;
-  bool y_up, needs_db;
+  bool reads_clip, y_up, needs_db;
 };
 
 void check_pixels(const raster::BarycentricInterpolateParams<float>& p, int width, int height) {
@@ -172,7 +174,8 @@ class VulkanBackend : public raster::RasterBackend {
                         const float* grad_rast, const float* grad_db, float* grad_clip) const override {
     if (!p.tri_id) return false;
     std::lock_guard<std::mutex> lock(mutex_);
-    Frame* f = kept_frame(resident, {p.width, p.height, p.num_vertices, p.num_tris, p.y_up, grad_db != nullptr});
+    Frame* f =
+        kept_frame(resident, {p.width, p.height, p.num_vertices, p.num_tris, true, p.y_up, grad_db != nullptr});
     if (!f) {
       raster::RasterParams<float> rp{p.clip, p.num_vertices, p.tris, p.num_tris, {p.width, p.height}};
       GpuRasterOptions options;
@@ -193,6 +196,10 @@ class VulkanBackend : public raster::RasterBackend {
     std::lock_guard<std::mutex> lock(mutex_);
     return stats_;
   }
+  void reserve_frames(int frames) const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    pool_.reserve(frames);
+  }
 
  private:
   // The frame that holds `resident`'s G-buffer, if this backend made it, still
@@ -200,7 +207,7 @@ class VulkanBackend : public raster::RasterBackend {
   Frame* kept_frame(const raster::DeviceGBuffer& resident, const Described& d) const {
     const auto* g = dynamic_cast<const VulkanGBuffer*>(&resident);
     if (!g || g->owner != this || g->width != d.width || g->height != d.height ||
-        g->num_vertices != d.num_vertices || g->num_tris != d.num_tris || g->y_up != d.y_up ||
+        g->num_vertices != d.num_vertices || g->num_tris != d.num_tris || (d.reads_clip && g->y_up != d.y_up) ||
         (d.needs_db && !g->derivatives))
       return nullptr;
     Frame* f = pool_.find(g->serial);
@@ -211,7 +218,8 @@ class VulkanBackend : public raster::RasterBackend {
   // triangles and as many (unread) vertices as the attributes have rows.
   Frame& for_interpolate(const raster::DeviceGBuffer& resident, const raster::BarycentricInterpolateParams<float>& p,
                          int width, int height) const {
-    if (Frame* f = kept_frame(resident, {width, height, p.num_vertices, p.num_tris, false, p.num_diff > 0})) return *f;
+    if (Frame* f = kept_frame(resident, {width, height, p.num_vertices, p.num_tris, false, false, p.num_diff > 0}))
+      return *f;
     zero_clip_.assign(static_cast<std::size_t>(4 * p.num_vertices), 0.0f);
     raster::RasterParams<float> rp{zero_clip_.data(), p.num_vertices, p.tris, p.num_tris, {width, height}};
     GpuRasterOptions options;
@@ -223,7 +231,8 @@ class VulkanBackend : public raster::RasterBackend {
     return f;
   }
   Frame& for_antialias(const raster::DeviceGBuffer& resident, const raster::AntialiasParams<float>& p) const {
-    if (Frame* f = kept_frame(resident, {p.width, p.height, p.num_vertices, p.num_tris, p.y_up, false})) return *f;
+    if (Frame* f = kept_frame(resident, {p.width, p.height, p.num_vertices, p.num_tris, true, p.y_up, false}))
+      return *f;
     raster::RasterParams<float> rp{p.clip, p.num_vertices, p.tris, p.num_tris, {p.width, p.height}};
     GpuRasterOptions options;
     options.y_up = p.y_up;
@@ -256,6 +265,12 @@ ResidencyStats residency_stats(const raster::RasterBackend& backend) {
   const auto* vulkan = dynamic_cast<const VulkanBackend*>(&backend);
   if (!vulkan) throw ValueError("vulkan residency_stats: '" + backend.name() + "' is not a vulkan raster_backend");
   return vulkan->stats();
+}
+
+void reserve_frames(const raster::RasterBackend& backend, int frames) {
+  const auto* vulkan = dynamic_cast<const VulkanBackend*>(&backend);
+  if (!vulkan) throw ValueError("vulkan reserve_frames: '" + backend.name() + "' is not a vulkan raster_backend");
+  vulkan->reserve_frames(frames);
 }
 
 }  // namespace gr::vulkan

@@ -38,5 +38,9 @@ struct ResidencyStats {
 };
 // ValueError if `backend` is not one of raster_backend's.
 ResidencyStats residency_stats(const raster::RasterBackend& backend);
+// Lets `backend` (one of raster_backend's; ValueError otherwise) keep up to
+// `frames` G-buffers at once from now on, if that is more than it keeps (for
+// a caller whose minibatches grow: gradraster.torch's RasterizeVulkanContext).
+void reserve_frames(const raster::RasterBackend& backend, int frames);
 
 }  // namespace gr::vulkan

@@ -29,6 +29,8 @@ class FramePool {
   Frame* find(std::uint64_t serial);
   int frames() const { return static_cast<int>(slots_.size()); }
   int capacity() const { return capacity_; }
+  // Lets the pool hold `capacity` frames from now on, if that is more (never fewer).
+  void reserve(int capacity) { capacity_ = capacity > capacity_ ? capacity : capacity_; }
 
  private:
   struct Slot {

@@ -230,7 +230,7 @@ def test_the_rasterize_adjoint_on_the_device_matches_the_cpu(scene):
     (rast_c, db_c, g_c), (rast_g, db_g, g_g), calls = run_both(program)
     assert torch.equal(rast_g, rast_c) and torch.equal(db_g, db_c)
     assert_grads_close(g_g, g_c, 'pos gradient')
-    assert calls == 2 + 2  # per image: the coverage, the adjoint
+    assert calls == 2 + 2  # per image: the G-buffer, the adjoint
 
 
 def test_the_rasterize_adjoint_in_range_mode_on_the_device_matches_the_cpu():

@@ -19,7 +19,8 @@ import torch
 from torch.autograd.function import once_differentiable
 
 from .. import _core
-from ._origin import origin, record_origin
+from ._origin import kept_gbuffers, origin, record_origin
+from ._resident import KeptGBuffers
 
 _MAX_SIDE = _core.MAX_SIDE  # pixels per side (the rasterizer's limit, raster::kMaxSide)
 _MAX_FLOAT32_IDS = 1 << 24  # float32 holds every triangle id + 1 exactly up to here
@@ -162,14 +163,21 @@ class RasterizeVulkanContext(RasterizeCpuContext):
     visibility_antialias run on the CPU kernels (docs/python.md, "Vulkan").
     Values match the CPU kernels' within 1e-6 relative and gradients within
     1e-5 of the largest, bit-identical run to run (docs/gpu.md).
+    rasterize keeps each image's G-buffer on the device, where interpolate,
+    antialias and the rasterize backward read it while rast, rast_db, pos and
+    tri are unchanged (else they upload them): `frames` G-buffers at once
+    (None: as many as the largest minibatch rasterized, at least 4; each
+    takes about 300 bytes per pixel of device memory). `residency` counts them.
     The device is the first discrete GPU, else any GPU, else a CPU device;
     the environment variable GRADRASTER_VULKAN_DEVICE (part of the device's
     name) chooses another. Raises RuntimeError, saying why, when there is none.
     `device` must be None or a CPU device: tensors stay on the CPU."""
 
-    def __init__(self, device=None):
+    def __init__(self, device=None, frames=None):
         super().__init__(device)
-        self.cpp_wrapper = _core.Context.vulkan()
+        if frames is not None and (isinstance(frames, bool) or not isinstance(frames, numbers.Integral)):
+            raise TypeError(f"RasterizeVulkanContext: 'frames' must be None or an integer, got {frames!r}")
+        self.cpp_wrapper = _core.Context.vulkan(None if frames is None else int(frames))
 
     @property
     def vulkan_device(self):
@@ -181,6 +189,14 @@ class RasterizeVulkanContext(RasterizeCpuContext):
         """How many per-image kernel calls (forward or backward, of any op) have run on the device: a program can
         check that its interpolate, antialias and texture calls found this context (docs/python.md, "Vulkan")."""
         return self.cpp_wrapper.device_calls
+
+    @property
+    def residency(self):
+        """What the device did with rasterize's G-buffers so far, a dict: 'gbuffers' made and kept there,
+        'resident_calls' (interpolate, antialias, rasterize backward, per image) that read a kept one, 'uploads'
+        (such calls that uploaded rast instead: changed tensors, or let go), 'frames' made (docs/python.md,
+        "Vulkan")."""
+        return dict(self.cpp_wrapper.residency)
 
 
 # nvdiffrast's two context classes, by name, so that programs that name them
@@ -219,13 +235,15 @@ class RasterizeGLContext(RasterizeCpuContext):
 
 class _RasterizeFunc(torch.autograd.Function):
     @staticmethod
-    def forward(ctx, raster_ctx, pos, tri, resolution, ranges, grad_db, peel):
+    def forward(ctx, raster_ctx, pos, tri, resolution, ranges, grad_db, peel, kept):
         mesh = _mesh(pos, tri, ranges, 'rasterize')
         h, w = resolution
         images = pos.shape[0] if pos.dim() == 3 else ranges.shape[0]
         rast = pos.new_empty((images, h, w, 4))
         db = torch.empty_like(rast)
-        _core.rasterize_forward(raster_ctx.cpp_wrapper, *mesh, rast, db, peel, _threads())
+        # A Vulkan context keeps the G-buffers on its device: their handles go to `kept` (a list) and the backward.
+        ctx.kept = _core.rasterize_forward(raster_ctx.cpp_wrapper, *mesh, rast, db, peel, _threads())
+        kept.append(ctx.kept)
         ctx.save_for_backward(pos, tri, rast)
         ctx.raster_ctx, ctx.ranges, ctx.grad_db = raster_ctx, ranges, grad_db
         return rast, db
@@ -233,12 +251,12 @@ class _RasterizeFunc(torch.autograd.Function):
     @staticmethod
     @once_differentiable
     def backward(ctx, drast, ddb):
-        pos, tri, rast = ctx.saved_tensors
+        pos, tri, rast = ctx.saved_tensors  # autograd refuses these if written in place since: ctx.kept holds
         mesh = _mesh(pos, tri, ctx.ranges, 'rasterize')
         grad_pos = torch.zeros_like(pos)
         _core.rasterize_backward(ctx.raster_ctx.cpp_wrapper, *mesh, _d(rast), _d(drast.contiguous()),
-                                 _d(ddb.contiguous()) if ctx.grad_db else None, grad_pos, _threads())
-        return None, grad_pos, None, None, None, None, None
+                                 _d(ddb.contiguous()) if ctx.grad_db else None, grad_pos, _threads(), ctx.kept)
+        return None, grad_pos, None, None, None, None, None, None
 
 
 def _check_context(glctx):
@@ -272,11 +290,22 @@ def _device(glctx):
 
 
 def _rasterize(glctx, pos, tri, resolution, ranges, grad_db, peel):
-    rast, db = _RasterizeFunc.apply(glctx, pos, tri, resolution, ranges, grad_db and glctx.output_db, peel)
-    record_origin(rast, glctx)  # interpolate and antialias run on its device
+    kept = []
+    rast, db = _RasterizeFunc.apply(glctx, pos, tri, resolution, ranges, grad_db and glctx.output_db, peel, kept)
+    # interpolate and antialias run on its device, reading the G-buffers kept there while these are unchanged.
+    handles = kept[0]
+    record_origin(rast, glctx, None if handles is None else KeptGBuffers(handles, rast=rast, rast_db=db, pos=pos,
+                                                                         tri=tri))
     if not glctx.output_db:  # RasterizeGLContext(output_db=False), as nvdiffrast's
         db = db.new_zeros(db.shape[:3] + (0,))
     return rast, db
+
+
+def _kept(rast, **reads):
+    """The handles of the G-buffers rast's rasterize kept on its device if rast and the tensors the call reads
+    (name=tensor, as rasterize named them) are unchanged since (_resident.py), else None."""
+    kept = kept_gbuffers(rast)
+    return kept.handles_for(rast=rast, **reads) if kept is not None else None
 
 
 def _identity(t):
@@ -367,14 +396,14 @@ def _interpolate_args(attr, rast, tri, rast_db, diff):
 
 class _InterpolateFunc(torch.autograd.Function):
     @staticmethod
-    def forward(ctx, attr, rast, tri, rast_db, diff, device):
+    def forward(ctx, attr, rast, tri, rast_db, diff, device, kept):
         args = _interpolate_args(attr, rast, tri, rast_db, diff)
         images, h, w = rast.shape[:3]
         out = attr.new_empty((images, h, w, attr.shape[-1]))
         out_da = attr.new_empty((images, h, w, 2 * len(diff)))
-        _core.interpolate_forward(device, *args, out, out_da if diff else None, _threads())
+        _core.interpolate_forward(device, *args, out, out_da if diff else None, _threads(), kept)
         ctx.save_for_backward(attr, rast, tri, rast_db)
-        ctx.diff, ctx.device = diff, device
+        ctx.diff, ctx.device, ctx.kept = diff, device, kept
         return out, out_da
 
     @staticmethod
@@ -387,8 +416,8 @@ class _InterpolateFunc(torch.autograd.Function):
         g_rast = torch.zeros_like(rast) if need_rast else None
         g_db = torch.zeros_like(rast_db) if need_db and rast_db is not None else None
         _core.interpolate_backward(ctx.device, *args, _d(dy.contiguous()), _d(dda.contiguous()) if ctx.diff else None,
-                                   g_attr, g_rast, g_db, _threads())
-        return g_attr, g_rast, None, g_db, None, None
+                                   g_attr, g_rast, g_db, _threads(), ctx.kept)
+        return g_attr, g_rast, None, g_db, None, None, None
 
 
 def interpolate(attr, rast, tri, rast_db=None, diff_attrs=None):
@@ -407,7 +436,9 @@ def interpolate(attr, rast, tri, rast_db=None, diff_attrs=None):
     if diff and rast_db is None:
         raise ValueError("'diff_attrs' needs 'rast_db' (the second output of rasterize)")
     glctx = origin(rast)  # rasterize's context: its device runs this call, and texture on out
-    out, out_da = _InterpolateFunc.apply(attr, rast, tri, rast_db if diff else None, diff, _device(glctx))
+    rast_db = rast_db if diff else None
+    out, out_da = _InterpolateFunc.apply(attr, rast, tri, rast_db, diff, _device(glctx),
+                                         _kept(rast, tri=tri, rast_db=rast_db))
     if glctx is not None:
         record_origin(out, glctx)
         record_origin(out_da, glctx)
@@ -458,12 +489,14 @@ _ANTIALIAS_SCRATCH = _core.Context()
 
 class _AntialiasFunc(torch.autograd.Function):
     @staticmethod
-    def forward(ctx, color, rast, pos, tri, topology, boost, visibility, device):
+    def forward(ctx, color, rast, pos, tri, topology, boost, visibility, device, kept):
         mesh = _antialias_mesh(color, rast, pos, tri)
         out = torch.empty_like(color)
-        # rast's context's device (with its scratch), else the CPU kernels with the module's scratch.
+        # rast's context's device (with its scratch), else the CPU kernels with the module's scratch. The state
+        # keeps the G-buffers' handles for the backward.
         scratch = device if device is not None else _ANTIALIAS_SCRATCH
-        state = _core.antialias_forward(scratch, *mesh, topology, _d(color), _d(rast), out, visibility, _threads())
+        state = _core.antialias_forward(scratch, *mesh, topology, _d(color), _d(rast), out, visibility, _threads(),
+                                        kept)
         ctx.save_for_backward(color, rast, pos, tri)
         ctx.topology, ctx.state, ctx.boost, ctx.scratch = topology, state, boost, scratch
         return out
@@ -478,7 +511,7 @@ class _AntialiasFunc(torch.autograd.Function):
         g_pos = torch.zeros_like(pos) if need_pos else None
         _core.antialias_backward(ctx.scratch, *mesh, ctx.topology, ctx.state, _d(color), _d(rast),
                                  _d(dy.contiguous()), g_color, g_pos, ctx.boost, _threads())
-        return g_color, None, g_pos, None, None, None, None, None
+        return g_color, None, g_pos, None, None, None, None, None, None
 
 
 def _apply_antialias(color, rast, pos, tri, topology_hash, pos_gradient_boost, visibility):
@@ -491,7 +524,7 @@ def _apply_antialias(color, rast, pos, tri, topology_hash, pos_gradient_boost, v
     elif not isinstance(topology_hash, _core.Topology):
         raise TypeError("'topology_hash' must come from antialias_construct_topology_hash(tri)")
     return _AntialiasFunc.apply(color, rast, pos, tri, topology_hash, float(pos_gradient_boost), visibility,
-                                _device(origin(rast)))
+                                _device(origin(rast)), _kept(rast, pos=pos, tri=tri))
 
 
 def antialias(color, rast, pos, tri, topology_hash=None, pos_gradient_boost=1.0):

@@ -7,13 +7,17 @@
 // vulkan) gives the CPU run's loss and IoU exactly (its gradients come out bit
 // for bit the CPU's here: the fixed-point sums round to the CPU's double
 // sums), and gradraster-render --device vulkan writes the CPU run's files
-// byte for byte. The whole chain on hard scenes:
+// byte for byte. A G-buffer made with row 0 at the bottom (the Python
+// binding's) is read from the device by interpolate, and reserve_frames lets
+// a backend keep more G-buffers at once. The whole chain on hard scenes:
 // test_vulkan_backend_chain.cpp.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cstring>
 #include <fstream>
 #include <iterator>
+#include <memory>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -158,4 +162,90 @@ TEST_CASE("gradraster-render --device vulkan writes the CPU run's image and G-bu
     CHECK(bytes(std::string("vulkan") + ext) == bytes(std::string("cpu") + ext));
     CHECK(!bytes(std::string("cpu") + ext).empty());
   }
+}
+
+namespace {
+
+// One image's G-buffer made by `backend` with row 0 at the bottom (y_up, as
+// the Python binding's), as rast (u, v, z/w, id) and db, and its handle.
+struct KeptImage {
+  std::vector<std::int32_t> tri_id;
+  std::vector<float> uv, depth, rast, db;
+  std::shared_ptr<const raster::DeviceGBuffer> handle;
+};
+
+KeptImage keep_y_up(const raster::RasterBackend& backend, const Scene& s, int W, int H) {
+  raster::RasterParams<float> p = s.params(W, H);
+  p.settings.y_up = true;
+  const std::size_t px = static_cast<std::size_t>(W) * H;
+  KeptImage k{std::vector<std::int32_t>(px), std::vector<float>(2 * px), std::vector<float>(px),
+              std::vector<float>(4 * px), std::vector<float>(4 * px), nullptr};
+  k.handle = backend.rasterize_gbuffer(p, k.tri_id.data(), k.uv.data(), k.depth.data(), k.db.data(), nullptr);
+  for (std::size_t q = 0; q < px; ++q) {
+    if (!k.tri_id[q]) continue;
+    const float values[] = {k.uv[2 * q], k.uv[2 * q + 1], k.depth[q], float(k.tri_id[q])};
+    std::copy(values, values + 4, k.rast.begin() + 4 * q);
+  }
+  return k;
+}
+
+// interpolate_forward of attr (3 channels, all differentiated) on k's
+// handle: on `backend` (out, then out_da appended), or the CPU kernel.
+std::vector<float> interpolate_kept(const raster::RasterBackend* backend, const Scene& s, const KeptImage& k,
+                                    const std::vector<float>& attr, int W, int H) {
+  const std::int32_t diff[] = {0, 1, 2};
+  raster::BarycentricInterpolateParams<float> p;
+  p.attr = attr.data();
+  p.num_vertices = static_cast<std::int64_t>(s.clip.size() / 4);
+  p.channels = 3;
+  p.tris = s.tris.data();
+  p.num_tris = static_cast<std::int64_t>(s.tris.size() / 3);
+  p.rast = k.rast.data();
+  p.pixels = std::int64_t(W) * H;
+  p.rast_db = k.db.data();
+  p.diff = diff;
+  p.num_diff = 3;
+  p.tri_id = k.tri_id.data();
+  std::vector<float> out(static_cast<std::size_t>(9 * p.pixels));
+  float* out_da = out.data() + 3 * p.pixels;
+  if (backend)
+    REQUIRE(backend->interpolate_forward(*k.handle, p, W, H, out.data(), out_da));
+  else
+    raster::barycentric_interpolate_forward(p, out.data(), out_da);
+  return out;
+}
+
+}  // namespace
+
+TEST_CASE("interpolate reads a G-buffer made with row 0 at the bottom from the device, with the CPU's values",
+          "[vulkan]") {
+  if (!shared_gpu()) return;
+  const Scene s = random_soup(60, 8);
+  const std::vector<float> attr = random_values(s.clip.size() / 4 * 3, 9);
+  const auto backend = vulkan::raster_backend(shared_gpu());
+  const KeptImage k = keep_y_up(*backend, s, 40, 32);
+  REQUIRE(k.handle);
+  CHECK(relative_error(interpolate_kept(backend.get(), s, k, attr, 40, 32),
+                       interpolate_kept(nullptr, s, k, attr, 40, 32)) <= 1e-6);
+  const vulkan::ResidencyStats stats = vulkan::residency_stats(*backend);
+  CHECK(stats.resident_calls == 1);
+  CHECK(stats.uploads == 0);
+}
+
+TEST_CASE("reserve_frames lets a backend keep more G-buffers at once, never fewer", "[vulkan]") {
+  if (!shared_gpu()) return;
+  const std::vector<Scene> scenes = {random_soup(40, 10), random_soup(40, 11), random_soup(40, 12)};
+  const std::vector<float> attr = random_values(scenes[0].clip.size() / 4 * 3, 13);
+  const auto backend = vulkan::raster_backend(shared_gpu(), 1);
+  vulkan::reserve_frames(*backend, 3);
+  vulkan::reserve_frames(*backend, 2);  // no shrinking
+  std::vector<KeptImage> kept;
+  for (const Scene& s : scenes) kept.push_back(keep_y_up(*backend, s, 24, 24));
+  for (std::size_t i = 0; i < scenes.size(); ++i)
+    CHECK(relative_error(interpolate_kept(backend.get(), scenes[i], kept[i], attr, 24, 24),
+                         interpolate_kept(nullptr, scenes[i], kept[i], attr, 24, 24)) <= 1e-6);
+  const vulkan::ResidencyStats stats = vulkan::residency_stats(*backend);
+  CHECK(stats.frames == 3);
+  CHECK(stats.resident_calls == 3);
+  CHECK(stats.uploads == 0);
 }

@@ -46,6 +46,22 @@ TEST_CASE("a frame pool keeps the G-buffers still held and lets the least recent
   CHECK(pool.find(0) == nullptr);
 }
 
+TEST_CASE("a frame pool reserved for more frames makes them before letting a held one go", "[vulkan]") {
+  if (!shared_gpu()) return;
+  vulkan::FramePool pool(shared_gpu(), 1);
+  auto a = std::make_shared<int>(1), b = std::make_shared<int>(2);
+  vulkan::Frame& fa = pool.take();
+  pool.tag(fa, 1, a);
+  pool.reserve(2);
+  pool.reserve(1);  // never fewer
+  CHECK(pool.capacity() == 2);
+  vulkan::Frame& fb = pool.take();
+  pool.tag(fb, 2, b);
+  CHECK(&fb != &fa);
+  CHECK(pool.find(1) == &fa);
+  CHECK(pool.find(2) == &fb);
+}
+
 TEST_CASE("a frame pool refuses a capacity below one, naming it", "[vulkan]") {
   if (!shared_gpu()) return;
   CHECK_THROWS_WITH(vulkan::FramePool(shared_gpu(), 0), Catch::Contains("capacity"));

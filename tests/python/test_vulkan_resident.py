@@ -1,0 +1,168 @@
+"""RasterizeVulkanContext keeps rasterize's G-buffers on the device: interpolate, antialias and the rasterize backward
+read the device's copy (no upload of rast) while rast, rast_db, pos and tri are the very tensors rasterize made or
+read, unwritten since, and upload them otherwise (a tensor written in place or a copy, a G-buffer the pool let go),
+with the CPU context's values within 1e-6 and gradients within 1e-5 either way, and the same bits uploaded or not
+(glctx.residency counts the uploads).
+The pool grows to the largest minibatch unless `frames` fixes it. Skipped where there is no Vulkan device."""
+import pytest
+import torch
+
+import gradraster.torch as dr
+
+from test_vulkan_context import assert_grads_close, assert_values_close, grid_mesh, leaf, vulkan_context
+
+RESOLUTION = (32, 40)
+
+
+def chain(glctx, pos, tri, attr, change=None):
+    """rasterize -> interpolate (diff_attrs) -> antialias -> backward; `change` alters an input of interpolate and
+    antialias after rasterize (pos then takes no gradient). Returns the outputs and gradients."""
+    p, a = (pos.clone() if change else leaf(pos)), leaf(attr)
+    rast, db = dr.rasterize(glctx, p, tri, RESOLUTION)
+    t, d, q = tri, db, p
+    with torch.no_grad():
+        if change == 'rast written':
+            rast[..., :2] *= 0.75
+        elif change == 'pos written':
+            p[..., 0] += 0.01
+        elif change == 'rast_db copied':
+            d = db.clone()
+        elif change == 'pos copied':
+            q = p.clone()
+        elif change == 'tri copied':
+            t = tri.clone()
+    out, da = dr.interpolate(a, rast, t, rast_db=d, diff_attrs='all')
+    image = dr.antialias(out, rast, q, t)
+    (image.square().sum() + da.square().sum()).backward()
+    grads = [a.grad] + ([] if change else [p.grad])
+    return [rast, db, out, da, image], grads
+
+
+def compare(gpu, cpu):
+    (values_g, grads_g), (values_c, grads_c) = gpu, cpu
+    assert torch.equal(values_g[0], values_c[0]) and torch.equal(values_g[1], values_c[1])  # rast, rast_db
+    for name, g, c in zip(('out', 'out_da', 'antialiased'), values_g[2:], values_c[2:]):
+        assert_values_close(g, c, name)
+    for name, g, c in zip(('attr gradient', 'pos gradient'), grads_g, grads_c):
+        assert_grads_close(g, c, name)
+
+
+def scene(images):
+    pos, tri = grid_mesh(20 + images, images=images)
+    return pos, tri, torch.rand(pos.shape[1], 3, generator=torch.Generator().manual_seed(images))
+
+
+def test_the_chain_reads_the_kept_gbuffers_with_no_upload_and_gives_the_cpu_contexts_values_and_gradients():
+    pos, tri, attr = scene(2)
+    ctx = vulkan_context()
+    compare(chain(ctx, pos, tri, attr), chain(dr.RasterizeCpuContext(), pos, tri, attr))
+    # Per image: interpolate, antialias and their adjoints, the rasterize adjoint.
+    assert ctx.residency == {'gbuffers': 2, 'resident_calls': 2 * 5, 'uploads': 0, 'frames': 2}
+    assert ctx.device_calls == 2 * 6
+
+
+# Per image, the calls that upload: interpolate's two when rast, rast_db or tri changed, antialias's two when rast,
+# pos or tri did.
+CHANGES = {'rast written': 4, 'pos written': 2, 'rast_db copied': 2, 'pos copied': 2, 'tri copied': 4}
+
+
+@pytest.mark.parametrize('change', CHANGES)
+def test_a_tensor_written_in_place_or_copied_after_rasterize_is_uploaded_with_the_same_results(change):
+    pos, tri, attr = scene(2)
+    ctx = vulkan_context()
+    compare(chain(ctx, pos, tri, attr, change), chain(dr.RasterizeCpuContext(), pos, tri, attr, change))
+    stats = ctx.residency
+    assert stats['uploads'] == 2 * CHANGES[change]
+    assert stats['resident_calls'] == 2 * (4 - CHANGES[change])
+    assert ctx.device_calls == 2 * 5  # all on the device: rasterize, interpolate, antialias, their adjoints
+
+
+def test_the_pool_grows_to_the_largest_minibatch_so_none_is_uploaded():
+    pos, tri, attr = scene(6)
+    ctx = vulkan_context()
+    compare(chain(ctx, pos, tri, attr), chain(dr.RasterizeCpuContext(), pos, tri, attr))
+    assert ctx.residency == {'gbuffers': 6, 'resident_calls': 6 * 5, 'uploads': 0, 'frames': 6}
+
+
+def test_a_minibatch_larger_than_a_fixed_pool_is_uploaded_with_the_same_results():
+    pos, tri, attr = scene(5)
+    resident = chain(vulkan_context(), pos, tri, attr)
+    ctx = dr.RasterizeVulkanContext(frames=2)
+    uploaded = chain(ctx, pos, tri, attr)
+    compare(uploaded, chain(dr.RasterizeCpuContext(), pos, tri, attr))
+    stats = ctx.residency
+    assert stats['frames'] == 2 and stats['uploads'] > 0
+    assert stats['uploads'] + stats['resident_calls'] == 5 * 5
+    # The device's results are the same bits whether it read its copy or the uploaded tensors.
+    for r, u in zip(resident[0] + resident[1], uploaded[0] + uploaded[1]):
+        assert torch.equal(r, u)
+
+
+def test_the_backward_reads_the_gbuffers_after_a_later_rasterize_while_the_pool_holds_them():
+    pos, tri, attr = scene(2)
+    ctx = vulkan_context()
+    a = leaf(attr)
+    images = []
+    for k in range(2):  # two renders alive at once (4 frames): each backward reads its own
+        p = pos * (1 + 0.1 * k)
+        rast, db = dr.rasterize(ctx, p, tri, RESOLUTION)
+        out, da = dr.interpolate(a, rast, tri, rast_db=db, diff_attrs=[0])
+        images.append(dr.antialias(out, rast, p, tri))
+    sum(i.sum() for i in images).backward()
+    assert ctx.residency == {'gbuffers': 4, 'resident_calls': 4 * 4, 'uploads': 0, 'frames': 4}
+
+
+def test_depth_peeled_layers_keep_their_gbuffers_on_the_device():
+    pos, tri, attr = scene(2)
+    ctx = vulkan_context()
+    p, a = leaf(pos), leaf(attr)
+    images = []
+    with dr.DepthPeeler(ctx, p, tri, RESOLUTION) as peeler:
+        for _ in range(2):
+            rast, db = peeler.rasterize_next_layer()
+            out, _ = dr.interpolate(a, rast, tri, rast_db=db, diff_attrs='all')
+            images.append(dr.antialias(out, rast, p, tri))
+    sum(i.square().sum() for i in images).backward()
+    assert ctx.residency == {'gbuffers': 4, 'resident_calls': 4 * 5, 'uploads': 0, 'frames': 4}
+
+
+def test_a_range_of_all_triangles_is_kept_and_a_range_of_some_is_uploaded():
+    pos, tri, attr = scene(1)
+    flat = pos[0]
+    for ranges, uploads in (([[0, tri.shape[0]]] * 2, 0), ([[0, 40], [30, 42]], 2 * 5)):
+        ranges = torch.tensor(ranges, dtype=torch.int32)
+        runs = []
+        ctx = vulkan_context()
+        for glctx in (ctx, dr.RasterizeCpuContext()):
+            p, a = leaf(flat), leaf(attr)
+            rast, db = dr.rasterize(glctx, p, tri, RESOLUTION, ranges=ranges)
+            out, da = dr.interpolate(a, rast, tri, rast_db=db, diff_attrs='all')
+            image = dr.antialias(out, rast, p, tri)
+            (image.square().sum() + da.square().sum()).backward()
+            runs.append(([rast, db, out, da, image], [a.grad, p.grad]))
+        compare(*runs)
+        assert ctx.residency['uploads'] == uploads
+        assert ctx.residency['uploads'] + ctx.residency['resident_calls'] == 2 * 5
+
+
+def test_frames_must_be_none_or_a_positive_integer():
+    vulkan_context()
+    with pytest.raises(ValueError, match="'frames' must be at least 1"):
+        dr.RasterizeVulkanContext(frames=0)
+    with pytest.raises(TypeError, match="'frames'"):
+        dr.RasterizeVulkanContext(frames=2.0)
+
+
+
+@pytest.mark.parametrize('written', ['rast', 'tri'])
+def test_a_tensor_written_between_a_forward_and_its_backward_is_refused_so_the_backward_never_reads_a_stale_copy(
+        written):
+    pos, tri, attr = scene(1)
+    tri = tri.clone()
+    a = leaf(attr)
+    rast, db = dr.rasterize(vulkan_context(), pos, tri, RESOLUTION)
+    out, _ = dr.interpolate(a, rast, tri, rast_db=db, diff_attrs='all')
+    with torch.no_grad():
+        {'rast': rast, 'tri': tri}[written].add_(0)
+    with pytest.raises(RuntimeError, match='modified by an inplace operation'):
+        out.sum().backward()
