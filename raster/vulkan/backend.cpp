@@ -7,6 +7,7 @@
 // frame first (Frame::load_gbuffer).
 #include "raster/vulkan/backend.h"
 
+#include <atomic>
 #include <mutex>
 #include <string>
 #include <vector>
@@ -20,6 +21,10 @@
 
 namespace gr::vulkan {
 namespace {
+
+// G-buffer serials, unique in the process: a handle outliving its backend
+// never matches a frame of another backend made at the same address.
+std::atomic<std::uint64_t> g_serial{0};
 
 // A G-buffer a VulkanBackend keeps: its frame's tag in the backend's pool and
 // what the calls on it must describe.
@@ -74,7 +79,7 @@ class VulkanBackend : public raster::RasterBackend {
     }
     auto kept = std::make_shared<VulkanGBuffer>();
     kept->owner = this;
-    kept->serial = ++serial_;
+    kept->serial = ++g_serial;
     kept->width = p.settings.width;
     kept->height = p.settings.height;
     kept->num_vertices = p.num_vertices;
@@ -246,7 +251,6 @@ class VulkanBackend : public raster::RasterBackend {
   // The G-buffer chain's frames and what they did; one call at a time.
   mutable std::mutex mutex_;
   mutable FramePool pool_;
-  mutable std::uint64_t serial_ = 0;
   mutable ResidencyStats stats_;
   mutable std::vector<float> zero_clip_, rast_;
   // The calls without a handle: one no frame is tagged for.
