@@ -5,6 +5,10 @@
 
 #include "raster/detail/rasterize_scan.h"
 
+#ifdef __AVX__
+#include <immintrin.h>
+#endif
+
 namespace gr::raster::detail {
 namespace {
 
@@ -31,6 +35,14 @@ Vd load(const double* p) {
 Vd vmin(Vd a, Vd b) { return b < a ? b : a; }
 Vd vmax(Vd a, Vd b) { return a < b ? b : a; }
 Vd as_flag(Vm m) { return m ? splat(1.0) : splat(0.0); }
+// Whether any lane of the mask is set.
+bool any(Vm m) {
+#ifdef __AVX__
+  return !_mm256_testz_si256(__m256i(m), __m256i(m));
+#else
+  return (m[0] | m[1]) != 0;
+#endif
+}
 
 // classify_triangle's pixel_range: the index range [lo, hi] of the pixel
 // centres in [a, b] (clamped to [-2, n + 2]: exact floor / ceil by truncation
@@ -106,10 +118,7 @@ void classify_lanes(const Vertices& v, const std::int32_t* tris, std::int64_t t0
     // a few pixels) leave the centres to the tiles' scan: a vector of only
     // those skips them and keeps no slot (issue 31).
     Vm slots = Vm{};
-    const Vm small = area <= double(kMaxFragmentBox);
-    bool any_small = false;
-    for (int j = 0; j < kWidth; ++j) any_small |= small[j] != 0;
-    if (any_small) {
+    if (any(area <= double(kMaxFragmentBox))) {
       const Vd sign = a2 > 0.0 ? splat(1.0) : splat(-1.0);
       const LaneEdge e0 = lane_edge(x1, y1, i1, x2, y2, i2, sign);
       const LaneEdge e1 = lane_edge(x2, y2, i2, x0, y0, i0, sign);
