@@ -179,8 +179,11 @@ void antialias_forward(const AntialiasParams<T>& prm, T* out, std::vector<Antial
     // Front: smaller (depth, id) key; background (id 0) is behind everything.
     const bool p_front = iq == 0 || (ip != 0 && (depth[p] < depth[q] || (depth[p] == depth[q] && ip < iq)));
     const std::int64_t in = p_front ? p : q, outp = p_front ? q : p;
-    const double cix = double(in % W) + 0.5, ciy = double(in / W) + 0.5;
-    const double cox = double(outp % W) + 0.5, coy = double(outp / W) + 0.5;
+    // Pixel centres (q is p's right or lower neighbour: one division).
+    const std::int64_t py = p / W, px = p - py * W;
+    const std::int64_t qx = horizontal ? px + 1 : px, qy = horizontal ? py : py + 1;
+    const double cix = double(p_front ? px : qx) + 0.5, ciy = double(p_front ? py : qy) + 0.5;
+    const double cox = double(p_front ? qx : px) + 0.5, coy = double(p_front ? qy : py) + 0.5;
     const detail::WalkEnd e =
         detail::walk_surface(v, tris, topology, W, H, (p_front ? ip : iq) - 1, -1, cix, ciy, cox, coy, nullptr, &sides);
     if (e.kind != detail::WalkEnd::Kind::Silhouette) return;
