@@ -132,7 +132,7 @@ std::vector<double> ViewGradients::reduce(Communicator& comm) {
   // Where each view's record is.
   std::vector<const double*> record_of(static_cast<std::size_t>(views_), nullptr);
   if (alone) {
-    for (const int v : taken_views_) record_of[static_cast<std::size_t>(v)] = records_[static_cast<std::size_t>(v)].data();
+    for (const int v : taken_views_) record_of[v] = records_[v].data();
   } else {
     const std::vector<double>& all = gathered_;
     if (all.size() % record != 0)

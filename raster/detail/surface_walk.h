@@ -137,7 +137,7 @@ class SurfaceSides {
   void set_edge(std::int64_t e, int side) { store(edge_[e], side); }
 
  private:
-  // Stored as side + 1 (0: unknown, the value-initialized state).
+  // Stored as side + 2 (0: unknown, the value-initialized state).
   static int load(const std::atomic<std::int8_t>& a) {
     const int s = a.load(std::memory_order_relaxed);
     return s == 0 ? kUnknown : s - 2;

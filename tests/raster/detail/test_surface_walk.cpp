@@ -53,8 +53,8 @@ TEST_CASE("surface walk: a memo of the surface sides gives the ends and paths of
   for (int j = 0; j < n; ++j)
     for (int i = 0; i < n; ++i) {
       const float w = wj(rng);
-      clip.insert(clip.end(), {(-0.9f + 1.8f * i / (n - 1) + jitter(rng)) * w, (-0.9f + 1.8f * j / (n - 1) + jitter(rng)) * w,
-                               0.f, w});
+      const float x = -0.9f + 1.8f * i / (n - 1) + jitter(rng), y = -0.9f + 1.8f * j / (n - 1) + jitter(rng);
+      clip.insert(clip.end(), {x * w, y * w, 0.f, w});
     }
   std::vector<std::int32_t> tris;
   for (int j = 0; j + 1 < n; ++j)
