@@ -65,6 +65,7 @@ ViewGradients::ViewGradients(std::vector<Tensor> params, int views, int values_p
     if (!p.requires_grad() || !p.is_leaf()) throw ValueError(name + " must be a leaf that requires grad");
     gradient_length_ += static_cast<std::size_t>(p.numel());
   }
+  records_.resize(static_cast<std::size_t>(views));
 }
 
 void ViewGradients::take(int view, const std::vector<double>& values) { take(view, params_, values); }
@@ -90,51 +91,69 @@ void ViewGradients::take(int view, const std::vector<Tensor>& leaves, const std:
       throw ShapeError("ViewGradients::take: view " + std::to_string(view) + "'s leaves[" + std::to_string(i) +
                        "] is " + leaves[i].describe() + ", expected the shape and dtype of " + params_[i].describe());
 
-  // [view index, values..., gradients...], built outside the lock.
-  std::vector<double> record{double(view)};
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (std::find(taken_views_.begin(), taken_views_.end(), view) != taken_views_.end())
+      throw ValueError("ViewGradients::take: view " + std::to_string(view) + " was taken twice");
+    taken_views_.push_back(view);
+  }
+  // [view index, values..., gradients...] into the view's own buffer, outside
+  // the lock (no other take writes it), copied once.
+  std::vector<double>& record = records_[static_cast<std::size_t>(view)];
+  record.assign(1, double(view));
   record.reserve(1 + values.size() + gradient_length_);
   record.insert(record.end(), values.begin(), values.end());
   for (const Tensor& leaf : leaves) {
     const std::size_t at = record.size(), n = static_cast<std::size_t>(leaf.numel());
-    record.resize(at + n, 0.0);
-    if (!leaf.has_grad()) continue;
+    if (!leaf.has_grad()) {
+      record.resize(at + n, 0.0);
+      continue;
+    }
     const Tensor g = leaf.grad();
     dispatch_float(g.dtype(), "ViewGradients::take", [&](auto tag) {
       using T = decltype(tag);
-      std::copy_n(g.data<T>(), n, record.data() + at);  // exact: float32 -> float64
+      const T* src = g.data<T>();
+      record.insert(record.end(), src, src + n);  // exact: float32 -> float64
     });
     Tensor(leaf).zero_grad();
   }
-  std::lock_guard<std::mutex> lock(mutex_);
-  if (std::find(taken_views_.begin(), taken_views_.end(), view) != taken_views_.end())
-    throw ValueError("ViewGradients::take: view " + std::to_string(view) + " was taken twice");
-  taken_views_.push_back(view);
-  taken_.insert(taken_.end(), record.begin(), record.end());
 }
 
 std::vector<double> ViewGradients::reduce(Communicator& comm) {
-  comm.all_gather(taken_, gathered_);
-  const std::vector<double>& all = gathered_;
+  // One process: its records are all of them, read in place (copying them
+  // was a fixed cost of every iteration, issue 31); else they are gathered.
+  const bool alone = comm.size() == 1;
+  if (!alone) {
+    taken_.clear();
+    for (const int v : taken_views_) taken_.insert(taken_.end(), records_[v].begin(), records_[v].end());
+    comm.all_gather(taken_, gathered_);
+  }
   const std::size_t values = values_per_view_, record = 1 + values + gradient_length_;
-  if (all.size() % record != 0)
-    throw ValueError("ViewGradients::reduce: the processes' records do not match (different params or values per view)");
-  // Where each view's record sits in `all`.
-  std::vector<std::size_t> where(static_cast<std::size_t>(views_), all.size());
-  for (std::size_t at = 0; at < all.size(); at += record) {
-    const double v = all[at];
-    if (!(v >= 0 && v < views_) || where[static_cast<std::size_t>(v)] != all.size())
-      throw ValueError("ViewGradients::reduce: view " + std::to_string(v) + " was taken by two processes or is invalid");
-    where[static_cast<std::size_t>(v)] = at;
+  // Where each view's record is.
+  std::vector<const double*> record_of(static_cast<std::size_t>(views_), nullptr);
+  if (alone) {
+    for (const int v : taken_views_) record_of[v] = records_[v].data();
+  } else {
+    const std::vector<double>& all = gathered_;
+    if (all.size() % record != 0)
+      throw ValueError(
+          "ViewGradients::reduce: the processes' records do not match (different params or values per view)");
+    for (std::size_t at = 0; at < all.size(); at += record) {
+      const double v = all[at];
+      if (!(v >= 0 && v < views_) || record_of[static_cast<std::size_t>(v)])
+        throw ValueError("ViewGradients::reduce: view " + std::to_string(v) +
+                         " was taken by two processes or is invalid");
+      record_of[static_cast<std::size_t>(v)] = all.data() + at;
+    }
   }
   for (int v = 0; v < views_; ++v)
-    if (where[v] == all.size())
-      throw ValueError("ViewGradients::reduce: no process took view " + std::to_string(v));
+    if (!record_of[v]) throw ValueError("ViewGradients::reduce: no process took view " + std::to_string(v));
 
   // Sums in view order, float64.
   std::vector<double>& sum = sum_;
   sum.assign(values + gradient_length_, 0.0);
   for (int v = 0; v < views_; ++v) {
-    const double* rec = all.data() + where[v] + 1;
+    const double* rec = record_of[v] + 1;
     for (std::size_t i = 0; i < sum.size(); ++i) sum[i] += rec[i];
   }
   std::size_t at = values;

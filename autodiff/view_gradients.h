@@ -116,10 +116,13 @@ class ViewGradients {
   int views_;
   std::size_t values_per_view_;
   std::size_t gradient_length_ = 0;  // sum of the params' element counts
-  // Per taken view: [view index, values..., gradients...] (the gathered layout).
+  // records_[v]: view v's [view index, values..., gradients...], written by
+  // take (each view's own buffer, reused across iterations); taken_ their
+  // concatenation in take order, for the other processes.
+  std::vector<std::vector<double>> records_;
   std::vector<double> taken_, gathered_, sum_;
   std::vector<int> taken_views_;
-  std::mutex mutex_;  // guards taken_ and taken_views_ (take from several threads)
+  std::mutex mutex_;  // guards taken_views_ (take from several threads)
 };
 
 }  // namespace gr

@@ -29,6 +29,8 @@ using detail::safe_inv;
 // visibility_antialias.
 using detail::edge_fn;
 
+detail::ScratchPool<detail::Vertices> g_vertex_pool;
+
 }  // namespace
 
 // ---------------------------------------------------------------------------
@@ -156,7 +158,12 @@ void antialias_forward(const AntialiasParams<T>& prm, T* out, std::vector<Antial
   const EdgeTopology& topology = *prm.topology;
   const int W = prm.width, H = prm.height, C = prm.channels;
   const std::int64_t P = static_cast<std::int64_t>(W) * H;
-  const detail::Vertices v = detail::project_vertices(prm.clip, prm.num_vertices, W, H, prm.y_up);
+  // The projection's buffers are reused across calls (issue 31: allocating
+  // and zeroing them was a fixed cost of every view).
+  detail::ScratchPool<detail::Vertices>::Lease projected = g_vertex_pool.take();
+  detail::project_vertices_into(prm.clip, prm.num_vertices, W, H, &*projected, prm.y_up);
+  const detail::Vertices& v = *projected;
+  detail::SurfaceSides sides(prm.num_tris);
 
   // Unchanged pixels: a plain copy.
   parallel_for(0, P * C, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
@@ -172,10 +179,13 @@ void antialias_forward(const AntialiasParams<T>& prm, T* out, std::vector<Antial
     // Front: smaller (depth, id) key; background (id 0) is behind everything.
     const bool p_front = iq == 0 || (ip != 0 && (depth[p] < depth[q] || (depth[p] == depth[q] && ip < iq)));
     const std::int64_t in = p_front ? p : q, outp = p_front ? q : p;
-    const double cix = double(in % W) + 0.5, ciy = double(in / W) + 0.5;
-    const double cox = double(outp % W) + 0.5, coy = double(outp / W) + 0.5;
-    const detail::WalkEnd e =
-        detail::walk_surface(v, tris, topology, W, H, (p_front ? ip : iq) - 1, -1, cix, ciy, cox, coy);
+    // Pixel centres (q is p's right or lower neighbour: one division).
+    const std::int64_t py = p / W, px = p - py * W;
+    const std::int64_t qx = horizontal ? px + 1 : px, qy = horizontal ? py : py + 1;
+    const double cix = double(p_front ? px : qx) + 0.5, ciy = double(p_front ? py : qy) + 0.5;
+    const double cox = double(p_front ? qx : px) + 0.5, coy = double(p_front ? qy : py) + 0.5;
+    const detail::WalkEnd e = detail::walk_surface(v, tris, topology, W, H, (p_front ? ip : iq) - 1, -1, cix, ciy,
+                                                   cox, coy, nullptr, &sides);
     if (e.kind != detail::WalkEnd::Kind::Silhouette) return;
     const double* sa = &v.screen[3 * static_cast<std::size_t>(e.a)];
     const double* sb = &v.screen[3 * static_cast<std::size_t>(e.b)];

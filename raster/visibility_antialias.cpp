@@ -124,6 +124,7 @@ void visibility_antialias_forward(const VisibilityAntialiasParams<T>& prm, T* ou
   const int W = prm.width, H = prm.height, C = prm.channels;
   const std::int64_t P = static_cast<std::int64_t>(W) * H;
   const Vertices v = detail::project_vertices(prm.clip, prm.num_vertices, W, H, prm.y_up);
+  detail::SurfaceSides sides(prm.num_tris);
 
   parallel_for(0, P * C, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
     std::copy(image + lo, image + hi, out + lo);
@@ -147,11 +148,11 @@ void visibility_antialias_forward(const VisibilityAntialiasParams<T>& prm, T* ou
     const double fx = centre_x(f, W), fy = centre_y(f, W), bx = centre_x(b, W), by = centre_y(b, W);
     // 1. The front surface, towards the other centre.
     detail::WalkPath path_f, path_b;
-    const WalkEnd wf = detail::walk_surface(v, tris, topology, W, H, tf, tb, fx, fy, bx, by, &path_f);
+    const WalkEnd wf = detail::walk_surface(v, tris, topology, W, H, tf, tb, fx, fy, bx, by, &path_f, &sides);
     if (wf.kind == WalkEnd::Kind::Silhouette) return edge_pair(f, b, wf, horizontal, found);
     if (wf.kind != WalkEnd::Kind::Continues || tb < 0) return;
     // 2. The front surface goes on under the other: follow the other back.
-    const WalkEnd wb = detail::walk_surface(v, tris, topology, W, H, tb, tf, bx, by, fx, fy, &path_b);
+    const WalkEnd wb = detail::walk_surface(v, tris, topology, W, H, tb, tf, bx, by, fx, fy, &path_b, &sides);
     if (wb.kind == WalkEnd::Kind::Silhouette) return edge_pair(b, f, wb, horizontal, found);
     if (wb.kind != WalkEnd::Kind::Continues) return;
     // 3. Both go on under each other: both are piecewise planar along the

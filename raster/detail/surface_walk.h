@@ -5,6 +5,7 @@
 // on at the other centre. Internal to raster/.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <vector>
 
@@ -118,6 +119,35 @@ struct WalkEnd {
   double t = 0;                 // Silhouette: crossing position in [0, 1)
 };
 
+// The surface sides a walk computes, memoized for one call's vertices and
+// triangles: per triangle (det[V1, V2, V0]) and per edge 3t + k (the
+// neighbour's side of t's edge k). Walks along a long edge cross it again and
+// again (issue 31); each side is computed once, on first use, by whichever
+// thread asks first. Relaxed atomics suffice: every thread computes the same
+// value with the same expression, so the results are those of no memo.
+class SurfaceSides {
+ public:
+  explicit SurfaceSides(std::int64_t num_tris)
+      : tri_(static_cast<std::size_t>(num_tris)), edge_(3 * static_cast<std::size_t>(num_tris)) {}
+  // side in {-1, 0, 1}; kUnknown until stored.
+  static constexpr int kUnknown = 2;
+  int tri(std::int64_t t) const { return load(tri_[t]); }
+  int edge(std::int64_t e) const { return load(edge_[e]); }
+  void set_tri(std::int64_t t, int side) { store(tri_[t], side); }
+  void set_edge(std::int64_t e, int side) { store(edge_[e], side); }
+
+ private:
+  // Stored as side + 2 (0: unknown, the value-initialized state).
+  static int load(const std::atomic<std::int8_t>& a) {
+    const int s = a.load(std::memory_order_relaxed);
+    return s == 0 ? kUnknown : s - 2;
+  }
+  static void store(std::atomic<std::int8_t>& a, int side) {
+    a.store(static_cast<std::int8_t>(side + 2), std::memory_order_relaxed);
+  }
+  std::vector<std::atomic<std::int8_t>> tri_, edge_;
+};
+
 // Walk from triangle `start` (covering centre ci) towards centre co:
 //   Silhouette  the surface ends at edge a-b (boundary, non-manifold, or the
 //               neighbour folds onto the same screen side) at t < 1;
@@ -126,9 +156,11 @@ struct WalkEnd {
 //   Lost        degenerate triangle or too many steps.
 // Edges with a vertex behind the near plane have no screen line and are
 // skipped (the segment is taken to leave through another edge).
-// If `path` is given it receives the triangles passed through.
+// If `path` is given it receives the triangles passed through. `sides`, if
+// given, must have been made for these vertices and triangles (it changes no
+// result, only how often a side is computed).
 WalkEnd walk_surface(const Vertices& v, const std::int32_t* tris, const EdgeTopology& topology, int width,
                      int height, std::int64_t start, std::int64_t target, double cix, double ciy, double cox,
-                     double coy, WalkPath* path = nullptr);
+                     double coy, WalkPath* path = nullptr, SurfaceSides* sides = nullptr);
 
 }  // namespace gr::raster::detail

@@ -1,8 +1,10 @@
 // The surface walk shared by antialias and visibility_antialias
 // (raster/detail/surface_walk.h): the walk's three outcomes on a two-triangle quad,
-// the neighbour-pair scan and the one-sided blend step.
+// the memo of surface sides, the neighbour-pair scan and the one-sided blend step.
 #include <catch2/catch.hpp>
 
+#include <cstring>
+#include <random>
 #include <vector>
 
 #include "raster/detail/surface_walk.h"
@@ -38,6 +40,58 @@ TEST_CASE("surface walk: crossing the shared diagonal reaches the other triangle
   // Both centres on the quad, target elsewhere: the surface continues.
   const WalkEnd on = walk_surface(q.v, q.tris.data(), q.topology, 10, 10, 0, 7, 6.5, 6.5, 3.5, 3.5);
   CHECK(on.kind == WalkEnd::Kind::Continues);
+}
+
+TEST_CASE("surface walk: a memo of the surface sides gives the ends and paths of no memo, bit for bit",
+          "[raster][antialias][surface_walk]") {
+  // A 9 x 9 vertex grid, jittered in x, y and w so that some triangles fold
+  // over (silhouettes inside the mesh), on a 24 x 24 screen.
+  std::mt19937 rng(31);
+  std::uniform_real_distribution<float> jitter(-0.12f, 0.12f), wj(0.8f, 1.2f);
+  const int n = 9, size = 24;
+  std::vector<float> clip;
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      const float w = wj(rng);
+      const float x = -0.9f + 1.8f * i / (n - 1) + jitter(rng), y = -0.9f + 1.8f * j / (n - 1) + jitter(rng);
+      clip.insert(clip.end(), {x * w, y * w, 0.f, w});
+    }
+  std::vector<std::int32_t> tris;
+  for (int j = 0; j + 1 < n; ++j)
+    for (int i = 0; i + 1 < n; ++i) {
+      const std::int32_t a = j * n + i, b = a + 1, c = a + n, d = c + 1;
+      tris.insert(tris.end(), {a, b, d, a, d, c});
+    }
+  const std::int64_t m = static_cast<std::int64_t>(tris.size() / 3);
+  const Vertices v = project_vertices(clip.data(), n * n, size, size);
+  const EdgeTopology topology = build_edge_topology(tris.data(), m, n * n);
+  SurfaceSides sides(m);
+  std::uniform_int_distribution<std::int64_t> tri(0, m - 1);
+  std::uniform_real_distribution<double> at(0.0, size);
+  int silhouettes = 0;
+  for (int round = 0; round < 2; ++round) {  // the second round reads what the first stored
+    std::mt19937 segments(7);
+    for (int k = 0; k < 2000; ++k) {
+      const std::int64_t start = tri(segments), target = k % 3 == 0 ? tri(segments) : -1;
+      const double cix = at(segments), ciy = at(segments), cox = at(segments), coy = at(segments);
+      WalkPath plain_path, memo_path;
+      const WalkEnd plain = walk_surface(v, tris.data(), topology, size, size, start, target, cix, ciy, cox, coy,
+                                         &plain_path);
+      const WalkEnd memo = walk_surface(v, tris.data(), topology, size, size, start, target, cix, ciy, cox, coy,
+                                        &memo_path, &sides);
+      REQUIRE(memo.kind == plain.kind);
+      REQUIRE(memo.a == plain.a);
+      REQUIRE(memo.b == plain.b);
+      REQUIRE(std::memcmp(&memo.t, &plain.t, sizeof plain.t) == 0);
+      REQUIRE(memo_path.count == plain_path.count);
+      for (int i = 0; i < plain_path.count; ++i) {
+        REQUIRE(memo_path.tri[i] == plain_path.tri[i]);
+        REQUIRE(std::memcmp(&memo_path.t[i], &plain_path.t[i], sizeof(double)) == 0);
+      }
+      silhouettes += plain.kind == WalkEnd::Kind::Silhouette;
+    }
+  }
+  CHECK(silhouettes > 100);  // the walks do end at silhouettes, not only at the centres
 }
 
 TEST_CASE("surface walk: the pair scan visits each differing right and lower neighbour once",
