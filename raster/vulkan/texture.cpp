@@ -88,14 +88,14 @@ TextureCall call_of(const raster::TextureParams<float>& p) {
 
 }  // namespace
 
-GpuTimes texture_forward(Device& device, const raster::TextureParams<float>& p, float* out) {
+GpuTimes texture_forward(Device& device, const raster::TextureParams<float>& p, float* out, KeptTexels* kept) {
   check_params(p, "vulkan texture");
   if (!out && p.num_samples > 0) throw ValueError("vulkan texture: out is missing");
-  return run_texture_forward(device, call_of(p), out);
+  return run_texture_forward(device, call_of(p), out, kept);
 }
 
 GpuTimes texture_backward(Device& device, const raster::TextureParams<float>& p, const float* grad_out,
-                          const raster::TextureGrads<float>& grads) {
+                          const raster::TextureGrads<float>& grads, KeptTexels* kept) {
   check_params(p, "vulkan texture backward");
   if (!grad_out && p.num_samples > 0) throw ValueError("vulkan texture backward: grad_out is missing");
   // What the CPU kernel writes (wanted_grads in raster/texture.cpp).
@@ -124,7 +124,7 @@ GpuTimes texture_backward(Device& device, const raster::TextureParams<float>& p,
       add_to(grads.tex, tex_grad, base_values);
       add_to(want_pyramid, tex_grad + base_values, converted - base_values);
     }
-  });
+  }, kept);
 }
 
 }  // namespace gr::vulkan
