@@ -198,6 +198,13 @@ class RasterizeVulkanContext(RasterizeCpuContext):
         "Vulkan")."""
         return dict(self.cpp_wrapper.residency)
 
+    @property
+    def texture_residency(self):
+        """What the device did with the textures' texels so far, a dict: 'uploads' (texture calls, per image, that
+        uploaded them), 'upload_bytes', 'resident_calls' (calls that read the copy kept on the device: a texture
+        backward reads its forward's) (docs/gpu.md, "What stays resident")."""
+        return dict(self.cpp_wrapper.texture_residency)
+
 
 # nvdiffrast's two context classes, by name, so that programs that name them
 # (in type annotations, isinstance checks or construction) run unchanged:
