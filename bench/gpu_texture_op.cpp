@@ -9,6 +9,7 @@
 // Usage: bench_gpu_texture_op [iterations=7]
 #include <algorithm>
 #include <chrono>
+#include <ctime>
 #include <cstdio>
 #include <cstdlib>
 #include <vector>
@@ -18,6 +19,13 @@
 #include "raster/vulkan/texture.h"
 
 using namespace gr;
+
+// The calling thread's CPU time, ms (its staging copies and host work; lavapipe runs on its own threads).
+double thread_ms() {
+  timespec t;
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return t.tv_sec * 1e3 + t.tv_nsec / 1e6;
+}
 
 int main(int argc, char** argv) {
   const int iterations = argc > 1 ? std::atoi(argv[1]) : 7;
@@ -36,7 +44,7 @@ int main(int argc, char** argv) {
   Tensor dy = Tensor::uniform({512, 512, 2}, -0.004, 0.004, 4).set_requires_grad();
   const Tensor w = Tensor::uniform({512, 512, 3}, -1, 1, 5);
   for (const bool written : {false, true}) {
-    std::vector<double> ms;
+    std::vector<double> ms, cpu;
     const vulkan::TextureResidency before = vulkan::texture_residency(*device);
     for (int i = 0; i <= iterations; ++i) {  // iteration 0: warm-up (shaders, buffers), not timed
       if (written) {
@@ -44,15 +52,18 @@ int main(int argc, char** argv) {
         t[i % tex.numel()] += 1e-3f;
       }
       const auto start = std::chrono::steady_clock::now();
+      const double cpu_start = thread_ms();
       tex.zero_grad();
       backward(sum(texture(tex, uv, options, dx, dy) * w));
+      if (i > 0) cpu.push_back(thread_ms() - cpu_start);
       if (i > 0) ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
     }
     const vulkan::TextureResidency after = vulkan::texture_residency(*device);
     std::sort(ms.begin(), ms.end());
+    std::sort(cpu.begin(), cpu.end());
     const double n = iterations + 1;
-    std::printf("%-9s median %.1f ms (min %.1f, max %.1f) over %d iterations; per iteration %.2f uploads, %.1f MB\n",
-                written ? "written" : "unchanged", ms[ms.size() / 2], ms.front(), ms.back(), iterations,
+    std::printf("%-9s median %.1f ms (min %.1f, max %.1f), calling thread CPU %.1f ms, over %d iterations; per iteration %.2f uploads, %.1f MB\n",
+                written ? "written" : "unchanged", ms[ms.size() / 2], ms.front(), ms.back(), cpu[cpu.size() / 2], iterations,
                 (after.uploads - before.uploads) / n, (after.upload_bytes - before.upload_bytes) / n / 1e6);
   }
 }
