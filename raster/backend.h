@@ -83,6 +83,11 @@ class RasterBackend {
                                 const TextureGrads<float>& /*grads*/) const {
     return false;
   }
+  // True when texture_forward / texture_backward take p.pyramid null for the
+  // mip levels the caller would build with mip_build (not the user's levels)
+  // and build them on the device, mip_build's bits (they then cover every
+  // float32 call: they never return false).
+  virtual bool builds_mip_levels() const { return false; }
   // The same two keeping the texels read on the device. kept, in: the handle
   // an earlier call gave back while p's texels (p.tex and the levels read)
   // are still those it read (the caller vouches: the same arrays, unwritten

@@ -192,6 +192,9 @@ Tensor mip_pyramid(const Lookups& l, const std::vector<Tensor>& mip) {
     return concat(rows, 1);
   }
   if (l.layout.count() == 1) return Tensor();
+  // A backend that builds the levels on its device gets level 0 alone.
+  if (l.options.backend && l.options.backend->builds_mip_levels() && l.tex.dtype() == DType::Float32)
+    return Tensor();
   const Tensor& tex = l.tex;
   const std::int64_t th = tex.size(tex.rank() - 3), tw = tex.size(tex.rank() - 2), C = tex.size(tex.rank() - 1);
   Tensor pyramid = Tensor::empty({l.batch.textures, l.upper}, tex.dtype());

@@ -119,6 +119,7 @@ class VulkanBackend : public raster::RasterBackend {
     vulkan::texture_backward(*device_, p, grad_out, grads);
     return true;
   }
+  bool builds_mip_levels() const override { return true; }
   bool texture_forward(const raster::TextureParams<float>& p, float* out,
                        std::shared_ptr<const raster::DeviceTexture>& kept) const override {
     with_kept(kept, [&](KeptTexels* k) { vulkan::texture_forward(*device_, p, out, k); });

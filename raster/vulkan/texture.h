@@ -13,9 +13,11 @@
 // for any workgroup size; with mip levels they then go down the pyramid
 // through the box-filter adjoint in double, on the device.
 //
-// The pyramid (levels 1.., p.pyramid) is the caller's: built on the CPU with
-// raster::mip_build, or the user's own levels, and uploaded with the texture
-// unless the device keeps them (KeptTexels). Calls on one device are
+// The pyramid (levels 1.., p.pyramid) is the caller's (raster::mip_build's,
+// or the user's own levels), uploaded with the texture, or with p.pyramid
+// null (not the user's) made on the device from level 0 by mip_build's box
+// filter, bit for bit (texture_mip.comp); either unless the device keeps the
+// texels (KeptTexels). Calls on one device are
 // serialized.
 #pragma once
 

@@ -19,7 +19,13 @@ namespace {
 struct TextureFinishPush {
   std::int32_t mode, count, channels, level, contributions, first, faces, face_texels;
 };
-static_assert(sizeof(TexturePush) == kPushBytes && sizeof(TextureFinishPush) == kPushBytes, "push constant blocks");
+// texture_mip.comp's push constants.
+struct TextureMipPush {
+  std::int32_t level, channels, count, unused[5];
+};
+static_assert(sizeof(TexturePush) == kPushBytes && sizeof(TextureFinishPush) == kPushBytes &&
+                  sizeof(TextureMipPush) == kPushBytes,
+              "push constant blocks");
 
 // Kept texels' serials, unique in the process: a serial from another device
 // (or one gone) never matches.
@@ -42,12 +48,17 @@ enum Role { kTexels, kLevels, kUv, kUvDx, kUvDy, kBias, kValues, kSums, kLargest
 // largest call and reused.
 struct Buffers {
   Buffers(Device::Impl& dev, Kernels& k)
-      : dev(dev), k(k), sample_set(dev, k.pipelines), finish_set(dev, k.pipelines), timestamps(dev, 6) {}
+      : dev(dev),
+        k(k),
+        sample_set(dev, k.pipelines),
+        finish_set(dev, k.pipelines),
+        mip_set(dev, k.pipelines),
+        timestamps(dev, 6) {}
   Device::Impl& dev;
   Kernels& k;
   Buffer buffers[kRoles];
   Buffer upload, download;
-  DescriptorSet sample_set, finish_set;
+  DescriptorSet sample_set, finish_set, mip_set;
   Timestamps timestamps;
   // The texel cache (texture.h's KeptTexels): at most kKeptTextures copies,
   // kKeptTextureBytes in all; and this call's texels (a copy's or kTexels).
@@ -85,13 +96,17 @@ std::size_t texel_bytes(const TextureCall& call) {
   for (const TextureCall::Upload& t : call.texels) bytes += t.bytes;
   return bytes;
 }
+// The bytes of every level read, every face (what the shaders read).
+std::size_t all_texel_bytes(const TextureCall& call) {
+  return static_cast<std::size_t>(call.faces() * call.face_texels * call.push.channels) * sizeof(float);
+}
 
 // Where the call's texels are (sets b.texels): the kept copy kept->serial
 // names when the device still keeps it for these levels (returns false: no
 // upload), else a new kept copy (with kept; the least recently used let go
 // while over the bounds) or the kTexels buffer, to upload into (true).
 bool place_texels(Buffers& b, const TextureCall& call, KeptTexels* kept) {
-  const std::size_t bytes = texel_bytes(call);
+  const std::size_t bytes = all_texel_bytes(call);
   auto same = [&](const KeptCopy& c) {
     return c.serial == kept->serial && c.bytes == bytes && c.cube == call.cube && c.levels == call.levels;
   };
@@ -104,7 +119,7 @@ bool place_texels(Buffers& b, const TextureCall& call, KeptTexels* kept) {
         return false;
       }
   ++b.stats.uploads;
-  b.stats.upload_bytes += static_cast<std::int64_t>(bytes);
+  b.stats.upload_bytes += static_cast<std::int64_t>(texel_bytes(call));
   if (!kept || bytes == 0 || bytes > kKeptTextureBytes) {
     if (kept) kept->serial = 0;
     b[kTexels].reserve(b.dev, bytes, false);
@@ -153,6 +168,12 @@ std::vector<Upload> sampling_inputs(Buffers& b, const TextureCall& call, KeptTex
   return up;
 }
 
+bool uploads_texels(const std::vector<Upload>& uploads) {
+  for (const Upload& u : uploads)
+    if (u.role == kTexels) return true;
+  return false;
+}
+
 // Copies `uploads` into the staging buffer (reserved for them and `extra` bytes
 // after them); returns the staging offset of the extra bytes.
 std::size_t stage(Buffers& b, const std::vector<Upload>& uploads, std::size_t extra) {
@@ -165,6 +186,18 @@ std::size_t stage(Buffers& b, const std::vector<Upload>& uploads, std::size_t ex
     offset += u.bytes;
   }
   return offset;
+}
+
+// Records the passes that make levels 1.. from level 0 in the texels
+// (call.build_levels; after the uploads, each level after its parent).
+void record_mip_build(VkCommandBuffer cb, Buffers& b, const TextureCall& call, VkDescriptorSet set) {
+  b.use(cb, set);
+  for (std::int32_t l = 1; l < call.push.levels; ++l) {
+    const std::int32_t count = call.levels[4 * l] * call.levels[4 * l + 1];
+    const TextureMipPush push{l, call.push.channels, count, {}};
+    dispatch(cb, b.k, b.k.texture_mip, &push, count, 256);
+    barrier(cb);
+  }
 }
 
 // Records the staged uploads (the texels' parts one after the other).
@@ -204,10 +237,13 @@ GpuTimes run_texture_forward(Device& device, const TextureCall& call, float* out
   const VkDescriptorSet set = b.bind(b.sample_set, {{0, kTexels}, {1, kLevels}, {2, kUv}, {3, kUvDx}, {4, kUvDy},
                                                     {5, kBias}, {6, kValues}});
   const VkPipeline pipeline = call.cube ? b.k.cube_texture_forward : b.k.texture_forward;
+  const bool build = call.build_levels && uploads_texels(uploads);
+  const VkDescriptorSet mip_set = build ? b.bind(b.mip_set, {{0, kTexels}, {1, kLevels}}) : VK_NULL_HANDLE;
   dev.run([&](VkCommandBuffer cb) {
     b.timestamps.begin(cb, 4);
     record_uploads(cb, b, uploads);
     barrier(cb);
+    if (build) record_mip_build(cb, b, call, mip_set);
     b.timestamps.stamp(cb, 1);
     b.use(cb, set);
     dispatch(cb, b.k, pipeline, &call.push, call.push.num_samples, 256);
@@ -250,6 +286,8 @@ GpuTimes run_texture_backward(Device& device, const TextureCall& call, const flo
                             {6, kValues}, {7, kSums}, {8, kLargest}, {9, kSampleGradOut}});
   const VkDescriptorSet finish_set = b.bind(b.finish_set, {{1, kLevels}, {7, kSums}, {8, kLargest}, {9, kTexGrad}});
   const VkPipeline pipeline = call.cube ? b.k.cube_texture_backward : b.k.texture_backward;
+  const bool build = call.build_levels && uploads_texels(uploads);
+  const VkDescriptorSet mip_set = build ? b.bind(b.mip_set, {{0, kTexels}, {1, kLevels}}) : VK_NULL_HANDLE;
   TexturePush push = call.push;
   push.flags |= texels ? kTexelGrads : 0;
   TextureFinishPush finish{0, static_cast<std::int32_t>(face_values), static_cast<std::int32_t>(C), 0,
@@ -261,6 +299,7 @@ GpuTimes run_texture_backward(Device& device, const TextureCall& call, const flo
     if (texels) vkCmdFillBuffer(cb, b[kSums].handle(), 0, static_cast<std::size_t>(values) * sizeof(std::int64_t), 0u);
     vkCmdFillBuffer(cb, b[kLargest].handle(), 0, 2 * sizeof(std::uint64_t), 0u);
     barrier(cb);
+    if (build) record_mip_build(cb, b, call, mip_set);
     b.timestamps.stamp(cb, 1);
     b.use(cb, set);
     dispatch(cb, b.k, pipeline, &push, S, 256);  // pass 0
