@@ -1,6 +1,6 @@
 // The texture op (ops/render/texture.h) on a Vulkan backend, forward and
 // backward, as a fit's iteration runs it: 512 x 512 trilinear samples from a
-// 2048 x 2048 x 3 float32 texture (the op builds its 12-level mip chain),
+// 2048 x 2048 x 3 float32 texture with its 12-level mip chain,
 // gradients to the texture, uv, uv_dx and uv_dy. Prints, per iteration:
 // the wall time (median of the runs, ms) and the texels the device uploaded
 // (calls, MB: vulkan::texture_residency), for two loops: `unchanged` (the
