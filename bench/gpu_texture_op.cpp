@@ -12,9 +12,11 @@
 #include <ctime>
 #include <cstdio>
 #include <cstdlib>
+#include <utility>
 #include <vector>
 
 #include "ops/ops.h"
+#include "raster/mipmap.h"
 #include "raster/vulkan/backend.h"
 #include "raster/vulkan/texture.h"
 
@@ -43,6 +45,29 @@ int main(int argc, char** argv) {
   Tensor dx = Tensor::uniform({512, 512, 2}, -0.004, 0.004, 3).set_requires_grad();
   Tensor dy = Tensor::uniform({512, 512, 2}, -0.004, 0.004, 4).set_requires_grad();
   const Tensor w = Tensor::uniform({512, 512, 3}, -1, 1, 5);
+  // The forward alone, the levels uploaded (CPU's mip_build) or built on the
+  // device: its upload pass (device timestamps: the copies, and the mip passes).
+  if (argc > 2) {
+    const raster::MipLayout layout = raster::mip_layout(2048, 2048);
+    std::vector<float> pyramid((layout.total_texels - 2048 * 2048) * 3), out(512 * 512 * 3);
+    raster::mip_build(std::as_const(tex).data<float>(), 3, layout, pyramid.data());
+    raster::TextureParams<float> p;
+    p.tex = std::as_const(tex).data<float>();
+    p.layout = layout;
+    p.channels = 3;
+    p.uv = std::as_const(uv).data<float>(), p.uv_dx = std::as_const(dx).data<float>();
+    p.uv_dy = std::as_const(dy).data<float>();
+    p.num_samples = 512 * 512;
+    p.filter = Filter::Trilinear;
+    for (int round = 0; round < 4; ++round)
+      for (const bool built : {false, true}) {
+        p.pyramid = built ? nullptr : pyramid.data();
+        const vulkan::GpuTimes t = vulkan::texture_forward(*device, p, out.data());
+        std::printf("forward, levels %s: upload pass %.1f ms, sampling %.1f ms\n", built ? "built" : "uploaded",
+                    t.upload_ms, t.kernels_ms);
+      }
+    return 0;
+  }
   for (const bool written : {false, true}) {
     std::vector<double> ms, cpu;
     const vulkan::TextureResidency before = vulkan::texture_residency(*device);
