@@ -15,3 +15,8 @@ if(TARGET gradraster_vulkan)
   target_link_libraries(bench_gpu_op_chain PRIVATE gradraster::gradraster gradraster::vulkan benchmark::benchmark
                         gradraster_example_common)
 endif()
+# bench_gpu_texture_op: the texture op's forward + backward on a Vulkan backend (what the device uploads).
+if(TARGET gradraster_vulkan)
+  add_executable(bench_gpu_texture_op ${CMAKE_CURRENT_SOURCE_DIR}/gpu_texture_op.cpp)
+  target_link_libraries(bench_gpu_texture_op PRIVATE gradraster::gradraster gradraster::vulkan)
+endif()

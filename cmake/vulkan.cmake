@@ -20,7 +20,7 @@ if(GRADRASTER_HAS_VULKAN)
   set(shader_names project raster_small raster_large resolve interpolate_forward interpolate_backward
     fixed_point_finish gbuffer gbuffer_backward antialias_pairs antialias_forward
     antialias_backward antialias_finish texture_forward texture_backward texture_finish
-    cube_texture_forward cube_texture_backward)
+    texture_mip cube_texture_forward cube_texture_backward)
   set(embedded ${CMAKE_CURRENT_BINARY_DIR}/vulkan_shaders.cpp)
   set(spv_files)
   foreach(name ${shader_names})

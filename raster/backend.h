@@ -13,7 +13,10 @@
 // interpolate, antialias and G-buffer adjoint calls given that handle read the
 // device's copy instead of uploading the arrays, while the backend still holds
 // it, and upload the arrays as the plain calls do otherwise. Results are the
-// same either way (the arrays are the device's copy, downloaded).
+// same either way (the arrays are the device's copy, downloaded). Likewise a
+// texture: texture_forward / texture_backward with a DeviceTexture handle
+// keep the texels they read (the levels too) on the device, and read that
+// copy at the next call given the handle while the backend still holds it.
 #pragma once
 
 #include <cstdint>
@@ -37,6 +40,15 @@ namespace gr::raster {
 class DeviceGBuffer {
  public:
   virtual ~DeviceGBuffer() = default;
+};
+
+// A texture's texels kept on a backend's device (the texture calls with a
+// handle): opaque to the caller, who hands it back only while the texels the
+// copy was made from are unchanged. The backend may let the copy go at any
+// time; the handle then only costs an upload.
+class DeviceTexture {
+ public:
+  virtual ~DeviceTexture() = default;
 };
 
 class RasterBackend {
@@ -70,6 +82,26 @@ class RasterBackend {
   virtual bool texture_backward(const TextureParams<float>& /*p*/, const float* /*grad_out*/,
                                 const TextureGrads<float>& /*grads*/) const {
     return false;
+  }
+  // True when texture_forward / texture_backward take p.pyramid null for the
+  // mip levels the caller would build with mip_build (not the user's levels)
+  // and build them on the device, mip_build's bits (they then cover every
+  // float32 call: they never return false).
+  virtual bool builds_mip_levels() const { return false; }
+  // The same two keeping the texels read on the device. kept, in: the handle
+  // an earlier call gave back while p's texels (p.tex and the levels read)
+  // are still those it read (the caller vouches: the same arrays, unwritten
+  // since), else null; out: the handle of the copy this call read (null:
+  // none kept). Results as the calls above (the defaults just call them).
+  virtual bool texture_forward(const TextureParams<float>& p, float* out,
+                               std::shared_ptr<const DeviceTexture>& kept) const {
+    kept = nullptr;
+    return texture_forward(p, out);
+  }
+  virtual bool texture_backward(const TextureParams<float>& p, const float* grad_out, const TextureGrads<float>& grads,
+                                std::shared_ptr<const DeviceTexture>& kept) const {
+    kept = nullptr;
+    return texture_backward(p, grad_out, grads);
   }
   // cube_texture_forward / cube_texture_backward (raster/cube_texture.h),
   // likewise: false when the backend does not cover them.

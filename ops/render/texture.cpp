@@ -11,6 +11,7 @@
 
 #include "autodiff/tape.h"
 #include "ops/render/batch.h"
+#include "ops/render/resident_texture.h"
 #include "ops/tensor/broadcast.h"
 #include "ops/check.h"
 #include "ops/tensor/shape_ops.h"
@@ -46,6 +47,7 @@ struct Lookups {
   Tensor tex, uv, dx, dy, bias;
   Tensor pyramid;  // [textures, upper]: the user's levels or the built ones; undefined with one level
   bool user_pyramid = false;
+  std::vector<Tensor> mip;  // the user's levels (detached), for the backend's resident copies
   raster::MipLayout layout;
   TextureOptions options;
   Batch batch;
@@ -74,6 +76,17 @@ raster::TextureParams<T> params(const Lookups& l, std::int64_t b) {
   p.wrap = l.options.wrap;
   p.lod_rule = l.options.lod_rule;
   return p;
+}
+
+// Runs call(handle) with texture t's device copy on the backend
+// (ops/render/resident_texture.h: the forward's, the adjoint's and later
+// calls' one while tex and the user's levels are unchanged).
+template <class Call>
+bool on_backend(const Lookups& l, std::int64_t t, Call call) {
+  const std::shared_ptr<detail::ResidentTexture> slot =
+      detail::resident_texture(l.options.backend.get(), l.tex, t, l.layout.count(), l.mip);
+  std::lock_guard<std::mutex> lock(slot->mutex);
+  return call(slot->device);
 }
 
 // tex's leading dims with level l's size: [h_l, w_l, C] or [B, h_l, w_l, C].
@@ -179,6 +192,9 @@ Tensor mip_pyramid(const Lookups& l, const std::vector<Tensor>& mip) {
     return concat(rows, 1);
   }
   if (l.layout.count() == 1) return Tensor();
+  // A backend that builds the levels on its device gets level 0 alone.
+  if (l.options.backend && l.options.backend->builds_mip_levels() && l.tex.dtype() == DType::Float32)
+    return Tensor();
   const Tensor& tex = l.tex;
   const std::int64_t th = tex.size(tex.rank() - 3), tw = tex.size(tex.rank() - 2), C = tex.size(tex.rank() - 1);
   Tensor pyramid = Tensor::empty({l.batch.textures, l.upper}, tex.dtype());
@@ -221,6 +237,7 @@ Lookups prepare_lookups(const Tensor& tex, const Tensor& uv, const TextureOption
   l.batch = batch;
   l.upper = (l.layout.total_texels - th * tw) * C;
   l.pyramid = mip_pyramid(l, mip);
+  for (const Tensor& level : mip) l.mip.push_back(level.detach());
   return l;
 }
 
@@ -232,7 +249,9 @@ void run_lookups(const Lookups& l, Tensor& out, Tensor& uv_jacobian) {
     using T = decltype(tag);
     raster::for_each_image(l.batch.images, [&](std::int64_t b) {
       if constexpr (std::is_same_v<T, float>)
-        if (l.options.backend && l.options.backend->texture_forward(params<T>(l, b), out.data<T>() + b * S * C))
+        if (l.options.backend && on_backend(l, l.batch.texture_of(b), [&](auto& kept) {
+              return l.options.backend->texture_forward(params<T>(l, b), out.data<T>() + b * S * C, kept);
+            }))
           return;
       raster::texture_forward(params<T>(l, b), out.data<T>() + b * S * C,
                               uv_jacobian.defined() ? uv_jacobian.data<T>() + b * S * 2 * C : nullptr);
@@ -278,7 +297,9 @@ void image_backward(const Tensor& grad_out, const Lookups& l, const Tensor& uv_j
   grads.mip_level_bias = ptr(g.inputs[4], S * b);
   grads.pyramid = ptr(g_levels, t * l.upper);
   if constexpr (std::is_same_v<T, float>)
-    if (l.options.backend && l.options.backend->texture_backward(params<T>(l, b), grad_out.data<T>() + b * S * C, grads))
+    if (l.options.backend && on_backend(l, l.batch.texture_of(b), [&](auto& kept) {
+          return l.options.backend->texture_backward(params<T>(l, b), grad_out.data<T>() + b * S * C, grads, kept);
+        }))
       return;
   raster::texture_backward(params<T>(l, b), grad_out.data<T>() + b * S * C, grads,
                            uv_jacobian.defined() ? uv_jacobian.data<T>() + b * S * 2 * C : nullptr);

@@ -23,6 +23,7 @@
 #ifdef GRADRASTER_HAS_VULKAN
 #include "raster/vulkan/backend.h"
 #include "raster/vulkan/device.h"
+#include "raster/vulkan/texture.h"
 #endif
 
 namespace py = pybind11;
@@ -113,6 +114,23 @@ PYBIND11_MODULE(_core, m) {
         out["uploads"] = uploads;
         out["frames"] = frames;
         return out;
+      })
+      // What its device did with the textures' texels (vulkan::texture_residency;
+      // all 0 for a CPU context): calls that uploaded them, their bytes, calls
+      // that read a kept copy.
+      .def_property_readonly("texture_residency", [](const Context& ctx) {
+        py::dict out;
+        std::int64_t uploads = 0, upload_bytes = 0, resident_calls = 0;
+#ifdef GRADRASTER_HAS_VULKAN
+        if (ctx.gpu) {
+          const gr::vulkan::TextureResidency s = gr::vulkan::texture_residency(*ctx.gpu);
+          uploads = s.uploads, upload_bytes = s.upload_bytes, resident_calls = s.resident_calls;
+        }
+#endif
+        out["uploads"] = uploads;
+        out["upload_bytes"] = upload_bytes;
+        out["resident_calls"] = resident_calls;
+        return out;
       });
   // rasterize_forward's handles of the G-buffers it kept on the device
   // (python/src/backend.h), opaque; gradraster.torch passes them on.
@@ -166,10 +184,11 @@ PYBIND11_MODULE(_core, m) {
   m.def("texture_forward", &texture_forward, py::arg("ctx"), py::arg("mode"), py::arg("tex"), py::arg("uv"),
         py::arg("uv_dx"), py::arg("uv_dy"), py::arg("bias"), py::arg("pyramid"), py::arg("out"),
         py::arg("uv_jacobian"), py::arg("threads"));
+  py::class_<DeviceTextures, std::shared_ptr<DeviceTextures>>(m, "DeviceTextures");
   m.def("texture_backward", &texture_backward, py::arg("ctx"), py::arg("mode"), py::arg("tex"), py::arg("uv"),
         py::arg("uv_dx"), py::arg("uv_dy"), py::arg("bias"), py::arg("pyramid"), py::arg("uv_jacobian"),
         py::arg("grad_out"), py::arg("grad_tex"), py::arg("grad_uv"), py::arg("grad_uv_dx"), py::arg("grad_uv_dy"),
-        py::arg("grad_bias"), py::arg("grad_pyramid"), py::arg("threads"));
+        py::arg("grad_bias"), py::arg("grad_pyramid"), py::arg("threads"), py::arg("kept") = py::none());
 
   m.def("write_png", &write_png, py::arg("path"), py::arg("image"));
 }

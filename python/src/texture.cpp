@@ -197,22 +197,27 @@ void mip_build(const TextureMode& mode, Objects tex, Objects pyramid, int thread
   });
 }
 
-void texture_forward(Context* ctx, const TextureMode& mode, Objects tex, Objects uv, Objects uv_dx, Objects uv_dy,
-                     Objects bias, Objects pyramid, Objects out_, Objects uv_jacobian, int threads) {
+std::shared_ptr<DeviceTextures> texture_forward(Context* ctx, const TextureMode& mode, Objects tex, Objects uv,
+                                                Objects uv_dx, Objects uv_dy, Objects bias, Objects pyramid,
+                                                Objects out_, Objects uv_jacobian, int threads) {
   const char* op = "texture";
   const TextureArgs a(mode, tex, uv, uv_dx, uv_dy, bias, pyramid, uv_jacobian, op, true);
   const Array out(out_, op, "out");
   out.same_elem(a.tex).shape({a.images, a.uv.size(1), a.uv.size(2), a.channels});
   check_disjoint(op, {&out, &a.uv_jacobian}, {&a.tex, &a.pyramid, &a.uv, &a.uv_dx, &a.uv_dy, &a.bias});
   const raster::RasterBackend* backend = lookups_backend(ctx, a, op);
+  // One handle per texture image, for the backward (a device runs the images in order).
+  auto kept = std::make_shared<DeviceTextures>();
+  kept->images.resize(static_cast<std::size_t>(a.tex_images));
   KernelCall call(threads);
   dispatch(a.f64(), [&](auto tag) {
     using T = decltype(tag);
     for_each_image_on(backend, a.images, [&](std::int64_t b) {
       T* o = out.out<T>() + b * a.samples * a.channels;
+      auto& handle = kept->images[static_cast<std::size_t>(a.tex_images == 1 ? 0 : b)];
       if constexpr (std::is_same_v<T, float>)
         if (backend && counted(*ctx, a.mode.cube ? backend->cube_texture_forward(cube_params<T>(a, b), o)
-                                                 : backend->texture_forward(image_params<T>(a, b), o)))
+                                                 : backend->texture_forward(image_params<T>(a, b), o, handle)))
           return;
       if (a.mode.cube)
         raster::cube_texture_forward(cube_params<T>(a, b), o);
@@ -220,12 +225,15 @@ void texture_forward(Context* ctx, const TextureMode& mode, Objects tex, Objects
         raster::texture_forward(image_params<T>(a, b), o, jacobian<T>(a, b));
     });
   });
+  for (const auto& h : kept->images)
+    if (h) return kept;
+  return nullptr;
 }
 
 void texture_backward(Context* ctx, const TextureMode& mode, Objects tex, Objects uv, Objects uv_dx, Objects uv_dy,
                       Objects bias, Objects pyramid, Objects uv_jacobian, Objects grad_out_, Objects grad_tex_,
                       Objects grad_uv_, Objects grad_uv_dx_, Objects grad_uv_dy_, Objects grad_bias_,
-                      Objects grad_pyramid_, int threads) {
+                      Objects grad_pyramid_, int threads, const std::shared_ptr<DeviceTextures>& kept) {
   const char* op = "texture backward";
   const TextureArgs a(mode, tex, uv, uv_dx, uv_dy, bias, pyramid, uv_jacobian, op, true);
   const Array grad_out(grad_out_, op, "grad_out"), grad_tex(grad_tex_, op, "grad_tex", true),
@@ -277,7 +285,14 @@ void texture_backward(Context* ctx, const TextureMode& mode, Objects tex, Object
       if (grad_bias) g.mip_level_bias = grad_bias.out<T>() + a.samples * b;
       if (grad_pyramid) g.pyramid = grad_pyramid.out<T>() + t * a.pyramid_values();
       if constexpr (std::is_same_v<T, float>)
-        if (backend && counted(*ctx, backend->texture_backward(image_params<T>(a, b), g_out, g))) return;
+        if (backend) {
+          // The forward's handle of this texture image (texture_forward), when it kept one.
+          std::shared_ptr<const raster::DeviceTexture> handle;
+          if (kept && static_cast<std::size_t>(t) < kept->images.size()) handle = kept->images[t];
+          if (counted(*ctx, handle ? backend->texture_backward(image_params<T>(a, b), g_out, g, handle)
+                                   : backend->texture_backward(image_params<T>(a, b), g_out, g)))
+            return;
+        }
       raster::texture_backward(image_params<T>(a, b), g_out, g, jacobian<T>(a, b));
     };
     // A broadcast texture collects every image's gradient, and a device runs

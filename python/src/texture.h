@@ -4,11 +4,13 @@
 // level-of-detail rule (the footprint ellipse's major axis).
 #pragma once
 
+#include <memory>
 #include <utility>
 #include <vector>
 
 #include "python/src/common.h"
 #include "python/src/rasterize.h"
+#include "raster/backend.h"
 
 namespace gr::python {
 
@@ -46,11 +48,21 @@ std::vector<std::pair<int, int>> mip_sizes(int height, int width, int max_level)
 // Writes levels 1..levels-1 of every texture image into pyramid (box filter).
 void mip_build(const TextureMode& mode, const pybind11::object& tex, const pybind11::object& pyramid, int threads);
 
+// The texels a device's texture_forward kept (raster::DeviceTexture), one
+// handle per texture image (null where none was kept), opaque to Python:
+// gradraster.torch hands them to the backward of the same call, whose saved
+// tex and pyramid torch keeps unchanged (it refuses a backward after an
+// in-place write into them).
+struct DeviceTextures {
+  std::vector<std::shared_ptr<const raster::DeviceTexture>> images;
+};
+
 // ctx: None (the CPU kernels) or the context that made uv, whose device (a
 // RasterizeVulkanContext's) then runs float32 lookups and their adjoint
 // (2D and cube maps; uv_jacobian must be None: its adjoint reads the texels).
-// out: [images, h, w, C].
-void texture_forward(Context* ctx, const TextureMode& mode, const pybind11::object& tex, const pybind11::object& uv,
+// out: [images, h, w, C]. Returns the 2D texels the device kept (null for
+// the CPU, a cube map, or float64).
+std::shared_ptr<DeviceTextures> texture_forward(Context* ctx, const TextureMode& mode, const pybind11::object& tex, const pybind11::object& uv,
                      const pybind11::object& uv_dx, const pybind11::object& uv_dy, const pybind11::object& bias,
                      const pybind11::object& pyramid, const pybind11::object& out,
                      const pybind11::object& uv_jacobian, int threads);
@@ -64,6 +76,7 @@ void texture_backward(Context* ctx, const TextureMode& mode, const pybind11::obj
                       const pybind11::object& grad_out, const pybind11::object& grad_tex,
                       const pybind11::object& grad_uv, const pybind11::object& grad_uv_dx,
                       const pybind11::object& grad_uv_dy, const pybind11::object& grad_bias,
-                      const pybind11::object& grad_pyramid, int threads);
+                      const pybind11::object& grad_pyramid, int threads,
+                      const std::shared_ptr<DeviceTextures>& kept = nullptr);
 
 }  // namespace gr::python

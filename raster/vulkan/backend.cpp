@@ -51,6 +51,25 @@ void check_pixels(const raster::BarycentricInterpolateParams<float>& p, int widt
                      " pixels, but the parameters hold " + std::to_string(p.pixels));
 }
 
+// Texels a VulkanBackend's device keeps (texture.h's KeptTexels serial).
+struct VulkanTexture final : raster::DeviceTexture {
+  explicit VulkanTexture(std::uint64_t serial) : serial(serial) {}
+  std::uint64_t serial;
+};
+
+// Runs call(kept) with kept's serial (0 when null or not a VulkanTexture); kept
+// becomes the handle of the copy the call read, or null.
+template <class Call>
+void with_kept(std::shared_ptr<const raster::DeviceTexture>& kept, Call call) {
+  const auto* v = dynamic_cast<const VulkanTexture*>(kept.get());
+  KeptTexels k{v ? v->serial : 0};
+  call(&k);
+  if (!k.serial)
+    kept = nullptr;
+  else if (!v || v->serial != k.serial)
+    kept = std::make_shared<VulkanTexture>(k.serial);
+}
+
 class VulkanBackend : public raster::RasterBackend {
  public:
   VulkanBackend(std::shared_ptr<Device> device, int frames) : device_(device), pool_(device, frames) {}
@@ -98,6 +117,18 @@ class VulkanBackend : public raster::RasterBackend {
   bool texture_backward(const raster::TextureParams<float>& p, const float* grad_out,
                         const raster::TextureGrads<float>& grads) const override {
     vulkan::texture_backward(*device_, p, grad_out, grads);
+    return true;
+  }
+  bool builds_mip_levels() const override { return true; }
+  bool texture_forward(const raster::TextureParams<float>& p, float* out,
+                       std::shared_ptr<const raster::DeviceTexture>& kept) const override {
+    with_kept(kept, [&](KeptTexels* k) { vulkan::texture_forward(*device_, p, out, k); });
+    return true;
+  }
+  bool texture_backward(const raster::TextureParams<float>& p, const float* grad_out,
+                        const raster::TextureGrads<float>& grads,
+                        std::shared_ptr<const raster::DeviceTexture>& kept) const override {
+    with_kept(kept, [&](KeptTexels* k) { vulkan::texture_backward(*device_, p, grad_out, grads, k); });
     return true;
   }
   bool cube_texture_forward(const raster::CubeTextureParams<float>& p, float* out) const override {

@@ -33,6 +33,7 @@ Kernels::Kernels(Device::Impl& dev) : pipelines(dev) {
   texture_forward = add(pipelines, shaders::texture_forward());
   texture_backward = add(pipelines, shaders::texture_backward());
   texture_finish = add(pipelines, shaders::texture_finish());
+  texture_mip = add(pipelines, shaders::texture_mip());
   cube_texture_forward = add(pipelines, shaders::cube_texture_forward());
   cube_texture_backward = add(pipelines, shaders::cube_texture_backward());
 }

@@ -38,8 +38,8 @@ void check_params(const raster::TextureParams<float>& p, const char* op) {
   const bool mip = raster::mipmapped(p.filter);
   if (mip && (!p.uv_dx || !p.uv_dy))
     throw ValueError(std::string(op) + ": mipmapped filtering needs uv_dx and uv_dy");
-  if (mip && p.layout.count() > 1 && !p.pyramid)
-    throw ValueError(std::string(op) + ": mipmapped filtering needs the mip pyramid");
+  if (mip && p.layout.count() > 1 && !p.pyramid && p.user_pyramid)
+    throw ValueError(std::string(op) + ": user_pyramid without the user's mip levels (pyramid)");
   const std::int64_t values = texels_read(p) * p.channels;
   if (values > kMaxIndex || p.num_samples * std::max<std::int64_t>(p.channels, kSampleGrads) > kMaxIndex ||
       4 * p.num_samples > kMaxIndex)
@@ -64,8 +64,12 @@ TextureCall call_of(const raster::TextureParams<float>& p) {
   TextureCall c;
   c.base_texels = base_texels(p);
   c.face_texels = texels_read(p);
-  c.texels = {{p.tex, static_cast<std::size_t>(c.base_texels * p.channels) * sizeof(float)},
-              {p.pyramid, static_cast<std::size_t>((c.face_texels - c.base_texels) * p.channels) * sizeof(float)}};
+  c.texels = {{p.tex, static_cast<std::size_t>(c.base_texels * p.channels) * sizeof(float)}};
+  // Levels 1..: the caller's, else built on the device from level 0.
+  c.build_levels = mip && p.layout.count() > 1 && !p.pyramid;
+  if (!c.build_levels)
+    c.texels.push_back(
+        {p.pyramid, static_cast<std::size_t>((c.face_texels - c.base_texels) * p.channels) * sizeof(float)});
   for (int l = 0; l < levels_read(p); ++l) {
     const raster::MipLevel& lv = p.layout.levels[l];
     c.levels.insert(c.levels.end(), {lv.height, lv.width, static_cast<std::int32_t>(lv.offset), 0});
@@ -88,14 +92,14 @@ TextureCall call_of(const raster::TextureParams<float>& p) {
 
 }  // namespace
 
-GpuTimes texture_forward(Device& device, const raster::TextureParams<float>& p, float* out) {
+GpuTimes texture_forward(Device& device, const raster::TextureParams<float>& p, float* out, KeptTexels* kept) {
   check_params(p, "vulkan texture");
   if (!out && p.num_samples > 0) throw ValueError("vulkan texture: out is missing");
-  return run_texture_forward(device, call_of(p), out);
+  return run_texture_forward(device, call_of(p), out, kept);
 }
 
 GpuTimes texture_backward(Device& device, const raster::TextureParams<float>& p, const float* grad_out,
-                          const raster::TextureGrads<float>& grads) {
+                          const raster::TextureGrads<float>& grads, KeptTexels* kept) {
   check_params(p, "vulkan texture backward");
   if (!grad_out && p.num_samples > 0) throw ValueError("vulkan texture backward: grad_out is missing");
   // What the CPU kernel writes (wanted_grads in raster/texture.cpp).
@@ -124,7 +128,7 @@ GpuTimes texture_backward(Device& device, const raster::TextureParams<float>& p,
       add_to(grads.tex, tex_grad, base_values);
       add_to(want_pyramid, tex_grad + base_values, converted - base_values);
     }
-  });
+  }, kept);
 }
 
 }  // namespace gr::vulkan

@@ -198,6 +198,13 @@ class RasterizeVulkanContext(RasterizeCpuContext):
         "Vulkan")."""
         return dict(self.cpp_wrapper.residency)
 
+    @property
+    def texture_residency(self):
+        """What the device did with the textures' texels so far, a dict: 'uploads' (texture calls, per image, that
+        uploaded them), 'upload_bytes', 'resident_calls' (calls that read the copy kept on the device: a texture
+        backward reads its forward's) (docs/gpu.md, "What stays resident")."""
+        return dict(self.cpp_wrapper.texture_residency)
+
 
 # nvdiffrast's two context classes, by name, so that programs that name them
 # (in type annotations, isinstance checks or construction) run unchanged:
@@ -631,8 +638,10 @@ class _TextureFunc(torch.autograd.Function):
         jacobian = None
         if filter_mode == _FILTERS['linear'] and boundary != _CUBE and ctx.needs_input_grad[6] and device is None:
             jacobian = tex.new_empty(uv.shape[:3] + (2, tex.shape[-1]))
-        _core.texture_forward(device, mode, _d(tex), _d(uv), _d(uv_dx), _d(uv_dy), _d(bias), _d(pyramid), out, jacobian,
-                              _threads())
+        # A Vulkan context keeps the texels on its device for the backward (torch keeps the saved tex and
+        # pyramid unchanged until then: it refuses a backward after an in-place write into them).
+        ctx.kept = _core.texture_forward(device, mode, _d(tex), _d(uv), _d(uv_dx), _d(uv_dy), _d(bias), _d(pyramid),
+                                         out, jacobian, _threads())
         ctx.save_for_backward(tex, uv, uv_dx, uv_dy, bias, pyramid, jacobian)
         ctx.filter_mode, ctx.boundary, ctx.levels, ctx.user, ctx.device = filter_mode, boundary, levels, user, device
         ctx.mip_shapes = [m.shape for m in mip_levels]
@@ -649,7 +658,8 @@ class _TextureFunc(torch.autograd.Function):
         g_pyr = zeros(pyramid, ctx.user and any(needs[9:]))
         mode = _texture_mode(ctx.levels, ctx.user, ctx.filter_mode, ctx.boundary)
         _core.texture_backward(ctx.device, mode, _d(tex), _d(uv), _d(uv_dx), _d(uv_dy), _d(bias), _d(pyramid),
-                               _d(jacobian), _d(dy.contiguous()), g_tex, g_uv, g_dx, g_dy, g_bias, g_pyr, _threads())
+                               _d(jacobian), _d(dy.contiguous()), g_tex, g_uv, g_dx, g_dy, g_bias, g_pyr, _threads(),
+                               ctx.kept)
         g_levels, start = [], 0
         for shape in ctx.mip_shapes:
             n = shape[1] * shape[2]

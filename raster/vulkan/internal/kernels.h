@@ -23,7 +23,7 @@ struct Kernels {
   VkPipeline interpolate_forward, interpolate_backward, fixed_point_finish;
   VkPipeline gbuffer, gbuffer_backward;
   VkPipeline antialias_pairs, antialias_forward, antialias_backward, antialias_finish;
-  VkPipeline texture_forward, texture_backward, texture_finish;
+  VkPipeline texture_forward, texture_backward, texture_finish, texture_mip;
   VkPipeline cube_texture_forward, cube_texture_backward;
 
  private:

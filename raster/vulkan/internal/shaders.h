@@ -28,6 +28,7 @@ Spirv antialias_finish();
 Spirv texture_forward();
 Spirv texture_backward();
 Spirv texture_finish();
+Spirv texture_mip();
 Spirv cube_texture_forward();
 Spirv cube_texture_backward();
 

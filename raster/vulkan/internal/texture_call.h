@@ -2,8 +2,9 @@
 // or a cube map, raster/vulkan/cube_texture.cpp) as the texture shaders see it,
 // and the command buffers that run its forward and adjoint
 // (texture_common.glsl, texture_forward.glsl, texture_backward.glsl,
-// texture_finish.comp). Each call uploads its inputs, runs the passes and
-// downloads; the buffers are the device's, grown to the largest call.
+// texture_finish.comp). Each call uploads its inputs (the texels unless the
+// device keeps them: KeptTexels), runs the passes and downloads; the buffers
+// are the device's, grown to the largest call.
 #pragma once
 
 #include <cstddef>
@@ -13,6 +14,7 @@
 
 #include "raster/vulkan/device.h"
 #include "raster/vulkan/internal/kernels.h"
+#include "raster/vulkan/texture.h"
 
 namespace gr::vulkan {
 
@@ -43,12 +45,15 @@ struct TextureCall {
   std::int64_t base_texels = 0;   // texels of one face's level 0
   std::int64_t sample_grads = 0;  // per-sample gradients the adjoint writes (the shader's kSampleGrads)
   bool keep_levels = false;       // the adjoint keeps every level's own gradient (the user's levels)
+  bool build_levels = false;      // texels holds level 0 only: levels 1.. are made on the device (texture_mip.comp)
 
   int faces() const { return cube ? 6 : 1; }
 };
 
 // Runs the forward into out (num_samples x channels floats). Takes the device's mutex.
-GpuTimes run_texture_forward(Device& device, const TextureCall& call, float* out);
+// kept (may be null): the call's texels kept on the device (texture.h's
+// KeptTexels; the device's texel cache, texture_call.cpp).
+GpuTimes run_texture_forward(Device& device, const TextureCall& call, float* out, KeptTexels* kept = nullptr);
 
 // Runs the adjoint of the lookups with incoming gradient grad_out (num_samples
 // x channels) and hands what it downloads to `take` (still under the device's
@@ -56,7 +61,8 @@ GpuTimes run_texture_forward(Device& device, const TextureCall& call, float* out
 // texel gradients (when texels; else null): level 0 of every face one after
 // the other, or with keep_levels every level read as uploaded.
 GpuTimes run_texture_backward(Device& device, const TextureCall& call, const float* grad_out, bool per_sample,
-                              bool texels, const std::function<void(const float*, const float*)>& take);
+                              bool texels, const std::function<void(const float*, const float*)>& take,
+                              KeptTexels* kept = nullptr);
 
 // dst[0, n) += src[0, n) when dst is given (the adjoints accumulate, as on the CPU).
 inline void add_to(float* dst, const float* src, std::int64_t n) {

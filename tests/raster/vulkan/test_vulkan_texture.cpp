@@ -354,12 +354,17 @@ TEST_CASE("the texture op on a Vulkan backend keeps float64 on the CPU and refus
   CHECK_THROWS_AS(texture(tex, uv64, gpu_options), DTypeError);
   gpu_options.filter = Filter::Trilinear;
   CHECK_THROWS_AS(texture(tex, Tensor::uniform({9, 2}, -1, 2, 4), gpu_options), ValueError);
-  // The device's own checks (direct calls): NaN in uv_dx, a missing pyramid.
+  // The device's own checks (direct calls): NaN in uv_dx, the user's pyramid
+  // missing (a missing built one is built on the device: the same samples).
   Lookup l = random_lookup(8, 8, 1, 10, Filter::Trilinear, Wrap::Repeat, 5);
   l.dx[3] = NAN;
-  std::vector<float> out(10);
+  std::vector<float> out(10), built(10);
   CHECK_THROWS_WITH(vulkan::texture_forward(*shared_gpu(), l.params(), out.data()), Catch::Contains("uv_dx"));
   l.dx[3] = 0.f;
+  vulkan::texture_forward(*shared_gpu(), l.params(), out.data());
   l.pyramid.clear();
+  vulkan::texture_forward(*shared_gpu(), l.params(), built.data());
+  CHECK(built == out);
+  l.user_pyramid = true;
   CHECK_THROWS_WITH(vulkan::texture_forward(*shared_gpu(), l.params(), out.data()), Catch::Contains("pyramid"));
 }
