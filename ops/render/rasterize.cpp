@@ -30,6 +30,18 @@ raster::BarycentricGBufferParams<T> image_params(const Tensor& clip, const Tenso
   return {rows, n, triangles.data<std::int32_t>(), triangles.size(0), width, height, false};
 }
 
+// A G-buffer's images [B, H, W] (or one [H, W]): their count, width, height and pixels each.
+struct Images {
+  std::int64_t count;
+  int width, height;
+  std::int64_t pixels;
+};
+Images images_of(const GBuffer& gb) {
+  const int rank = gb.tri_id.rank();
+  const int h = static_cast<int>(gb.tri_id.size(rank - 2)), w = static_cast<int>(gb.tri_id.size(rank - 1));
+  return {rank == 3 ? gb.tri_id.size(0) : 1, w, h, std::int64_t(h) * w};
+}
+
 }  // namespace
 
 GBuffer rasterize(const Tensor& clip, const Tensor& triangles, const RasterizeOptions& options) {
@@ -91,10 +103,9 @@ GBuffer rasterize_layer(const Tensor& clip, const Tensor& triangles, const Raste
 
 void finish_gbuffer(GBuffer& gb, const char* op) {
   const Tensor clip = gb.clip, triangles = gb.triangles;
-  const int rank = gb.tri_id.rank();
-  const std::int64_t images = rank == 3 ? gb.tri_id.size(0) : 1;
-  const int h = static_cast<int>(gb.tri_id.size(rank - 2)), w = static_cast<int>(gb.tri_id.size(rank - 1));
-  const std::int64_t P = std::int64_t(h) * w;
+  const Images im = images_of(gb);  // plain names: lambdas below capture them
+  const std::int64_t images = im.count, P = im.pixels;
+  const int w = im.width, h = im.height;
   // nvdiffrast's rast (u, v, z/w, id) per pixel, written as the planes uv and depth.
   const bool db = gb.db.defined();
   dispatch_float(clip.dtype(), op, [&](auto tag) {
@@ -112,10 +123,9 @@ void finish_gbuffer(GBuffer& gb, const char* op) {
 
 void record_gbuffer_adjoint(GBuffer& gb, const char* op) {
   const Tensor clip = gb.clip, triangles = gb.triangles;
-  const int rank = gb.tri_id.rank();
-  const std::int64_t images = rank == 3 ? gb.tri_id.size(0) : 1;
-  const int h = static_cast<int>(gb.tri_id.size(rank - 2)), w = static_cast<int>(gb.tri_id.size(rank - 1));
-  const std::int64_t P = std::int64_t(h) * w;
+  const Images im = images_of(gb);  // plain names: lambdas below capture them
+  const std::int64_t images = im.count, P = im.pixels;
+  const int w = im.width, h = im.height;
   const bool db = gb.db.defined();
   if (!should_record({clip})) return;
   std::vector<Tensor*> outputs = {&gb.uv, &gb.depth};
