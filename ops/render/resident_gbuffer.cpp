@@ -1,32 +1,16 @@
-// keep_resident / resident_of: storages and their write counts (Storage::version).
+// keep_resident / resident_of: the G-buffer's tensors stamped (ops/render/tensor_stamp.h).
 #include "ops/render/resident_gbuffer.h"
 
 namespace gr::detail {
-namespace {
-
-ResidentGBuffer::Source source_of(const Tensor& t) {
-  if (!t.defined()) return {};
-  return {true, t.impl()->storage, t.impl()->storage->version()};
-}
-
-// t is undefined and was, or is the same storage as then, unwritten since.
-bool unchanged(const ResidentGBuffer::Source& then, const Tensor& t) {
-  if (!t.defined() || !then.defined) return !t.defined() && !then.defined;
-  const std::shared_ptr<Storage> s = then.storage.lock();
-  return s && s == t.impl()->storage && s->version() == then.version;
-}
-
-}  // namespace
-
 std::shared_ptr<const ResidentGBuffer> keep_resident(std::vector<ResidentGBuffer::Image> images, const GBuffer& gb) {
   auto kept = std::make_shared<ResidentGBuffer>();
   kept->images = std::move(images);
-  kept->tri_id = source_of(gb.tri_id);
-  kept->uv = source_of(gb.uv);
-  kept->depth = source_of(gb.depth);
-  kept->db = source_of(gb.db);
-  kept->clip = source_of(gb.clip);
-  kept->triangles = source_of(gb.triangles);
+  kept->tri_id = TensorStamp::of(gb.tri_id);
+  kept->uv = TensorStamp::of(gb.uv);
+  kept->depth = TensorStamp::of(gb.depth);
+  kept->db = TensorStamp::of(gb.db);
+  kept->clip = TensorStamp::of(gb.clip);
+  kept->triangles = TensorStamp::of(gb.triangles);
   return kept;
 }
 
@@ -39,8 +23,8 @@ std::shared_ptr<const ResidentGBuffer> keep_resident(std::shared_ptr<const raste
 const ResidentGBuffer::Image* resident_image(const GBuffer& gb, std::int64_t b) {
   const ResidentGBuffer* r = gb.resident.get();
   if (!r || b < 0 || b >= static_cast<std::int64_t>(r->images.size()) || !r->images[b].device) return nullptr;
-  const bool same = unchanged(r->tri_id, gb.tri_id) && unchanged(r->uv, gb.uv) && unchanged(r->depth, gb.depth) &&
-                    unchanged(r->db, gb.db) && unchanged(r->clip, gb.clip) && unchanged(r->triangles, gb.triangles);
+  const bool same = r->tri_id.matches(gb.tri_id) && r->uv.matches(gb.uv) && r->depth.matches(gb.depth) &&
+                    r->db.matches(gb.db) && r->clip.matches(gb.clip) && r->triangles.matches(gb.triangles);
   return same ? &r->images[b] : nullptr;
 }
 

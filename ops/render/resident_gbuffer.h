@@ -14,6 +14,7 @@
 
 #include "autodiff/base/storage.h"
 #include "ops/render/rasterize.h"
+#include "ops/render/tensor_stamp.h"
 #include "raster/backend.h"
 
 namespace gr {
@@ -28,14 +29,8 @@ struct ResidentGBuffer {
     std::int64_t first = 0, count = 0;
   };
   std::vector<Image> images;  // one per image, in image order (one for an [H, W] G-buffer)
-  // A host tensor's storage and its write count when the device's copy was
-  // made (defined false: the tensor was undefined).
-  struct Source {
-    bool defined = false;
-    std::weak_ptr<Storage> storage;
-    std::uint64_t version = 0;
-  };
-  Source tri_id, uv, depth, db, clip, triangles;
+  // The host tensors as they were when the device's copies were made.
+  detail::TensorStamp tri_id, uv, depth, db, clip, triangles;
 };
 
 namespace detail {
