@@ -29,7 +29,6 @@ std::atomic<std::uint64_t> g_serial{0};
 // A G-buffer a VulkanBackend keeps: its frame's tag in the backend's pool and
 // what the calls on it must describe.
 struct VulkanGBuffer final : raster::DeviceGBuffer {
-  const void* owner = nullptr;
   std::uint64_t serial = 0;
   int width = 0, height = 0;
   std::int64_t num_vertices = 0, num_tris = 0;
@@ -97,7 +96,6 @@ class VulkanBackend : public raster::RasterBackend {
       if (depth) depth[q] = tri_id[q] != 0 ? rast_[4 * q + 2] : background;
     }
     auto kept = std::make_shared<VulkanGBuffer>();
-    kept->owner = this;
     kept->serial = ++g_serial;
     kept->width = p.settings.width;
     kept->height = p.settings.height;
@@ -107,7 +105,6 @@ class VulkanBackend : public raster::RasterBackend {
     kept->derivatives = options.derivatives;
     pool_.tag(f, kept->serial, kept);
     ++stats_.gbuffers;
-    stats_.frames = pool_.frames();
     return kept;
   }
   bool texture_forward(const raster::TextureParams<float>& p, float* out) const override {
@@ -230,7 +227,9 @@ class VulkanBackend : public raster::RasterBackend {
 
   ResidencyStats stats() const {
     std::lock_guard<std::mutex> lock(mutex_);
-    return stats_;
+    ResidencyStats s = stats_;
+    s.frames = pool_.frames();  // uploads take frames too
+    return s;
   }
   void reserve_frames(int frames) const {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -242,7 +241,7 @@ class VulkanBackend : public raster::RasterBackend {
   // keeps it and it is the one `d` describes; else null (the caller uploads).
   Frame* kept_frame(const raster::DeviceGBuffer& resident, const Described& d) const {
     const auto* g = dynamic_cast<const VulkanGBuffer*>(&resident);
-    if (!g || g->owner != this || g->width != d.width || g->height != d.height ||
+    if (!g || g->width != d.width || g->height != d.height ||
         g->num_vertices != d.num_vertices || g->num_tris != d.num_tris || (d.reads_clip && g->y_up != d.y_up) ||
         (d.needs_db && !g->derivatives))
       return nullptr;
