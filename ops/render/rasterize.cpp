@@ -151,18 +151,23 @@ void record_gbuffer_adjoint(GBuffer& gb, const char* op) {
       const std::int64_t n = clip.size(clip.rank() - 2);
       // The coverage from tri_id (int32: exact for any triangle count, unlike float32 ids);
       // the gradients read from the uv and depth planes as they are.
+      std::vector<float> gr;  // a backend's H x W x 4 gradient, reused image by image
       for (std::int64_t b = 0; b < images; ++b) {
         raster::BarycentricGBufferParams<T> p = image_params<T>(clip, triangles, b, w, h);
         p.tri_id = tri_id.data<std::int32_t>() + b * P;
         p.groups = groups.get();
         if constexpr (std::is_same_v<T, float>)
           if (backend) {
-            // The device's adjoint reads nvdiffrast's H x W x 4 layout (u, v, z/w, id).
-            std::vector<float> gr(static_cast<std::size_t>(4 * P), 0.0f);
-            for (std::int64_t q = 0; q < P; ++q) {
-              if (gu) gr[4 * q] = gu[2 * P * b + 2 * q], gr[4 * q + 1] = gu[2 * P * b + 2 * q + 1];
-              if (gd) gr[4 * q + 2] = gd[P * b + q];
+            // The device's adjoint reads nvdiffrast's H x W x 4 layout (u, v, z/w, id);
+            // none when uv and depth get no gradient.
+            if (gu || gd) {
+              gr.assign(static_cast<std::size_t>(4 * P), 0.0f);
+              for (std::int64_t q = 0; q < P; ++q) {
+                if (gu) gr[4 * q] = gu[2 * P * b + 2 * q], gr[4 * q + 1] = gu[2 * P * b + 2 * q + 1];
+                if (gd) gr[4 * q + 2] = gd[P * b + q];
+              }
             }
+            const float* grast = gu || gd ? gr.data() : nullptr;
             const float* gdb = g_db.defined() ? g_db.data<T>() + 4 * P * b : nullptr;
             // Image b as its copy on the device drew it (a range's triangles).
             const ImageOnDevice on = image_on_device(made.get(), b, triangles, p.tri_id, P, false);
@@ -171,8 +176,8 @@ void record_gbuffer_adjoint(GBuffer& gb, const char* op) {
             pb.num_tris = on.num_tris;
             pb.tri_id = on.ids();
             float* gc = g.data<T>() + (clip.rank() == 3 ? b * n * 4 : 0);  // a shared clip's: added in image order
-            if (on.device ? backend->gbuffer_backward(*on.device, pb, gr.data(), gdb, gc)
-                          : backend->gbuffer_backward(pb, gr.data(), gdb, gc))
+            if (on.device ? backend->gbuffer_backward(*on.device, pb, grast, gdb, gc)
+                          : backend->gbuffer_backward(pb, grast, gdb, gc))
               continue;
           }
         raster::barycentric_gbuffer_backward_planes(p, gu ? gu + 2 * P * b : nullptr, gd ? gd + P * b : nullptr,
