@@ -206,18 +206,21 @@ std::shared_ptr<DeviceTextures> texture_forward(Context* ctx, const TextureMode&
   out.same_elem(a.tex).shape({a.images, a.uv.size(1), a.uv.size(2), a.channels});
   check_disjoint(op, {&out, &a.uv_jacobian}, {&a.tex, &a.pyramid, &a.uv, &a.uv_dx, &a.uv_dy, &a.bias});
   const raster::RasterBackend* backend = lookups_backend(ctx, a, op);
-  // One handle per texture image, for the backward (a device runs the images in order).
-  auto kept = std::make_shared<DeviceTextures>();
-  kept->images.resize(static_cast<std::size_t>(a.tex_images));
+  // On a device (2D): one handle per texture image, for the backward (a device runs the images in order).
+  std::shared_ptr<DeviceTextures> kept;
+  if (backend && !a.mode.cube) {
+    kept = std::make_shared<DeviceTextures>();
+    kept->images.resize(static_cast<std::size_t>(a.tex_images));
+  }
   KernelCall call(threads);
   dispatch(a.f64(), [&](auto tag) {
     using T = decltype(tag);
     for_each_image_on(backend, a.images, [&](std::int64_t b) {
       T* o = out.out<T>() + b * a.samples * a.channels;
-      auto& handle = kept->images[static_cast<std::size_t>(a.tex_images == 1 ? 0 : b)];
       if constexpr (std::is_same_v<T, float>)
         if (backend && counted(*ctx, a.mode.cube ? backend->cube_texture_forward(cube_params<T>(a, b), o)
-                                                 : backend->texture_forward(image_params<T>(a, b), o, handle)))
+                                                 : backend->texture_forward(image_params<T>(a, b), o,
+                                                                            kept->images[a.tex_images == 1 ? 0 : b])))
           return;
       if (a.mode.cube)
         raster::cube_texture_forward(cube_params<T>(a, b), o);
@@ -225,8 +228,9 @@ std::shared_ptr<DeviceTextures> texture_forward(Context* ctx, const TextureMode&
         raster::texture_forward(image_params<T>(a, b), o, jacobian<T>(a, b));
     });
   });
-  for (const auto& h : kept->images)
-    if (h) return kept;
+  if (kept)
+    for (const auto& h : kept->images)
+      if (h) return kept;
   return nullptr;
 }
 
@@ -298,10 +302,10 @@ void texture_backward(Context* ctx, const TextureMode& mode, Objects tex, Object
     // A broadcast texture collects every image's gradient, and a device runs
     // one call at a time: images in order (each lookup parallel inside);
     // otherwise images in parallel.
-    if (backend || (a.tex_images == 1 && (grad_tex || grad_pyramid)))
+    if (a.tex_images == 1 && (grad_tex || grad_pyramid))
       for (std::int64_t b = 0; b < a.images; ++b) image(b);
     else
-      raster::for_each_image(a.images, image);
+      for_each_image_on(backend, a.images, image);
   });
 }
 
