@@ -3,8 +3,9 @@
 // through raster/vulkan/cube_texture.h; the G-buffer chain (rasterize_gbuffer,
 // interpolate, antialias, the G-buffer adjoint) through a FramePool: each
 // G-buffer it makes stays in a frame tagged with the handle's serial, which
-// the calls given that handle read; the others load the ops' G-buffer into a
-// frame first (Frame::load_gbuffer).
+// the calls given that handle read; the others load the ops' G-buffer into
+// one scratch frame outside the pool (Frame::load_gbuffer), so an upload never
+// lets a kept G-buffer go.
 #include "raster/vulkan/backend.h"
 
 #include <atomic>
@@ -214,9 +215,8 @@ class VulkanBackend : public raster::RasterBackend {
       GpuRasterOptions options;
       options.y_up = p.y_up;
       options.derivatives = grad_db != nullptr;
-      f = &pool_.take();
+      f = &upload_frame();
       f->load_gbuffer(rp, options, p.tri_id, nullptr, 2, nullptr, nullptr);
-      ++stats_.uploads;
     }
     // The ops carry the G-buffer's gradient on the host (grad_rast, grad_db):
     // what interpolate adjoints may have left on the device is not added again.
@@ -228,7 +228,7 @@ class VulkanBackend : public raster::RasterBackend {
   ResidencyStats stats() const {
     std::lock_guard<std::mutex> lock(mutex_);
     ResidencyStats s = stats_;
-    s.frames = pool_.frames();  // uploads take frames too
+    s.frames = pool_.frames();
     return s;
   }
   void reserve_frames(int frames) const {
@@ -259,10 +259,9 @@ class VulkanBackend : public raster::RasterBackend {
     raster::RasterParams<float> rp{zero_clip_.data(), p.num_vertices, p.tris, p.num_tris, {width, height}};
     GpuRasterOptions options;
     options.derivatives = p.num_diff > 0;
-    Frame& f = pool_.take();
+    Frame& f = upload_frame();
     f.load_gbuffer(rp, options, p.tri_id, p.rast, static_cast<int>(p.rast_stride), nullptr,
                    p.num_diff > 0 ? p.rast_db : nullptr);
-    ++stats_.uploads;
     return f;
   }
   Frame& for_antialias(const raster::DeviceGBuffer& resident, const raster::AntialiasParams<float>& p) const {
@@ -271,16 +270,22 @@ class VulkanBackend : public raster::RasterBackend {
     raster::RasterParams<float> rp{p.clip, p.num_vertices, p.tris, p.num_tris, {p.width, p.height}};
     GpuRasterOptions options;
     options.y_up = p.y_up;
-    Frame& f = pool_.take();
+    Frame& f = upload_frame();
     f.load_gbuffer(rp, options, p.tri_id, nullptr, 2, p.depth, nullptr);
-    ++stats_.uploads;
     return f;
+  }
+  // The frame a call without a kept G-buffer loads it into (counted as an upload).
+  Frame& upload_frame() const {
+    if (!scratch_) scratch_ = std::make_unique<Frame>(device_);
+    ++stats_.uploads;
+    return *scratch_;
   }
 
   std::shared_ptr<Device> device_;
   // The G-buffer chain's frames and what they did; one call at a time.
   mutable std::mutex mutex_;
   mutable FramePool pool_;
+  mutable std::unique_ptr<Frame> scratch_;  // made at the first upload
   mutable ResidencyStats stats_;
   mutable std::vector<float> zero_clip_, rast_;
   // The calls without a handle: one no frame is tagged for.

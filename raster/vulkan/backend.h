@@ -37,7 +37,7 @@ struct ResidencyStats {
   std::int64_t gbuffers = 0;        // G-buffers made and kept on the device (rasterize_gbuffer)
   std::int64_t resident_calls = 0;  // calls that read a G-buffer kept on the device: no upload
   std::int64_t uploads = 0;         // calls that uploaded the G-buffer from the host (Frame::load_gbuffer)
-  int frames = 0;                   // frames made so far (at most `frames`)
+  int frames = 0;                   // frames made so far for kept G-buffers (at most `frames`; uploads use one more)
 };
 // ValueError if `backend` is not one of raster_backend's.
 ResidencyStats residency_stats(const raster::RasterBackend& backend);

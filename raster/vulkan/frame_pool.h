@@ -1,7 +1,7 @@
 // The Frames in which a RasterBackend keeps the G-buffers it made on the
 // device (raster/vulkan/backend.h): at most `capacity` of them, each tagged
-// with the serial of the G-buffer it holds (0: none kept, e.g. one uploaded
-// for a single call) and the handle that wants it. A new G-buffer takes a
+// with the serial of the G-buffer it holds (0: none kept) and the handle that
+// wants it (the backend loads uploaded G-buffers into a frame of its own). A new G-buffer takes a
 // frame nobody wants any more (untagged, or its handle gone), else a new one
 // below capacity, else the least recently used (whose G-buffer is let go:
 // its handle's calls then upload it again). One caller at a time (the
