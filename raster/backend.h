@@ -111,61 +111,42 @@ class RasterBackend {
     return false;
   }
   // The ops' G-buffer chain, float32, one image of width x height pixels
-  // (the ops pass the G-buffer's arrays; a backend uploads what it reads).
-  // Each gives the CPU kernel's results within issue 33's tolerances (values
-  // 1e-6, gradients 1e-5 relative to the largest), deterministic, or returns
-  // false (the caller then runs the CPU kernel). Adjoints ACCUMULATE (+=).
+  // (the ops pass the G-buffer's arrays). Each gives the CPU kernel's results
+  // within issue 33's tolerances (values 1e-6, gradients 1e-5 relative to the
+  // largest), deterministic, or returns false (the caller then runs the CPU
+  // kernel). Adjoints ACCUMULATE (+=). `resident`: the handle rasterize_gbuffer
+  // gave for the G-buffer p describes, while p's arrays are that call's and
+  // unchanged since (the caller vouches), else null. A backend reads its
+  // device's copy where it still holds it, else uploads p's arrays.
   // barycentric_interpolate_forward / _backward (p.tri_id and p.rast with
   // its stride given; p.groups is the CPU's and ignored):
-  virtual bool interpolate_forward(const BarycentricInterpolateParams<float>& /*p*/, int /*width*/, int /*height*/,
-                                   float* /*out*/, float* /*out_da*/) const {
+  virtual bool interpolate_forward(const DeviceGBuffer* /*resident*/, const BarycentricInterpolateParams<float>& /*p*/,
+                                   int /*width*/, int /*height*/, float* /*out*/, float* /*out_da*/) const {
     return false;
   }
-  virtual bool interpolate_backward(const BarycentricInterpolateParams<float>& /*p*/, int /*width*/,
-                                    int /*height*/, const float* /*grad_out*/, const float* /*grad_da*/,
+  virtual bool interpolate_backward(const DeviceGBuffer* /*resident*/, const BarycentricInterpolateParams<float>& /*p*/,
+                                    int /*width*/, int /*height*/, const float* /*grad_out*/,
+                                    const float* /*grad_da*/,
                                     const BarycentricInterpolateGrads<float>& /*grads*/) const {
     return false;
   }
   // antialias_forward / antialias_backward (raster/antialias.h); the adjoint
   // takes the forward's whole p (a backend may recompute the pairs) instead
   // of its pairs.
-  virtual bool antialias_forward(const AntialiasParams<float>& /*p*/, float* /*out*/) const { return false; }
-  virtual bool antialias_backward(const AntialiasParams<float>& /*p*/, const float* /*grad_out*/,
-                                  const AntialiasGrads<float>& /*grads*/) const {
+  virtual bool antialias_forward(const DeviceGBuffer* /*resident*/, const AntialiasParams<float>& /*p*/,
+                                 float* /*out*/) const {
+    return false;
+  }
+  virtual bool antialias_backward(const DeviceGBuffer* /*resident*/, const AntialiasParams<float>& /*p*/,
+                                  const float* /*grad_out*/, const AntialiasGrads<float>& /*grads*/) const {
     return false;
   }
   // barycentric_gbuffer_backward (raster/barycentric_gbuffer.h) for
   // grad_rast (H x W x 4: u, v, z/w; the id channel ignored) and grad_db
   // (H x W x 4, or null), into grad_clip (N x 4).
-  virtual bool gbuffer_backward(const BarycentricGBufferParams<float>& /*p*/, const float* /*grad_rast*/,
-                                const float* /*grad_db*/, float* /*grad_clip*/) const {
+  virtual bool gbuffer_backward(const DeviceGBuffer* /*resident*/, const BarycentricGBufferParams<float>& /*p*/,
+                                const float* /*grad_rast*/, const float* /*grad_db*/, float* /*grad_clip*/) const {
     return false;
-  }
-  // The same five calls on the G-buffer that rasterize_gbuffer made and
-  // `resident` holds: p still describes it (the arrays are that call's, the
-  // caller's unchanged since), and a backend reads its device's copy where it
-  // still holds it, else uploads p's arrays as the calls above do (the
-  // defaults just call them).
-  virtual bool interpolate_forward(const DeviceGBuffer& /*resident*/, const BarycentricInterpolateParams<float>& p,
-                                   int width, int height, float* out, float* out_da) const {
-    return interpolate_forward(p, width, height, out, out_da);
-  }
-  virtual bool interpolate_backward(const DeviceGBuffer& /*resident*/, const BarycentricInterpolateParams<float>& p,
-                                    int width, int height, const float* grad_out, const float* grad_da,
-                                    const BarycentricInterpolateGrads<float>& grads) const {
-    return interpolate_backward(p, width, height, grad_out, grad_da, grads);
-  }
-  virtual bool antialias_forward(const DeviceGBuffer& /*resident*/, const AntialiasParams<float>& p,
-                                 float* out) const {
-    return antialias_forward(p, out);
-  }
-  virtual bool antialias_backward(const DeviceGBuffer& /*resident*/, const AntialiasParams<float>& p,
-                                  const float* grad_out, const AntialiasGrads<float>& grads) const {
-    return antialias_backward(p, grad_out, grads);
-  }
-  virtual bool gbuffer_backward(const DeviceGBuffer& /*resident*/, const BarycentricGBufferParams<float>& p,
-                                const float* grad_rast, const float* grad_db, float* grad_clip) const {
-    return gbuffer_backward(p, grad_rast, grad_db, grad_clip);
   }
 };
 

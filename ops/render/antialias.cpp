@@ -70,8 +70,7 @@ void record_on_backend(const Tensor& image, const GBuffer& gbuffer, const Tensor
            auto ptr = [](Tensor& t) { return t.defined() ? t.data<float>() : nullptr; };
            const raster::AntialiasGrads<float> grads{ptr(g_image), ptr(g_clip)};
            const raster::DeviceGBuffer* kept = made ? detail::resident_of(*made) : nullptr;
-           if (!(kept ? backend->antialias_backward(*kept, p, g.data<float>(), grads)
-                      : backend->antialias_backward(p, g.data<float>(), grads)))
+           if (!backend->antialias_backward(kept, p, g.data<float>(), grads))
              throw Error("antialias: the backend ran the forward but refused the adjoint");
            boost_gradient<float>(g_clip, boost);
            if (g_image.defined()) ctx.accumulate(0, g_image);
@@ -162,8 +161,7 @@ Tensor antialias(const Tensor& image, const GBuffer& gbuffer, const Tensor& clip
     p.topology = topology.get();
     if constexpr (std::is_same_v<T, float>)
       if (backend) {
-        const raster::DeviceGBuffer* kept = detail::resident_of(gbuffer);
-        if (kept ? backend->antialias_forward(*kept, p, out.data<T>()) : backend->antialias_forward(p, out.data<T>())) {
+        if (backend->antialias_forward(detail::resident_of(gbuffer), p, out.data<T>())) {
           on_backend = true;
           return;
         }

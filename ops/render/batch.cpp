@@ -275,8 +275,7 @@ Tensor interpolate_batch(const Tensor& attributes, const GBuffer& gbuffer, const
           on_backend[b] = on_device(backend, made.get(), b, params(tag, attr, b), triangles, [&](const auto& on,
                                                                                                 const auto& p) {
             float* o = out.data<float>() + b * P * C;
-            return on.device ? backend->interpolate_forward(*on.device, p, int(w), int(h), o, nullptr)
-                             : backend->interpolate_forward(p, int(w), int(h), o, nullptr);
+            return backend->interpolate_forward(on.device, p, int(w), int(h), o, nullptr);
           });
     for_each_image(B, [&](std::int64_t b) {
       T* o = out.data<T>() + b * P * C;
@@ -310,10 +309,8 @@ Tensor interpolate_batch(const Tensor& attributes, const GBuffer& gbuffer, const
                      on_backend[b] = on_device(backend, made.get(), b, params(tag, a, b), triangles,
                                                [&](const auto& on, const auto& p) {
                                                  const float* go = ctx.grad_output().data<float>() + b * P * a.cols;
-                                                 return on.device ? backend->interpolate_backward(
-                                                                        *on.device, p, int(w), int(h), go, nullptr, grads(b))
-                                                                  : backend->interpolate_backward(p, int(w), int(h), go,
-                                                                                                  nullptr, grads(b));
+                                                 return backend->interpolate_backward(on.device, p, int(w), int(h),
+                                                                                      go, nullptr, grads(b));
                                                });
                for_each_image(B, [&](std::int64_t b) {
                  if (on_backend[b]) return;
@@ -403,7 +400,7 @@ Tensor antialias_batch(const Tensor& image, const GBuffer& gbuffer, const Tensor
           gbuffer_params(p, b, topology, pos.shared);
           const detail::ImageOnDevice on = detail::image_on_device(made.get(), b, triangles, p.tri_id, P, true);
           float* o = out.data<float>() + b * P * C;
-          on_backend = on.device ? backend->antialias_forward(*on.device, p, o) : backend->antialias_forward(p, o);
+          on_backend = backend->antialias_forward(on.device, p, o);
         }
         if (on_backend) return;
       }
@@ -431,8 +428,7 @@ Tensor antialias_batch(const Tensor& image, const GBuffer& gbuffer, const Tensor
                if (ctx.needs_grad(1)) g.clip = g_clip.at<float>(c, b);
                const detail::ImageOnDevice on = detail::image_on_device(made.get(), b, triangles, p.tri_id, P, true);
                const float* go = ctx.grad_output().data<float>() + b * P * C;
-               if (!(on.device ? backend->antialias_backward(*on.device, p, go, g)
-                               : backend->antialias_backward(p, go, g)))
+               if (!backend->antialias_backward(on.device, p, go, g))
                  throw Error("antialias_batch: the backend ran the forward but refused the adjoint");
                if (g.clip && boost != 1.0)
                  for (std::int64_t i = 0; i < 4 * N; ++i) g.clip[i] = static_cast<float>(boost * g.clip[i]);

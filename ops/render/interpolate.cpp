@@ -182,9 +182,8 @@ std::vector<Tensor> interpolate_items(const Tensor& attributes, const Tensor& tr
       if (items.backend) {
         T* o = out[0].data<T>();
         T* d = K > 0 ? da.data<T>() : nullptr;
-        const raster::DeviceGBuffer* kept = resident(items.resident_source);
-        on_backend = kept ? items.backend->interpolate_forward(*kept, params(tag), items.width, items.height, o, d)
-                          : items.backend->interpolate_forward(params(tag), items.width, items.height, o, d);
+        on_backend = items.backend->interpolate_forward(resident(items.resident_source), params(tag), items.width,
+                                                        items.height, o, d);
       }
     if (!on_backend)
       raster::barycentric_interpolate_forward(params(tag), out[0].data<T>(), K > 0 ? da.data<T>() : nullptr);
@@ -248,9 +247,7 @@ std::vector<Tensor> interpolate_items(const Tensor& attributes, const Tensor& tr
              if constexpr (std::is_same_v<T, float>)
                if (backend) {
                  const T* gd = K > 0 ? gda.data<T>() : nullptr;
-                 const raster::DeviceGBuffer* kept = resident(source);
-                 if (kept ? backend->interpolate_backward(*kept, p, w, h, go.data<T>(), gd, grads)
-                          : backend->interpolate_backward(p, w, h, go.data<T>(), gd, grads))
+                 if (backend->interpolate_backward(resident(source), p, w, h, go.data<T>(), gd, grads))
                    return;
                }
              raster::barycentric_interpolate_backward(p, go.data<T>(), K > 0 ? gda.data<T>() : nullptr, grads);

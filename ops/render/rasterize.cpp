@@ -176,8 +176,7 @@ void record_gbuffer_adjoint(GBuffer& gb, const char* op) {
             pb.num_tris = on.num_tris;
             pb.tri_id = on.ids();
             float* gc = g.data<T>() + (clip.rank() == 3 ? b * n * 4 : 0);  // a shared clip's: added in image order
-            if (on.device ? backend->gbuffer_backward(*on.device, pb, grast, gdb, gc)
-                          : backend->gbuffer_backward(pb, grast, gdb, gc))
+            if (backend->gbuffer_backward(on.device, pb, grast, gdb, gc))
               continue;
           }
         raster::barycentric_gbuffer_backward_planes(p, gu ? gu + 2 * P * b : nullptr, gd ? gd + P * b : nullptr,

@@ -139,8 +139,7 @@ std::shared_ptr<AntialiasState> antialias_forward(Context& ctx, const pybind11::
       if constexpr (std::is_same_v<T, float>)
         if (state->backend) {
           const raster::DeviceGBuffer* on_device = state->kept ? state->kept->image(b) : nullptr;
-          if (counted(ctx, on_device ? state->backend->antialias_forward(*on_device, p, o)
-                                     : state->backend->antialias_forward(p, o))) {
+          if (counted(ctx, state->backend->antialias_forward(on_device, p, o))) {
             state->on_backend[b] = 1;
             return;
           }
@@ -207,8 +206,7 @@ void antialias_backward(Context& ctx, const pybind11::object& pos, const pybind1
         raster::blend_boundaries_backward(p, state.pairs[b], g_out, g);
       } else if constexpr (std::is_same_v<T, float>) {
         const raster::DeviceGBuffer* on_device = state.kept ? state.kept->image(b) : nullptr;
-        if (!counted(ctx, on_device ? state.backend->antialias_backward(*on_device, p, g_out, g)
-                                    : state.backend->antialias_backward(p, g_out, g)))
+        if (!counted(ctx, state.backend->antialias_backward(on_device, p, g_out, g)))
           throw Error(std::string(op) + ": the device ran the forward but refused the adjoint");
       }
       if (!grad_pos) return;

@@ -104,8 +104,7 @@ void interpolate_forward(Context* ctx, const pybind11::object& attr, const pybin
           const raster::BarycentricInterpolateParams<float> q = with_ids(p, ctx->image(b));
           const int w = int(a.width), h = int(a.height);
           const raster::DeviceGBuffer* on_device = kept ? kept->image(b) : nullptr;
-          if (counted(*ctx, on_device ? backend->interpolate_forward(*on_device, q, w, h, o, o_da)
-                                      : backend->interpolate_forward(q, w, h, o, o_da)))
+          if (counted(*ctx, backend->interpolate_forward(on_device, q, w, h, o, o_da)))
             return;
         }
       raster::barycentric_interpolate_forward(p, o, o_da);
@@ -162,8 +161,7 @@ void interpolate_backward(Context* ctx, const pybind11::object& attr, const pybi
           const raster::BarycentricInterpolateParams<float> q = with_ids(p, ctx->image(b));
           const int w = int(a.width), h = int(a.height);
           const raster::DeviceGBuffer* on_device = kept ? kept->image(b) : nullptr;
-          if (counted(*ctx, on_device ? backend->interpolate_backward(*on_device, q, w, h, g_out, g_da, g)
-                                      : backend->interpolate_backward(q, w, h, g_out, g_da, g)))
+          if (counted(*ctx, backend->interpolate_backward(on_device, q, w, h, g_out, g_da, g)))
             return;
         }
       raster::barycentric_interpolate_backward(p, g_out, g_da, g);

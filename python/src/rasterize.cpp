@@ -169,8 +169,7 @@ void rasterize_backward(Context& ctx, const pybind11::object& pos, const pybind1
           rast_ids(image_rast, pixels, &s.tri_id);
           g.tri_id = s.tri_id.data();
           const raster::DeviceGBuffer* on_device = kept ? kept->image(b) : nullptr;
-          if (counted(ctx, on_device ? backend->gbuffer_backward(*on_device, g, g_rast, g_db, out)
-                                     : backend->gbuffer_backward(g, g_rast, g_db, out)))
+          if (counted(ctx, backend->gbuffer_backward(on_device, g, g_rast, g_db, out)))
             return;
         }
       raster::barycentric_gbuffer_backward(g, image_rast, g_rast, g_db, out);

@@ -139,29 +139,7 @@ class VulkanBackend : public raster::RasterBackend {
     return true;
   }
 
-  // The G-buffer chain, each call as a resident one with no handle.
-  bool interpolate_forward(const raster::BarycentricInterpolateParams<float>& p, int width, int height, float* out,
-                           float* out_da) const override {
-    return interpolate_forward(no_handle_, p, width, height, out, out_da);
-  }
-  bool interpolate_backward(const raster::BarycentricInterpolateParams<float>& p, int width, int height,
-                            const float* grad_out, const float* grad_da,
-                            const raster::BarycentricInterpolateGrads<float>& grads) const override {
-    return interpolate_backward(no_handle_, p, width, height, grad_out, grad_da, grads);
-  }
-  bool antialias_forward(const raster::AntialiasParams<float>& p, float* out) const override {
-    return antialias_forward(no_handle_, p, out);
-  }
-  bool antialias_backward(const raster::AntialiasParams<float>& p, const float* grad_out,
-                          const raster::AntialiasGrads<float>& grads) const override {
-    return antialias_backward(no_handle_, p, grad_out, grads);
-  }
-  bool gbuffer_backward(const raster::BarycentricGBufferParams<float>& p, const float* grad_rast,
-                        const float* grad_db, float* grad_clip) const override {
-    return gbuffer_backward(no_handle_, p, grad_rast, grad_db, grad_clip);
-  }
-
-  bool interpolate_forward(const raster::DeviceGBuffer& resident, const raster::BarycentricInterpolateParams<float>& p,
+  bool interpolate_forward(const raster::DeviceGBuffer* resident, const raster::BarycentricInterpolateParams<float>& p,
                            int width, int height, float* out, float* out_da) const override {
     if (!p.tri_id) return false;
     check_pixels(p, width, height);
@@ -170,7 +148,7 @@ class VulkanBackend : public raster::RasterBackend {
     f.interpolate(p.attr, p.channels, out, p.diff, p.num_diff, out_da);
     return true;
   }
-  bool interpolate_backward(const raster::DeviceGBuffer& resident, const raster::BarycentricInterpolateParams<float>& p,
+  bool interpolate_backward(const raster::DeviceGBuffer* resident, const raster::BarycentricInterpolateParams<float>& p,
                             int width, int height, const float* grad_out, const float* grad_da,
                             const raster::BarycentricInterpolateGrads<float>& grads) const override {
     if (!p.tri_id) return false;
@@ -190,13 +168,13 @@ class VulkanBackend : public raster::RasterBackend {
       }
     return true;
   }
-  bool antialias_forward(const raster::DeviceGBuffer& resident, const raster::AntialiasParams<float>& p,
+  bool antialias_forward(const raster::DeviceGBuffer* resident, const raster::AntialiasParams<float>& p,
                          float* out) const override {
     std::lock_guard<std::mutex> lock(mutex_);
     for_antialias(resident, p).antialias(p.image, p.channels, out, p.topology);
     return true;
   }
-  bool antialias_backward(const raster::DeviceGBuffer& resident, const raster::AntialiasParams<float>& p,
+  bool antialias_backward(const raster::DeviceGBuffer* resident, const raster::AntialiasParams<float>& p,
                           const float* grad_out, const raster::AntialiasGrads<float>& grads) const override {
     std::lock_guard<std::mutex> lock(mutex_);
     Frame& f = for_antialias(resident, p);
@@ -204,7 +182,7 @@ class VulkanBackend : public raster::RasterBackend {
     f.antialias_backward(grad_out, grads.image, grads.clip);
     return true;
   }
-  bool gbuffer_backward(const raster::DeviceGBuffer& resident, const raster::BarycentricGBufferParams<float>& p,
+  bool gbuffer_backward(const raster::DeviceGBuffer* resident, const raster::BarycentricGBufferParams<float>& p,
                         const float* grad_rast, const float* grad_db, float* grad_clip) const override {
     if (!p.tri_id) return false;
     std::lock_guard<std::mutex> lock(mutex_);
@@ -237,10 +215,10 @@ class VulkanBackend : public raster::RasterBackend {
   }
 
  private:
-  // The frame that holds `resident`'s G-buffer, if this backend made it, still
+  // The frame that holds `resident`'s G-buffer (may be null), if this backend made it, still
   // keeps it and it is the one `d` describes; else null (the caller uploads).
-  Frame* kept_frame(const raster::DeviceGBuffer& resident, const Described& d) const {
-    const auto* g = dynamic_cast<const VulkanGBuffer*>(&resident);
+  Frame* kept_frame(const raster::DeviceGBuffer* resident, const Described& d) const {
+    const auto* g = dynamic_cast<const VulkanGBuffer*>(resident);
     if (!g || g->width != d.width || g->height != d.height ||
         g->num_vertices != d.num_vertices || g->num_tris != d.num_tris || (d.reads_clip && g->y_up != d.y_up) ||
         (d.needs_db && !g->derivatives))
@@ -251,7 +229,7 @@ class VulkanBackend : public raster::RasterBackend {
   }
   // Interpolation reads no clip positions: an uploaded frame gets the
   // triangles and as many (unread) vertices as the attributes have rows.
-  Frame& for_interpolate(const raster::DeviceGBuffer& resident, const raster::BarycentricInterpolateParams<float>& p,
+  Frame& for_interpolate(const raster::DeviceGBuffer* resident, const raster::BarycentricInterpolateParams<float>& p,
                          int width, int height) const {
     if (Frame* f = kept_frame(resident, {width, height, p.num_vertices, p.num_tris, false, false, p.num_diff > 0}))
       return *f;
@@ -264,7 +242,7 @@ class VulkanBackend : public raster::RasterBackend {
                    p.num_diff > 0 ? p.rast_db : nullptr);
     return f;
   }
-  Frame& for_antialias(const raster::DeviceGBuffer& resident, const raster::AntialiasParams<float>& p) const {
+  Frame& for_antialias(const raster::DeviceGBuffer* resident, const raster::AntialiasParams<float>& p) const {
     if (Frame* f = kept_frame(resident, {p.width, p.height, p.num_vertices, p.num_tris, true, p.y_up, false}))
       return *f;
     raster::RasterParams<float> rp{p.clip, p.num_vertices, p.tris, p.num_tris, {p.width, p.height}};
@@ -288,8 +266,6 @@ class VulkanBackend : public raster::RasterBackend {
   mutable std::unique_ptr<Frame> scratch_;  // made at the first upload
   mutable ResidencyStats stats_;
   mutable std::vector<float> zero_clip_, rast_;
-  // The calls without a handle: one no frame is tagged for.
-  const VulkanGBuffer no_handle_{};
 };
 
 }  // namespace

@@ -39,35 +39,26 @@ class CountingBackend : public raster::RasterBackend {
     ++made;
     return std::make_shared<raster::DeviceGBuffer>();
   }
-  bool interpolate_forward(const raster::BarycentricInterpolateParams<float>&, int, int, float*,
-                           float*) const override {
-    return ++without_handle, false;
+  bool count(const raster::DeviceGBuffer* resident) const {
+    ++(resident ? with_handle : without_handle);
+    return false;
   }
-  bool interpolate_backward(const raster::BarycentricInterpolateParams<float>&, int, int, const float*, const float*,
+  bool interpolate_forward(const raster::DeviceGBuffer* resident, const raster::BarycentricInterpolateParams<float>&,
+                           int, int, float*, float*) const override {
+    return count(resident);
+  }
+  bool interpolate_backward(const raster::DeviceGBuffer* resident, const raster::BarycentricInterpolateParams<float>&,
+                            int, int, const float*, const float*,
                             const raster::BarycentricInterpolateGrads<float>&) const override {
-    return ++without_handle, false;
+    return count(resident);
   }
-  bool antialias_forward(const raster::AntialiasParams<float>&, float*) const override {
-    return ++without_handle, false;
+  bool antialias_forward(const raster::DeviceGBuffer* resident, const raster::AntialiasParams<float>&,
+                         float*) const override {
+    return count(resident);
   }
-  bool gbuffer_backward(const raster::BarycentricGBufferParams<float>&, const float*, const float*,
-                        float*) const override {
-    return ++without_handle, false;
-  }
-  bool interpolate_forward(const raster::DeviceGBuffer&, const raster::BarycentricInterpolateParams<float>&, int, int,
-                           float*, float*) const override {
-    return ++with_handle, false;
-  }
-  bool interpolate_backward(const raster::DeviceGBuffer&, const raster::BarycentricInterpolateParams<float>&, int, int,
-                            const float*, const float*, const raster::BarycentricInterpolateGrads<float>&) const override {
-    return ++with_handle, false;
-  }
-  bool antialias_forward(const raster::DeviceGBuffer&, const raster::AntialiasParams<float>&, float*) const override {
-    return ++with_handle, false;
-  }
-  bool gbuffer_backward(const raster::DeviceGBuffer&, const raster::BarycentricGBufferParams<float>&, const float*,
-                        const float*, float*) const override {
-    return ++with_handle, false;
+  bool gbuffer_backward(const raster::DeviceGBuffer* resident, const raster::BarycentricGBufferParams<float>&,
+                        const float*, const float*, float*) const override {
+    return count(resident);
   }
 };
 
