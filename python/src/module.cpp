@@ -181,7 +181,8 @@ PYBIND11_MODULE(_core, m) {
       .def_readwrite("user", &TextureMode::user)
       .def_readwrite("filter", &TextureMode::filter)
       .def_readwrite("wrap", &TextureMode::wrap)
-      .def_readwrite("cube", &TextureMode::cube);
+      .def_readwrite("cube", &TextureMode::cube)
+      .def_readwrite("device_levels", &TextureMode::device_levels);
   m.def("mip_sizes", &mip_sizes);
   m.def("mip_build", &mip_build, py::arg("mode"), py::arg("tex"), py::arg("pyramid"), py::arg("threads"));
   m.def("texture_forward", &texture_forward, py::arg("ctx"), py::arg("mode"), py::arg("tex"), py::arg("uv"),

@@ -77,7 +77,10 @@ TextureArgs::TextureArgs(const TextureMode& mode_, Objects tex_, Objects uv_, Ob
   if (mode.user && (mode.cube || mode.levels < 2))
     throw ValueError(o + ": a user mip stack needs a 2D texture and at least 2 levels");
   layout = raster::mip_layout(height, width, mode.levels - 1);
-  if (mode.levels > 1) pyramid.required("the mip stack of levels 1..");
+  if (mode.device_levels && (mode.user || mode.levels < 2 || pyramid || !lookups))
+    throw ValueError(o + ": levels built on the device are for lookups with 2 or more levels, not the user's, and "
+                     "no 'pyramid'");
+  if (mode.levels > 1 && !mode.device_levels) pyramid.required("the mip stack of levels 1..");
   if (mode.levels == 1 && pyramid) throw ValueError(o + ": 'pyramid' is given for one mip level");
   pyramid.same_elem(tex).shape({tex_images, pyramid_values() / channels, channels});
   if (!lookups) {
@@ -157,6 +160,9 @@ const raster::RasterBackend* lookups_backend(const Context* ctx, const TextureAr
   const raster::RasterBackend* backend = a.f64() ? nullptr : backend_for<float>(ctx);
   if (backend && a.uv_jacobian)
     throw ValueError(std::string(op) + ": 'uv_jacobian' is for the CPU kernels; the device's lookups keep none");
+  if (a.mode.device_levels && !(backend && backend->builds_mip_levels()))
+    throw ValueError(std::string(op) + ": no 'pyramid' (mode.device_levels) needs float32 lookups on a device "
+                     "that builds the mip levels");
   return backend;
 }
 

@@ -27,13 +27,18 @@ struct TextureMode {
   // w, 6] (None: the LOD is the bias alone), uv_dy None; pyramid per face
   // (raster/cube_texture.h).
   bool cube = false;
+  // levels 1.. (mip_build's, not the user's) are made where the lookups run,
+  // from tex: no pyramid is given (float32 lookups on a device whose backend
+  // builds mip levels, RasterBackend::builds_mip_levels, only)
+  bool device_levels = false;
 };
 
 // The tensors of one call, viewed and checked against each other:
 //   tex      [tex_images, H, W, C] (cube: [tex_images, 6, S, S, C]) float,
 //            sides <= 32768
 //   pyramid  levels 1.. per texture image, [tex_images, texels of levels
-//            1.. (x 6 for a cube), C]; required when levels > 1, else None
+//            1.. (x 6 for a cube), C]; required when levels > 1 (unless
+//            mode.device_levels), else None
 //   uv       [images, h, w, 2] (cube: 3); tex_images 1 (broadcast) or images
 //   uv_dx, uv_dy [images, h, w, 2] or None (cube: uv_dx [images, h, w, 6])
 //   bias     [images, h, w] or None

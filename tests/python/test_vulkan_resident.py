@@ -233,6 +233,9 @@ def test_two_calls_on_the_same_texture_upload_it_once_with_the_cpu_contexts_resu
     got = [view(glctx, kind, tex, levels, seed, mip) for seed in range(2)]
     # 2 calls, forward and backward each: the first forward uploads, the other 3 read its copy.
     assert texture_delta(glctx, before) == (1, 3)
+    # Level 0 and the levels given (the user's or prebuilt); the device builds the others from level 0.
+    given = sum(m.numel() for m in levels) if levels else mip.pyramid.numel() if mip is not None else 0
+    assert glctx.texture_residency['upload_bytes'] - before['upload_bytes'] == (tex.numel() + given) * 4
     assert glctx.texture_residency['textures'] >= 1
     for seed, (out, g) in enumerate(got):
         out_c, g_c = cpu_view(kind, tex, levels, seed, mip)

@@ -593,9 +593,11 @@ class TextureMip:
         self.tex_shape, self.pyramid, self.sizes, self.cube = tuple(tex.shape), pyramid, sizes, cube
 
 
-def _texture_mode(levels, user, filter_mode, boundary):
-    """boundary _CUBE: a cube map (tex [B, 6, S, S, C], uv directions, uv_dx = uv_da ([..., 6]), uv_dy None)."""
+def _texture_mode(levels, user, filter_mode, boundary, device_levels=False):
+    """boundary _CUBE: a cube map (tex [B, 6, S, S, C], uv directions, uv_dx = uv_da ([..., 6]), uv_dy None);
+    device_levels: levels 1.. built on the device from tex (no pyramid)."""
     mode = _core.TextureMode()
+    mode.device_levels = device_levels
     mode.cube = boundary == _CUBE
     mode.levels, mode.user = levels, user
     mode.filter, mode.wrap = filter_mode, boundary if not mode.cube else 0
@@ -650,12 +652,12 @@ class _TextureFunc(torch.autograd.Function):
         user = len(mip_levels) > 0
         if user:  # the user's levels in one buffer per texture image
             pyramid = torch.cat([m.reshape(m.shape[0], -1, m.shape[3]) for m in mip_levels], 1).contiguous()
-        elif levels > 1:
-            pyramid = prebuilt if prebuilt is not None else _build_pyramid(tex, _core.mip_sizes(
-                tex.shape[-3], tex.shape[-2], levels - 1), boundary == _CUBE)
-        else:
-            pyramid = None
-        mode = _texture_mode(levels, user, filter_mode, boundary)
+        elif levels > 1 and prebuilt is None and device is None:
+            pyramid = _build_pyramid(tex, _core.mip_sizes(tex.shape[-3], tex.shape[-2], levels - 1), boundary == _CUBE)
+        else:  # one level, a prebuilt stack, or levels 1.. built on the device from tex
+            pyramid = prebuilt
+        device_levels = levels > 1 and pyramid is None
+        mode = _texture_mode(levels, user, filter_mode, boundary, device_levels)
         out = tex.new_empty(uv.shape[:3] + (tex.shape[-1],))
         # Bilinear with a uv gradient: keep d out/d(u, v), so the backward reads no texel for it (the CPU
         # kernels; a device's backward reads the texels).
@@ -671,6 +673,7 @@ class _TextureFunc(torch.autograd.Function):
             on.after = ctx.kept
         ctx.save_for_backward(tex, uv, uv_dx, uv_dy, bias, pyramid, jacobian)
         ctx.filter_mode, ctx.boundary, ctx.levels, ctx.user, ctx.device = filter_mode, boundary, levels, user, device
+        ctx.device_levels = device_levels
         ctx.mip_shapes = [m.shape for m in mip_levels]
         return out
 
@@ -683,7 +686,7 @@ class _TextureFunc(torch.autograd.Function):
         g_tex, g_uv = zeros(tex, needs[4]), zeros(uv, needs[5] and ctx.filter_mode != 0)
         g_dx, g_dy, g_bias = zeros(uv_dx, needs[6]), zeros(uv_dy, needs[7]), zeros(bias, needs[8])
         g_pyr = zeros(pyramid, ctx.user and any(needs[9:]))
-        mode = _texture_mode(ctx.levels, ctx.user, ctx.filter_mode, ctx.boundary)
+        mode = _texture_mode(ctx.levels, ctx.user, ctx.filter_mode, ctx.boundary, ctx.device_levels)
         _core.texture_backward(ctx.device, mode, _d(tex), _d(uv), _d(uv_dx), _d(uv_dy), _d(bias), _d(pyramid),
                                _d(jacobian), _d(dy.contiguous()), g_tex, g_uv, g_dx, g_dy, g_bias, g_pyr, _threads(),
                                ctx.kept)
