@@ -311,3 +311,16 @@ def test_textures_must_be_a_non_negative_integer():
         dr.RasterizeVulkanContext(textures=-1)
     with pytest.raises(TypeError, match="'textures'"):
         dr.RasterizeVulkanContext(textures=1.5)
+
+
+def test_lookups_without_a_pyramid_are_refused_where_no_device_builds_the_levels():
+    from gradraster import _core
+    mode = _core.TextureMode()
+    mode.levels, mode.filter, mode.device_levels = 3, 2, True
+    tex, uv = torch.rand(1, 8, 8, 3), torch.rand(1, 4, 4, 2)
+    da = torch.full((1, 4, 4, 2), 0.1)
+    out = torch.empty(1, 4, 4, 3)
+    with pytest.raises(ValueError, match="pyramid"):  # the CPU kernels
+        _core.texture_forward(None, mode, tex, uv, da, da, None, None, out, None, 1)
+    with pytest.raises(ValueError, match="pyramid"):  # a pyramid given as well
+        _core.texture_forward(None, mode, tex, uv, da, da, None, torch.rand(1, 20, 3), out, None, 1)

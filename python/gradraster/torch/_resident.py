@@ -1,5 +1,6 @@
-"""The G-buffers a RasterizeVulkanContext's rasterize kept on its device, and
-when a later op may read them there instead of uploading its tensors.
+"""The G-buffers a RasterizeVulkanContext's rasterize kept on its device (and
+the textures its texture calls kept: KeptTextures below), and when a later op
+may read them there instead of uploading its tensors.
 
 rasterize on a Vulkan context makes each image's G-buffer on the device,
 downloads rast and rast_db once and keeps the device's copy: one handle per
