@@ -3,7 +3,10 @@ read the device's copy (no upload of rast) while rast, rast_db, pos and tri are 
 read, unwritten since, and upload them otherwise (a tensor written in place or a copy, a G-buffer the pool let go),
 with the CPU context's values within 1e-6 and gradients within 1e-5 either way, and the same bits uploaded or not
 (glctx.residency counts the uploads).
-The pool grows to the largest minibatch unless `frames` fixes it. Skipped where there is no Vulkan device."""
+The pool grows to the largest minibatch unless `frames` fixes it. Textures (2D and cube maps) stay too: later calls
+on the very tensor, unwritten since (torch's _version), read the device's copy; one written in place or another tensor
+is uploaded, with the CPU context's results (glctx.texture_residency counts). Skipped where there is no Vulkan
+device."""
 import pytest
 import torch
 
