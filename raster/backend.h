@@ -16,7 +16,9 @@
 // same either way (the arrays are the device's copy, downloaded). Likewise a
 // texture: texture_forward / texture_backward with a DeviceTexture handle
 // keep the texels they read (the levels too) on the device, and read that
-// copy at the next call given the handle while the backend still holds it.
+// copy at the next call given the handle while the backend still holds it;
+// cube_texture_forward / cube_texture_backward with a handle likewise (the 6
+// faces and their levels).
 #pragma once
 
 #include <cstdint>
@@ -86,7 +88,8 @@ class RasterBackend {
   // True when texture_forward / texture_backward take p.pyramid null for the
   // mip levels the caller would build with mip_build (not the user's levels)
   // and build them on the device, mip_build's bits (they then cover every
-  // float32 call: they never return false).
+  // float32 call: they never return false); the cube-map calls likewise
+  // (cube_mip_build's levels).
   virtual bool builds_mip_levels() const { return false; }
   // The same two keeping the texels read on the device. kept, in: the handle
   // an earlier call gave back while p's texels (p.tex and the levels read)
@@ -104,11 +107,27 @@ class RasterBackend {
     return texture_backward(p, grad_out, grads);
   }
   // cube_texture_forward / cube_texture_backward (raster/cube_texture.h),
-  // likewise: false when the backend does not cover them.
+  // likewise: false when the backend does not cover them. With
+  // builds_mip_levels, p.pyramid null (the levels cube_mip_build would make)
+  // is built on the device too, cube_mip_build's bits.
   virtual bool cube_texture_forward(const CubeTextureParams<float>& /*p*/, float* /*out*/) const { return false; }
   virtual bool cube_texture_backward(const CubeTextureParams<float>& /*p*/, const float* /*grad_out*/,
                                      const CubeTextureGrads<float>& /*grads*/) const {
     return false;
+  }
+  // The same two keeping the 6 faces (and the levels read) on the device, as
+  // texture_forward / texture_backward with `kept` do (the defaults just call
+  // the two above).
+  virtual bool cube_texture_forward(const CubeTextureParams<float>& p, float* out,
+                                    std::shared_ptr<const DeviceTexture>& kept) const {
+    kept = nullptr;
+    return cube_texture_forward(p, out);
+  }
+  virtual bool cube_texture_backward(const CubeTextureParams<float>& p, const float* grad_out,
+                                     const CubeTextureGrads<float>& grads,
+                                     std::shared_ptr<const DeviceTexture>& kept) const {
+    kept = nullptr;
+    return cube_texture_backward(p, grad_out, grads);
   }
   // The ops' G-buffer chain, float32, one image of width x height pixels
   // (the ops pass the G-buffer's arrays). Each gives the CPU kernel's results

@@ -1,5 +1,6 @@
 // Tape op over raster::cube_texture_forward / cube_texture_backward (and
-// cube_mip_build for the mipmapped filters).
+// cube_mip_build for the mipmapped filters); on a backend, the cube map kept
+// on its device across calls (ops/render/resident_texture.h).
 #include "ops/render/cube_texture.h"
 
 #include <string>
@@ -8,6 +9,7 @@
 
 #include "autodiff/tape.h"
 #include "ops/check.h"
+#include "ops/render/resident_texture.h"
 #include "raster/mipmap.h"
 
 namespace gr {
@@ -39,6 +41,30 @@ raster::CubeTextureParams<T> params(const Tensor& tex, const Tensor& dir, const 
   p.num_samples = dir.numel() / 3;
   p.filter = o.filter;
   return p;
+}
+
+// Each face's mip levels 1.. (cube_mip_build), [6 x upper texels, C];
+// undefined with one level.
+Tensor host_pyramid(const Tensor& tex, const raster::MipLayout& layout) {
+  if (layout.count() == 1) return Tensor();
+  const std::int64_t C = tex.size(3), base = std::int64_t(layout.levels[0].width) * layout.levels[0].width;
+  Tensor pyramid = Tensor::empty({6 * (layout.total_texels - base), C}, tex.dtype());
+  dispatch_float(tex.dtype(), "cube_texture", [&](auto tag) {
+    using T = decltype(tag);
+    raster::cube_mip_build(tex.data<T>(), C, layout, pyramid.data<T>());
+  });
+  return pyramid;
+}
+
+// Runs call(handle) with tex's device copy on the backend (the forward's, the
+// adjoint's and later calls' one while tex is unchanged); call returns
+// whether the backend ran it.
+template <class Call>
+bool on_backend(const CubeTextureOptions& o, const Tensor& tex, const raster::MipLayout& layout, Call call) {
+  const std::shared_ptr<detail::ResidentTexture> slot =
+      detail::resident_texture(o.backend.get(), tex, 0, layout.count(), {}, detail::TextureKind::Cube);
+  std::lock_guard<std::mutex> lock(slot->mutex);
+  return call(slot->device);
 }
 
 }  // namespace
@@ -83,23 +109,22 @@ Tensor cube_texture(const Tensor& tex, const Tensor& dir, const CubeTextureOptio
   const std::int64_t C = tex.size(3);
   const raster::MipLayout layout = raster::mip_layout(S, S, mipmapped ? options.max_mip_level : 0);
 
-  // Per-face mip levels 1.., then the lookups.
-  Tensor pyramid;
-  if (layout.count() > 1) {
-    pyramid = Tensor::empty({6 * (layout.total_texels - std::int64_t(S) * S), C}, tex.dtype());
-    dispatch_float(tex.dtype(), "cube_texture", [&](auto tag) {
-      using T = decltype(tag);
-      raster::cube_mip_build(tex.data<T>(), C, layout, pyramid.data<T>());
-    });
-  }
+  // Per-face mip levels 1.. (a backend that builds them on its device gets
+  // level 0 alone), then the lookups.
+  const bool on_device = options.backend && tex.dtype() == DType::Float32;
+  Tensor pyramid = on_device && options.backend->builds_mip_levels() ? Tensor() : host_pyramid(tex, layout);
   const Shape out_shape = dir_shape_with(dir, C);
   Tensor out = Tensor::empty(out_shape, tex.dtype());
   dispatch_float(tex.dtype(), "cube_texture", [&](auto tag) {
     using T = decltype(tag);
-    const raster::CubeTextureParams<T> p = params<T>(tex, dir, da, bias, pyramid, layout, options);
     if constexpr (std::is_same_v<T, float>)
-      if (options.backend && options.backend->cube_texture_forward(p, out.data<T>())) return;
-    raster::cube_texture_forward(p, out.data<T>());
+      if (on_device && on_backend(options, tex, layout, [&](auto& kept) {
+            return options.backend->cube_texture_forward(
+                params<T>(tex, dir, da, bias, pyramid, layout, options), out.data<T>(), kept);
+          }))
+        return;
+    if (!pyramid.defined()) pyramid = host_pyramid(tex, layout);
+    raster::cube_texture_forward(params<T>(tex, dir, da, bias, pyramid, layout, options), out.data<T>());
   });
 
   const std::vector<Tensor> inputs{tex, dir, mipmapped ? dir_da : Tensor(), mip_level_bias};
@@ -125,11 +150,15 @@ Tensor cube_texture(const Tensor& tex, const Tensor& dir, const CubeTextureOptio
                grads.dir = ptr(g[1]);
                grads.dir_da = ptr(g[2]);
                grads.mip_level_bias = ptr(g[3]);
-               const raster::CubeTextureParams<T> p = params<T>(tex, dir, da, bias, pyramid, layout, options);
+               const T* grad_out = ctx.grad_output().data<T>();
                if constexpr (std::is_same_v<T, float>)
-                 if (options.backend && options.backend->cube_texture_backward(p, ctx.grad_output().data<T>(), grads))
+                 if (options.backend && on_backend(options, tex, layout, [&](auto& kept) {
+                       return options.backend->cube_texture_backward(
+                           params<T>(tex, dir, da, bias, pyramid, layout, options), grad_out, grads, kept);
+                     }))
                    return;
-               raster::cube_texture_backward(p, ctx.grad_output().data<T>(), grads);
+               const Tensor levels = pyramid.defined() ? pyramid : host_pyramid(tex, layout);
+               raster::cube_texture_backward(params<T>(tex, dir, da, bias, levels, layout, options), grad_out, grads);
              });
              for (std::size_t i = 0; i < 4; ++i)
                if (g[i].defined()) ctx.accumulate(i, g[i]);

@@ -22,7 +22,10 @@ struct CubeTextureOptions {
   // Where the lookups and their adjoint run (null: the CPU), e.g.
   // gr::vulkan::raster_backend(device), for float32 (float64 stays on the
   // CPU): samples within an ulp of float of the CPU's, gradients within 1e-5
-  // of the largest (docs/gpu.md). The per-face pyramids are built on the CPU.
+  // of the largest (docs/gpu.md). A backend that builds mip levels
+  // (RasterBackend::builds_mip_levels) makes the per-face pyramids on its
+  // device, else they are built on the CPU; the backend keeps the cube map on
+  // its device across calls while tex is unchanged (ops/render/resident_texture.h).
   std::shared_ptr<const raster::RasterBackend> backend = nullptr;
 };
 

@@ -1,5 +1,5 @@
 // resident_texture: slots keyed by the backend, the tensors' stamps
-// (ops/render/tensor_stamp.h), the image and the levels.
+// (ops/render/tensor_stamp.h), the image, the levels and the kind.
 #include "ops/render/resident_texture.h"
 
 #include <algorithm>
@@ -13,6 +13,7 @@ struct Entry {
   const raster::RasterBackend* backend = nullptr;
   std::int64_t image = 0;
   int levels = 0;
+  TextureKind kind = TextureKind::Plane;
   TensorStamp tex;
   std::vector<TensorStamp> mip;
   std::shared_ptr<ResidentTexture> slot;
@@ -24,8 +25,8 @@ std::vector<Entry> g_entries;
 std::uint64_t g_clock = 0;
 
 bool matches(const Entry& e, const raster::RasterBackend* backend, const Tensor& tex, std::int64_t t, int levels,
-             const std::vector<Tensor>& mip) {
-  if (e.backend != backend || e.image != t || e.levels != levels || e.mip.size() != mip.size() ||
+             const std::vector<Tensor>& mip, TextureKind kind) {
+  if (e.backend != backend || e.image != t || e.levels != levels || e.kind != kind || e.mip.size() != mip.size() ||
       !e.tex.matches(tex))
     return false;
   for (std::size_t i = 0; i < mip.size(); ++i)
@@ -36,10 +37,11 @@ bool matches(const Entry& e, const raster::RasterBackend* backend, const Tensor&
 }  // namespace
 
 std::shared_ptr<ResidentTexture> resident_texture(const raster::RasterBackend* backend, const Tensor& tex,
-                                                  std::int64_t t, int levels, const std::vector<Tensor>& mip) {
+                                                  std::int64_t t, int levels, const std::vector<Tensor>& mip,
+                                                  TextureKind kind) {
   std::lock_guard<std::mutex> lock(g_mutex);
   for (Entry& e : g_entries)
-    if (matches(e, backend, tex, t, levels, mip)) {
+    if (matches(e, backend, tex, t, levels, mip, kind)) {
       e.used = ++g_clock;
       return e.slot;
     }
@@ -58,6 +60,7 @@ std::shared_ptr<ResidentTexture> resident_texture(const raster::RasterBackend* b
   e.backend = backend;
   e.image = t;
   e.levels = levels;
+  e.kind = kind;
   e.tex = TensorStamp::of(tex);
   for (const Tensor& m : mip) e.mip.push_back(TensorStamp::of(m));
   e.slot = std::make_shared<ResidentTexture>();

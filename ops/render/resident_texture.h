@@ -1,7 +1,7 @@
-// The device's copies of the texture op's textures
-// (raster::RasterBackend::texture_forward / texture_backward with a
-// DeviceTexture handle), found again by the host tensors they were made
-// from: the op's forward, its adjoint and later calls on the same texture
+// The device's copies of the texture and cube_texture ops' textures
+// (raster::RasterBackend::texture_forward / texture_backward and the cube-map
+// calls with a DeviceTexture handle), found again by the host tensors they
+// were made from: the op's forward, its adjoint and later calls on the same texture
 // read one copy while tex (and the user's mip levels) are the same storages,
 // not written in place since. A texture written in place, or another tensor,
 // gets a new slot (no handle: the backend uploads), so results never depend
@@ -28,9 +28,13 @@ struct ResidentTexture {
   std::shared_ptr<const raster::DeviceTexture> device;
 };
 
+// How a texture is read: a 2D texture image or a cube map (6 faces).
+enum class TextureKind { Plane, Cube };
+
 // The slot of texture image t of tex (its mip levels 1..levels-1 built from
-// it, or the user's `mip`) on `backend`.
+// it, or the user's `mip`) read as `kind` on `backend`.
 std::shared_ptr<ResidentTexture> resident_texture(const raster::RasterBackend* backend, const Tensor& tex,
-                                                  std::int64_t t, int levels, const std::vector<Tensor>& mip);
+                                                  std::int64_t t, int levels, const std::vector<Tensor>& mip,
+                                                  TextureKind kind = TextureKind::Plane);
 
 }  // namespace gr::detail

@@ -117,19 +117,22 @@ PYBIND11_MODULE(_core, m) {
       })
       // What its device did with the textures' texels (vulkan::texture_residency;
       // all 0 for a CPU context): calls that uploaded them, their bytes, calls
-      // that read a kept copy.
+      // that read a kept copy, the copies kept now and their bytes.
       .def_property_readonly("texture_residency", [](const Context& ctx) {
         py::dict out;
-        std::int64_t uploads = 0, upload_bytes = 0, resident_calls = 0;
+        std::int64_t uploads = 0, upload_bytes = 0, resident_calls = 0, kept = 0, kept_bytes = 0;
 #ifdef GRADRASTER_HAS_VULKAN
         if (ctx.gpu) {
           const gr::vulkan::TextureResidency s = gr::vulkan::texture_residency(*ctx.gpu);
           uploads = s.uploads, upload_bytes = s.upload_bytes, resident_calls = s.resident_calls;
+          kept = s.kept, kept_bytes = static_cast<std::int64_t>(s.kept_bytes);
         }
 #endif
         out["uploads"] = uploads;
         out["upload_bytes"] = upload_bytes;
         out["resident_calls"] = resident_calls;
+        out["kept"] = kept;
+        out["kept_bytes"] = kept_bytes;
         return out;
       });
   // rasterize_forward's handles of the G-buffers it kept on the device
@@ -178,12 +181,13 @@ PYBIND11_MODULE(_core, m) {
       .def_readwrite("user", &TextureMode::user)
       .def_readwrite("filter", &TextureMode::filter)
       .def_readwrite("wrap", &TextureMode::wrap)
-      .def_readwrite("cube", &TextureMode::cube);
+      .def_readwrite("cube", &TextureMode::cube)
+      .def_readwrite("device_levels", &TextureMode::device_levels);
   m.def("mip_sizes", &mip_sizes);
   m.def("mip_build", &mip_build, py::arg("mode"), py::arg("tex"), py::arg("pyramid"), py::arg("threads"));
   m.def("texture_forward", &texture_forward, py::arg("ctx"), py::arg("mode"), py::arg("tex"), py::arg("uv"),
         py::arg("uv_dx"), py::arg("uv_dy"), py::arg("bias"), py::arg("pyramid"), py::arg("out"),
-        py::arg("uv_jacobian"), py::arg("threads"));
+        py::arg("uv_jacobian"), py::arg("threads"), py::arg("kept") = py::none());
   py::class_<DeviceTextures, std::shared_ptr<DeviceTextures>>(m, "DeviceTextures");
   m.def("texture_backward", &texture_backward, py::arg("ctx"), py::arg("mode"), py::arg("tex"), py::arg("uv"),
         py::arg("uv_dx"), py::arg("uv_dy"), py::arg("bias"), py::arg("pyramid"), py::arg("uv_jacobian"),

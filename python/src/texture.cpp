@@ -77,7 +77,10 @@ TextureArgs::TextureArgs(const TextureMode& mode_, Objects tex_, Objects uv_, Ob
   if (mode.user && (mode.cube || mode.levels < 2))
     throw ValueError(o + ": a user mip stack needs a 2D texture and at least 2 levels");
   layout = raster::mip_layout(height, width, mode.levels - 1);
-  if (mode.levels > 1) pyramid.required("the mip stack of levels 1..");
+  if (mode.device_levels && (mode.user || mode.levels < 2 || pyramid || !lookups))
+    throw ValueError(o + ": levels built on the device are for lookups with 2 or more levels, not the user's, and "
+                     "no 'pyramid'");
+  if (mode.levels > 1 && !mode.device_levels) pyramid.required("the mip stack of levels 1..");
   if (mode.levels == 1 && pyramid) throw ValueError(o + ": 'pyramid' is given for one mip level");
   pyramid.same_elem(tex).shape({tex_images, pyramid_values() / channels, channels});
   if (!lookups) {
@@ -157,7 +160,16 @@ const raster::RasterBackend* lookups_backend(const Context* ctx, const TextureAr
   const raster::RasterBackend* backend = a.f64() ? nullptr : backend_for<float>(ctx);
   if (backend && a.uv_jacobian)
     throw ValueError(std::string(op) + ": 'uv_jacobian' is for the CPU kernels; the device's lookups keep none");
+  if (a.mode.device_levels && !(backend && backend->builds_mip_levels()))
+    throw ValueError(std::string(op) + ": no 'pyramid' (mode.device_levels) needs float32 lookups on a device "
+                     "that builds the mip levels");
   return backend;
+}
+
+// The forward's handle of texture image t (texture_forward), when it kept one; else null.
+std::shared_ptr<const raster::DeviceTexture> handle_of(const std::shared_ptr<DeviceTextures>& kept, std::int64_t t) {
+  if (kept && static_cast<std::size_t>(t) < kept->images.size()) return kept->images[static_cast<std::size_t>(t)];
+  return nullptr;
 }
 
 // Image b's part of the saved uv Jacobian, or null.
@@ -199,17 +211,23 @@ void mip_build(const TextureMode& mode, Objects tex, Objects pyramid, int thread
 
 std::shared_ptr<DeviceTextures> texture_forward(Context* ctx, const TextureMode& mode, Objects tex, Objects uv,
                                                 Objects uv_dx, Objects uv_dy, Objects bias, Objects pyramid,
-                                                Objects out_, Objects uv_jacobian, int threads) {
+                                                Objects out_, Objects uv_jacobian, int threads,
+                                                const std::shared_ptr<DeviceTextures>& kept_before) {
   const char* op = "texture";
   const TextureArgs a(mode, tex, uv, uv_dx, uv_dy, bias, pyramid, uv_jacobian, op, true);
   const Array out(out_, op, "out");
   out.same_elem(a.tex).shape({a.images, a.uv.size(1), a.uv.size(2), a.channels});
   check_disjoint(op, {&out, &a.uv_jacobian}, {&a.tex, &a.pyramid, &a.uv, &a.uv_dx, &a.uv_dy, &a.bias});
   const raster::RasterBackend* backend = lookups_backend(ctx, a, op);
-  // On a device (2D): one handle per texture image, for the backward (a device runs the images in order).
+  // On a device: one handle per texture image, for the backward and later
+  // calls (a device runs the images in order); an earlier call's to start from.
   std::shared_ptr<DeviceTextures> kept;
-  if (backend && !a.mode.cube) {
+  if (backend) {
     kept = std::make_shared<DeviceTextures>();
+    if (kept_before && static_cast<std::int64_t>(kept_before->images.size()) != a.tex_images)
+      throw ValueError(std::string(op) + ": 'kept' holds " + std::to_string(kept_before->images.size()) +
+                       " texture images, 'tex' has " + std::to_string(a.tex_images));
+    if (kept_before) kept->images = kept_before->images;
     kept->images.resize(static_cast<std::size_t>(a.tex_images));
   }
   KernelCall call(threads);
@@ -218,10 +236,12 @@ std::shared_ptr<DeviceTextures> texture_forward(Context* ctx, const TextureMode&
     for_each_image_on(backend, a.images, [&](std::int64_t b) {
       T* o = out.out<T>() + b * a.samples * a.channels;
       if constexpr (std::is_same_v<T, float>)
-        if (backend && counted(*ctx, a.mode.cube ? backend->cube_texture_forward(cube_params<T>(a, b), o)
-                                                 : backend->texture_forward(image_params<T>(a, b), o,
-                                                                            kept->images[a.tex_images == 1 ? 0 : b])))
-          return;
+        if (backend) {
+          auto& handle = kept->images[a.tex_images == 1 ? 0 : b];
+          if (counted(*ctx, a.mode.cube ? backend->cube_texture_forward(cube_params<T>(a, b), o, handle)
+                                        : backend->texture_forward(image_params<T>(a, b), o, handle)))
+            return;
+        }
       if (a.mode.cube)
         raster::cube_texture_forward(cube_params<T>(a, b), o);
       else
@@ -277,7 +297,12 @@ void texture_backward(Context* ctx, const TextureMode& mode, Objects tex, Object
         if (grad_uv_dx) g.dir_da = grad_uv_dx.out<T>() + 6 * a.samples * b;  // the cube's uv_da gradient
         if (grad_bias) g.mip_level_bias = grad_bias.out<T>() + a.samples * b;
         if constexpr (std::is_same_v<T, float>)
-          if (backend && counted(*ctx, backend->cube_texture_backward(cube_params<T>(a, b), g_out, g))) return;
+          if (backend) {
+            std::shared_ptr<const raster::DeviceTexture> handle = handle_of(kept, t);
+            if (counted(*ctx, handle ? backend->cube_texture_backward(cube_params<T>(a, b), g_out, g, handle)
+                                     : backend->cube_texture_backward(cube_params<T>(a, b), g_out, g)))
+              return;
+          }
         raster::cube_texture_backward(cube_params<T>(a, b), g_out, g);
         return;
       }
@@ -290,9 +315,7 @@ void texture_backward(Context* ctx, const TextureMode& mode, Objects tex, Object
       if (grad_pyramid) g.pyramid = grad_pyramid.out<T>() + t * a.pyramid_values();
       if constexpr (std::is_same_v<T, float>)
         if (backend) {
-          // The forward's handle of this texture image (texture_forward), when it kept one.
-          std::shared_ptr<const raster::DeviceTexture> handle;
-          if (kept && static_cast<std::size_t>(t) < kept->images.size()) handle = kept->images[t];
+          std::shared_ptr<const raster::DeviceTexture> handle = handle_of(kept, t);
           if (counted(*ctx, handle ? backend->texture_backward(image_params<T>(a, b), g_out, g, handle)
                                    : backend->texture_backward(image_params<T>(a, b), g_out, g)))
             return;

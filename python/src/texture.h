@@ -27,13 +27,18 @@ struct TextureMode {
   // w, 6] (None: the LOD is the bias alone), uv_dy None; pyramid per face
   // (raster/cube_texture.h).
   bool cube = false;
+  // levels 1.. (mip_build's, not the user's) are made where the lookups run,
+  // from tex: no pyramid is given (float32 lookups on a device whose backend
+  // builds mip levels, RasterBackend::builds_mip_levels, only)
+  bool device_levels = false;
 };
 
 // The tensors of one call, viewed and checked against each other:
 //   tex      [tex_images, H, W, C] (cube: [tex_images, 6, S, S, C]) float,
 //            sides <= 32768
 //   pyramid  levels 1.. per texture image, [tex_images, texels of levels
-//            1.. (x 6 for a cube), C]; required when levels > 1, else None
+//            1.. (x 6 for a cube), C]; required when levels > 1 (unless
+//            mode.device_levels), else None
 //   uv       [images, h, w, 2] (cube: 3); tex_images 1 (broadcast) or images
 //   uv_dx, uv_dy [images, h, w, 2] or None (cube: uv_dx [images, h, w, 6])
 //   bias     [images, h, w] or None
@@ -52,7 +57,9 @@ void mip_build(const TextureMode& mode, const pybind11::object& tex, const pybin
 // handle per texture image (null where none was kept), opaque to Python:
 // gradraster.torch hands them to the backward of the same call, whose saved
 // tex and pyramid torch keeps unchanged (it refuses a backward after an
-// in-place write into them).
+// in-place write into them), and to later calls on the same tex (and mip
+// stack) while torch's version counters say they are unwritten
+// (_resident.py's KeptTextures).
 struct DeviceTextures {
   std::vector<std::shared_ptr<const raster::DeviceTexture>> images;
 };
@@ -60,12 +67,16 @@ struct DeviceTextures {
 // ctx: None (the CPU kernels) or the context that made uv, whose device (a
 // RasterizeVulkanContext's) then runs float32 lookups and their adjoint
 // (2D and cube maps; uv_jacobian must be None: its adjoint reads the texels).
-// out: [images, h, w, C]. Returns the 2D texels the device kept (null for
-// the CPU, a cube map, or float64).
-std::shared_ptr<DeviceTextures> texture_forward(Context* ctx, const TextureMode& mode, const pybind11::object& tex, const pybind11::object& uv,
-                     const pybind11::object& uv_dx, const pybind11::object& uv_dy, const pybind11::object& bias,
-                     const pybind11::object& pyramid, const pybind11::object& out,
-                     const pybind11::object& uv_jacobian, int threads);
+// out: [images, h, w, C]. kept: None, or an earlier call's handles for these
+// very texels (the same tex and levels, unwritten since: the caller vouches),
+// one per texture image. Returns the texels the device kept (null for the
+// CPU, float64, or none kept).
+std::shared_ptr<DeviceTextures> texture_forward(Context* ctx, const TextureMode& mode, const pybind11::object& tex,
+                                                const pybind11::object& uv, const pybind11::object& uv_dx,
+                                                const pybind11::object& uv_dy, const pybind11::object& bias,
+                                                const pybind11::object& pyramid, const pybind11::object& out,
+                                                const pybind11::object& uv_jacobian, int threads,
+                                                const std::shared_ptr<DeviceTextures>& kept = nullptr);
 // grad_out: out's shape. Accumulates into the gradients given (zeroed by the
 // caller, shaped like their inputs; None when not needed; grad_pyramid only
 // for a user stack). For a cube map, grad_uv_dx receives uv_da's gradient and

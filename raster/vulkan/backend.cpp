@@ -138,6 +138,17 @@ class VulkanBackend : public raster::RasterBackend {
     vulkan::cube_texture_backward(*device_, p, grad_out, grads);
     return true;
   }
+  bool cube_texture_forward(const raster::CubeTextureParams<float>& p, float* out,
+                            std::shared_ptr<const raster::DeviceTexture>& kept) const override {
+    with_kept(kept, [&](KeptTexels* k) { vulkan::cube_texture_forward(*device_, p, out, k); });
+    return true;
+  }
+  bool cube_texture_backward(const raster::CubeTextureParams<float>& p, const float* grad_out,
+                             const raster::CubeTextureGrads<float>& grads,
+                             std::shared_ptr<const raster::DeviceTexture>& kept) const override {
+    with_kept(kept, [&](KeptTexels* k) { vulkan::cube_texture_backward(*device_, p, grad_out, grads, k); });
+    return true;
+  }
 
   bool interpolate_forward(const raster::DeviceGBuffer* resident, const raster::BarycentricInterpolateParams<float>& p,
                            int width, int height, float* out, float* out_da) const override {

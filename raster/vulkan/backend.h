@@ -9,10 +9,10 @@
 // G-buffer from the host otherwise (Frame::load_gbuffer), as the calls
 // without a handle always do. The texture and cube_texture ops run their
 // forward and adjoint there for float32 (raster/vulkan/texture.h,
-// raster/vulkan/cube_texture.h); 2D textures with a DeviceTexture handle stay
-// on the device between calls (texture.h's KeptTexels, the device's cache),
-// and their mip levels are built there (builds_mip_levels). Thread-safe: one
-// call at a time.
+// raster/vulkan/cube_texture.h); 2D textures and cube maps with a
+// DeviceTexture handle stay on the device between calls (texture.h's
+// KeptTexels, the device's cache), and their mip levels are built there
+// (builds_mip_levels). Thread-safe: one call at a time.
 #pragma once
 
 #include <cstdint>

@@ -1,6 +1,7 @@
 // Cube-map sampling on a device: the checks and the shader inputs (the faces
-// with their levels, face after face; directions in the uv buffer, dir_da in
-// uv_dx); the command buffers are internal/texture_call.h's.
+// with their levels, face after face, or each face's level 0 alone when the
+// device builds the levels; directions in the uv buffer, dir_da in uv_dx);
+// the command buffers are internal/texture_call.h's.
 #include "raster/vulkan/cube_texture.h"
 
 #include <algorithm>
@@ -36,8 +37,6 @@ void check_params(const raster::CubeTextureParams<float>& p, const char* op) {
     throw ShapeError(std::string(op) + ": empty or non-square faces, or a negative sample count");
   if (!p.faces || (p.num_samples > 0 && !p.dir)) throw ValueError(std::string(op) + ": faces or dir missing");
   const bool mip = raster::is_mipmapped(p.filter);
-  if (mip && p.layout.count() > 1 && !p.pyramid)
-    throw ValueError(std::string(op) + ": mipmapped filtering needs the per-face pyramids");
   const std::int64_t values = 6 * face_texels(p) * p.channels;
   if (values > kMaxIndex || p.num_samples * std::max<std::int64_t>(p.channels, kSampleGrads) > kMaxIndex ||
       4 * p.num_samples > kMaxIndex)
@@ -74,9 +73,11 @@ TextureCall call_of(const raster::CubeTextureParams<float>& p) {
   c.base_texels = base_texels(p);
   c.face_texels = face_texels(p);
   const std::size_t base = static_cast<std::size_t>(c.base_texels), upper = static_cast<std::size_t>(c.face_texels) - base;
+  // Levels 1..: the caller's, else built on the device from each face's level 0.
+  c.build_levels = upper && !p.pyramid;
   for (std::size_t f = 0; f < 6; ++f) {
     c.texels.push_back({p.faces + f * base * C, base * C * sizeof(float)});
-    if (upper) c.texels.push_back({p.pyramid + f * upper * C, upper * C * sizeof(float)});
+    if (upper && !c.build_levels) c.texels.push_back({p.pyramid + f * upper * C, upper * C * sizeof(float)});
   }
   for (int l = 0; l < levels_read(p); ++l) {
     const raster::MipLevel& lv = p.layout.levels[l];
@@ -97,14 +98,15 @@ TextureCall call_of(const raster::CubeTextureParams<float>& p) {
 
 }  // namespace
 
-GpuTimes cube_texture_forward(Device& device, const raster::CubeTextureParams<float>& p, float* out) {
+GpuTimes cube_texture_forward(Device& device, const raster::CubeTextureParams<float>& p, float* out,
+                              KeptTexels* kept) {
   check_params(p, "vulkan cube_texture");
   if (!out && p.num_samples > 0) throw ValueError("vulkan cube_texture: out is missing");
-  return run_texture_forward(device, call_of(p), out);
+  return run_texture_forward(device, call_of(p), out, kept);
 }
 
 GpuTimes cube_texture_backward(Device& device, const raster::CubeTextureParams<float>& p, const float* grad_out,
-                               const raster::CubeTextureGrads<float>& grads) {
+                               const raster::CubeTextureGrads<float>& grads, KeptTexels* kept) {
   check_params(p, "vulkan cube_texture backward");
   if (!grad_out && p.num_samples > 0) throw ValueError("vulkan cube_texture backward: grad_out is missing");
   // What the CPU kernel writes (cube_texture_backward in raster/cube_texture.cpp).
@@ -124,7 +126,8 @@ GpuTimes cube_texture_backward(Device& device, const raster::CubeTextureParams<f
                                   if (want_bias) want_bias[s] += g[9];
                                 }
                                 if (tex_grad) add_to(grads.faces, tex_grad, face_values);
-                              });
+                              },
+                              kept);
 }
 
 }  // namespace gr::vulkan

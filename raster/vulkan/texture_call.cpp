@@ -21,7 +21,7 @@ struct TextureFinishPush {
 };
 // texture_mip.comp's push constants.
 struct TextureMipPush {
-  std::int32_t level, channels, count, unused[5];
+  std::int32_t level, channels, count, faces, face_values, unused[3];
 };
 static_assert(sizeof(TexturePush) == kPushBytes && sizeof(TextureFinishPush) == kPushBytes &&
                   sizeof(TextureMipPush) == kPushBytes,
@@ -189,24 +189,29 @@ std::size_t stage(Buffers& b, const std::vector<Upload>& uploads, std::size_t ex
 }
 
 // Records the passes that make levels 1.. from level 0 in the texels
-// (call.build_levels; after the uploads, each level after its parent).
+// (call.build_levels; after the uploads, each level after its parent, every
+// face's at once).
 void record_mip_build(VkCommandBuffer cb, Buffers& b, const TextureCall& call, VkDescriptorSet set) {
   b.use(cb, set);
+  const auto face_values = static_cast<std::int32_t>(call.face_texels * call.push.channels);
   for (std::int32_t l = 1; l < call.push.levels; ++l) {
     const std::int32_t count = call.levels[4 * l] * call.levels[4 * l + 1];
-    const TextureMipPush push{l, call.push.channels, count, {}};
-    dispatch(cb, b.k, b.k.texture_mip, &push, count, 256);
+    const TextureMipPush push{l, call.push.channels, count, call.faces(), face_values, {}};
+    dispatch(cb, b.k, b.k.texture_mip, &push, std::int64_t(count) * call.faces(), 256);
     barrier(cb);
   }
 }
 
-// Records the staged uploads (the texels' parts one after the other).
-void record_uploads(VkCommandBuffer cb, Buffers& b, const std::vector<Upload>& uploads) {
+// Records the staged uploads: the texels' parts one after the other, or
+// with call.build_levels each face's level 0 at its face's start (its levels
+// 1.. made there after).
+void record_uploads(VkCommandBuffer cb, Buffers& b, const TextureCall& call, const std::vector<Upload>& uploads) {
+  const std::size_t face_bytes = static_cast<std::size_t>(call.face_texels * call.push.channels) * sizeof(float);
   std::size_t from = 0, texel_offset = 0;
   for (const Upload& u : uploads) {
     const std::size_t to = u.role == kTexels ? texel_offset : 0;
     copy(cb, b.upload.handle(), from, u.role == kTexels ? b.texels : b[u.role].handle(), to, u.bytes);
-    if (u.role == kTexels) texel_offset += u.bytes;
+    if (u.role == kTexels) texel_offset += call.build_levels ? face_bytes : u.bytes;
     from += u.bytes;
   }
 }
@@ -241,7 +246,7 @@ GpuTimes run_texture_forward(Device& device, const TextureCall& call, float* out
   const VkDescriptorSet mip_set = build ? b.bind(b.mip_set, {{0, kTexels}, {1, kLevels}}) : VK_NULL_HANDLE;
   dev.run([&](VkCommandBuffer cb) {
     b.timestamps.begin(cb, 4);
-    record_uploads(cb, b, uploads);
+    record_uploads(cb, b, call, uploads);
     barrier(cb);
     if (build) record_mip_build(cb, b, call, mip_set);
     b.timestamps.stamp(cb, 1);
@@ -294,7 +299,7 @@ GpuTimes run_texture_backward(Device& device, const TextureCall& call, const flo
                            push.contributions, 0, call.faces(), static_cast<std::int32_t>(call.face_texels)};
   dev.run([&](VkCommandBuffer cb) {
     b.timestamps.begin(cb, 6);
-    record_uploads(cb, b, uploads);
+    record_uploads(cb, b, call, uploads);
     copy(cb, b.upload.handle(), grad_from, b[kValues].handle(), 0, grad_bytes);
     if (texels) vkCmdFillBuffer(cb, b[kSums].handle(), 0, static_cast<std::size_t>(values) * sizeof(std::int64_t), 0u);
     vkCmdFillBuffer(cb, b[kLargest].handle(), 0, 2 * sizeof(std::uint64_t), 0u);

@@ -3,13 +3,17 @@ read the device's copy (no upload of rast) while rast, rast_db, pos and tri are 
 read, unwritten since, and upload them otherwise (a tensor written in place or a copy, a G-buffer the pool let go),
 with the CPU context's values within 1e-6 and gradients within 1e-5 either way, and the same bits uploaded or not
 (glctx.residency counts the uploads).
-The pool grows to the largest minibatch unless `frames` fixes it. Skipped where there is no Vulkan device."""
+The pool grows to the largest minibatch unless `frames` fixes it. Textures (2D and cube maps) stay too: later calls
+on the very tensor, unwritten since (torch's _version), read the device's copy; one written in place or another tensor
+is uploaded, with the CPU context's results (glctx.texture_residency counts). Skipped where there is no Vulkan
+device."""
 import pytest
 import torch
 
 import gradraster.torch as dr
 
-from test_vulkan_context import assert_grads_close, assert_values_close, grid_mesh, leaf, vulkan_context
+from test_vulkan_context import (assert_grads_close, assert_values_close, grid_mesh, leaf, shared_vulkan_context,
+                                 vulkan_context)
 
 RESOLUTION = (32, 40)
 
@@ -166,3 +170,160 @@ def test_a_tensor_written_between_a_forward_and_its_backward_is_refused_so_the_b
         {'rast': rast, 'tri': tri}[written].add_(0)
     with pytest.raises(RuntimeError, match='modified by an inplace operation'):
         out.sum().backward()
+
+
+# ---------------------------------------------------------------------------- textures across calls
+# A RasterizeVulkanContext keeps the handles of the textures its texture calls kept on the device
+# (_resident.KeptTextures): later calls on the very tensor, unwritten since, read the device's copy.
+
+TEXTURE_KINDS = {  # filter, boundary, mip
+    '2D bilinear': ('linear', 'wrap', None),
+    '2D trilinear': ('linear-mipmap-linear', 'wrap', None),
+    '2D prebuilt mip': ('linear-mipmap-linear', 'clamp', 'prebuilt'),
+    '2D user mip': ('linear-mipmap-linear', 'wrap', 'user'),
+    'cube bilinear': ('linear', 'cube', None),
+    'cube trilinear': ('linear-mipmap-linear', 'cube', None),
+}
+
+
+def texture_of(kind, seed=0):
+    """A leaf texture for `kind` (and its user mip levels, for 'user')."""
+    g = torch.Generator().manual_seed(seed)
+    _, boundary, mip = TEXTURE_KINDS[kind]
+    shape = (1, 6, 16, 16, 3) if boundary == 'cube' else (1, 16, 24, 3)
+    levels = [leaf(torch.rand(1, 8, 12, 3, generator=g)), leaf(torch.rand(1, 4, 6, 3, generator=g))]
+    return leaf(torch.rand(*shape, generator=g)), levels if mip == 'user' else None
+
+
+def view(glctx, kind, tex, levels=None, seed=0, mip=None):
+    """One view (seeded) of `tex` through rasterize and interpolate: its samples and the gradients of tex (and the
+    user levels); tex.grad is reset first."""
+    filter_mode, boundary, mip_kind = TEXTURE_KINDS[kind]
+    pos, tri = grid_mesh(30 + seed)
+    attr = torch.rand(pos.shape[1], 3 if boundary == 'cube' else 2, generator=torch.Generator().manual_seed(seed))
+    if boundary == 'cube':
+        attr = attr * 2 - 1
+    rast, db = dr.rasterize(glctx, pos, tri, RESOLUTION)
+    uv, uv_da = dr.interpolate(attr, rast, tri, rast_db=db, diff_attrs='all')
+    tex.grad = None
+    kw = {}
+    if mip_kind == 'user':
+        kw['mip'] = levels
+    elif mip_kind == 'prebuilt':
+        kw['mip'] = mip
+    out = dr.texture(tex, uv, uv_da, filter_mode=filter_mode, boundary_mode=boundary, **kw)
+    (out * torch.linspace(-1, 1, out.numel()).reshape(out.shape)).sum().backward()
+    return out.detach(), tex.grad.clone()
+
+
+def texture_delta(glctx, before):
+    after = glctx.texture_residency
+    return after['uploads'] - before['uploads'], after['resident_calls'] - before['resident_calls']
+
+
+def cpu_view(kind, tex, levels, seed, prebuilt):
+    t = leaf(tex.detach())
+    mip = dr.texture_construct_mip(t) if prebuilt is not None else None
+    return view(dr.RasterizeCpuContext(), kind, t, levels, seed, mip)
+
+
+@pytest.mark.parametrize('kind', TEXTURE_KINDS)
+def test_two_calls_on_the_same_texture_upload_it_once_with_the_cpu_contexts_results(kind):
+    glctx = shared_vulkan_context()
+    tex, levels = texture_of(kind)
+    mip = dr.texture_construct_mip(tex) if TEXTURE_KINDS[kind][2] == 'prebuilt' else None
+    before = glctx.texture_residency
+    got = [view(glctx, kind, tex, levels, seed, mip) for seed in range(2)]
+    # 2 calls, forward and backward each: the first forward uploads, the other 3 read its copy.
+    assert texture_delta(glctx, before) == (1, 3)
+    # Level 0 and the levels given (the user's or prebuilt); the device builds the others from level 0.
+    given = sum(m.numel() for m in levels) if levels else mip.pyramid.numel() if mip is not None else 0
+    assert glctx.texture_residency['upload_bytes'] - before['upload_bytes'] == (tex.numel() + given) * 4
+    assert glctx.texture_residency['textures'] >= 1
+    for seed, (out, g) in enumerate(got):
+        out_c, g_c = cpu_view(kind, tex, levels, seed, mip)
+        assert_values_close(out, out_c, 'samples')
+        assert_grads_close(g, g_c, 'tex gradient')
+        # The same bits as a call that uploads (another tensor with these values).
+        copy = leaf(tex.detach())
+        copy_mip = dr.texture_construct_mip(copy) if mip is not None else None
+        out_u, g_u = view(glctx, kind, copy, levels, seed, copy_mip)
+        assert torch.equal(out, out_u) and torch.equal(g, g_u)
+
+
+@pytest.mark.parametrize('write', ['in place', 'optimizer step'])
+@pytest.mark.parametrize('kind', ['2D trilinear', 'cube trilinear'])
+def test_a_texture_written_in_place_between_calls_is_uploaded_again_with_the_cpu_contexts_results(kind, write):
+    glctx = shared_vulkan_context()
+    tex, levels = texture_of(kind, seed=1)
+    optimizer = torch.optim.SGD([tex], lr=0.5)
+    before = glctx.texture_residency
+    first, _ = view(glctx, kind, tex, levels)
+    if write == 'in place':
+        with torch.no_grad():
+            tex.mul_(0.5)
+    else:
+        optimizer.step()
+    out, g = view(glctx, kind, tex, levels)
+    assert texture_delta(glctx, before) == (2, 2)
+    assert not torch.equal(out, first)
+    out_c, g_c = cpu_view(kind, tex, levels, 0, None)
+    assert_values_close(out, out_c, 'samples')
+    assert_grads_close(g, g_c, 'tex gradient')
+
+
+def test_a_different_tensor_with_the_same_values_is_uploaded_and_gives_the_same_bits():
+    glctx = shared_vulkan_context()
+    tex, _ = texture_of('2D trilinear', seed=2)
+    twin = leaf(tex.detach())
+    before = glctx.texture_residency
+    got = view(glctx, '2D trilinear', tex)
+    twin_got = view(glctx, '2D trilinear', twin)
+    assert texture_delta(glctx, before) == (2, 2)
+    assert torch.equal(got[0], twin_got[0]) and torch.equal(got[1], twin_got[1])
+    # A user mip level that is another tensor: the texels differ, so does the key.
+    tex, levels = texture_of('2D user mip', seed=3)
+    view(glctx, '2D user mip', tex, levels)
+    before = glctx.texture_residency
+    other = [leaf(levels[0].detach() * 0.5), levels[1]]
+    out, _ = view(glctx, '2D user mip', tex, other)
+    assert texture_delta(glctx, before) == (1, 1)
+    out_c, _ = cpu_view('2D user mip', tex, other, 0, None)
+    assert_values_close(out, out_c, 'samples')
+
+
+def test_a_context_keeps_at_most_its_textures_least_recently_used_forgotten_first():
+    glctx = dr.RasterizeVulkanContext(textures=1)
+    a, _ = texture_of('2D bilinear', seed=4)
+    b, _ = texture_of('2D bilinear', seed=5)
+    before = glctx.texture_residency
+    for tex in (a, b, a):  # b's handle pushes a's out: each call uploads
+        view(glctx, '2D bilinear', tex)
+    assert texture_delta(glctx, before) == (3, 3)
+    assert glctx.texture_residency['textures'] == 1
+    none_kept = dr.RasterizeVulkanContext(textures=0)
+    before = none_kept.texture_residency
+    for _ in range(2):  # the forward's copy still serves its backward
+        view(none_kept, '2D bilinear', a)
+    assert texture_delta(none_kept, before) == (2, 2)
+    assert none_kept.texture_residency['textures'] == 0
+
+
+def test_textures_must_be_a_non_negative_integer():
+    with pytest.raises(ValueError, match="'textures' must be >= 0"):
+        dr.RasterizeVulkanContext(textures=-1)
+    with pytest.raises(TypeError, match="'textures'"):
+        dr.RasterizeVulkanContext(textures=1.5)
+
+
+def test_lookups_without_a_pyramid_are_refused_where_no_device_builds_the_levels():
+    from gradraster import _core
+    mode = _core.TextureMode()
+    mode.levels, mode.filter, mode.device_levels = 3, 2, True
+    tex, uv = torch.rand(1, 8, 8, 3), torch.rand(1, 4, 4, 2)
+    da = torch.full((1, 4, 4, 2), 0.1)
+    out = torch.empty(1, 4, 4, 3)
+    with pytest.raises(ValueError, match="pyramid"):  # the CPU kernels
+        _core.texture_forward(None, mode, tex, uv, da, da, None, None, out, None, 1)
+    with pytest.raises(ValueError, match="pyramid"):  # a pyramid given as well
+        _core.texture_forward(None, mode, tex, uv, da, da, None, torch.rand(1, 20, 3), out, None, 1)

@@ -20,7 +20,7 @@ from torch.autograd.function import once_differentiable
 
 from .. import _core
 from ._origin import kept_gbuffers, origin, record_origin
-from ._resident import KeptGBuffers
+from ._resident import KeptGBuffers, KeptTextures
 
 _MAX_SIDE = _core.MAX_SIDE  # pixels per side (the rasterizer's limit, raster::kMaxSide)
 _MAX_FLOAT32_IDS = 1 << 24  # float32 holds every triangle id + 1 exactly up to here
@@ -168,16 +168,27 @@ class RasterizeVulkanContext(RasterizeCpuContext):
     tri are unchanged (else they upload them): `frames` G-buffers at once
     (None: as many as the largest minibatch rasterized, at least 4; each
     takes about 300 bytes per pixel of device memory). `residency` counts them.
+    texture keeps the texels on the device too, from its forward to its
+    backward and across calls: the last `textures` textures looked up (tex,
+    and a prebuilt or user mip stack, the very tensors, not written in place
+    since by torch's count: writes through .data are not seen; 0: none kept
+    across calls) are read there again instead of uploaded.
+    `texture_residency` counts them.
     The device is the first discrete GPU, else any GPU, else a CPU device;
     the environment variable GRADRASTER_VULKAN_DEVICE (part of the device's
     name) chooses another. Raises RuntimeError, saying why, when there is none.
     `device` must be None or a CPU device: tensors stay on the CPU."""
 
-    def __init__(self, device=None, frames=None):
+    def __init__(self, device=None, frames=None, textures=4):
         super().__init__(device)
         if frames is not None and (isinstance(frames, bool) or not isinstance(frames, numbers.Integral)):
             raise TypeError(f"RasterizeVulkanContext: 'frames' must be None or an integer, got {frames!r}")
+        if isinstance(textures, bool) or not isinstance(textures, numbers.Integral):
+            raise TypeError(f"RasterizeVulkanContext: 'textures' must be an integer, got {textures!r}")
+        if textures < 0:
+            raise ValueError(f"RasterizeVulkanContext: 'textures' must be >= 0, got {textures}")
         self.cpp_wrapper = _core.Context.vulkan(None if frames is None else int(frames))
+        self.kept_textures = KeptTextures(int(textures))
 
     @property
     def vulkan_device(self):
@@ -202,8 +213,12 @@ class RasterizeVulkanContext(RasterizeCpuContext):
     def texture_residency(self):
         """What the device did with the textures' texels so far, a dict: 'uploads' (texture calls, per image, that
         uploaded them), 'upload_bytes', 'resident_calls' (calls that read the copy kept on the device: a texture
-        backward reads its forward's) (docs/gpu.md, "What stays resident")."""
-        return dict(self.cpp_wrapper.texture_residency)
+        backward reads its forward's, a later call on an unchanged texture the earlier's), 'kept' and 'kept_bytes'
+        (the copies the device keeps now, of every context on it), 'textures' (those this context would hand back:
+        at most its `textures`) (docs/gpu.md, "What stays resident")."""
+        out = dict(self.cpp_wrapper.texture_residency)
+        out['textures'] = len(self.kept_textures)
+        return out
 
 
 # nvdiffrast's two context classes, by name, so that programs that name them
@@ -578,9 +593,11 @@ class TextureMip:
         self.tex_shape, self.pyramid, self.sizes, self.cube = tuple(tex.shape), pyramid, sizes, cube
 
 
-def _texture_mode(levels, user, filter_mode, boundary):
-    """boundary _CUBE: a cube map (tex [B, 6, S, S, C], uv directions, uv_dx = uv_da ([..., 6]), uv_dy None)."""
+def _texture_mode(levels, user, filter_mode, boundary, device_levels=False):
+    """boundary _CUBE: a cube map (tex [B, 6, S, S, C], uv directions, uv_dx = uv_da ([..., 6]), uv_dy None);
+    device_levels: levels 1.. built on the device from tex (no pyramid)."""
     mode = _core.TextureMode()
+    mode.device_levels = device_levels
     mode.cube = boundary == _CUBE
     mode.levels, mode.user = levels, user
     mode.filter, mode.wrap = filter_mode, boundary if not mode.cube else 0
@@ -620,18 +637,27 @@ def _build_pyramid(tex, sizes, cube=False):
     return pyramid
 
 
+class _OnDevice:
+    """Where a texture call runs: a Vulkan context's _core.Context (`device`), the handles an earlier call kept
+    for these very texels (`before`, or None) and, after the forward, the handles this call kept (`after`)."""
+
+    def __init__(self, device, before):
+        self.device, self.before, self.after = device, before, None
+
+
 class _TextureFunc(torch.autograd.Function):
     @staticmethod
-    def forward(ctx, device, filter_mode, boundary, levels, prebuilt, tex, uv, uv_dx, uv_dy, bias, *mip_levels):
+    def forward(ctx, on, filter_mode, boundary, levels, prebuilt, tex, uv, uv_dx, uv_dy, bias, *mip_levels):
+        device = on.device if on is not None else None
         user = len(mip_levels) > 0
         if user:  # the user's levels in one buffer per texture image
             pyramid = torch.cat([m.reshape(m.shape[0], -1, m.shape[3]) for m in mip_levels], 1).contiguous()
-        elif levels > 1:
-            pyramid = prebuilt if prebuilt is not None else _build_pyramid(tex, _core.mip_sizes(
-                tex.shape[-3], tex.shape[-2], levels - 1), boundary == _CUBE)
-        else:
-            pyramid = None
-        mode = _texture_mode(levels, user, filter_mode, boundary)
+        elif levels > 1 and prebuilt is None and device is None:
+            pyramid = _build_pyramid(tex, _core.mip_sizes(tex.shape[-3], tex.shape[-2], levels - 1), boundary == _CUBE)
+        else:  # one level, a prebuilt stack, or levels 1.. built on the device from tex
+            pyramid = prebuilt
+        device_levels = levels > 1 and pyramid is None
+        mode = _texture_mode(levels, user, filter_mode, boundary, device_levels)
         out = tex.new_empty(uv.shape[:3] + (tex.shape[-1],))
         # Bilinear with a uv gradient: keep d out/d(u, v), so the backward reads no texel for it (the CPU
         # kernels; a device's backward reads the texels).
@@ -639,11 +665,15 @@ class _TextureFunc(torch.autograd.Function):
         if filter_mode == _FILTERS['linear'] and boundary != _CUBE and ctx.needs_input_grad[6] and device is None:
             jacobian = tex.new_empty(uv.shape[:3] + (2, tex.shape[-1]))
         # A Vulkan context keeps the texels on its device for the backward (torch keeps the saved tex and
-        # pyramid unchanged until then: it refuses a backward after an in-place write into them).
+        # pyramid unchanged until then: it refuses a backward after an in-place write into them), and for later
+        # calls on the same texture (_resident.KeptTextures).
         ctx.kept = _core.texture_forward(device, mode, _d(tex), _d(uv), _d(uv_dx), _d(uv_dy), _d(bias), _d(pyramid),
-                                         out, jacobian, _threads())
+                                         out, jacobian, _threads(), on.before if on is not None else None)
+        if on is not None:
+            on.after = ctx.kept
         ctx.save_for_backward(tex, uv, uv_dx, uv_dy, bias, pyramid, jacobian)
         ctx.filter_mode, ctx.boundary, ctx.levels, ctx.user, ctx.device = filter_mode, boundary, levels, user, device
+        ctx.device_levels = device_levels
         ctx.mip_shapes = [m.shape for m in mip_levels]
         return out
 
@@ -651,12 +681,12 @@ class _TextureFunc(torch.autograd.Function):
     @once_differentiable
     def backward(ctx, dy):
         tex, uv, uv_dx, uv_dy, bias, pyramid, jacobian = ctx.saved_tensors
-        needs = ctx.needs_input_grad[1:]  # as forward's arguments after `device`
+        needs = ctx.needs_input_grad[1:]  # as forward's arguments after `on`
         zeros = lambda t, need: torch.zeros_like(t) if need and t is not None else None
         g_tex, g_uv = zeros(tex, needs[4]), zeros(uv, needs[5] and ctx.filter_mode != 0)
         g_dx, g_dy, g_bias = zeros(uv_dx, needs[6]), zeros(uv_dy, needs[7]), zeros(bias, needs[8])
         g_pyr = zeros(pyramid, ctx.user and any(needs[9:]))
-        mode = _texture_mode(ctx.levels, ctx.user, ctx.filter_mode, ctx.boundary)
+        mode = _texture_mode(ctx.levels, ctx.user, ctx.filter_mode, ctx.boundary, ctx.device_levels)
         _core.texture_backward(ctx.device, mode, _d(tex), _d(uv), _d(uv_dx), _d(uv_dy), _d(bias), _d(pyramid),
                                _d(jacobian), _d(dy.contiguous()), g_tex, g_uv, g_dx, g_dy, g_bias, g_pyr, _threads(),
                                ctx.kept)
@@ -789,7 +819,17 @@ def texture(tex, uv, uv_da=None, mip_level_bias=None, mip=None, filter_mode='aut
                                      f"{list(m.shape)}")
         else:
             raise TypeError("'mip' must be a texture_construct_mip result or a list of tensors")
-    # uv from interpolate on a RasterizeVulkanContext's rast: the lookups run on its device (float32).
-    device = _device(origin(uv)) if tex.dtype == torch.float32 else None
-    return _TextureFunc.apply(device, _FILTERS[filter_mode], _BOUNDARIES[boundary_mode], len(sizes), prebuilt, tex,
-                              uv, uv_dx, uv_dy, bias, *levels)
+    # uv from interpolate on a RasterizeVulkanContext's rast: the lookups run on its device (float32), which
+    # keeps the texels while these tensors are unchanged (the mip levels built here are tex's).
+    glctx = origin(uv)
+    device = _device(glctx) if tex.dtype == torch.float32 else None
+    on, texels, how = None, None, None
+    if device is not None:
+        texels = [tex] + ([prebuilt] if prebuilt is not None else levels)
+        how = (cube, len(sizes), prebuilt is not None, len(levels))
+        on = _OnDevice(device, glctx.kept_textures.find(how, texels))
+    out = _TextureFunc.apply(on, _FILTERS[filter_mode], _BOUNDARIES[boundary_mode], len(sizes), prebuilt, tex,
+                             uv, uv_dx, uv_dy, bias, *levels)
+    if on is not None:
+        glctx.kept_textures.keep(how, texels, on.after)
+    return out

@@ -45,7 +45,7 @@ struct TextureCall {
   std::int64_t base_texels = 0;   // texels of one face's level 0
   std::int64_t sample_grads = 0;  // per-sample gradients the adjoint writes (the shader's kSampleGrads)
   bool keep_levels = false;       // the adjoint keeps every level's own gradient (the user's levels)
-  bool build_levels = false;      // texels holds level 0 only: levels 1.. are made on the device (texture_mip.comp)
+  bool build_levels = false;      // texels holds each face's level 0 only: levels 1.. are made on the device (texture_mip.comp)
 
   int faces() const { return cube ? 6 : 1; }
 };
