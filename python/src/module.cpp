@@ -15,6 +15,7 @@
 #include "autodiff/base/parallel.h"
 #include "python/src/antialias.h"
 #include "python/src/backend.h"
+#include "python/src/fingerprint.h"
 #include "python/src/image.h"
 #include "python/src/interpolate.h"
 #include "python/src/rasterize.h"
@@ -193,6 +194,11 @@ PYBIND11_MODULE(_core, m) {
         py::arg("uv_dx"), py::arg("uv_dy"), py::arg("bias"), py::arg("pyramid"), py::arg("uv_jacobian"),
         py::arg("grad_out"), py::arg("grad_tex"), py::arg("grad_uv"), py::arg("grad_uv_dx"), py::arg("grad_uv_dy"),
         py::arg("grad_bias"), py::arg("grad_pyramid"), py::arg("threads"), py::arg("kept") = py::none());
+
+  // A 64-bit fingerprint of a contiguous tensor's bytes, the same for any
+  // thread count (python/src/fingerprint.h): KeptTextures checks with it
+  // that a kept texture's texels are unchanged.
+  m.def("fingerprint", &fingerprint, py::arg("tensor"), py::arg("threads"));
 
   m.def("write_png", &write_png, py::arg("path"), py::arg("image"));
 }

@@ -10,9 +10,11 @@ the tensors they read are the very ones rasterize made or read (rast,
 rast_db, pos, tri), not written in place since (torch's version counter);
 otherwise none, and the device uploads the host's tensors, so results never
 depend on residency. Each backward passes what its forward did: autograd
-refuses saved tensors written in place since the forward. Writes torch does
-not count (through .data or a numpy view) are not seen, as autograd does not
-see them (docs/python.md, "Vulkan").
+refuses saved tensors written in place since the forward. For G-buffers,
+writes torch does not count (through .data or a numpy view) are not seen, as
+autograd does not see them (docs/python.md, "Vulkan"); textures, kept across
+calls and so across such writes (an optimizer loop's `tex.data -= lr *
+tex.grad`), also compare a fingerprint of their bytes (KeptTextures).
 """
 import weakref
 
@@ -44,36 +46,71 @@ class KeptTextures:
 
     A call finds a texture's handles only while its tensors (tex, and a prebuilt or user mip stack) are the very
     objects of the call that kept them, not written in place since (torch's version counter: an optimizer step or
-    any in-place op bumps it; writes through .data or a numpy view do not, as autograd does not see them), and
-    read alike (cube or 2D, the same levels); otherwise it passes none, and the device uploads: results never
-    depend on residency. At most `capacity` textures, the least recently used forgotten first (the device bounds
-    its own copies, and may let one go: the handle then only costs an upload)."""
+    any in-place op bumps it), with the same bytes (a 64-bit fingerprint of each tensor, recorded when kept: it
+    sees the writes torch does not count, through .data or a numpy view), and read alike (cube or 2D, the same
+    levels); otherwise it passes none, and the device uploads: results never depend on residency. The
+    fingerprint costs one pass over the texels per call (docs/gpu.md, "What stays resident"). At most `capacity`
+    textures, the least recently used forgotten first (the device bounds its own copies, and may let one go: the
+    handle then only costs an upload).
 
-    def __init__(self, capacity):
+    `fingerprint(tensor)`: the fingerprint of a contiguous tensor's bytes (_core.fingerprint; the texture
+    tensors are contiguous, texture() checks)."""
+
+    def __init__(self, capacity, fingerprint):
         self.capacity = capacity
-        self._entries = []  # (how read, [(weak reference, version)], handles); most recently used last
+        self._fingerprint = fingerprint
+        self._entries = []  # (how read, [(weak reference, version, fingerprint)], handles); most recently used last
 
     def __len__(self):
         return len(self._entries)
 
-    @staticmethod
-    def _same(refs, tensors):
-        return len(refs) == len(tensors) and all(
-            ref() is t and t._version == version for (ref, version), t in zip(refs, tensors))
+    def texels(self, tensors):
+        """`tensors` (a list) as find and keep take them: their fingerprints computed once, when first needed."""
+        return Texels(tensors, self._fingerprint)
 
-    def find(self, how, tensors):
-        """The handles kept for `tensors` (a list) read `how` (a hashable description), or None."""
+    @staticmethod
+    def _same_objects(refs, tensors):
+        return len(refs) == len(tensors) and all(
+            ref() is t and t._version == version for (ref, version, _), t in zip(refs, tensors))
+
+    @staticmethod
+    def _same(refs, texels):
+        return KeptTextures._same_objects(refs, texels.tensors) and [
+            p for _, _, p in refs] == texels.fingerprints()
+
+    def find(self, how, texels):
+        """The handles kept for `texels` (a Texels) read `how` (a hashable description), or None."""
         for k, (key, refs, handles) in enumerate(self._entries):
-            if key == how and self._same(refs, tensors):
+            if key == how and self._same(refs, texels):
                 self._entries.append(self._entries.pop(k))
                 return handles
         return None
 
-    def keep(self, how, tensors, handles):
-        """Remember `handles` (None: forget) for `tensors` read `how`, as they are now."""
+    def keep(self, how, texels, handles):
+        """Remember `handles` (None: forget) for `texels` read `how`, as they are now."""
+        # Forget the entry of these very objects read alike (whatever their bytes were), and the dead ones.
         self._entries = [e for e in self._entries
-                         if not (e[0] == how and self._same(e[1], tensors)) and all(r() is not None for r, _ in e[1])]
+                         if not (e[0] == how and self._same_objects(e[1], texels.tensors))
+                         and all(r() is not None for r, _, _ in e[1])]
         if handles is None or self.capacity < 1:
             return
-        self._entries.append((how, [(weakref.ref(t), t._version) for t in tensors], handles))
+        prints = texels.fingerprints()
+        self._entries.append((how, [(weakref.ref(t), t._version, p) for t, p in zip(texels.tensors, prints)],
+                              handles))
         del self._entries[:-self.capacity]
+
+
+class Texels:
+    """A texture call's tensors and their fingerprints, computed at most once per call: find computes them only
+    when an entry holds these very objects, keep reuses them (nothing writes the texels in between: the call
+    reads them)."""
+
+    def __init__(self, tensors, fingerprint):
+        self.tensors = tensors
+        self._fingerprint = fingerprint
+        self._prints = None
+
+    def fingerprints(self):
+        if self._prints is None:
+            self._prints = [self._fingerprint(t) for t in self.tensors]
+        return self._prints

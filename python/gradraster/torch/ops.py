@@ -45,6 +45,11 @@ def _d(t):
     return None if t is None else t.detach()
 
 
+def _fingerprint(t):
+    """A 64-bit fingerprint of contiguous t's bytes, the same for any thread count (python/src/fingerprint.h)."""
+    return _core.fingerprint(t.detach(), _threads())
+
+
 # ----------------------------------------------------------------------------
 # Input checks: each names the argument and the problem.
 
@@ -170,9 +175,10 @@ class RasterizeVulkanContext(RasterizeCpuContext):
     takes about 300 bytes per pixel of device memory). `residency` counts them.
     texture keeps the texels on the device too, from its forward to its
     backward and across calls: the last `textures` textures looked up (tex,
-    and a prebuilt or user mip stack, the very tensors, not written in place
-    since by torch's count: writes through .data are not seen; 0: none kept
-    across calls) are read there again instead of uploaded.
+    and a prebuilt or user mip stack: the very tensors, not written in place
+    since by torch's count, with the same bytes by a fingerprint that sees
+    writes through .data or a numpy view too; 0: none kept across calls) are
+    read there again instead of uploaded.
     `texture_residency` counts them.
     The device is the first discrete GPU, else any GPU, else a CPU device;
     the environment variable GRADRASTER_VULKAN_DEVICE (part of the device's
@@ -188,7 +194,7 @@ class RasterizeVulkanContext(RasterizeCpuContext):
         if textures < 0:
             raise ValueError(f"RasterizeVulkanContext: 'textures' must be >= 0, got {textures}")
         self.cpp_wrapper = _core.Context.vulkan(None if frames is None else int(frames))
-        self.kept_textures = KeptTextures(int(textures))
+        self.kept_textures = KeptTextures(int(textures), _fingerprint)
 
     @property
     def vulkan_device(self):
@@ -827,6 +833,7 @@ def texture(tex, uv, uv_da=None, mip_level_bias=None, mip=None, filter_mode='aut
     if device is not None:
         texels = [tex] + ([prebuilt] if prebuilt is not None else levels)
         how = (cube, len(sizes), prebuilt is not None, len(levels))
+        texels = glctx.kept_textures.texels(texels)
         on = _OnDevice(device, glctx.kept_textures.find(how, texels))
     out = _TextureFunc.apply(on, _FILTERS[filter_mode], _BOUNDARIES[boundary_mode], len(sizes), prebuilt, tex,
                              uv, uv_dx, uv_dy, bias, *levels)
