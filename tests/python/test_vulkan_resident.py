@@ -5,7 +5,8 @@ with the CPU context's values within 1e-6 and gradients within 1e-5 either way, 
 (glctx.residency counts the uploads).
 The pool grows to the largest minibatch unless `frames` fixes it. Textures (2D and cube maps) stay too: later calls
 on the very tensor, unwritten since (torch's _version), read the device's copy; one written in place or another tensor
-is uploaded, with the CPU context's results (glctx.texture_residency counts). Skipped where there is no Vulkan
+is uploaded, with the CPU context's results (glctx.texture_residency counts); so is one written where torch does not
+count (through .data or a numpy view), which a fingerprint of the texels sees. Skipped where there is no Vulkan
 device."""
 import pytest
 import torch
@@ -270,6 +271,88 @@ def test_a_texture_written_in_place_between_calls_is_uploaded_again_with_the_cpu
     out_c, g_c = cpu_view(kind, tex, levels, 0, None)
     assert_values_close(out, out_c, 'samples')
     assert_grads_close(g, g_c, 'tex gradient')
+
+
+def write_unseen_by_torch(t, write):
+    """Writes t's values in a way torch's version counter does not count (t._version stays)."""
+    version = t._version
+    if write == '.data.mul_':
+        t.data.mul_(0.5)
+    elif write == '.data -=':
+        t.data -= 0.1
+    elif write == '.data.clamp_':
+        t.data.clamp_(0.25, 0.75)
+    else:  # a numpy view of the same memory
+        t.detach().numpy()[..., 0] *= -1
+    assert t._version == version
+
+
+@pytest.mark.parametrize('write', ['.data.mul_', '.data -=', '.data.clamp_', 'numpy view'])
+@pytest.mark.parametrize('kind', ['2D trilinear', 'cube trilinear', '2D prebuilt mip', '2D user mip'])
+def test_a_texture_written_through_data_or_numpy_between_calls_is_uploaded_again_with_the_cpu_contexts_results(
+        kind, write):
+    glctx = shared_vulkan_context()
+    tex, levels = texture_of(kind, seed=6)
+    mip = dr.texture_construct_mip(tex) if kind == '2D prebuilt mip' else None
+    before = glctx.texture_residency
+    first, _ = view(glctx, kind, tex, levels, mip=mip)
+    # The texels the device kept: tex, the prebuilt stack, a user level.
+    written = mip.pyramid if mip is not None else levels[0] if levels else tex
+    write_unseen_by_torch(written, write)
+    out, g = view(glctx, kind, tex, levels, mip=mip)
+    assert texture_delta(glctx, before) == (2, 2)  # each forward uploads, its backward reads its copy
+    assert not torch.equal(out, first)
+    out_c, g_c = view(dr.RasterizeCpuContext(), kind, leaf(tex.detach()), levels, mip=mip)
+    assert_values_close(out, out_c, 'samples')
+    assert_grads_close(g, g_c, 'tex gradient')
+
+
+def test_an_unchanged_texture_is_uploaded_once_over_many_calls_however_often_its_data_is_read():
+    glctx = shared_vulkan_context()
+    tex, _ = texture_of('2D trilinear', seed=7)
+    before = glctx.texture_residency
+    outs = []
+    for seed in range(4):
+        outs.append(view(glctx, '2D trilinear', tex, seed=seed % 2)[0])
+        assert torch.isfinite(tex.data.sum()) and tex.detach().numpy().max() <= 1  # reads, no write
+    assert texture_delta(glctx, before) == (1, 7)
+    assert glctx.texture_residency['upload_bytes'] - before['upload_bytes'] == tex.numel() * 4
+    assert torch.equal(outs[0], outs[2]) and torch.equal(outs[1], outs[3])
+
+
+def test_the_fingerprint_is_the_same_for_any_thread_count_and_changes_with_any_one_bit():
+    from gradraster import _core
+    from gradraster.torch.ops import _fingerprint
+    g = torch.Generator().manual_seed(8)
+    # Sizes around the 8-byte words, the 4 lanes and the 64 KiB chunks; float32, float64 and int32.
+    tensors = [torch.rand(n, generator=g) for n in (0, 1, 2, 7, 9, 16385, 3 * 65536 // 4 + 3)]
+    tensors += [torch.rand(1, 96, 80, 3, generator=g, dtype=torch.float64),
+                torch.randint(-9, 9, (5, 7, 3), generator=g, dtype=torch.int32)]
+    threads = torch.get_num_threads()
+    try:
+        for t in tensors:
+            prints = {_core.fingerprint(t, n) for n in (1, 2, 3, 8)}
+            for n in (1, 2):
+                torch.set_num_threads(n)
+                prints.add(_fingerprint(t))
+            assert len(prints) == 1, list(t.shape)
+    finally:
+        torch.set_num_threads(threads)
+    big = tensors[-3]
+    base = _core.fingerprint(big, 2)
+    assert base != _core.fingerprint(torch.zeros(0), 2)
+    seen = {base}
+    raw = big.view(torch.int32)
+    for index in (0, 1, 4096, 16384, 16385, raw.numel() - 1):  # each 32-bit element's low and high bits
+        for bit in (0, 31):
+            changed = raw.clone()
+            changed[index] ^= 1 << bit if bit < 31 else -2 ** 31
+            seen.add(_core.fingerprint(changed, 2))
+    assert len(seen) == 1 + 6 * 2
+    # Same bytes, another length: the length counts.
+    assert _core.fingerprint(torch.zeros(4), 1) != _core.fingerprint(torch.zeros(3), 1)
+    with pytest.raises(ValueError, match="contiguous"):
+        _core.fingerprint(torch.rand(4, 6).t(), 1)
 
 
 def test_a_different_tensor_with_the_same_values_is_uploaded_and_gives_the_same_bits():
