@@ -142,15 +142,15 @@ inline Scene interpenetrating(int count, unsigned seed) {
   return s;
 }
 
-// Two icospheres, the second moved into the first, in perspective; unshared:
-// every triangle with its own three vertices (only a welded topology closes them).
+// Two icospheres, the smaller one moved partly into the larger (as
+// tests/ops/render/test_visibility_antialias.cpp's spheres), in perspective;
+// unshared: every triangle with its own three vertices (only a welded
+// topology closes them).
 inline Scene two_spheres(bool unshared) {
-  Scene a = perspective(raster::make_icosphere(2, 0.8f), 1.0, 3.0), b = perspective(raster::make_icosphere(2, 0.6f), 1.0, 3.0);
-  for (std::size_t i = 0; i < b.clip.size(); i += 4) {
-    b.clip[i] += 0.45f * b.clip[i + 3] * 0.5f;
-    b.clip[i + 1] += 0.15f;
-    b.clip[i + 2] -= 0.25f;  // nearer: into the first sphere's front
-  }
+  Mesh small = raster::make_icosphere(2, 0.6f);
+  float* p = small.positions.data<float>();
+  for (std::int64_t i = 0; i < small.num_vertices(); ++i) p[3 * i] += 0.55f, p[3 * i + 1] += 0.2f, p[3 * i + 2] += 0.3f;
+  const Scene a = perspective(raster::make_icosphere(2, 0.8f), 1.5, 3.5), b = perspective(small, 1.5, 3.5);
   Scene s = a;
   const std::int32_t na = static_cast<std::int32_t>(a.clip.size() / 4);
   s.clip.insert(s.clip.end(), b.clip.begin(), b.clip.end());
