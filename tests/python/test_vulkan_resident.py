@@ -1,8 +1,8 @@
 """RasterizeVulkanContext keeps rasterize's G-buffers on the device: interpolate, antialias (visibility_antialias
 too) and the rasterize backward read the device's copy (no upload of rast) while rast, rast_db, pos and tri are the
-very tensors rasterize made or read, unwritten since, and upload them otherwise (a tensor written in place or a copy, a G-buffer the pool let go),
-with the CPU context's values within 1e-6 and gradients within 1e-5 either way, and the same bits uploaded or not
-(glctx.residency counts the uploads).
+very tensors rasterize made or read, unwritten since, and upload them otherwise (a tensor written in place or a copy,
+a G-buffer the pool let go), with the CPU context's values within 1e-6 and gradients within 1e-5 either way, and the
+same bits uploaded or not (glctx.residency counts the uploads).
 The pool grows to the largest minibatch unless `frames` fixes it. Skipped where there is no Vulkan device."""
 import pytest
 import torch
