@@ -19,7 +19,7 @@ if(GRADRASTER_HAS_VULKAN)
   file(GLOB shader_includes CONFIGURE_DEPENDS ${shader_dir}/*.glsl)
   set(shader_names project raster_small raster_large resolve interpolate_forward interpolate_backward
     fixed_point_finish gbuffer gbuffer_backward antialias_pairs antialias_forward
-    antialias_backward antialias_finish texture_forward texture_backward texture_finish
+    antialias_backward antialias_finish visibility_pairs texture_forward texture_backward texture_finish
     texture_mip cube_texture_forward cube_texture_backward)
   set(embedded ${CMAKE_CURRENT_BINARY_DIR}/vulkan_shaders.cpp)
   set(spv_files)

@@ -87,6 +87,10 @@ struct AntialiasParams {
   // a y_up rasterize): the kernels read clip y negated and return the y
   // gradient negated, bit for bit the y_up = false result on a y-negated clip.
   bool y_up = false;
+  // For a RasterBackend's antialias calls (raster/backend.h) only: run
+  // visibility_antialias (raster/visibility_antialias.h) instead. The CPU
+  // kernels ignore it (blend_boundaries_forward takes the choice itself).
+  bool visibility = false;
 };
 
 // out: H x W x C row-major (may not alias image). For each blended pair (a

@@ -149,9 +149,10 @@ class RasterBackend {
                                     const BarycentricInterpolateGrads<float>& /*grads*/) const {
     return false;
   }
-  // antialias_forward / antialias_backward (raster/antialias.h); the adjoint
-  // takes the forward's whole p (a backend may recompute the pairs) instead
-  // of its pairs.
+  // antialias_forward / antialias_backward (raster/antialias.h), or with
+  // p.visibility visibility_antialias_forward / _backward
+  // (raster/visibility_antialias.h); the adjoint takes the forward's whole p
+  // (a backend may recompute the pairs) instead of its pairs.
   virtual bool antialias_forward(const DeviceGBuffer* /*resident*/, const AntialiasParams<float>& /*p*/,
                                  float* /*out*/) const {
     return false;

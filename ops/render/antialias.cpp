@@ -1,4 +1,5 @@
-// Tape op over raster::antialias_forward / antialias_backward; on the
+// Tape op over raster::antialias_forward / antialias_backward (or the
+// visibility kernels, raster/blended_pairs.h); on the
 // G-buffer's backend (RasterBackend::antialias_*) when it has one (float32),
 // on the device's copy of the G-buffer while it matches the host's.
 #include "ops/render/antialias.h"
@@ -50,14 +51,14 @@ void boost_gradient(Tensor& g_clip, double boost) {
 
 // The adjoint of an antialias run on a backend (float32): the backend's
 // antialias_backward, which takes the forward's inputs (it recomputes the pairs).
-void record_on_backend(const Tensor& image, const GBuffer& gbuffer, const Tensor& clip, const Tensor& triangles,
-                       const AntialiasTopology& topology, const std::shared_ptr<const raster::RasterBackend>& backend,
-                       double boost, Tensor* out) {
+void record_on_backend(const char* name, bool visibility, const Tensor& image, const GBuffer& gbuffer,
+                       const Tensor& clip, const Tensor& triangles, const AntialiasTopology& topology,
+                       const std::shared_ptr<const raster::RasterBackend>& backend, double boost, Tensor* out) {
   // The G-buffer, to find the device's copy of it at the adjoint.
   const std::shared_ptr<const GBuffer> made = gbuffer.resident ? std::make_shared<const GBuffer>(gbuffer) : nullptr;
-  record("antialias", {image, clip}, {out},
+  record(name, {image, clip}, {out},
          [image = image.detach(), clip = clip.detach(), tri_id = gbuffer.tri_id, depth = gbuffer.depth, triangles,
-          topology, backend, boost, made](AdjointContext& ctx) {
+          topology, backend, boost, made, name, visibility](AdjointContext& ctx) {
            const Tensor& g = ctx.grad_output();
            Tensor g_image = ctx.needs_grad(0) ? Tensor::zeros(image.shape(), image.dtype()) : Tensor();
            Tensor g_clip = ctx.needs_grad(1) ? Tensor::zeros(clip.shape(), clip.dtype()) : Tensor();
@@ -67,11 +68,12 @@ void record_on_backend(const Tensor& image, const GBuffer& gbuffer, const Tensor
            p.tris = triangles.data<std::int32_t>();
            p.num_tris = triangles.size(0);
            p.topology = topology.get();
+           p.visibility = visibility;
            auto ptr = [](Tensor& t) { return t.defined() ? t.data<float>() : nullptr; };
            const raster::AntialiasGrads<float> grads{ptr(g_image), ptr(g_clip)};
            const raster::DeviceGBuffer* kept = made ? detail::resident_of(*made) : nullptr;
            if (!backend->antialias_backward(kept, p, g.data<float>(), grads))
-             throw Error("antialias: the backend ran the forward but refused the adjoint");
+             throw Error(std::string(name) + ": the backend ran the forward but refused the adjoint");
            boost_gradient<float>(g_clip, boost);
            if (g_image.defined()) ctx.accumulate(0, g_image);
            if (g_clip.defined()) ctx.accumulate(1, g_clip);
@@ -143,11 +145,11 @@ Tensor antialias(const Tensor& image, const GBuffer& gbuffer, const Tensor& clip
   Tensor out = Tensor::empty(image.shape(), image.dtype());
   const bool rec = should_record({image, clip});
   auto pairs = std::make_shared<raster::BlendedPairs>();
-  // The G-buffer's backend runs the silhouette antialias (float32) unless pair
-  // counts are asked for (the CPU kernel's).
+  // The G-buffer's backend runs either kernel (float32) unless pair counts
+  // are asked for (the CPU kernels').
+  const bool counted = options.stats || options.visibility_stats;
   const std::shared_ptr<const raster::RasterBackend> backend =
-      gbuffer.backend && !options.visibility && !options.stats && clip.dtype() == DType::Float32 ? gbuffer.backend
-                                                                                                  : nullptr;
+      gbuffer.backend && !counted && clip.dtype() == DType::Float32 ? gbuffer.backend : nullptr;
   bool on_backend = false;
   dispatch_float(clip.dtype(), op, [&](auto tag) {
     using T = decltype(tag);
@@ -159,6 +161,7 @@ Tensor antialias(const Tensor& image, const GBuffer& gbuffer, const Tensor& clip
     p.tris = triangles.data<std::int32_t>();
     p.num_tris = m;
     p.topology = topology.get();
+    p.visibility = options.visibility;
     if constexpr (std::is_same_v<T, float>)
       if (backend) {
         if (backend->antialias_forward(detail::resident_of(gbuffer), p, out.data<T>())) {
@@ -170,7 +173,7 @@ Tensor antialias(const Tensor& image, const GBuffer& gbuffer, const Tensor& clip
                                      {options.stats, options.visibility_stats});
   });
   if (rec && on_backend) {
-    record_on_backend(image, gbuffer, clip, triangles, topology, backend, boost, &out);
+    record_on_backend(name, options.visibility, image, gbuffer, clip, triangles, topology, backend, boost, &out);
   } else if (rec) {
     record(name, {image, clip}, {&out},
            [image = image.detach(), clip = clip.detach(), pairs, boost, name](AdjointContext& ctx) {

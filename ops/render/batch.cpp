@@ -354,9 +354,11 @@ Tensor antialias_batch(const Tensor& image, const GBuffer& gbuffer, const Tensor
   std::vector<AntialiasTopology> topology(static_cast<std::size_t>(topologies));
   auto pairs = std::make_shared<std::vector<raster::BlendedPairs>>(static_cast<std::size_t>(B));
   // What the forward and the adjoint both read of image b.
+  const bool visibility = options.visibility;
   auto image_params = [=](auto tag, const Tensor& img, const PerImage& c, std::int64_t b) {
     using T = decltype(tag);
     raster::AntialiasParams<T> p;
+    p.visibility = visibility;  // read by the backend's calls only
     p.image = img.data<T>() + b * P * C;
     p.channels = static_cast<int>(C);
     p.width = static_cast<int>(w);
@@ -367,11 +369,11 @@ Tensor antialias_batch(const Tensor& image, const GBuffer& gbuffer, const Tensor
   };
   Tensor out = Tensor::empty(image.shape(), image.dtype());
   const Tensor tri_id = gbuffer.tri_id, depth = gbuffer.depth;
-  // The G-buffer's backend runs the silhouette antialias (float32), image by
-  // image in image order, on the device's copy where it drew all the
-  // triangles (the topology indexes them all).
+  // The G-buffer's backend runs either kernel (float32), image by image in
+  // image order, on the device's copy where it drew all the triangles (the
+  // topology indexes them all).
   const std::shared_ptr<const raster::RasterBackend> backend =
-      !options.visibility && clip.dtype() == DType::Float32 ? gbuffer.backend : nullptr;
+      clip.dtype() == DType::Float32 ? gbuffer.backend : nullptr;
   const std::shared_ptr<const GBuffer> made = backend && gbuffer.resident ? std::make_shared<const GBuffer>(gbuffer)
                                                                           : nullptr;
   // What the forward and, on the backend, the adjoint read of image b beyond image_params.

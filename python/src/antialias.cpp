@@ -38,9 +38,11 @@ bool split_rast(const T* rast, std::int64_t pixels, std::int64_t triangles, std:
 
 // Image b's kernel inputs, its ids and depths in s (the kernels read the
 // caller's positions with y_up); *ids_ok: whether its ids are valid (split_rast).
+// visibility: for a backend's calls (the CPU's take it as an argument).
 template <class T>
 raster::AntialiasParams<T> image_params(ImageScratch& s, const Mesh& mesh, const Topology& topology,
-                                        const Array& color, const Array& rast, std::int64_t b, bool* ids_ok) {
+                                        const Array& color, const Array& rast, std::int64_t b, bool visibility,
+                                        bool* ids_ok) {
   const int height = static_cast<int>(color.size(1)), width = static_cast<int>(color.size(2));
   const std::int64_t channels = color.size(3);
   const std::int64_t pixels = static_cast<std::int64_t>(height) * width;
@@ -59,6 +61,7 @@ raster::AntialiasParams<T> image_params(ImageScratch& s, const Mesh& mesh, const
   p.num_tris = mesh.triangles;
   p.topology = &topology.edges;
   p.y_up = true;  // nvdiffrast's row 0 is the bottom row
+  p.visibility = visibility;
   return p;
 }
 
@@ -129,11 +132,11 @@ std::shared_ptr<AntialiasState> antialias_forward(Context& ctx, const pybind11::
   ctx.reserve(mesh.images);
   dispatch(mesh.f64, [&](auto tag) {
     using T = decltype(tag);
-    if (!visibility && backend_for<T>(&ctx)) state->backend = ctx.backend, state->kept = kept;
+    if (backend_for<T>(&ctx)) state->backend = ctx.backend, state->kept = kept;
     std::atomic<bool> bad_ids{false};
     for_each_image_on(state->backend.get(), mesh.images, [&](std::int64_t b) {
       bool ids_ok = true;
-      const auto p = image_params<T>(ctx.image(b), mesh, topology, color, rast, b, &ids_ok);
+      const auto p = image_params<T>(ctx.image(b), mesh, topology, color, rast, b, visibility, &ids_ok);
       if (!ids_ok) return bad_ids.store(true);
       T* o = out.out<T>() + pixels * channels * b;
       if constexpr (std::is_same_v<T, float>)
@@ -192,7 +195,7 @@ void antialias_backward(Context& ctx, const pybind11::object& pos, const pybind1
     for_each_image_on(state.backend.get(), mesh.images, [&](std::int64_t b) {
       ImageScratch& s = ctx.image(b);
       bool ids_ok = true;
-      const auto p = image_params<T>(s, mesh, topology, color, rast, b, &ids_ok);
+      const auto p = image_params<T>(s, mesh, topology, color, rast, b, state.visibility, &ids_ok);
       if (!ids_ok) return bad_ids.store(true);
       std::vector<T>& grad = s.buffer<T>(ImageScratch::kGrad);
       raster::AntialiasGrads<T> g;

@@ -41,7 +41,7 @@ struct AntialiasState {
 // color, out: [images, H, W, C] of pos's dtype, C >= 1; rast: the G-buffer
 // [images, H, W, 4] for the mesh. visibility: visibility_antialias instead
 // of antialias. ctx: scratch, and the device of a RasterizeVulkanContext,
-// which runs antialias (not visibility_antialias) for float32, forward and
+// which runs either (float32), forward and
 // adjoint (the backward then runs on the state's backend). kept (may be
 // null): rasterize_forward's handles for this very rast, pos and tri,
 // unchanged since: the device then reads its copy of the G-buffer, forward

@@ -182,14 +182,14 @@ class VulkanBackend : public raster::RasterBackend {
   bool antialias_forward(const raster::DeviceGBuffer* resident, const raster::AntialiasParams<float>& p,
                          float* out) const override {
     std::lock_guard<std::mutex> lock(mutex_);
-    for_antialias(resident, p).antialias(p.image, p.channels, out, p.topology);
+    for_antialias(resident, p).antialias(p.image, p.channels, out, p.topology, p.visibility);
     return true;
   }
   bool antialias_backward(const raster::DeviceGBuffer* resident, const raster::AntialiasParams<float>& p,
                           const float* grad_out, const raster::AntialiasGrads<float>& grads) const override {
     std::lock_guard<std::mutex> lock(mutex_);
     Frame& f = for_antialias(resident, p);
-    f.antialias(p.image, p.channels, nullptr, p.topology);  // the pairs, on the device
+    f.antialias(p.image, p.channels, nullptr, p.topology, p.visibility);  // the pairs, on the device
     f.antialias_backward(grad_out, grads.image, grads.clip);
     return true;
   }

@@ -84,6 +84,7 @@ struct Frame::State {
   // since the last rasterize or rasterize_backward; else it is stale.
   bool grad_rast = false, grad_db = false;
   int aa_channels = -1;  // of the last antialias (-1: none since the last rasterize)
+  bool aa_visibility = false;  // the last antialias was visibility_antialias's
   // The triangles the device's edge topology (kNeighbour) is for, once topology_ready.
   std::vector<std::int32_t> tris;
   bool topology_ready = false;
@@ -567,7 +568,8 @@ GpuTimes Frame::interpolate_backward(const float* grad_out, const float* grad_da
   return s.timestamps.read();
 }
 
-GpuTimes Frame::antialias(const float* image, int channels, float* out, const raster::EdgeTopology* topology) {
+GpuTimes Frame::antialias(const float* image, int channels, float* out, const raster::EdgeTopology* topology,
+                          bool visibility) {
   State& s = *state_;
   if (!s.rasterized) throw ValueError("vulkan antialias: the frame has no G-buffer (call rasterize first)");
   if (channels < 1) throw ValueError("vulkan antialias: channels must be at least 1, got " + std::to_string(channels));
@@ -604,7 +606,7 @@ GpuTimes Frame::antialias(const float* image, int channels, float* out, const ra
   const VkDescriptorSet set = s.bind(s.aa_forward_set, {{0, kClip}, {1, kTris}, {2, kVerts}, {3, kTriId}, {4, kRast},
                                                         {5, kNeighbour}, {6, kAaImage}, {7, kAaPairs}, {9, kAaOut}});
   const AntialiasPush push{s.width, s.height, static_cast<std::int32_t>(s.num_vertices),
-                           static_cast<std::int32_t>(s.num_tris), channels, 0, s.y_up ? 1 : 0, 0};
+                           static_cast<std::int32_t>(s.num_tris), channels, 0, s.y_up ? 1 : 0, visibility ? 1 : 0};
   s.dev.run([&](VkCommandBuffer cb) {
     s.timestamps.begin(cb, 5);
     if (image)
@@ -615,7 +617,7 @@ GpuTimes Frame::antialias(const float* image, int channels, float* out, const ra
     barrier(cb);
     s.timestamps.stamp(cb, 1);
     s.use(cb, set);
-    dispatch(cb, s.k, s.k.antialias_pairs, &push, s.pixels(), 256);
+    dispatch(cb, s.k, visibility ? s.k.visibility_pairs : s.k.antialias_pairs, &push, s.pixels(), 256);
     barrier(cb);
     s.timestamps.stamp(cb, 2);
     dispatch(cb, s.k, s.k.antialias_forward, &push, s.pixels(), 256);
@@ -627,6 +629,7 @@ GpuTimes Frame::antialias(const float* image, int channels, float* out, const ra
   });
   s.topology_ready = !topology;
   s.aa_channels = channels;
+  s.aa_visibility = visibility;
   if (out) std::memcpy(out, s.download.mapped(), image_bytes);
   return s.timestamps.read();
 }
@@ -639,26 +642,29 @@ GpuTimes Frame::antialias_backward(const float* grad_out, float* grad_image, flo
   const std::int64_t N = s.num_vertices, C = s.aa_channels, px = s.pixels();
   const std::size_t image_bytes = static_cast<std::size_t>(px * C) * sizeof(float);
   const std::size_t clip_bytes = static_cast<std::size_t>(N) * 4 * sizeof(float);
+  // Screen x, y per vertex; and z_ndc, which visibility_antialias's crossings move.
+  const std::size_t sums = static_cast<std::size_t>(N) * (s.aa_visibility ? 3 : 2);
   s.reserve(kAaGradOut, image_bytes);
   s.reserve(kAaGradImage, image_bytes);
-  s.reserve(kSums, static_cast<std::size_t>(N) * 2 * sizeof(std::int64_t));
+  s.reserve(kSums, sums * sizeof(std::int64_t));
   s.reserve(kLargest, 2 * sizeof(std::uint64_t));  // fixed_point.glsl reads two slots
   s.reserve(kFinished, clip_bytes);
   s.upload.reserve(s.dev, image_bytes, true);
   s.download.reserve(s.dev, image_bytes + clip_bytes, true);
   std::memcpy(s.upload.mapped(), grad_out, image_bytes);
-  // Bindings: 0 clip, 2 verts, 3 grad_out, 4 grad_image, 5 screen sums, 6 image, 7 pairs, 8 largest, 9 grad_clip.
+  // Bindings: 0 clip, 1 tris (a crossing's vertices), 2 verts, 3 grad_out, 4 grad_image, 5 screen sums,
+  // 6 image, 7 pairs, 8 largest, 9 grad_clip.
   const VkDescriptorSet set =
-      s.bind(s.aa_backward_set, {{0, kClip}, {2, kVerts}, {3, kAaGradOut}, {4, kAaGradImage}, {5, kSums},
-                                 {6, kAaImage}, {7, kAaPairs}, {8, kLargest}, {9, kFinished}});
+      s.bind(s.aa_backward_set, {{0, kClip}, {1, kTris}, {2, kVerts}, {3, kAaGradOut}, {4, kAaGradImage},
+                                 {5, kSums}, {6, kAaImage}, {7, kAaPairs}, {8, kLargest}, {9, kFinished}});
   AntialiasPush push{s.width, s.height, static_cast<std::int32_t>(N), static_cast<std::int32_t>(s.num_tris),
-                     static_cast<std::int32_t>(C), 0, s.y_up ? 1 : 0, 0};
+                     static_cast<std::int32_t>(C), 0, s.y_up ? 1 : 0, s.aa_visibility ? 1 : 0};
   s.dev.run([&](VkCommandBuffer cb) {
     s.timestamps.begin(cb, 6);
     copy(cb, s.upload.handle(), 0, s[kAaGradOut].handle(), 0, image_bytes);
     barrier(cb);
     s.timestamps.stamp(cb, 1);
-    s.fixed_point_passes(cb, set, kSums, static_cast<std::size_t>(N) * 2, kLargest, s.k.antialias_backward, push,
+    s.fixed_point_passes(cb, set, kSums, sums, kLargest, s.k.antialias_backward, push,
                          s.k.antialias_finish, push, N);
     copy(cb, s[kAaGradImage].handle(), 0, s.download.handle(), 0, image_bytes);
     copy(cb, s[kFinished].handle(), 0, s.download.handle(), image_bytes, clip_bytes);

@@ -16,7 +16,9 @@
 // largest gradient. antialias gives the CPU kernel's pairs (the same
 // silhouette walk in double) and blends, bit for bit; its adjoint sums the
 // edge vertices' screen gradients in fixed point (the same resolution)
-// before the projection adjoint.
+// before the projection adjoint. visibility_antialias likewise (its pairs
+// and blends bit for bit; the crossings' six vertices' screen x, y and z_ndc
+// summed in fixed point).
 //
 // A Frame is used by one thread at a time; Frames on one device share its
 // queue (calls are serialized).
@@ -126,11 +128,13 @@ class Frame {
   // device (its channel count must be `channels`). topology: the edge
   // topology to use instead (e.g. welded, raster::build_edge_topology with
   // positions; built for these triangles), uploaded at this call.
+  // visibility: visibility_antialias_forward (raster/visibility_antialias.h)
+  // instead, its pairs (edges and intersection crossings) and blends.
   // pass_ms: pairs, blend.
   GpuTimes antialias(const float* image, int channels, float* out = nullptr,
-                     const raster::EdgeTopology* topology = nullptr);
+                     const raster::EdgeTopology* topology = nullptr, bool visibility = false);
 
-  // The adjoint of the last antialias for grad_out (H x W x channels),
+  // The adjoint of the last antialias (or visibility antialias) for grad_out (H x W x channels),
   // ACCUMULATED (+=) into grad_image (H x W x channels) and grad_clip (N x 4),
   // each may be null. pass_ms: image gradient and magnitudes, sums, finish.
   GpuTimes antialias_backward(const float* grad_out, float* grad_image, float* grad_clip);

@@ -30,6 +30,7 @@ Kernels::Kernels(Device::Impl& dev) : pipelines(dev) {
   antialias_forward = add(pipelines, shaders::antialias_forward());
   antialias_backward = add(pipelines, shaders::antialias_backward());
   antialias_finish = add(pipelines, shaders::antialias_finish());
+  visibility_pairs = add(pipelines, shaders::visibility_pairs());
   texture_forward = add(pipelines, shaders::texture_forward());
   texture_backward = add(pipelines, shaders::texture_backward());
   texture_finish = add(pipelines, shaders::texture_finish());

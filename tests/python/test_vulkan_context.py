@@ -1,12 +1,13 @@
 """RasterizeVulkanContext: rasterize on a Vulkan device gives the CPU context's rast and rast_db bit for bit, and
-interpolate, antialias, texture (2D and cube maps) and the rasterize adjoint run there, forward and backward, when
-their rast or uv come from the context: values within 1e-6 relative of the CPU context's and gradients within 1e-5
-of the largest (issue 33), on random scenes and hard cases (triangles through the near plane, slivers), bit-identical
-run to run; tensors that do not come from the context (sliced, copied, computed by torch), float64 and
-visibility_antialias take the CPU kernels. torch.autograd.gradcheck in float64 checks the CPU kernels (in
-test_interpolate.py, test_antialias.py, test_texture.py, test_rasterize.py): float64 never runs on the device, whose
-float32 results are compared here with the CPU's float32 results. Skipped (with the reason) where the build has no
-GPU path or the machine no Vulkan device; CI runs it on Mesa's lavapipe."""
+interpolate, antialias, visibility_antialias, texture (2D and cube maps) and the rasterize adjoint run there, forward
+and backward, when their rast or uv come from the context: values within 1e-6 relative of the CPU context's and
+gradients within 1e-5 of the largest (issue 33), on random scenes and hard cases (triangles through the near plane,
+slivers, surfaces cutting through each other), bit-identical run to run; tensors that do not come from the context
+(sliced, copied, computed by torch) and float64 take the CPU kernels. torch.autograd.gradcheck in float64 checks the
+CPU kernels (in test_interpolate.py, test_antialias.py, test_visibility_antialias.py, test_texture.py,
+test_rasterize.py): float64 never runs on the device, whose float32 results are compared here with the CPU's float32
+results. Skipped (with the reason) where the build has no GPU path or the machine no Vulkan device; CI runs it on
+Mesa's lavapipe."""
 import pytest
 import torch
 
@@ -530,7 +531,7 @@ def test_texture_runs_on_the_cpu_unless_uv_is_interpolates_own_output():
     assert ctx.device_calls == before
 
 
-def test_float64_and_visibility_antialias_run_on_the_cpu_kernels():
+def test_float64_runs_on_the_cpu_kernels_and_visibility_antialias_on_the_device():
     pos, tri = grid_mesh(13, dtype=torch.float64)
     attr = torch.rand(pos.shape[1], 3, dtype=torch.float64)
     ctx = vulkan_context()
@@ -545,7 +546,46 @@ def test_float64_and_visibility_antialias_run_on_the_cpu_kernels():
     out, _ = dr.interpolate(attr.float(), rast, tri)
     assert ctx.device_calls == before + 1
     dr.visibility_antialias(out, rast, p32, tri).sum().backward()
-    assert ctx.device_calls == before + 1 + 1 + 1  # interpolate's adjoint and rasterize's; not visibility_antialias
+    # visibility_antialias and its adjoint, interpolate's adjoint and rasterize's.
+    assert ctx.device_calls == before + 1 + 2 + 1 + 1
+
+
+def interpenetrating_mesh(seed, images=2, triangles=8):
+    """Large triangles at random depths cutting through each other (intersection curves), in perspective."""
+    g = torch.Generator().manual_seed(seed)
+    n = 3 * triangles
+    w = 0.8 + 0.5 * torch.rand(images, n, 1, generator=g)
+    xy = (torch.rand(images, n, 2, generator=g) * 1.8 - 0.9) * w
+    z = (torch.rand(images, n, 1, generator=g) * 1.2 - 0.6) * w
+    return torch.cat([xy, z, w], -1).contiguous(), torch.arange(n, dtype=torch.int32).reshape(triangles, 3)
+
+
+@pytest.mark.parametrize('scene', ['interpenetrating', 'random grid'])
+@pytest.mark.parametrize('boost', [1.0, 2.5])
+def test_visibility_antialias_on_the_device_matches_the_cpu_with_gradients_to_color_and_pos(scene, boost):
+    pos, tri = interpenetrating_mesh(7) if scene == 'interpenetrating' else grid_mesh(1, images=2)
+    attr = torch.rand(pos.shape[1], 3)
+    w = torch.rand(2, 40, 48, 3)
+
+    def program(glctx):
+        p, a = leaf(pos), leaf(attr)
+        rast, _ = dr.rasterize(glctx, p, tri, (40, 48))
+        color, _ = dr.interpolate(a, rast, tri)
+        out = dr.visibility_antialias(color, rast, p, tri, pos_gradient_boost=boost)
+        (out * w).sum().backward()
+        return out, a.grad, p.grad
+
+    (out_c, ga_c, gp_c), (out_g, ga_g, gp_g), calls = run_both(program)
+    assert_values_close(out_g, out_c, 'antialiased colour')
+    if scene == 'interpenetrating':  # crossings blended: not what antialias gives
+        rast_c, _ = dr.rasterize(dr.RasterizeCpuContext(), pos, tri, (40, 48))
+        color_c, _ = dr.interpolate(attr, rast_c, tri)
+        assert not torch.equal(out_c, dr.antialias(color_c, rast_c, pos, tri)), 'no intersection was blended'
+    assert_grads_close(ga_g, ga_c, 'attr gradient (through colour)')
+    assert_grads_close(gp_g, gp_c, 'pos gradient')
+    assert calls == 2 * 6
+    _, again, _ = run_both(program)
+    assert torch.equal(again[0], out_g) and torch.equal(again[2], gp_g)
 
 
 def test_saving_or_copying_a_rast_from_the_device_keeps_no_context():

@@ -1,8 +1,8 @@
-"""RasterizeVulkanContext keeps rasterize's G-buffers on the device: interpolate, antialias and the rasterize backward
-read the device's copy (no upload of rast) while rast, rast_db, pos and tri are the very tensors rasterize made or
-read, unwritten since, and upload them otherwise (a tensor written in place or a copy, a G-buffer the pool let go),
-with the CPU context's values within 1e-6 and gradients within 1e-5 either way, and the same bits uploaded or not
-(glctx.residency counts the uploads).
+"""RasterizeVulkanContext keeps rasterize's G-buffers on the device: interpolate, antialias (visibility_antialias
+too) and the rasterize backward read the device's copy (no upload of rast) while rast, rast_db, pos and tri are the
+very tensors rasterize made or read, unwritten since, and upload them otherwise (a tensor written in place or a copy,
+a G-buffer the pool let go), with the CPU context's values within 1e-6 and gradients within 1e-5 either way, and the
+same bits uploaded or not (glctx.residency counts the uploads).
 The pool grows to the largest minibatch unless `frames` fixes it. Textures (2D and cube maps) stay too: later calls
 on the very tensor, unwritten since (torch's _version), read the device's copy; one written in place or another tensor
 is uploaded, with the CPU context's results (glctx.texture_residency counts); so is one written where torch does not
@@ -19,9 +19,10 @@ from test_vulkan_context import (assert_grads_close, assert_values_close, grid_m
 RESOLUTION = (32, 40)
 
 
-def chain(glctx, pos, tri, attr, change=None):
-    """rasterize -> interpolate (diff_attrs) -> antialias -> backward; `change` alters an input of interpolate and
-    antialias after rasterize (pos then takes no gradient). Returns the outputs and gradients."""
+def chain(glctx, pos, tri, attr, change=None, antialias=dr.antialias):
+    """rasterize -> interpolate (diff_attrs) -> antialias (or visibility_antialias) -> backward; `change` alters an
+    input of interpolate and antialias after rasterize (pos then takes no gradient). Returns the outputs and
+    gradients."""
     p, a = (pos.clone() if change else leaf(pos)), leaf(attr)
     rast, db = dr.rasterize(glctx, p, tri, RESOLUTION)
     t, d, q = tri, db, p
@@ -37,7 +38,7 @@ def chain(glctx, pos, tri, attr, change=None):
         elif change == 'tri copied':
             t = tri.clone()
     out, da = dr.interpolate(a, rast, t, rast_db=d, diff_attrs='all')
-    image = dr.antialias(out, rast, q, t)
+    image = antialias(out, rast, q, t)
     (image.square().sum() + da.square().sum()).backward()
     grads = [a.grad] + ([] if change else [p.grad])
     return [rast, db, out, da, image], grads
@@ -62,6 +63,15 @@ def test_the_chain_reads_the_kept_gbuffers_with_no_upload_and_gives_the_cpu_cont
     ctx = vulkan_context()
     compare(chain(ctx, pos, tri, attr), chain(dr.RasterizeCpuContext(), pos, tri, attr))
     # Per image: interpolate, antialias and their adjoints, the rasterize adjoint.
+    assert ctx.residency == {'gbuffers': 2, 'resident_calls': 2 * 5, 'uploads': 0, 'frames': 2}
+    assert ctx.device_calls == 2 * 6
+
+
+def test_visibility_antialias_reads_the_kept_gbuffers_with_no_upload_either():
+    pos, tri, attr = scene(2)
+    ctx = vulkan_context()
+    compare(chain(ctx, pos, tri, attr, antialias=dr.visibility_antialias),
+            chain(dr.RasterizeCpuContext(), pos, tri, attr, antialias=dr.visibility_antialias))
     assert ctx.residency == {'gbuffers': 2, 'resident_calls': 2 * 5, 'uploads': 0, 'frames': 2}
     assert ctx.device_calls == 2 * 6
 

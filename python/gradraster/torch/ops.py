@@ -160,12 +160,12 @@ class RasterizeVulkanContext(RasterizeCpuContext):
     lavapipe on the CPU), with CPU tensors in and out: accepted by every
     function that takes a context. On the device, for float32, forward and
     backward: rasterize (depth peeling included; the G-buffer is the CPU
-    context's bit for bit), and interpolate, antialias and texture (2D and
-    cube maps) when their inputs come from this context: interpolate and
-    antialias when `rast` is the very tensor rasterize returned, texture when
-    `uv` is the very tensor interpolate returned for such a rast. Any other
-    tensor (a slice, a copy, one computed by torch), float64 and
-    visibility_antialias run on the CPU kernels (docs/python.md, "Vulkan").
+    context's bit for bit), and interpolate, antialias, visibility_antialias
+    and texture (2D and cube maps) when their inputs come from this context:
+    interpolate and the antialiases when `rast` is the very tensor rasterize
+    returned, texture when `uv` is the very tensor interpolate returned for
+    such a rast. Any other tensor (a slice, a copy, one computed by torch) and
+    float64 run on the CPU kernels (docs/python.md, "Vulkan").
     Values match the CPU kernels' within 1e-6 relative and gradients within
     1e-5 of the largest, bit-identical run to run (docs/gpu.md).
     rasterize keeps each image's G-buffer on the device, where interpolate,
@@ -575,7 +575,8 @@ def visibility_antialias(color, rast, pos, tri, topology_hash=None, pos_gradient
     Arguments and result as antialias. Where nothing interpenetrates it
     equals antialias bit for bit; at an intersection curve it blends the two
     surfaces and sends the gradient to both triangles' vertices, which
-    antialias cannot do.
+    antialias cannot do. Runs on the device of the RasterizeVulkanContext
+    that made rast (float32), as antialias.
     """
     return _apply_antialias(color, rast, pos, tri, topology_hash, pos_gradient_boost, True)
 

@@ -22,7 +22,7 @@ struct Kernels {
   VkPipeline project, raster_large, resolve;
   VkPipeline interpolate_forward, interpolate_backward, fixed_point_finish;
   VkPipeline gbuffer, gbuffer_backward;
-  VkPipeline antialias_pairs, antialias_forward, antialias_backward, antialias_finish;
+  VkPipeline antialias_pairs, antialias_forward, antialias_backward, antialias_finish, visibility_pairs;
   VkPipeline texture_forward, texture_backward, texture_finish, texture_mip;
   VkPipeline cube_texture_forward, cube_texture_backward;
 

@@ -25,6 +25,7 @@ Spirv antialias_pairs();
 Spirv antialias_forward();
 Spirv antialias_backward();
 Spirv antialias_finish();
+Spirv visibility_pairs();
 Spirv texture_forward();
 Spirv texture_backward();
 Spirv texture_finish();

@@ -14,14 +14,16 @@ layout(push_constant) uniform Params {
   int channels;
   int pass;  // antialias_backward: 0 = image gradient and largest magnitudes, 1 = sums
   int y_up;  // the G-buffer was rasterized with y negated (row 0 at the bottom)
-  int pad;
+  int visibility;  // the pairs are visibility_antialias's (visibility_pairs.comp)
 } P;
 
 #include "vert.glsl"
 
 // A blended pair: the silhouette edge a-b crossed at t along the segment from
 // the inside centre to the outside centre. a < 0: no blend. b's bit 31 is set
-// when the inside pixel is the second of the pair (right or lower).
+// when the inside pixel is the second of the pair (right or lower); bit 30
+// when the boundary is an intersection (visibility_pairs.comp): a and b are
+// then the triangles of the inside's and the outside's surface there.
 struct Pair {
   double t;
   int a;
@@ -52,7 +54,9 @@ ivec2 pair_pixels(int s) {
   int p = s >> 1;
   return ivec2(p, (s & 1) == 0 ? p + 1 : p + P.width);
 }
-int pair_b(Pair pr) { return pr.b & 0x7fffffff; }
+int pair_b(Pair pr) { return pr.b & 0x3fffffff; }
+const int kCrossingBit = 0x40000000;
+bool pair_is_crossing(Pair pr) { return (pr.b & kCrossingBit) != 0; }
 // (inside, outside) of a blending slot s.
 ivec2 inside_outside(int s, Pair pr) {
   ivec2 pq = pair_pixels(s);
@@ -85,3 +89,8 @@ ivec4 slots_of(int p) {
   return ivec4(y > 0 ? 2 * (p - P.width) + 1 : -1, x > 0 ? 2 * (p - 1) : -1, x + 1 < P.width ? 2 * p : -1,
                y + 1 < P.height ? 2 * p + 1 : -1);
 }
+
+// The adjoint's fixed-point sums (antialias_backward.comp, antialias_finish.comp):
+// each vertex coordinate gets at most one contribution per slot, two from a
+// crossing whose triangles share the vertex.
+int contributions_per_element() { return (P.visibility != 0 ? 4 : 2) * P.width * P.height; }

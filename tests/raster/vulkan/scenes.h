@@ -1,6 +1,6 @@
 // Scenes shared by the GPU tests: float32 clip-space triangle soups (some
-// crossing the near plane), pixel-centre grids, slivers and meshes in
-// perspective; the shared device (null, with a warning saying why, when there
+// crossing the near plane), pixel-centre grids, slivers, meshes in
+// perspective and surfaces cutting through each other; the shared device (null, with a warning saying why, when there
 // is none); the CPU kernels' G-buffer; random inputs and the error measure the
 // GPU is held to.
 #pragma once
@@ -16,6 +16,7 @@
 
 #include "raster/barycentric_gbuffer.h"
 #include "raster/mesh.h"
+#include "raster/procedural.h"
 #include "raster/rasterize.h"
 #include "raster/vulkan/device.h"
 
@@ -110,6 +111,57 @@ inline Scene perspective(const Mesh& m, double scale, double distance) {
   const std::int32_t* t = m.triangles.data<std::int32_t>();
   s.tris.assign(t, t + 3 * m.num_triangles());
   return s;
+}
+
+// Two triangles cutting through each other (tests/ops/render/test_visibility_antialias.cpp's
+// crossing_clip): one at depth 0, one tilted, their line mostly along x or y.
+inline Scene crossing_pair(bool along_x) {
+  Scene s;
+  s.clip = along_x ? std::vector<float>{-0.9f, -0.8f, 0.0f,  1.0f,  0.85f, -0.7f, 0.0f,   1.2f,
+                                        0.1f,  0.9f,  0.0f,  0.9f,  -0.8f, 0.85f, -0.5f,  1.1f,
+                                        0.83f, 0.6f,  -0.35f, 1.0f, 0.05f, -0.9f, 0.62f,  1.15f}
+                   : std::vector<float>{-0.9f,  -0.8f,  0.0f,   1.0f,  0.85f, -0.7f, 0.0f, 1.2f,
+                                        0.1f,   0.9f,   0.0f,   0.9f,  -0.85f, 0.8f, -0.55f, 1.1f,
+                                        -0.7f,  -0.85f, -0.4f,  1.0f,  0.9f,  0.05f, 0.6f, 1.15f};
+  s.tris = {0, 1, 2, 3, 4, 5};
+  return s;
+}
+
+// Large triangles at random depths in [-0.6, 0.6] and w in [0.8, 1.3]: they
+// cut through each other everywhere.
+inline Scene interpenetrating(int count, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  Scene s;
+  for (int i = 0; i < 3 * count; ++i) {
+    const double w = 0.8 + 0.5 * u(rng);
+    s.clip.insert(s.clip.end(), {float((1.8 * u(rng) - 0.9) * w), float((1.8 * u(rng) - 0.9) * w),
+                                 float((1.2 * u(rng) - 0.6) * w), float(w)});
+    s.tris.push_back(i);
+  }
+  return s;
+}
+
+// Two icospheres, the smaller one moved partly into the larger (as
+// tests/ops/render/test_visibility_antialias.cpp's spheres), in perspective;
+// unshared: every triangle with its own three vertices (only a welded
+// topology closes them).
+inline Scene two_spheres(bool unshared) {
+  Mesh small = raster::make_icosphere(2, 0.6f);
+  float* p = small.positions.data<float>();
+  for (std::int64_t i = 0; i < small.num_vertices(); ++i) p[3 * i] += 0.55f, p[3 * i + 1] += 0.2f, p[3 * i + 2] += 0.3f;
+  const Scene a = perspective(raster::make_icosphere(2, 0.8f), 1.5, 3.5), b = perspective(small, 1.5, 3.5);
+  Scene s = a;
+  const std::int32_t na = static_cast<std::int32_t>(a.clip.size() / 4);
+  s.clip.insert(s.clip.end(), b.clip.begin(), b.clip.end());
+  for (std::int32_t t : b.tris) s.tris.push_back(t + na);
+  if (!unshared) return s;
+  Scene u;
+  for (std::int32_t t : s.tris) {
+    u.clip.insert(u.clip.end(), s.clip.begin() + 4 * t, s.clip.begin() + 4 * t + 4);
+    u.tris.push_back(static_cast<std::int32_t>(u.tris.size()));
+  }
+  return u;
 }
 
 // The CPU kernels' G-buffer of a scene: the coverage of raster::rasterize_forward,

@@ -76,8 +76,9 @@ Tensor weights(const Tensor& like, unsigned seed) {
   return Tensor::from_vector<float>(random_values(static_cast<std::size_t>(like.numel()), seed), like.shape());
 }
 
-// rasterize (with derivatives) -> interpolate -> antialias -> loss -> backward.
-Run run_batch(const Batch& in, int W, int H, const std::shared_ptr<const raster::RasterBackend>& backend) {
+// rasterize (with derivatives) -> interpolate -> antialias (or visibility_antialias) -> loss -> backward.
+Run run_batch(const Batch& in, int W, int H, const std::shared_ptr<const raster::RasterBackend>& backend,
+              bool visibility = false) {
   Tensor clip = in.clip.copy().set_requires_grad();
   Tensor attr = in.attr.copy().set_requires_grad();
   RasterizeOptions ro{W, H};
@@ -86,7 +87,10 @@ Run run_batch(const Batch& in, int W, int H, const std::shared_ptr<const raster:
   const GBuffer gb = in.ranges.defined() ? rasterize_ranges(clip, in.tris, in.ranges, ro)
                                          : rasterize_batch(clip, in.tris, ro);
   const Tensor shaded = interpolate_batch(attr, gb, in.tris);
-  const Tensor image = antialias_batch(shaded, gb, clip, in.tris);
+  AntialiasOptions ao;
+  ao.visibility = visibility;
+  ao.pos_gradient_boost = visibility ? 1.5 : 1.0;
+  const Tensor image = antialias_batch(shaded, gb, clip, in.tris, ao);
   // Every output in the loss: the G-buffer's gradient from interpolate and from outside it.
   const Tensor loss = sum(image * weights(image, 11)) + sum(gb.uv * weights(gb.uv, 12)) +
                       sum(gb.depth * weights(gb.depth, 13)) + sum(gb.db * weights(gb.db, 14));
@@ -107,9 +111,10 @@ bool same_bits(const std::vector<float>& a, const std::vector<float>& b) {
 }
 
 // The backend's run against the CPU's, and against itself run again.
-void expect_cpu_results(const Batch& in, int W, int H, const std::shared_ptr<const raster::RasterBackend>& backend) {
-  const Run cpu = run_batch(in, W, H, nullptr);
-  const Run gpu = run_batch(in, W, H, backend);
+void expect_cpu_results(const Batch& in, int W, int H, const std::shared_ptr<const raster::RasterBackend>& backend,
+                        bool visibility = false) {
+  const Run cpu = run_batch(in, W, H, nullptr, visibility);
+  const Run gpu = run_batch(in, W, H, backend, visibility);
   REQUIRE(gpu.tri_id == cpu.tri_id);
   REQUIRE(same_bits(gpu.uv, cpu.uv));
   REQUIRE(same_bits(gpu.depth, cpu.depth));
@@ -118,7 +123,7 @@ void expect_cpu_results(const Batch& in, int W, int H, const std::shared_ptr<con
   CHECK(relative_error(gpu.image, cpu.image) <= 1e-6);
   CHECK(relative_error(gpu.grad_clip, cpu.grad_clip) <= 1e-5);
   CHECK(relative_error(gpu.grad_attr, cpu.grad_attr) <= 1e-5);
-  const Run again = run_batch(in, W, H, backend);
+  const Run again = run_batch(in, W, H, backend, visibility);
   CHECK(same_bits(again.image, gpu.image));
   CHECK(same_bits(again.grad_clip, gpu.grad_clip));
   CHECK(same_bits(again.grad_attr, gpu.grad_attr));
@@ -133,6 +138,30 @@ TEST_CASE("an instanced batch on a Vulkan backend gives the CPU's G-buffers, val
   expect_cpu_results(in, 40, 32, backend);
   // Per run: three G-buffers made and kept, each read by five calls
   // (interpolate and antialias forward and adjoint, the rasterize adjoint).
+  const vulkan::ResidencyStats stats = vulkan::residency_stats(*backend);
+  CHECK(stats.gbuffers == 2 * kImages);
+  CHECK(stats.resident_calls == 2 * 5 * kImages);
+  CHECK(stats.uploads == 0);
+}
+
+TEST_CASE("an instanced batch through visibility_antialias on a Vulkan backend gives the CPU's results",
+          "[vulkan][batch]") {
+  if (!shared_gpu()) return;
+  // Each image's triangles cut through each other.
+  std::vector<float> clip;
+  std::vector<std::int32_t> tris;
+  for (int b = 0; b < kImages; ++b) {
+    const Scene s = interpenetrating(10, 41 + b);
+    clip.insert(clip.end(), s.clip.begin(), s.clip.end());
+    tris = s.tris;
+  }
+  const std::int64_t n = static_cast<std::int64_t>(tris.size()), m = n / 3;
+  const Batch in{Tensor::from_vector<float>(clip, {kImages, n, 4}), Tensor::from_vector<std::int32_t>(tris, {m, 3}),
+                 Tensor(),
+                 Tensor::from_vector<float>(random_values(static_cast<std::size_t>(kImages * n * 3), 8),
+                                            {kImages, n, 3})};
+  const auto backend = vulkan::raster_backend(shared_gpu(), 4);
+  expect_cpu_results(in, 40, 32, backend, true);
   const vulkan::ResidencyStats stats = vulkan::residency_stats(*backend);
   CHECK(stats.gbuffers == 2 * kImages);
   CHECK(stats.resident_calls == 2 * 5 * kImages);
