@@ -3,7 +3,8 @@
 For a 2048 x 2048 x 3 float32 texture: the wall time of _core.fingerprint on 1 and 2 threads (best and median of
 interleaved runs), and, on a RasterizeVulkanContext, the texture_residency bytes and the wall time of a bilinear
 texture call that uploads the texture (another tensor each time) against one that reads the kept copy (the same
-tensor: fingerprint included; and with a constant fingerprint, the check before fingerprints). Run: PYTHONPATH=build/python /usr/bin/python3 bench/texture_fingerprint.py
+tensor: fingerprint included; and with a constant fingerprint, the check before fingerprints).
+Run: PYTHONPATH=build/python /usr/bin/python3 bench/texture_fingerprint.py
 """
 import statistics
 import time
