@@ -5,10 +5,6 @@
 
 #include "raster/detail/rasterize_scan.h"
 
-#ifdef __AVX__
-#include <immintrin.h>
-#endif
-
 namespace gr::raster::detail {
 namespace {
 
@@ -35,14 +31,6 @@ Vd load(const double* p) {
 Vd vmin(Vd a, Vd b) { return b < a ? b : a; }
 Vd vmax(Vd a, Vd b) { return a < b ? b : a; }
 Vd as_flag(Vm m) { return m ? splat(1.0) : splat(0.0); }
-// Whether any lane of the mask is set.
-bool any(Vm m) {
-#ifdef __AVX__
-  return !_mm256_testz_si256(__m256i(m), __m256i(m));
-#else
-  return (m[0] | m[1]) != 0;
-#endif
-}
 
 // classify_triangle's pixel_range: the index range [lo, hi] of the pixel
 // centres in [a, b] (clamped to [-2, n + 2]: exact floor / ceil by truncation
@@ -113,22 +101,28 @@ void classify_lanes(const Vertices& v, const std::int32_t* tris, std::int64_t t0
     centre_range(vmin(vmin(y0, y1), y2), vmax(vmax(y0, y1), y2), height, by0, by1);
     // The centres of a box of at most kMaxFragmentBox (slot s: column s mod w,
     // row s / w) against the three edges.
-    const Vd w = bx1 - bx0 + 1.0, area = w * (by1 - by0 + 1.0);
-    // Boxes of more than kMaxFragmentBox centres (most, once triangles span
-    // a few pixels) leave the centres to the tiles' scan: a vector of only
-    // those skips them and keeps no slot (issue 31).
+    const Vd w = bx1 - bx0 + 1.0, h = by1 - by0 + 1.0, area = w * h;
+    // Only the slots of non-empty boxes of at most kMaxFragmentBox centres
+    // are read (the tail and lane_fragments); the others are left at zero.
+    // Boxes of more centres (most, once triangles span a few pixels) leave
+    // them to the tiles' scan, and the vector stops at its largest small box
+    // (one centre or none at most, for triangles below a pixel): issue 31.
+    const Vd used = (w >= 1.0) & (h >= 1.0) & (area <= double(kMaxFragmentBox)) ? area : splat(0.0);
+    double most = 0.0;
+    for (int j = 0; j < kWidth; ++j) most = used[j] > most ? used[j] : most;
+    const int n_slots = static_cast<int>(most);
     Vm slots = Vm{};
-    if (any(area <= double(kMaxFragmentBox))) {
+    if (n_slots > 0) {
       const Vd sign = a2 > 0.0 ? splat(1.0) : splat(-1.0);
       const LaneEdge e0 = lane_edge(x1, y1, i1, x2, y2, i2, sign);
       const LaneEdge e1 = lane_edge(x2, y2, i2, x0, y0, i0, sign);
       const LaneEdge e2 = lane_edge(x0, y0, i0, x1, y1, i1, sign);
-      for (int s = 0; s < kMaxFragmentBox; ++s) {
+      for (int s = 0; s < n_slots; ++s) {
         const Vd slot = splat(s);
         const Vd row = as_flag(slot >= w) + as_flag(slot >= 2.0 * w) + as_flag(slot >= 3.0 * w);
         const Vd px = (bx0 + (slot - row * w)) + 0.5, py = (by0 + row) + 0.5;
         const Vd v0 = eval(e0, px, py), v1 = eval(e1, px, py), v2 = eval(e2, px, py);
-        const Vm covered = (slot < area) & inside(e0, v0) & inside(e1, v1) & inside(e2, v2);
+        const Vm covered = (slot < used) & inside(e0, v0) & inside(e1, v1) & inside(e2, v2);
         slots |= covered & (std::int64_t(1) << s);
         std::memcpy(&cover->e[s][0][i], &v0, sizeof v0);
         std::memcpy(&cover->e[s][1][i], &v1, sizeof v1);
