@@ -48,7 +48,8 @@ static_assert(kTile <= 256, "tile-local box coordinates are 8-bit");
 // Per-call buffers, reused across calls through a pool (allocated and
 // page-faulted once; nothing is zero-filled serially).
 struct ForwardScratch {
-  detail::Vertices v;
+  detail::Vertices own;          // the projection, unless the caller keeps it
+  const detail::Vertices* v = nullptr;  // the call's projection: &own or the caller's
   std::vector<detail::PixelBox> box;  // per triangle; x0 > x1 when not binned
   std::vector<double> zmin;           // per triangle, front_to_back only
   std::vector<std::int32_t> count;    // chunks x tiles: counts, then fill cursors
@@ -108,6 +109,10 @@ T saturate(double x) {
 // The vertices of a mesh's triangles are scattered over arrays larger than
 // the cache: the loops over triangles ask for them this many triangles ahead.
 constexpr int kPrefetchAhead = 8;
+// Below this many vertices, what those loops read of them (26 bytes a vertex)
+// stays in the L2 cache: asking ahead would cost ~20 instructions a triangle
+// for nothing (issue 31: a small mesh's fixed cost per view).
+constexpr std::int64_t kPrefetchVertices = 8192;
 inline void prefetch_vertices(const detail::Vertices& v, const std::int32_t* tri) {
   for (int k = 0; k < 3; ++k) {
     __builtin_prefetch(&v.screen[3 * static_cast<std::size_t>(tri[k])]);
@@ -146,6 +151,10 @@ void scan_tile(const detail::Vertices& v, const RasterParams<T>& p, const Forwar
     const detail::PixelBox box{tx0 + b.x0, ty0 + b.y0, tx0 + b.x1, ty0 + b.y1};
     scan_triangle(v, tris, b.id, box, tx0, ty0, tx1, ty1, width, height, tb);
   };
+  if (!front_to_back && p.num_vertices < kPrefetchVertices) {
+    for (std::int64_t i = 0; i < n; ++i) scan(list[i]);
+    return;
+  }
   if (!front_to_back) {
     // A tile's triangles are sparse in the triangle array: their indices are
     // fetched two look-aheads early, their vertices one.
@@ -201,10 +210,11 @@ Grid make_grid(std::int64_t num_tris, int width, int height) {
 // each chunk's triangles per tile. Returns the summed triangle counts.
 template <class T>
 RasterStats classify_and_count(const RasterParams<T>& p, const Grid& g, ForwardScratch& sc) {
-  const detail::Vertices& v = sc.v;
+  const detail::Vertices& v = *sc.v;
   const Cull cull_mode = p.settings.cull;
   const int cull = cull_mode == Cull::Back ? 1 : cull_mode == Cull::Front ? -1 : 0;
   const bool f2b = p.settings.front_to_back;
+  const bool prefetch = p.num_vertices >= kPrefetchVertices;
   sc.box.resize(static_cast<std::size_t>(p.num_tris));
   if (f2b) sc.zmin.resize(static_cast<std::size_t>(p.num_tris));
   sc.count.resize(static_cast<std::size_t>(g.chunks) * g.tiles);
@@ -226,7 +236,7 @@ RasterStats classify_and_count(const RasterParams<T>& p, const Grid& g, ForwardS
       for (std::int64_t t = t0; t < t1; ++t) {
         const std::int32_t* tri = p.tris + 3 * t;
         // The next batch's vertices, asked for while this one is finished.
-        if (t + detail::kClassifyLanes < t1) prefetch_vertices(v, tri + 3 * detail::kClassifyLanes);
+        if (prefetch && t + detail::kClassifyLanes < t1) prefetch_vertices(v, tri + 3 * detail::kClassifyLanes);
         const int lane = static_cast<int>((t - t0) % detail::kClassifyLanes);
         if (lane == 0)
           detail::classify_lanes(v, p.tris, t, static_cast<int>(std::min<std::int64_t>(detail::kClassifyLanes, t1 - t)),
@@ -369,7 +379,7 @@ void scan_tiles(const RasterParams<T>& p, const Grid& g, const ForwardScratch& s
     std::vector<BinEntry> order;
     for (std::int64_t n = lo; n < hi; ++n) {
       const int tile = busy[n];
-      scan_tile(sc.v, p, sc, g.tiles_x, tile, W, H, p.settings.front_to_back, order, *tb);
+      scan_tile(*sc.v, p, sc, g.tiles_x, tile, W, H, p.settings.front_to_back, order, *tb);
       const int tx0 = (tile % g.tiles_x) * kTile, ty0 = (tile / g.tiles_x) * kTile;
       const int tw = std::min(kTile, W - tx0), th = std::min(kTile, H - ty0);
       for (int y = 0; y < th; ++y)
@@ -393,13 +403,21 @@ void scan_tiles(const RasterParams<T>& p, const Grid& g, const ForwardScratch& s
 
 template <class T>
 void rasterize_forward(const RasterParams<T>& p, std::int32_t* tri_id, T* uv, T* depth, RasterStats* stats,
-                       double* key_depth) {
+                       double* key_depth, std::shared_ptr<const detail::Vertices>* projected) {
   const int W = p.settings.width, H = p.settings.height;
   assert(W >= 1 && H >= 1 && p.num_vertices >= 0 && p.num_tris >= 0);
   auto lease = g_forward_pool.take();
   ForwardScratch& sc = *lease;
-  // Phase 1: per-vertex projection.
-  detail::project_vertices_into(p.clip, p.num_vertices, W, H, &sc.v, p.settings.y_up);
+  // Phase 1: per-vertex projection (into a pooled Vertices the caller keeps, when asked for).
+  if (projected) {
+    std::shared_ptr<detail::Vertices> kept = detail::pooled_vertices();
+    detail::project_vertices_into(p.clip, p.num_vertices, W, H, kept.get(), p.settings.y_up);
+    sc.v = kept.get();
+    *projected = std::move(kept);
+  } else {
+    detail::project_vertices_into(p.clip, p.num_vertices, W, H, &sc.own, p.settings.y_up);
+    sc.v = &sc.own;
+  }
   const Grid g = make_grid(p.num_tris, W, H);
   const RasterStats st = classify_and_count(p, g, sc);
   if (stats) *stats = st;
@@ -411,7 +429,8 @@ void rasterize_forward(const RasterParams<T>& p, std::int32_t* tri_id, T* uv, T*
 }
 
 #define GR_INSTANTIATE(T) \
-  template void rasterize_forward<T>(const RasterParams<T>&, std::int32_t*, T*, T*, RasterStats*, double*);
+  template void rasterize_forward<T>(const RasterParams<T>&, std::int32_t*, T*, T*, RasterStats*, double*, \
+                                     std::shared_ptr<const detail::Vertices>*);
 GR_INSTANTIATE(float)
 GR_INSTANTIATE(double)
 #undef GR_INSTANTIATE

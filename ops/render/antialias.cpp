@@ -160,6 +160,7 @@ Tensor antialias(const Tensor& image, const GBuffer& gbuffer, const Tensor& clip
     p.tris = triangles.data<std::int32_t>();
     p.num_tris = m;
     p.topology = topology.get();
+    p.projected = detail::projection_of(gbuffer, clip, static_cast<int>(w), static_cast<int>(h));
     if constexpr (std::is_same_v<T, float>)
       if (backend) {
         const raster::DeviceGBuffer* kept = detail::resident_of(gbuffer);
