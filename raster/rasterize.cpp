@@ -233,14 +233,18 @@ RasterStats classify_and_count(const RasterParams<T>& p, const Grid& g, ForwardS
       const std::int64_t t0 = c * g.chunk, t1 = std::min(p.num_tris, (c + 1) * g.chunk);
       detail::TriClass lane_class[detail::kClassifyLanes];
       detail::LaneCoverage lane_cover;
-      for (std::int64_t t = t0; t < t1; ++t) {
+      std::int64_t tally[6] = {};  // triangles per TriClass (0..5)
+      for (std::int64_t t = t0, batch = t0, batch_end = t0; t < t1; ++t) {
         const std::int32_t* tri = p.tris + 3 * t;
         // The next batch's vertices, asked for while this one is finished.
         if (prefetch && t + detail::kClassifyLanes < t1) prefetch_vertices(v, tri + 3 * detail::kClassifyLanes);
-        const int lane = static_cast<int>((t - t0) % detail::kClassifyLanes);
-        if (lane == 0)
-          detail::classify_lanes(v, p.tris, t, static_cast<int>(std::min<std::int64_t>(detail::kClassifyLanes, t1 - t)),
-                                 g.width, g.height, cull, lane_class, &sc.box[t], &lane_cover);
+        if (t == batch_end) {
+          batch = t;
+          batch_end = std::min(t1, t + detail::kClassifyLanes);
+          detail::classify_lanes(v, p.tris, t, static_cast<int>(batch_end - t), g.width, g.height, cull, lane_class,
+                                 &sc.box[t], &lane_cover);
+        }
+        const int lane = static_cast<int>(t - batch);
         detail::PixelBox& b = sc.box[t];
         detail::TriClass k = lane_class[lane];
         if (k == detail::TriClass::Clipped) k = detail::classify_triangle(v, tri, g.width, g.height, cull, &b);
@@ -260,14 +264,7 @@ RasterStats classify_and_count(const RasterParams<T>& p, const Grid& g, ForwardS
           }
           small = true;
         }
-        switch (k) {
-          case detail::TriClass::Outside: ++st.culled_outside; break;
-          case detail::TriClass::ZeroArea: ++st.culled_zero_area; break;
-          case detail::TriClass::Face: ++st.culled_face; break;
-          case detail::TriClass::NoPixel: ++st.culled_no_pixel; break;
-          case detail::TriClass::Clipped: ++st.clipped_near; break;
-          case detail::TriClass::Raster: ++st.rasterized; break;
-        }
+        ++tally[static_cast<int>(k)];
         if ((k != detail::TriClass::Raster && k != detail::TriClass::Clipped) || small) {
           b = {1, 1, 0, 0};  // not binned
           continue;
@@ -278,6 +275,13 @@ RasterStats classify_and_count(const RasterParams<T>& p, const Grid& g, ForwardS
         for (int ty = b.y0 / kTile; ty <= b.y1 / kTile; ++ty)
           for (int tx = b.x0 / kTile; tx <= b.x1 / kTile; ++tx) ++cnt[ty * g.tiles_x + tx];
       }
+      using detail::TriClass;
+      st.culled_outside = tally[static_cast<int>(TriClass::Outside)];
+      st.culled_zero_area = tally[static_cast<int>(TriClass::ZeroArea)];
+      st.culled_face = tally[static_cast<int>(TriClass::Face)];
+      st.culled_no_pixel = tally[static_cast<int>(TriClass::NoPixel)];
+      st.clipped_near = tally[static_cast<int>(TriClass::Clipped)];
+      st.rasterized = tally[static_cast<int>(TriClass::Raster)];
     }
   });
   RasterStats st;
