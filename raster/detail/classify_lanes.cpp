@@ -132,7 +132,7 @@ void classify_lanes(const Vertices& v, const std::int32_t* tris, std::int64_t t0
     // Boxes of more centres (most, once triangles span a few pixels) leave
     // them to the tiles' scan, and the vector stops at its largest small box
     // (one centre or none at most, for triangles below a pixel): issue 31.
-    const Vd used = (w >= 1.0) & (h >= 1.0) & (area <= double(kMaxFragmentBox)) ? area : splat(0.0);
+    const Vd used = ((w >= 1.0) & (h >= 1.0) & (area <= double(kMaxFragmentBox))) ? area : splat(0.0);
     double most = 0.0;
     for (int j = 0; j < kWidth; ++j) most = used[j] > most ? used[j] : most;
     const int n_slots = static_cast<int>(most);
@@ -159,8 +159,8 @@ void classify_lanes(const Vertices& v, const std::int32_t* tris, std::int64_t t0
     // area, facing, box; a small box none of whose centres is covered is
     // NoPixel too (larger: the tiles' scan decides).
     Vm c = splat_class(TriClass::Raster);
-    c = (used > 0.0) & (slots == 0) ? splat_class(TriClass::NoPixel) : c;
-    c = (w < 1.0) | (h < 1.0) ? splat_class(TriClass::NoPixel) : c;
+    c = ((used > 0.0) & (slots == 0)) ? splat_class(TriClass::NoPixel) : c;
+    c = ((w < 1.0) | (h < 1.0)) ? splat_class(TriClass::NoPixel) : c;
     c = facing_culled(a2 > 0.0) ? splat_class(TriClass::Face) : c;
     c = a2 == 0.0 ? splat_class(TriClass::ZeroArea) : c;
     c = load_mask(&clipped[i]) ? splat_class(TriClass::Clipped) : c;
