@@ -59,6 +59,10 @@ struct ForwardScratch {
   // Fragments of small triangles (detail::lane_fragments), binned like the
   // triangles: per chunk in triangle order, then tile by tile.
   std::vector<std::vector<detail::Fragment>> chunk_frag;
+  // The binned triangles per chunk, ascending: the fill visits only those
+  // (issue 31: below a few pixels a triangle is a fragment or culled, and
+  // walking all triangles again was a fixed cost per view).
+  std::vector<std::vector<std::int32_t>> chunk_binned;
   std::vector<std::int32_t> fcount;  // chunks x tiles: counts, then fill cursors
   std::vector<std::int64_t> foffset;  // tiles + 1
   std::vector<detail::Fragment> frag;
@@ -221,6 +225,8 @@ RasterStats classify_and_count(const RasterParams<T>& p, const Grid& g, ForwardS
   sc.chunk_stats.assign(static_cast<std::size_t>(g.chunks), RasterStats{});
   sc.fcount.resize(static_cast<std::size_t>(g.chunks) * g.tiles);
   if (sc.chunk_frag.size() < static_cast<std::size_t>(g.chunks)) sc.chunk_frag.resize(static_cast<std::size_t>(g.chunks));
+  if (sc.chunk_binned.size() < static_cast<std::size_t>(g.chunks))
+    sc.chunk_binned.resize(static_cast<std::size_t>(g.chunks));
   parallel_for(0, g.chunks, 1, [&](std::int64_t c0, std::int64_t c1) {
     for (std::int64_t c = c0; c < c1; ++c) {
       std::int32_t* cnt = &sc.count[static_cast<std::size_t>(c) * g.tiles];
@@ -229,6 +235,8 @@ RasterStats classify_and_count(const RasterParams<T>& p, const Grid& g, ForwardS
       std::fill(fcnt, fcnt + g.tiles, 0);
       std::vector<detail::Fragment>& frag = sc.chunk_frag[c];
       frag.clear();
+      std::vector<std::int32_t>& binned = sc.chunk_binned[c];
+      binned.clear();
       RasterStats& st = sc.chunk_stats[c];
       const std::int64_t t0 = c * g.chunk, t1 = std::min(p.num_tris, (c + 1) * g.chunk);
       detail::TriClass lane_class[detail::kClassifyLanes];
@@ -272,6 +280,7 @@ RasterStats classify_and_count(const RasterParams<T>& p, const Grid& g, ForwardS
         if (f2b)
           sc.zmin[t] = k == detail::TriClass::Clipped ? -std::numeric_limits<double>::infinity()
                                                       : depth_lower_bound(v, tri);
+        binned.push_back(static_cast<std::int32_t>(t));
         for (int ty = b.y0 / kTile; ty <= b.y1 / kTile; ++ty)
           for (int tx = b.x0 / kTile; tx <= b.x1 / kTile; ++tx) ++cnt[ty * g.tiles_x + tx];
       }
@@ -331,7 +340,7 @@ void bin_offsets(const Grid& g, ForwardScratch& sc) {
 
 // Phase 4 (parallel over the same chunks): each chunk writes its triangle ids
 // into its own slots of the tiles it touches.
-void fill_bins(std::int64_t num_tris, const Grid& g, ForwardScratch& sc) {
+void fill_bins(const Grid& g, ForwardScratch& sc) {
   parallel_for(0, g.chunks, 1, [&](std::int64_t c0, std::int64_t c1) {
     for (std::int64_t c = c0; c < c1; ++c) {
       std::int32_t* fill = &sc.count[static_cast<std::size_t>(c) * g.tiles];
@@ -340,8 +349,7 @@ void fill_bins(std::int64_t num_tris, const Grid& g, ForwardScratch& sc) {
         const int i = f.where / kTilePixels;
         sc.frag[sc.foffset[i] + ffill[i]++] = f;
       }
-      const std::int64_t t1 = std::min(num_tris, (c + 1) * g.chunk);
-      for (std::int64_t t = c * g.chunk; t < t1; ++t) {
+      for (const std::int32_t t : sc.chunk_binned[c]) {
         const detail::PixelBox& b = sc.box[t];
         if (b.x0 > b.x1) continue;
         for (int ty = b.y0 / kTile; ty <= b.y1 / kTile; ++ty) {
@@ -426,7 +434,7 @@ void rasterize_forward(const RasterParams<T>& p, std::int32_t* tri_id, T* uv, T*
   const RasterStats st = classify_and_count(p, g, sc);
   if (stats) *stats = st;
   bin_offsets(g, sc);
-  fill_bins(p.num_tris, g, sc);
+  fill_bins(g, sc);
   clear_background(static_cast<std::int64_t>(W) * H, tri_id, uv, depth);
   if (key_depth) std::fill(key_depth, key_depth + static_cast<std::int64_t>(W) * H, std::numeric_limits<double>::infinity());
   scan_tiles(p, g, sc, tri_id, uv, depth, key_depth);
