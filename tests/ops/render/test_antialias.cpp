@@ -481,3 +481,23 @@ TEST_CASE("antialias: the G-buffer's kept projection gives the bits of projectin
     CHECK(antialias(image, gb, clip, s.triangles).to_vector() == kept);
   }
 }
+
+TEST_CASE("antialias: a G-buffer of more than kKeptProjectionVertices vertices keeps no projection and antialias "
+          "projects clip itself",
+          "[ops][antialias]") {
+  NoGradGuard ng;
+  // One triangle over the image; the other vertices unused.
+  const std::int64_t n = detail::kKeptProjectionVertices + 1;
+  std::vector<double> rows(static_cast<std::size_t>(4 * n), 0.0);
+  const double corners[3][4] = {{-0.9, -0.8, 0.1, 1.0}, {0.85, -0.7, 0.2, 1.0}, {-0.1, 0.9, 0.3, 1.0}};
+  for (std::int64_t i = 0; i < n; ++i)
+    for (int k = 0; k < 4; ++k) rows[static_cast<std::size_t>(4 * i + k)] = corners[i % 3][k];
+  const Tensor clip = Tensor::from_values(rows, {n, 4}, DType::Float64);
+  const Tensor tris = Tensor::from_vector<std::int32_t>({0, 1, 2}, {1, 3});
+  GBuffer gb = rasterize(clip, tris, {20, 16});
+  CHECK_FALSE(gb.projection);
+  const Tensor image = Tensor::ones({16, 20, 1}, DType::Float64);
+  const Tensor out = antialias(image, gb, clip, tris);
+  CHECK(out.shape() == image.shape());
+  CHECK(all_finite(out));
+}
