@@ -10,6 +10,7 @@
 #include <cmath>
 #include <limits>
 #include <numeric>
+#include <optional>
 
 #include "autodiff/base/parallel.h"
 #include "raster/detail/guarded_math.h"
@@ -158,11 +159,15 @@ void antialias_forward(const AntialiasParams<T>& prm, T* out, std::vector<Antial
   const EdgeTopology& topology = *prm.topology;
   const int W = prm.width, H = prm.height, C = prm.channels;
   const std::int64_t P = static_cast<std::int64_t>(W) * H;
-  // The projection's buffers are reused across calls (issue 31: allocating
-  // and zeroing them was a fixed cost of every view).
-  detail::ScratchPool<detail::Vertices>::Lease projected = g_vertex_pool.take();
-  detail::project_vertices_into(prm.clip, prm.num_vertices, W, H, &*projected, prm.y_up);
-  const detail::Vertices& v = *projected;
+  // The rasterizer's projection of clip when the caller kept it, else our
+  // own, in buffers reused across calls (issue 31: projecting, allocating
+  // and zeroing were fixed costs of every view).
+  std::optional<detail::ScratchPool<detail::Vertices>::Lease> own;
+  if (!prm.projected) {
+    own.emplace(g_vertex_pool.take());
+    detail::project_vertices_into(prm.clip, prm.num_vertices, W, H, &**own, prm.y_up);
+  }
+  const detail::Vertices& v = prm.projected ? *prm.projected : **own;
   detail::SurfaceSides sides(prm.num_tris);
 
   // Unchanged pixels: a plain copy.

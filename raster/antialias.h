@@ -23,6 +23,10 @@
 
 namespace gr::raster {
 
+namespace detail {
+struct Vertices;  // raster/detail/rasterize_setup.h
+}  // namespace detail
+
 // neighbour[] values for edges with no unique partner.
 constexpr std::int64_t kBoundaryEdge = -1;     // no other triangle has this edge
 constexpr std::int64_t kNonManifoldEdge = -2;  // three or more triangles (or a zero-length edge)
@@ -91,6 +95,9 @@ struct AntialiasParams {
   // visibility_antialias (raster/visibility_antialias.h) instead. The CPU
   // kernels ignore it (blend_boundaries_forward takes the choice itself).
   bool visibility = false;
+  // The projection rasterize_forward made of clip at width x height and
+  // y_up (its `projected`), or null: antialias_forward projects clip itself.
+  const detail::Vertices* projected = nullptr;
 };
 
 // out: H x W x C row-major (may not alias image). For each blended pair (a

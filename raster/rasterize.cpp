@@ -48,7 +48,8 @@ static_assert(kTile <= 256, "tile-local box coordinates are 8-bit");
 // Per-call buffers, reused across calls through a pool (allocated and
 // page-faulted once; nothing is zero-filled serially).
 struct ForwardScratch {
-  detail::Vertices v;
+  detail::Vertices own;          // the projection, unless the caller keeps it
+  const detail::Vertices* v = nullptr;  // the call's projection: &own or the caller's
   std::vector<detail::PixelBox> box;  // per triangle; x0 > x1 when not binned
   std::vector<double> zmin;           // per triangle, front_to_back only
   std::vector<std::int32_t> count;    // chunks x tiles: counts, then fill cursors
@@ -58,6 +59,10 @@ struct ForwardScratch {
   // Fragments of small triangles (detail::lane_fragments), binned like the
   // triangles: per chunk in triangle order, then tile by tile.
   std::vector<std::vector<detail::Fragment>> chunk_frag;
+  // The binned triangles per chunk, ascending: the fill visits only those
+  // (issue 31: below a few pixels a triangle is a fragment or culled, and
+  // walking all triangles again was a fixed cost per view).
+  std::vector<std::vector<std::int32_t>> chunk_binned;
   std::vector<std::int32_t> fcount;  // chunks x tiles: counts, then fill cursors
   std::vector<std::int64_t> foffset;  // tiles + 1
   std::vector<detail::Fragment> frag;
@@ -108,6 +113,10 @@ T saturate(double x) {
 // The vertices of a mesh's triangles are scattered over arrays larger than
 // the cache: the loops over triangles ask for them this many triangles ahead.
 constexpr int kPrefetchAhead = 8;
+// Below this many vertices, what those loops read of them (26 bytes a vertex)
+// stays in the L2 cache: asking ahead would cost ~20 instructions a triangle
+// for nothing (issue 31: a small mesh's fixed cost per view).
+constexpr std::int64_t kPrefetchVertices = 8192;
 inline void prefetch_vertices(const detail::Vertices& v, const std::int32_t* tri) {
   for (int k = 0; k < 3; ++k) {
     __builtin_prefetch(&v.screen[3 * static_cast<std::size_t>(tri[k])]);
@@ -146,6 +155,10 @@ void scan_tile(const detail::Vertices& v, const RasterParams<T>& p, const Forwar
     const detail::PixelBox box{tx0 + b.x0, ty0 + b.y0, tx0 + b.x1, ty0 + b.y1};
     scan_triangle(v, tris, b.id, box, tx0, ty0, tx1, ty1, width, height, tb);
   };
+  if (!front_to_back && p.num_vertices < kPrefetchVertices) {
+    for (std::int64_t i = 0; i < n; ++i) scan(list[i]);
+    return;
+  }
   if (!front_to_back) {
     // A tile's triangles are sparse in the triangle array: their indices are
     // fetched two look-aheads early, their vertices one.
@@ -201,16 +214,19 @@ Grid make_grid(std::int64_t num_tris, int width, int height) {
 // each chunk's triangles per tile. Returns the summed triangle counts.
 template <class T>
 RasterStats classify_and_count(const RasterParams<T>& p, const Grid& g, ForwardScratch& sc) {
-  const detail::Vertices& v = sc.v;
+  const detail::Vertices& v = *sc.v;
   const Cull cull_mode = p.settings.cull;
   const int cull = cull_mode == Cull::Back ? 1 : cull_mode == Cull::Front ? -1 : 0;
   const bool f2b = p.settings.front_to_back;
+  const bool prefetch = p.num_vertices >= kPrefetchVertices;
   sc.box.resize(static_cast<std::size_t>(p.num_tris));
   if (f2b) sc.zmin.resize(static_cast<std::size_t>(p.num_tris));
   sc.count.resize(static_cast<std::size_t>(g.chunks) * g.tiles);
   sc.chunk_stats.assign(static_cast<std::size_t>(g.chunks), RasterStats{});
   sc.fcount.resize(static_cast<std::size_t>(g.chunks) * g.tiles);
   if (sc.chunk_frag.size() < static_cast<std::size_t>(g.chunks)) sc.chunk_frag.resize(static_cast<std::size_t>(g.chunks));
+  if (sc.chunk_binned.size() < static_cast<std::size_t>(g.chunks))
+    sc.chunk_binned.resize(static_cast<std::size_t>(g.chunks));
   parallel_for(0, g.chunks, 1, [&](std::int64_t c0, std::int64_t c1) {
     for (std::int64_t c = c0; c < c1; ++c) {
       std::int32_t* cnt = &sc.count[static_cast<std::size_t>(c) * g.tiles];
@@ -219,18 +235,24 @@ RasterStats classify_and_count(const RasterParams<T>& p, const Grid& g, ForwardS
       std::fill(fcnt, fcnt + g.tiles, 0);
       std::vector<detail::Fragment>& frag = sc.chunk_frag[c];
       frag.clear();
+      std::vector<std::int32_t>& binned = sc.chunk_binned[c];
+      binned.clear();
       RasterStats& st = sc.chunk_stats[c];
       const std::int64_t t0 = c * g.chunk, t1 = std::min(p.num_tris, (c + 1) * g.chunk);
       detail::TriClass lane_class[detail::kClassifyLanes];
       detail::LaneCoverage lane_cover;
-      for (std::int64_t t = t0; t < t1; ++t) {
+      std::int64_t tally[6] = {};  // triangles per TriClass (0..5)
+      for (std::int64_t t = t0, batch = t0, batch_end = t0; t < t1; ++t) {
         const std::int32_t* tri = p.tris + 3 * t;
         // The next batch's vertices, asked for while this one is finished.
-        if (t + detail::kClassifyLanes < t1) prefetch_vertices(v, tri + 3 * detail::kClassifyLanes);
-        const int lane = static_cast<int>((t - t0) % detail::kClassifyLanes);
-        if (lane == 0)
-          detail::classify_lanes(v, p.tris, t, static_cast<int>(std::min<std::int64_t>(detail::kClassifyLanes, t1 - t)),
-                                 g.width, g.height, cull, lane_class, &sc.box[t], &lane_cover);
+        if (prefetch && t + detail::kClassifyLanes < t1) prefetch_vertices(v, tri + 3 * detail::kClassifyLanes);
+        if (t == batch_end) {
+          batch = t;
+          batch_end = std::min(t1, t + detail::kClassifyLanes);
+          detail::classify_lanes(v, p.tris, t, static_cast<int>(batch_end - t), g.width, g.height, cull, lane_class,
+                                 &sc.box[t], &lane_cover);
+        }
+        const int lane = static_cast<int>(t - batch);
         detail::PixelBox& b = sc.box[t];
         detail::TriClass k = lane_class[lane];
         if (k == detail::TriClass::Clipped) k = detail::classify_triangle(v, tri, g.width, g.height, cull, &b);
@@ -250,14 +272,7 @@ RasterStats classify_and_count(const RasterParams<T>& p, const Grid& g, ForwardS
           }
           small = true;
         }
-        switch (k) {
-          case detail::TriClass::Outside: ++st.culled_outside; break;
-          case detail::TriClass::ZeroArea: ++st.culled_zero_area; break;
-          case detail::TriClass::Face: ++st.culled_face; break;
-          case detail::TriClass::NoPixel: ++st.culled_no_pixel; break;
-          case detail::TriClass::Clipped: ++st.clipped_near; break;
-          case detail::TriClass::Raster: ++st.rasterized; break;
-        }
+        ++tally[static_cast<int>(k)];
         if ((k != detail::TriClass::Raster && k != detail::TriClass::Clipped) || small) {
           b = {1, 1, 0, 0};  // not binned
           continue;
@@ -265,9 +280,17 @@ RasterStats classify_and_count(const RasterParams<T>& p, const Grid& g, ForwardS
         if (f2b)
           sc.zmin[t] = k == detail::TriClass::Clipped ? -std::numeric_limits<double>::infinity()
                                                       : depth_lower_bound(v, tri);
+        binned.push_back(static_cast<std::int32_t>(t));
         for (int ty = b.y0 / kTile; ty <= b.y1 / kTile; ++ty)
           for (int tx = b.x0 / kTile; tx <= b.x1 / kTile; ++tx) ++cnt[ty * g.tiles_x + tx];
       }
+      using detail::TriClass;
+      st.culled_outside = tally[static_cast<int>(TriClass::Outside)];
+      st.culled_zero_area = tally[static_cast<int>(TriClass::ZeroArea)];
+      st.culled_face = tally[static_cast<int>(TriClass::Face)];
+      st.culled_no_pixel = tally[static_cast<int>(TriClass::NoPixel)];
+      st.clipped_near = tally[static_cast<int>(TriClass::Clipped)];
+      st.rasterized = tally[static_cast<int>(TriClass::Raster)];
     }
   });
   RasterStats st;
@@ -317,7 +340,7 @@ void bin_offsets(const Grid& g, ForwardScratch& sc) {
 
 // Phase 4 (parallel over the same chunks): each chunk writes its triangle ids
 // into its own slots of the tiles it touches.
-void fill_bins(std::int64_t num_tris, const Grid& g, ForwardScratch& sc) {
+void fill_bins(const Grid& g, ForwardScratch& sc) {
   parallel_for(0, g.chunks, 1, [&](std::int64_t c0, std::int64_t c1) {
     for (std::int64_t c = c0; c < c1; ++c) {
       std::int32_t* fill = &sc.count[static_cast<std::size_t>(c) * g.tiles];
@@ -326,8 +349,7 @@ void fill_bins(std::int64_t num_tris, const Grid& g, ForwardScratch& sc) {
         const int i = f.where / kTilePixels;
         sc.frag[sc.foffset[i] + ffill[i]++] = f;
       }
-      const std::int64_t t1 = std::min(num_tris, (c + 1) * g.chunk);
-      for (std::int64_t t = c * g.chunk; t < t1; ++t) {
+      for (const std::int32_t t : sc.chunk_binned[c]) {
         const detail::PixelBox& b = sc.box[t];
         if (b.x0 > b.x1) continue;
         for (int ty = b.y0 / kTile; ty <= b.y1 / kTile; ++ty) {
@@ -369,7 +391,7 @@ void scan_tiles(const RasterParams<T>& p, const Grid& g, const ForwardScratch& s
     std::vector<BinEntry> order;
     for (std::int64_t n = lo; n < hi; ++n) {
       const int tile = busy[n];
-      scan_tile(sc.v, p, sc, g.tiles_x, tile, W, H, p.settings.front_to_back, order, *tb);
+      scan_tile(*sc.v, p, sc, g.tiles_x, tile, W, H, p.settings.front_to_back, order, *tb);
       const int tx0 = (tile % g.tiles_x) * kTile, ty0 = (tile / g.tiles_x) * kTile;
       const int tw = std::min(kTile, W - tx0), th = std::min(kTile, H - ty0);
       for (int y = 0; y < th; ++y)
@@ -393,25 +415,34 @@ void scan_tiles(const RasterParams<T>& p, const Grid& g, const ForwardScratch& s
 
 template <class T>
 void rasterize_forward(const RasterParams<T>& p, std::int32_t* tri_id, T* uv, T* depth, RasterStats* stats,
-                       double* key_depth) {
+                       double* key_depth, std::shared_ptr<const detail::Vertices>* projected) {
   const int W = p.settings.width, H = p.settings.height;
   assert(W >= 1 && H >= 1 && p.num_vertices >= 0 && p.num_tris >= 0);
   auto lease = g_forward_pool.take();
   ForwardScratch& sc = *lease;
-  // Phase 1: per-vertex projection.
-  detail::project_vertices_into(p.clip, p.num_vertices, W, H, &sc.v, p.settings.y_up);
+  // Phase 1: per-vertex projection (into a pooled Vertices the caller keeps, when asked for).
+  if (projected) {
+    std::shared_ptr<detail::Vertices> kept = detail::pooled_vertices();
+    detail::project_vertices_into(p.clip, p.num_vertices, W, H, kept.get(), p.settings.y_up);
+    sc.v = kept.get();
+    *projected = std::move(kept);
+  } else {
+    detail::project_vertices_into(p.clip, p.num_vertices, W, H, &sc.own, p.settings.y_up);
+    sc.v = &sc.own;
+  }
   const Grid g = make_grid(p.num_tris, W, H);
   const RasterStats st = classify_and_count(p, g, sc);
   if (stats) *stats = st;
   bin_offsets(g, sc);
-  fill_bins(p.num_tris, g, sc);
+  fill_bins(g, sc);
   clear_background(static_cast<std::int64_t>(W) * H, tri_id, uv, depth);
   if (key_depth) std::fill(key_depth, key_depth + static_cast<std::int64_t>(W) * H, std::numeric_limits<double>::infinity());
   scan_tiles(p, g, sc, tri_id, uv, depth, key_depth);
 }
 
 #define GR_INSTANTIATE(T) \
-  template void rasterize_forward<T>(const RasterParams<T>&, std::int32_t*, T*, T*, RasterStats*, double*);
+  template void rasterize_forward<T>(const RasterParams<T>&, std::int32_t*, T*, T*, RasterStats*, double*, \
+                                     std::shared_ptr<const detail::Vertices>*);
 GR_INSTANTIATE(float)
 GR_INSTANTIATE(double)
 #undef GR_INSTANTIATE

@@ -11,8 +11,13 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 
 namespace gr::raster {
+
+namespace detail {
+struct Vertices;  // raster/detail/rasterize_setup.h
+}  // namespace detail
 
 // Which faces to drop. Front face = counter-clockwise in NDC (OpenGL default),
 // i.e. 2A > 0 in screen coordinates (y down).
@@ -78,8 +83,12 @@ struct RasterParams {
 // next peeling layer's floor_z); background pixels get +inf.
 // uv and depth may both be null: coverage only (tri_id, and key_depth), for
 // callers that make the values from tri_id (raster/barycentric_gbuffer.h).
+// projected (optional): gets the call's per-vertex projection of p.clip at
+// settings' width, height and y_up, which antialias_forward on the same clip
+// and image size takes instead of projecting again (AntialiasParams::projected).
 template <class T>
 void rasterize_forward(const RasterParams<T>& p, std::int32_t* tri_id, T* uv, T* depth,
-                       RasterStats* stats = nullptr, double* key_depth = nullptr);
+                       RasterStats* stats = nullptr, double* key_depth = nullptr,
+                       std::shared_ptr<const detail::Vertices>* projected = nullptr);
 
 }  // namespace gr::raster

@@ -162,6 +162,7 @@ Tensor antialias(const Tensor& image, const GBuffer& gbuffer, const Tensor& clip
     p.num_tris = m;
     p.topology = topology.get();
     p.visibility = options.visibility;
+    p.projected = detail::projection_of(gbuffer, clip, static_cast<int>(w), static_cast<int>(h));
     if constexpr (std::is_same_v<T, float>)
       if (backend) {
         if (backend->antialias_forward(detail::resident_of(gbuffer), p, out.data<T>())) {

@@ -94,11 +94,27 @@ GBuffer rasterize_layer(const Tensor& clip, const Tensor& triangles, const Raste
     p.floor_z = floor_z;
     // The coverage only (finish_gbuffer writes uv and depth).
     T* const no_values = nullptr;
-    raster::rasterize_forward_on(options.backend.get(), p, gb.tri_id.data<std::int32_t>(), no_values, no_values,
-                                 &gb.stats, key_depth);
+    if (options.backend || clip.size(0) > kKeptProjectionVertices) {
+      raster::rasterize_forward_on(options.backend.get(), p, gb.tri_id.data<std::int32_t>(), no_values, no_values,
+                                   &gb.stats, key_depth);
+      return;
+    }
+    // On the CPU, keeping the projection for antialias.
+    auto kept = std::make_shared<ClipProjection>();
+    raster::rasterize_forward(p, gb.tri_id.data<std::int32_t>(), no_values, no_values, &gb.stats, key_depth,
+                              &kept->vertices);
+    kept->clip = TensorStamp::of(clip);
+    kept->width = options.width;
+    kept->height = options.height;
+    gb.projection = std::move(kept);
   });
   finish_gbuffer(gb, op);
   return gb;
+}
+
+const raster::detail::Vertices* projection_of(const GBuffer& gb, const Tensor& clip, int width, int height) {
+  const ClipProjection* p = gb.projection.get();
+  return p && p->width == width && p->height == height && p->clip.matches(clip) ? p->vertices.get() : nullptr;
 }
 
 void finish_gbuffer(GBuffer& gb, const char* op) {

@@ -10,6 +10,7 @@
 #include <memory>
 
 #include "autodiff/base/tensor.h"
+#include "ops/render/tensor_stamp.h"
 #include "raster/backend.h"
 #include "raster/rasterize.h"
 
@@ -21,6 +22,9 @@ namespace gr {
 
 using raster::Cull;
 struct ResidentGBuffer;  // ops/render/resident_gbuffer.h
+namespace detail {
+struct ClipProjection;  // below
+}  // namespace detail
 
 struct RasterizeOptions {
   int width = 0;
@@ -71,6 +75,10 @@ struct GBuffer {
   // tensors it was made with, not written in place since (else, and once the
   // backend has let it go, they upload them: results never depend on it).
   std::shared_ptr<const ResidentGBuffer> resident;
+  // The CPU rasterizer's per-vertex projection of clip (null: none, e.g. made
+  // on a backend or of a mesh of more than kKeptProjectionVertices), which
+  // antialias reads instead of projecting clip again (detail::projection_of).
+  std::shared_ptr<const detail::ClipProjection> projection;
   int width() const { return static_cast<int>(tri_id.size(1)); }
   int height() const { return static_cast<int>(tri_id.size(0)); }
 };
@@ -85,6 +93,18 @@ struct GBuffer {
 GBuffer rasterize(const Tensor& clip, const Tensor& triangles, const RasterizeOptions& options);
 
 namespace detail {
+// A G-buffer keeps its projection (58 bytes a vertex) up to this many vertices:
+// projecting is a fixed cost of small meshes (issue 31); a large mesh's
+// G-buffers would hold much memory for a small part of the work.
+constexpr std::int64_t kKeptProjectionVertices = std::int64_t(1) << 16;
+struct ClipProjection {
+  TensorStamp clip;  // the tensor projected, as it was then
+  int width = 0, height = 0;
+  std::shared_ptr<const raster::detail::Vertices> vertices;
+};
+// gb's projection when it is of `clip` (the same tensor, unwritten since) at
+// width x height, else null (antialias then projects clip itself: the same bits).
+const raster::detail::Vertices* projection_of(const GBuffer& gb, const Tensor& clip, int width, int height);
 // rasterize's argument checks (op names the caller in messages).
 void check_rasterize_inputs(const Tensor& clip, const Tensor& triangles, const RasterizeOptions& options,
                             const char* op);

@@ -57,13 +57,26 @@ void bucket_items(std::int64_t n, std::int64_t num_keys, const Key& key, Buckets
       }
     }
   });
-  // 2. Bucket starts: exclusive prefix sum of the totals.
+  // 2. Bucket starts: exclusive prefix sum of the totals (one range: the
+  // counts become the fill cursors in the same pass, issue 31: a fixed cost
+  // per key of every adjoint that groups pixels by triangle).
   std::vector<std::int64_t>& start = out->start;
   start.resize(static_cast<std::size_t>(K + 1));
   std::int64_t total = 0;
-  for (std::int64_t k = 0; k < K; ++k) {
-    start[k] = total;
-    for (std::int64_t q = 0; q < parts; ++q) total += counts[q * K + k];
+  if (parts == 1) {
+    std::int32_t* const c = counts.data();
+    std::int64_t* const s = start.data();
+    for (std::int64_t k = 0; k < K; ++k) {
+      const std::int32_t n_k = c[k];
+      s[k] = total;
+      c[k] = static_cast<std::int32_t>(total);
+      total += n_k;
+    }
+  } else {
+    for (std::int64_t k = 0; k < K; ++k) {
+      start[k] = total;
+      for (std::int64_t q = 0; q < parts; ++q) total += counts[q * K + k];
+    }
   }
   start[K] = total;
   // 3. Each range's first slot in each bucket: ranges in item order.
@@ -78,8 +91,6 @@ void bucket_items(std::int64_t n, std::int64_t num_keys, const Key& key, Buckets
         }
       }
     });
-  else
-    for (std::int64_t k = 0; k < K; ++k) counts[k] = static_cast<std::int32_t>(start[k]);
   // 4. Place the items, each range in ascending order; an item placed at its
   // bucket's start is the bucket's first.
   out->item.resize(static_cast<std::size_t>(total));

@@ -22,8 +22,8 @@ constexpr int kClassifyLanes = 16;
 // s mod w, row s / w of the box, w its width) and the edge values there.
 struct LaneCoverage {
   double area2[kClassifyLanes];                  // 2A, the signed screen area doubled
-  double e[kMaxFragmentBox][3][kClassifyLanes];  // e_k at slot s, as Edge::eval gives it
-  std::uint8_t slots[kClassifyLanes];            // bit s: slot s covered
+  double e[kMaxFragmentBox][3][kClassifyLanes];  // e_k at slot s, as Edge::eval gives it (covered slots only)
+  std::uint8_t slots[kClassifyLanes];            // bit s: slot s covered (0 unless the box is small, not empty)
 };
 
 // Triangles [t0, t0 + n), n <= kClassifyLanes: k[i] and box[i] are what

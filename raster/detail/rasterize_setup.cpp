@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -19,6 +21,28 @@ Vertices project_vertices(const T* clip, std::int64_t n, int width, int height, 
   return v;
 }
 
+namespace {
+
+// One vertex's (x, y, z, w) in one register of four doubles (GCC / Clang
+// vector extensions: IEEE operations lane by lane, comparisons give masks,
+// `mask ? a : b` selects; two SSE registers where there is no AVX).
+typedef double Row4 __attribute__((vector_size(32)));
+typedef std::int64_t Mask4 __attribute__((vector_size(32)));
+typedef float Row4f __attribute__((vector_size(16)));
+
+Row4 load_row(const double* p) {
+  Row4 r;
+  std::memcpy(&r, p, sizeof r);
+  return r;
+}
+Row4 load_row(const float* p) {
+  Row4f r;
+  std::memcpy(&r, p, sizeof r);
+  return __builtin_convertvector(r, Row4);
+}
+
+}  // namespace
+
 template <class T>
 void project_vertices_into(const T* clip, std::int64_t n, int width, int height, Vertices* out, bool y_up) {
   Vertices& v = *out;
@@ -28,24 +52,45 @@ void project_vertices_into(const T* clip, std::int64_t n, int width, int height,
   v.front.resize(n);
   v.outcode.resize(n);
   const double hw = 0.5 * width, hh = 0.5 * height;
-  parallel_for(0, n, 8192, [&](std::int64_t lo, std::int64_t hi) {
+  // Per vertex, the four coordinates at once (issue 31: the projection was a
+  // fixed cost of every view), each lane the scalar expression's IEEE value:
+  //   y seen negated with y_up (the sign bit flipped, as -y does);
+  //   sx = hw (1 + x / w), sy = hh (1 - y / w) = hh (1 + (-(y / w))), zn = z / w;
+  //   outcode bit k set when the vertex is beyond plane k (rasterize_setup.h).
+  const Mask4 flip_y = {0, y_up ? std::numeric_limits<std::int64_t>::min() : 0, 0, 0};
+  const Row4 sign_xy = {1.0, -1.0, 1.0, 1.0}, one_xy = {1.0, 1.0, 0.0, 0.0}, half_size = {hw, hh, 1.0, 1.0};
+  const Mask4 xy_lanes = {-1, -1, 0, 0};
+  const Mask4 beyond_pos = {1 << 1, 1 << 3, 1 << 6, 0}, beyond_neg = {1 << 2, 1 << 4, 1 << 5, 0};
+  double* const out_clip = v.clip.data();
+  double* const out_screen = v.screen.data();
+  std::uint8_t* const out_front = v.front.data();
+  std::uint8_t* const out_code = v.outcode.data();
+  parallel_for(0, n, 8192, [=](std::int64_t lo, std::int64_t hi) {
     for (std::int64_t i = lo; i < hi; ++i) {
-      double* c = &v.clip[4 * i];
-      for (int k = 0; k < 4; ++k) c[k] = static_cast<double>(clip[4 * i + k]);
-      c[1] = seen_y(c[1], y_up);
+      const Row4 c = Row4(Mask4(load_row(clip + 4 * i)) ^ flip_y);
+      std::memcpy(out_clip + 4 * i, &c, sizeof c);
+      const double w = c[3];
       // Project only what is in front of the near plane; the rest is clipped.
-      const bool in_front = c[3] > 0.0 && c[2] >= -c[3];
-      const double sx = hw * (1.0 + c[0] / c[3]), sy = hh * (1.0 - c[1] / c[3]), zn = c[2] / c[3];
-      const bool ok = in_front && std::isfinite(sx) && std::isfinite(sy) && std::isfinite(zn);
-      v.screen[3 * i + 0] = ok ? sx : 0.0;
-      v.screen[3 * i + 1] = ok ? sy : 0.0;
-      v.screen[3 * i + 2] = ok ? zn : 0.0;
-      v.front[i] = ok;
-      v.outcode[i] = static_cast<std::uint8_t>((c[3] <= 0.0) | (c[0] > c[3]) << 1 | (c[0] < -c[3]) << 2 |
-                                               (c[1] > c[3]) << 3 | (c[1] < -c[3]) << 4 |
-                                               (c[2] < -c[3]) << 5 | (c[2] > c[3]) << 6);
+      const bool in_front = w > 0.0 && c[2] >= -w;
+      const Row4 q = c / w;  // (x / w, y / w, z / w, 1)
+      const Row4 s = xy_lanes ? half_size * (one_xy + q * sign_xy) : q;
+      const Mask4 finite = (s - s) == 0.0;  // inf - inf and NaN - NaN are NaN
+      const bool ok = in_front && (finite[0] & finite[1] & finite[2]) != 0;
+      out_screen[3 * i + 0] = ok ? s[0] : 0.0;
+      out_screen[3 * i + 1] = ok ? s[1] : 0.0;
+      out_screen[3 * i + 2] = ok ? s[2] : 0.0;
+      out_front[i] = ok;
+      const Mask4 code = ((c > w) & beyond_pos) | ((c < -w) & beyond_neg);
+      out_code[i] = static_cast<std::uint8_t>((w <= 0.0) | code[0] | code[1] | code[2]);
     }
   });
+}
+
+std::shared_ptr<Vertices> pooled_vertices() {
+  // Never destroyed: a G-buffer alive at exit may still give one back.
+  static ScratchPool<Vertices>* const pool = new ScratchPool<Vertices>;
+  auto lease = std::make_shared<ScratchPool<Vertices>::Lease>(pool->take());
+  return std::shared_ptr<Vertices>(lease, &**lease);  // owns the lease, points at its Vertices
 }
 
 namespace {

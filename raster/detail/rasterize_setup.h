@@ -82,6 +82,12 @@ class ScratchPool {
   std::vector<std::unique_ptr<S>> free_;
 };
 
+// A Vertices from a process-wide free list, given back to it when its last
+// owner lets go: rasterize_forward's projection, which a G-buffer keeps for
+// antialias_forward to reuse (raster/rasterize.h), costs no allocation once
+// the list holds as many as are alive at once.
+std::shared_ptr<Vertices> pooled_vertices();
+
 // A triangle uses homogeneous (clipped) setup when a vertex is not in front.
 inline bool needs_clipping(const Vertices& v, const std::int32_t* tri) {
   return !(v.front[tri[0]] && v.front[tri[1]] && v.front[tri[2]]);

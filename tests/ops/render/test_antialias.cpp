@@ -9,6 +9,8 @@
 #include <algorithm>
 #include <climits>
 #include <cmath>
+#include <cstring>
+#include <vector>
 
 #include "autodiff/base/memory.h"
 #include "ops/render/antialias.h"
@@ -447,4 +449,55 @@ TEST_CASE("antialias: gradients at a silhouette through a row of pixel centres m
   require_gradcheck("antialias silhouette through pixel centres (clip, colours)",
                     [&](const Inputs& in) { return render_aa(in[0], in[1], tris, W, H); }, {clip, colours},
                     GradcheckOptions{1e-6});
+}
+
+TEST_CASE("antialias: the G-buffer's kept projection gives the bits of projecting clip again, and only for that clip",
+          "[ops][antialias]") {
+  Scene s = make_scene(3, 96, 80);
+  NoGradGuard ng;
+  for (DType dtype : {DType::Float64, DType::Float32}) {
+    INFO("dtype " << (dtype == DType::Float32 ? "float32" : "float64"));
+    const Tensor clip = cast(camera_clip(s, s.positions, s.eye, s.fov), dtype);
+    const Tensor col = cast(s.colours, dtype);
+    GBuffer gb = rasterize(clip, s.triangles, {s.w, s.h});
+    REQUIRE(gb.projection);
+    CHECK(detail::projection_of(gb, clip, s.w, s.h) != nullptr);
+    CHECK(detail::projection_of(gb, clip, s.w + 1, s.h) == nullptr);
+    CHECK(detail::projection_of(gb, clip.copy(), s.w, s.h) == nullptr);  // equal values, another tensor
+    const Tensor image = interpolate(col, gb, s.triangles);
+    const std::vector<double> kept = antialias(image, gb, clip, s.triangles).to_vector();
+    GBuffer own = gb;
+    own.projection.reset();
+    const std::vector<double> projected = antialias(image, own, clip, s.triangles).to_vector();
+    CHECK(kept == projected);
+    CHECK(std::memcmp(kept.data(), projected.data(), kept.size() * sizeof(double)) == 0);
+    // Written in place since (the same values): not the tensor projected any more.
+    Tensor written = clip;
+    if (dtype == DType::Float32)
+      written.data<float>();
+    else
+      written.data<double>();
+    CHECK(detail::projection_of(gb, clip, s.w, s.h) == nullptr);
+    CHECK(antialias(image, gb, clip, s.triangles).to_vector() == kept);
+  }
+}
+
+TEST_CASE("antialias: a G-buffer of more than kKeptProjectionVertices vertices keeps no projection and antialias "
+          "projects clip itself",
+          "[ops][antialias]") {
+  NoGradGuard ng;
+  // One triangle over the image; the other vertices unused.
+  const std::int64_t n = detail::kKeptProjectionVertices + 1;
+  std::vector<double> rows(static_cast<std::size_t>(4 * n), 0.0);
+  const double corners[3][4] = {{-0.9, -0.8, 0.1, 1.0}, {0.85, -0.7, 0.2, 1.0}, {-0.1, 0.9, 0.3, 1.0}};
+  for (std::int64_t i = 0; i < n; ++i)
+    for (int k = 0; k < 4; ++k) rows[static_cast<std::size_t>(4 * i + k)] = corners[i % 3][k];
+  const Tensor clip = Tensor::from_values(rows, {n, 4}, DType::Float64);
+  const Tensor tris = Tensor::from_vector<std::int32_t>({0, 1, 2}, {1, 3});
+  GBuffer gb = rasterize(clip, tris, {20, 16});
+  CHECK_FALSE(gb.projection);
+  const Tensor image = Tensor::ones({16, 20, 1}, DType::Float64);
+  const Tensor out = antialias(image, gb, clip, tris);
+  CHECK(out.shape() == image.shape());
+  CHECK(all_finite(out));
 }
