@@ -18,7 +18,11 @@ double div_rn(double a, double b) {
   precise double q = a * y;
   precise double r = fma(-b, q, a);
   precise double res = fma(r, y, q);
-  // Non-finite or zero operands: the plain quotient (inf, nan, 0 as IEEE says).
+  // A zero over a finite non-zero: the zero with the sign IEEE gives, made on
+  // the bits (a compiler may fold 0 * x or 0 / x to +0). Other non-finite or
+  // zero operands: the plain quotient (inf, nan as IEEE says).
+  if (a == 0.0 && b != 0.0 && finite_bits(b))
+    return packDouble2x32(uvec2(0u, (unpackDouble2x32(a).y ^ unpackDouble2x32(b).y) & 0x80000000u));
   if (!finite_bits(res) || !finite_bits(y) || a == 0.0) res = a / b;
   return res;
 }

@@ -66,8 +66,11 @@ bool pixel_terms(Terms t, int p, out double a[3], out double S) {
   return S != 0.0 && t.D != 0.0 && finite_bits(S) && finite_bits(t.D);
 }
 
-// z/w before the clamp: sum_k a_k z_k / D.
+// z/w before the clamp: sum_k a_k z_k / D. The CPU's sum starts at +0.0, so
+// a zero sum is +0 and the quotient takes D's sign; that zero is made on the
+// bits (a compiler may drop a "0.0 +" and keep a -0 sum). D is finite, non-zero.
 double depth_of(Terms t, double a[3]) {
-  precise double zw = ((0.0 + a[0] * t.z[0]) + a[1] * t.z[1]) + a[2] * t.z[2];
+  precise double zw = (a[0] * t.z[0] + a[1] * t.z[1]) + a[2] * t.z[2];
+  if (zw == 0.0) return packDouble2x32(uvec2(0u, unpackDouble2x32(t.D).y & 0x80000000u));
   return div_rn(zw, t.D);
 }
