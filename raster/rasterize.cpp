@@ -350,8 +350,7 @@ void fill_bins(const Grid& g, ForwardScratch& sc) {
         sc.frag[sc.foffset[i] + ffill[i]++] = f;
       }
       for (const std::int32_t t : sc.chunk_binned[c]) {
-        const detail::PixelBox& b = sc.box[t];
-        if (b.x0 > b.x1) continue;
+        const detail::PixelBox& b = sc.box[t];  // binned: not empty
         for (int ty = b.y0 / kTile; ty <= b.y1 / kTile; ++ty) {
           const int y0 = std::max(b.y0 - ty * kTile, 0), y1 = std::min(b.y1 - ty * kTile, kTile - 1);
           for (int tx = b.x0 / kTile; tx <= b.x1 / kTile; ++tx) {

@@ -299,6 +299,7 @@ void texture_backward(Context* ctx, const TextureMode& mode, Objects tex, Object
         if constexpr (std::is_same_v<T, float>)
           if (backend) {
             std::shared_ptr<const raster::DeviceTexture> handle = handle_of(kept, t);
+            // No handle: the plain call (a null handle would keep a new copy nobody finds again).
             if (counted(*ctx, handle ? backend->cube_texture_backward(cube_params<T>(a, b), g_out, g, handle)
                                      : backend->cube_texture_backward(cube_params<T>(a, b), g_out, g)))
               return;

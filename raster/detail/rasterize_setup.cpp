@@ -88,7 +88,7 @@ void project_vertices_into(const T* clip, std::int64_t n, int width, int height,
 
 std::shared_ptr<Vertices> pooled_vertices() {
   // Never destroyed: a G-buffer alive at exit may still give one back.
-  static ScratchPool<Vertices>* const pool = new ScratchPool<Vertices>;
+  static ScratchPool<Vertices>* const pool = new ScratchPool<Vertices>(kPooledVertices);
   auto lease = std::make_shared<ScratchPool<Vertices>::Lease>(pool->take());
   return std::shared_ptr<Vertices>(lease, &**lease);  // owns the lease, points at its Vertices
 }

@@ -45,10 +45,12 @@ inline double seen_y(double y, bool y_up) { return y_up ? -y : y; }
 // A free list of scratch objects reused across calls, so large per-call
 // buffers are allocated (and page-faulted) once, not on every call. Each call
 // takes its own object, so calls may run concurrently or nest (a thread that
-// waits in a parallel_for may run another rasterize task).
+// waits in a parallel_for may run another rasterize task). At most
+// `max_free` objects wait on the list; more given back are freed.
 template <class S>
 class ScratchPool {
  public:
+  explicit ScratchPool(std::size_t max_free = static_cast<std::size_t>(-1)) : max_free_(max_free) {}
   class Lease {
    public:
     Lease(ScratchPool* pool, std::unique_ptr<S> s) : pool_(pool), s_(std::move(s)) {}
@@ -76,8 +78,9 @@ class ScratchPool {
  private:
   void give(std::unique_ptr<S> s) {
     std::lock_guard<std::mutex> lock(mutex_);
-    free_.push_back(std::move(s));
+    if (free_.size() < max_free_) free_.push_back(std::move(s));
   }
+  const std::size_t max_free_;
   std::mutex mutex_;
   std::vector<std::unique_ptr<S>> free_;
 };
@@ -85,7 +88,9 @@ class ScratchPool {
 // A Vertices from a process-wide free list, given back to it when its last
 // owner lets go: rasterize_forward's projection, which a G-buffer keeps for
 // antialias_forward to reuse (raster/rasterize.h), costs no allocation once
-// the list holds as many as are alive at once.
+// the list holds as many as are alive at once (it keeps at most
+// kPooledVertices: a burst of G-buffers alive together gives its memory back).
+constexpr std::size_t kPooledVertices = 32;
 std::shared_ptr<Vertices> pooled_vertices();
 
 // A triangle uses homogeneous (clipped) setup when a vertex is not in front.

@@ -16,6 +16,7 @@ autograd does not see them (docs/python.md, "Vulkan"); textures, kept across
 calls and so across such writes (an optimizer loop's `tex.data -= lr *
 tex.grad`), also compare a fingerprint of their bytes (KeptTextures).
 """
+import threading
 import weakref
 
 
@@ -60,6 +61,7 @@ class KeptTextures:
         self.capacity = capacity
         self._fingerprint = fingerprint
         self._entries = []  # (how read, [(weak reference, version, fingerprint)], handles); most recently used last
+        self._lock = threading.RLock()
 
     def __len__(self):
         return len(self._entries)
@@ -80,24 +82,26 @@ class KeptTextures:
 
     def find(self, how, texels):
         """The handles kept for `texels` (a Texels) read `how` (a hashable description), or None."""
-        for k, (key, refs, handles) in enumerate(self._entries):
-            if key == how and self._same(refs, texels):
-                self._entries.append(self._entries.pop(k))
-                return handles
+        with self._lock:  # the fingerprint lets the GIL go: another thread may keep meanwhile
+            for k, (key, refs, handles) in enumerate(self._entries):
+                if key == how and self._same(refs, texels):
+                    self._entries.append(self._entries.pop(k))
+                    return handles
         return None
 
     def keep(self, how, texels, handles):
         """Remember `handles` (None: forget) for `texels` read `how`, as they are now."""
-        # Forget the entry of these very objects read alike (whatever their bytes were), and the dead ones.
-        self._entries = [e for e in self._entries
-                         if not (e[0] == how and self._same_objects(e[1], texels.tensors))
-                         and all(r() is not None for r, _, _ in e[1])]
-        if handles is None or self.capacity < 1:
-            return
-        prints = texels.fingerprints()
-        self._entries.append((how, [(weakref.ref(t), t._version, p) for t, p in zip(texels.tensors, prints)],
-                              handles))
-        del self._entries[:-self.capacity]
+        with self._lock:
+            # Forget the entry of these very objects read alike (whatever their bytes were), and the dead ones.
+            self._entries = [e for e in self._entries
+                             if not (e[0] == how and self._same_objects(e[1], texels.tensors))
+                             and all(r() is not None for r, _, _ in e[1])]
+            if handles is None or self.capacity < 1:
+                return
+            prints = texels.fingerprints()
+            self._entries.append((how, [(weakref.ref(t), t._version, p) for t, p in zip(texels.tensors, prints)],
+                                  handles))
+            del self._entries[:-self.capacity]
 
 
 class Texels:

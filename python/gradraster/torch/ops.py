@@ -172,7 +172,8 @@ class RasterizeVulkanContext(RasterizeCpuContext):
     antialias and the rasterize backward read it while rast, rast_db, pos and
     tri are unchanged (else they upload them): `frames` G-buffers at once
     (None: as many as the largest minibatch rasterized, at least 4; each
-    takes about 300 bytes per pixel of device memory). `residency` counts them.
+    takes about 300 bytes per pixel of device memory, and one more frame
+    serves the uploads). `residency` counts them.
     texture keeps the texels on the device too, from its forward to its
     backward and across calls: the last `textures` textures looked up (tex,
     and a prebuilt or user mip stack: the very tensors, not written in place
