@@ -37,16 +37,6 @@ Tensor fresh(const Tensor& t) {
   return Tensor::from_values(std::vector<double>(v.begin(), v.end()), t.shape()).set_requires_grad();
 }
 
-// max |a - b| / max |b| (0 for two zero arrays).
-double error_to_largest(const std::vector<float>& a, const std::vector<float>& b) {
-  double diff = 0, largest = 0;
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    diff = std::max(diff, std::abs(double(a[i]) - b[i]));
-    largest = std::max(largest, std::abs(double(b[i])));
-  }
-  return largest > 0 ? diff / largest : diff;
-}
-
 // One view's trilinear cube-map lookups (seeded by view) and every gradient.
 struct View {
   std::vector<float> out, g_tex, g_dir, g_da, g_bias;
@@ -83,11 +73,11 @@ Delta since(const vulkan::TextureResidency& before) {
 }
 
 void check_near_cpu(const View& got, const View& cpu) {
-  CHECK(error_to_largest(got.out, cpu.out) <= 1e-6);
-  CHECK(error_to_largest(got.g_tex, cpu.g_tex) <= 1e-5);
-  CHECK(error_to_largest(got.g_dir, cpu.g_dir) <= 1e-5);
-  CHECK(error_to_largest(got.g_da, cpu.g_da) <= 1e-5);
-  CHECK(error_to_largest(got.g_bias, cpu.g_bias) <= 1e-5);
+  CHECK(relative_error(got.out, cpu.out) <= 1e-6);
+  CHECK(relative_error(got.g_tex, cpu.g_tex) <= 1e-5);
+  CHECK(relative_error(got.g_dir, cpu.g_dir) <= 1e-5);
+  CHECK(relative_error(got.g_da, cpu.g_da) <= 1e-5);
+  CHECK(relative_error(got.g_bias, cpu.g_bias) <= 1e-5);
 }
 
 }  // namespace
@@ -167,7 +157,7 @@ TEST_CASE("one tensor read as a cube map and as 2D textures on a Vulkan backend 
   CHECK(d.resident == 1);
   CHECK(again == first);
   cube.backend = plane.backend = nullptr;
-  CHECK(error_to_largest(first, values(cube_texture(tex, dir, cube))) == 0);  // bilinear: the CPU's bits
+  CHECK(relative_error(first, values(cube_texture(tex, dir, cube))) == 0);  // bilinear: the CPU's bits
   CHECK(planes == values(texture(tex, uv, plane)));
 }
 

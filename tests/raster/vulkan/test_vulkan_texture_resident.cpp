@@ -40,16 +40,6 @@ Tensor fresh(const Tensor& t) {
   return Tensor::from_values(std::vector<double>(v.begin(), v.end()), t.shape()).set_requires_grad();
 }
 
-// max |a - b| / max |b| (0 for two zero arrays).
-double error_to_largest(const std::vector<float>& a, const std::vector<float>& b) {
-  double diff = 0, largest = 0;
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    diff = std::max(diff, std::abs(double(a[i]) - b[i]));
-    largest = std::max(largest, std::abs(double(b[i])));
-  }
-  return largest > 0 ? diff / largest : diff;
-}
-
 // One view's trilinear lookups of tex (seeded by view) and their gradients.
 struct View {
   std::vector<float> out, g_tex, g_uv, g_dx;
@@ -102,10 +92,10 @@ TEST_CASE("the texture op's forward and adjoint on a Vulkan backend upload the t
   CHECK(render_view(copy, 0, trilinear_on(vulkan::raster_backend(shared_gpu()))) == got);
   Tensor cpu_tex = fresh(tex);
   const View cpu = render_view(cpu_tex, 0, trilinear_on(nullptr));
-  CHECK(error_to_largest(got.out, cpu.out) <= 1e-6);
-  CHECK(error_to_largest(got.g_tex, cpu.g_tex) <= 1e-5);
-  CHECK(error_to_largest(got.g_uv, cpu.g_uv) <= 1e-5);
-  CHECK(error_to_largest(got.g_dx, cpu.g_dx) <= 1e-5);
+  CHECK(relative_error(got.out, cpu.out) <= 1e-6);
+  CHECK(relative_error(got.g_tex, cpu.g_tex) <= 1e-5);
+  CHECK(relative_error(got.g_uv, cpu.g_uv) <= 1e-5);
+  CHECK(relative_error(got.g_dx, cpu.g_dx) <= 1e-5);
 }
 
 TEST_CASE("several views of an unchanged texture on a Vulkan backend upload it once", "[vulkan][texture]") {
@@ -141,8 +131,8 @@ TEST_CASE("a texture written in place between calls on a Vulkan backend is uploa
   CHECK_FALSE(second.out == first.out);
   Tensor cpu_tex = fresh(tex);
   const View cpu = render_view(cpu_tex, 0, trilinear_on(nullptr));
-  CHECK(error_to_largest(second.out, cpu.out) <= 1e-6);
-  CHECK(error_to_largest(second.g_uv, cpu.g_uv) <= 1e-5);
+  CHECK(relative_error(second.out, cpu.out) <= 1e-6);
+  CHECK(relative_error(second.g_uv, cpu.g_uv) <= 1e-5);
 }
 
 TEST_CASE("a texture copy the device let go is uploaded again with the same results", "[vulkan][texture]") {
@@ -195,8 +185,8 @@ TEST_CASE("two threads texturing on one Vulkan backend get the single-threaded b
   two.join();
   for (int k = 0; k < 2; ++k)
     for (int v = 0; v < 4; ++v) {
-      CHECK(error_to_largest(got[k][v].out, want[k][v].out) <= 1e-6);
-      CHECK(error_to_largest(got[k][v].g_tex, want[k][v].g_tex) <= 1e-5);
+      CHECK(relative_error(got[k][v].out, want[k][v].out) <= 1e-6);
+      CHECK(relative_error(got[k][v].g_tex, want[k][v].g_tex) <= 1e-5);
       CHECK(got_shared[k][v] == want_shared[v]);
     }
 }
