@@ -53,29 +53,41 @@ template <class T, class F>
 }
 
 // Rows [0, n) of a [rows, width] array to `width` lane arrays (dst + j kLanes),
-// and back; rows of 1 and 3 as loops of constant stride, which vectorize.
+// and back; rows of 2, 3 and 4 as loops of constant stride, which vectorize
+// (a strided loop per component stored 4-float rows one float at a time:
+// the loss's rgba gradient, issue 31).
+template <int W, class T>
+void deinterleave_fixed(const T* src, T* dst, std::int64_t n) {
+  for (std::int64_t l = 0; l < n; ++l)
+    for (int j = 0; j < W; ++j) dst[j * kLanes + l] = src[W * l + j];
+}
+template <int W, class T>
+void interleave_fixed(const T* src, T* dst, std::int64_t n) {
+  for (std::int64_t l = 0; l < n; ++l)
+    for (int j = 0; j < W; ++j) dst[W * l + j] = src[j * kLanes + l];
+}
 template <class T>
 void deinterleave(const T* src, std::int64_t width, T* dst, std::int64_t n) {
-  if (width == 1) {
-    std::copy(src, src + n, dst);
-  } else if (width == 3) {
-    for (std::int64_t l = 0; l < n; ++l)
-      for (int j = 0; j < 3; ++j) dst[j * kLanes + l] = src[3 * l + j];
-  } else {
-    for (std::int64_t j = 0; j < width; ++j)
-      for (std::int64_t l = 0; l < n; ++l) dst[j * kLanes + l] = src[l * width + j];
+  switch (width) {
+    case 1: std::copy(src, src + n, dst); return;
+    case 2: deinterleave_fixed<2>(src, dst, n); return;
+    case 3: deinterleave_fixed<3>(src, dst, n); return;
+    case 4: deinterleave_fixed<4>(src, dst, n); return;
+    default:
+      for (std::int64_t j = 0; j < width; ++j)
+        for (std::int64_t l = 0; l < n; ++l) dst[j * kLanes + l] = src[l * width + j];
   }
 }
 template <class T>
 void interleave(const T* src, std::int64_t width, T* dst, std::int64_t n) {
-  if (width == 1) {
-    std::copy(src, src + n, dst);
-  } else if (width == 3) {
-    for (std::int64_t l = 0; l < n; ++l)
-      for (int j = 0; j < 3; ++j) dst[3 * l + j] = src[j * kLanes + l];
-  } else {
-    for (std::int64_t j = 0; j < width; ++j)
-      for (std::int64_t l = 0; l < n; ++l) dst[l * width + j] = src[j * kLanes + l];
+  switch (width) {
+    case 1: std::copy(src, src + n, dst); return;
+    case 2: interleave_fixed<2>(src, dst, n); return;
+    case 3: interleave_fixed<3>(src, dst, n); return;
+    case 4: interleave_fixed<4>(src, dst, n); return;
+    default:
+      for (std::int64_t j = 0; j < width; ++j)
+        for (std::int64_t l = 0; l < n; ++l) dst[l * width + j] = src[j * kLanes + l];
   }
 }
 
