@@ -189,7 +189,7 @@ void antialias_forward(const AntialiasParams<T>& prm, T* out, std::vector<Antial
     const std::int64_t qx = horizontal ? px + 1 : px, qy = horizontal ? py : py + 1;
     const double cix = double(p_front ? px : qx) + 0.5, ciy = double(p_front ? py : qy) + 0.5;
     const double cox = double(p_front ? qx : px) + 0.5, coy = double(p_front ? qy : py) + 0.5;
-    const detail::WalkEnd e = detail::walk_surface(v, tris, topology, W, H, (p_front ? ip : iq) - 1, -1, cix, ciy,
+    const detail::WalkEnd e = detail::walk_surface(v, tris, topology, W, H, (p_front ? ip : iq) - 1, (p_front ? iq : ip) - 1, cix, ciy,
                                                    cox, coy, nullptr, &sides);
     if (e.kind != detail::WalkEnd::Kind::Silhouette) return;
     const double* sa = &v.screen[3 * static_cast<std::size_t>(e.a)];

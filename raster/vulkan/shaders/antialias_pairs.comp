@@ -26,7 +26,7 @@ Pair evaluate(int p, int q, bool horizontal) {
   bool p_front = iq == 0 || (ip != 0 && (depth(p) < depth(q) || (depth(p) == depth(q) && ip < iq)));
   int inside = p_front ? p : q, outside = p_front ? q : p;
   WalkPath path;
-  WalkEnd e = walk_surface((p_front ? ip : iq) - 1, -1, centre(inside), centre(outside), path);
+  WalkEnd e = walk_surface((p_front ? ip : iq) - 1, (p_front ? iq : ip) - 1, centre(inside), centre(outside), path);
   if (e.kind != kSilhouette) return none;
   dvec2 sa = screen_of(e.a), sb = screen_of(e.b);
   if (!pair_owns_direction(horizontal, sb.x - sa.x, sb.y - sa.y)) return none;
