@@ -6,11 +6,13 @@
 #include "raster/antialias.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cassert>
 #include <cmath>
 #include <limits>
 #include <numeric>
 #include <optional>
+#include <utility>
 
 #include "autodiff/base/parallel.h"
 #include "raster/detail/guarded_math.h"
@@ -37,6 +39,25 @@ detail::ScratchPool<detail::Vertices> g_vertex_pool;
 // ---------------------------------------------------------------------------
 // Edge topology
 
+namespace {
+std::atomic<std::uint64_t> g_topology_serial{0};  // the last serial given (0: none yet)
+}  // namespace
+
+EdgeTopology::EdgeTopology(std::int64_t num_tris, std::vector<std::int64_t> neighbour)
+    : num_tris_(num_tris), neighbour_(std::move(neighbour)), serial_(++g_topology_serial) {}
+
+EdgeTopology::EdgeTopology(EdgeTopology&& other) noexcept
+    : num_tris_(std::exchange(other.num_tris_, 0)),
+      neighbour_(std::exchange(other.neighbour_, {})),
+      serial_(std::exchange(other.serial_, 0)) {}
+
+EdgeTopology& EdgeTopology::operator=(EdgeTopology&& other) noexcept {
+  num_tris_ = std::exchange(other.num_tris_, 0);
+  neighbour_ = std::exchange(other.neighbour_, {});
+  serial_ = std::exchange(other.serial_, 0);
+  return *this;
+}
+
 template <class T>
 EdgeTopology build_edge_topology(const std::int32_t* tris, std::int64_t num_tris, std::int64_t num_vertices,
                                  const T* pos, int dims) {
@@ -61,9 +82,7 @@ EdgeTopology build_edge_topology(const std::int32_t* tris, std::int64_t num_tris
       if (!row_less(order[i - 1], order[i])) canon[order[i]] = canon[order[i - 1]];
   }
 
-  EdgeTopology topo;
-  topo.num_tris = num_tris;
-  topo.neighbour.assign(static_cast<std::size_t>(3 * num_tris), kBoundaryEdge);
+  std::vector<std::int64_t> neighbour(static_cast<std::size_t>(3 * num_tris), kBoundaryEdge);
 
   // Bucket the undirected edges by their smaller canonical vertex (counting sort).
   auto ends = [&](std::int64_t e, std::int32_t* lo, std::int32_t* hi) {
@@ -78,7 +97,7 @@ EdgeTopology build_edge_topology(const std::int32_t* tris, std::int64_t num_tris
     std::int32_t lo, hi;
     ends(e, &lo, &hi);
     if (lo == hi)
-      topo.neighbour[e] = kNonManifoldEdge;  // zero-length edge: never crossed
+      neighbour[e] = kNonManifoldEdge;  // zero-length edge: never crossed
     else
       ++start[lo + 1];
   }
@@ -106,16 +125,16 @@ EdgeTopology build_edge_topology(const std::int32_t* tris, std::int64_t num_tris
         Entry* g1 = g;
         while (g1 != e && g1->hi == g->hi) ++g1;
         if (g1 - g == 2) {
-          topo.neighbour[g[0].edge] = g[1].edge;
-          topo.neighbour[g[1].edge] = g[0].edge;
+          neighbour[g[0].edge] = g[1].edge;
+          neighbour[g[1].edge] = g[0].edge;
         } else if (g1 - g > 2) {
-          for (Entry* x = g; x != g1; ++x) topo.neighbour[x->edge] = kNonManifoldEdge;
+          for (Entry* x = g; x != g1; ++x) neighbour[x->edge] = kNonManifoldEdge;
         }
         g = g1;
       }
     }
   });
-  return topo;
+  return EdgeTopology(num_tris, std::move(neighbour));
 }
 
 EdgeTopology build_edge_topology(const std::int32_t* tris, std::int64_t num_tris, std::int64_t num_vertices) {
@@ -153,7 +172,7 @@ template <class T>
 void antialias_forward(const AntialiasParams<T>& prm, T* out, std::vector<AntialiasPair>* pairs_out,
                        AntialiasStats* stats) {
   assert(prm.width >= 1 && prm.height >= 1 && prm.channels >= 1 && prm.topology &&
-         prm.topology->num_tris == prm.num_tris);
+         prm.topology->num_tris() == prm.num_tris);
   const T *image = prm.image, *depth = prm.depth;
   const std::int32_t *tri_id = prm.tri_id, *tris = prm.tris;
   const EdgeTopology& topology = *prm.topology;

@@ -33,14 +33,36 @@ constexpr std::int64_t kNonManifoldEdge = -2;  // three or more triangles (or a 
 
 // Edge adjacency of a triangle list. Edge k of triangle t is the edge opposite
 // vertex k (between vertices k+1 and k+2, mod 3), as in the rasterizer.
-// neighbour[3t + k] = 3n + k' for the one other triangle n that has the same
+// neighbour()[3t + k] = 3n + k' for the one other triangle n that has the same
 // undirected edge (k' = n's slot opposite that edge), or kBoundaryEdge /
 // kNonManifoldEdge. Vertices are compared by index, or, when weld positions
 // are given, vertices with equal position rows count as one vertex (so meshes
 // with duplicated seam vertices are still closed).
-struct EdgeTopology {
-  std::int64_t num_tris = 0;
-  std::vector<std::int64_t> neighbour;  // 3 * num_tris
+//
+// Immutable once made: its content can only be read, so its serial names it.
+// The serial is unique in the process, given when it is made (never 0; a
+// default-made one, empty, has 0); copies keep it (the same content), a
+// moved-from one is left empty with serial 0. A device that keeps a copy of
+// the adjacency (vulkan::Frame::antialias) reuses it while the serial is the
+// same: a different adjacency is a new EdgeTopology, and so uploaded.
+class EdgeTopology {
+ public:
+  EdgeTopology() = default;
+  // Takes neighbour (3 num_tris entries, as above; not checked) and gives it a new serial.
+  EdgeTopology(std::int64_t num_tris, std::vector<std::int64_t> neighbour);
+  EdgeTopology(const EdgeTopology&) = default;
+  EdgeTopology& operator=(const EdgeTopology&) = default;
+  EdgeTopology(EdgeTopology&& other) noexcept;
+  EdgeTopology& operator=(EdgeTopology&& other) noexcept;
+
+  std::int64_t num_tris() const { return num_tris_; }
+  const std::vector<std::int64_t>& neighbour() const { return neighbour_; }  // 3 * num_tris
+  std::uint64_t serial() const { return serial_; }
+
+ private:
+  std::int64_t num_tris_ = 0;
+  std::vector<std::int64_t> neighbour_;
+  std::uint64_t serial_ = 0;
 };
 
 // tris: M x 3 int32, each index in [0, num_vertices) (not checked here).

@@ -117,7 +117,7 @@ template <class T>
 void visibility_antialias_forward(const VisibilityAntialiasParams<T>& prm, T* out,
                                   std::vector<VisibilityPair>* pairs_out, VisibilityAntialiasStats* stats) {
   assert(prm.width >= 1 && prm.height >= 1 && prm.channels >= 1 && prm.topology &&
-         prm.topology->num_tris == prm.num_tris);
+         prm.topology->num_tris() == prm.num_tris);
   const T *image = prm.image, *depth = prm.depth;
   const std::int32_t *tri_id = prm.tri_id, *tris = prm.tris;
   const EdgeTopology& topology = *prm.topology;

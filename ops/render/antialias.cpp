@@ -138,8 +138,8 @@ Tensor antialias(const Tensor& image, const GBuffer& gbuffer, const Tensor& clip
   if (!std::isfinite(boost))
     throw ValueError(op + ": option 'pos_gradient_boost' must be finite, got " + std::to_string(boost));
   AntialiasTopology topology = options.topology;
-  if (topology && (topology->num_tris != m || std::int64_t(topology->neighbour.size()) != 3 * m))
-    throw ValueError(op + ": option 'topology' was built for " + std::to_string(topology->num_tris) +
+  if (topology && (topology->num_tris() != m || std::int64_t(topology->neighbour().size()) != 3 * m))
+    throw ValueError(op + ": option 'topology' was built for " + std::to_string(topology->num_tris()) +
                      " triangles but 'triangles' has " + std::to_string(m));
 
   Tensor out = Tensor::empty(image.shape(), image.dtype());

@@ -346,8 +346,8 @@ Tensor antialias_batch(const Tensor& image, const GBuffer& gbuffer, const Tensor
   const double boost = options.pos_gradient_boost;
   if (!std::isfinite(boost))
     throw ValueError(op + ": option 'pos_gradient_boost' must be finite, got " + std::to_string(boost));
-  if (options.topology && options.topology->num_tris != triangles.size(0))
-    throw ValueError(op + ": option 'topology' was built for " + std::to_string(options.topology->num_tris) +
+  if (options.topology && options.topology->num_tris() != triangles.size(0))
+    throw ValueError(op + ": option 'topology' was built for " + std::to_string(options.topology->num_tris()) +
                      " triangles but 'triangles' has " + std::to_string(triangles.size(0)));
   // One topology per distinct position set: the given one, else welded by clip rows.
   const std::int64_t topologies = options.topology ? 0 : pos.shared ? 1 : B;

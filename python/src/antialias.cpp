@@ -101,6 +101,9 @@ std::shared_ptr<Topology> build_topology(const pybind11::object& tri_, std::int6
   auto topology = std::make_shared<Topology>();
   topology->edges = raster::build_edge_topology(t, triangles);
   topology->triangles = triangles;
+  std::int32_t largest = -1;
+  for (std::int64_t i = 0; i < 3 * triangles; ++i) largest = std::max(largest, t[i]);
+  topology->vertices_needed = std::int64_t(largest) + 1;
   return topology;
 }
 

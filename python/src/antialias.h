@@ -19,9 +19,13 @@ namespace gr::python {
 // for negatives only; the memory it takes grows with the triangles, never
 // with an index (raster::build_edge_topology), and is checked against the
 // memory budget. `op` names the caller in errors.
+// vertices_needed: the fewest vertices the indices allow (the largest + 1),
+// so that a caller keeping the topology (gradraster.torch's KeptTopologies)
+// checks a later call's vertex count without a pass over the indices.
 struct Topology {
   raster::EdgeTopology edges;
   std::int64_t triangles = 0;
+  std::int64_t vertices_needed = 0;
 };
 std::shared_ptr<Topology> build_topology(const pybind11::object& tri, std::int64_t vertices, const std::string& op);
 

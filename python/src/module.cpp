@@ -100,20 +100,25 @@ PYBIND11_MODULE(_core, m) {
       .def_readonly("device_calls", &Context::device_calls)
       // What its backend did with the G-buffers (vulkan::residency_stats;
       // all 0 for a CPU context): made and kept, calls that read a kept one,
-      // calls that uploaded one, frames made.
+      // calls that uploaded one, frames made; antialias calls that uploaded
+      // the edge topology, and its bytes.
       .def_property_readonly("residency", [](const Context& ctx) {
         py::dict out;
-        std::int64_t gbuffers = 0, resident_calls = 0, uploads = 0, frames = 0;
+        std::int64_t gbuffers = 0, resident_calls = 0, uploads = 0, frames = 0, topology_uploads = 0,
+                     topology_bytes = 0;
 #ifdef GRADRASTER_HAS_VULKAN
         if (ctx.gpu) {
           const gr::vulkan::ResidencyStats s = gr::vulkan::residency_stats(*ctx.backend);
           gbuffers = s.gbuffers, resident_calls = s.resident_calls, uploads = s.uploads, frames = s.frames;
+          topology_uploads = s.topology_uploads, topology_bytes = s.topology_bytes;
         }
 #endif
         out["gbuffers"] = gbuffers;
         out["resident_calls"] = resident_calls;
         out["uploads"] = uploads;
         out["frames"] = frames;
+        out["topology_uploads"] = topology_uploads;
+        out["topology_bytes"] = topology_bytes;
         return out;
       })
       // What its device did with the textures' texels (vulkan::texture_residency;
@@ -165,7 +170,9 @@ PYBIND11_MODULE(_core, m) {
         py::arg("grad_attr"), py::arg("grad_rast"), py::arg("grad_db"), py::arg("threads"),
         py::arg("kept") = py::none());
 
-  py::class_<Topology, std::shared_ptr<Topology>>(m, "Topology").def_readonly("triangles", &Topology::triangles);
+  py::class_<Topology, std::shared_ptr<Topology>>(m, "Topology")
+      .def_readonly("triangles", &Topology::triangles)
+      .def_readonly("vertices_needed", &Topology::vertices_needed);
   py::class_<AntialiasState, std::shared_ptr<AntialiasState>>(m, "AntialiasState");
   m.def("build_topology", &build_topology, py::arg("tri"), py::arg("vertices"), py::arg("op"));
   m.def("antialias_forward", &antialias_forward, py::arg("ctx"), py::arg("pos"), py::arg("tri"), py::arg("ranges"),

@@ -48,7 +48,7 @@ WalkEnd walk_surface(const Vertices& v, const std::int32_t* tris, const EdgeTopo
     }
     if (exit_k < 0 || !(exit_t < 1.0)) return {WalkEnd::Kind::Continues};
     const std::int32_t a = tri[(exit_k + 1) % 3], b = tri[(exit_k + 2) % 3];
-    const std::int64_t nb = topology.neighbour[3 * cur + exit_k];
+    const std::int64_t nb = topology.neighbour()[3 * cur + exit_k];
     int side_n = 0;
     if (nb >= 0) {
       side_n = sides ? sides->edge(3 * cur + exit_k) : SurfaceSides::kUnknown;

@@ -182,14 +182,19 @@ class VulkanBackend : public raster::RasterBackend {
   bool antialias_forward(const raster::DeviceGBuffer* resident, const raster::AntialiasParams<float>& p,
                          float* out) const override {
     std::lock_guard<std::mutex> lock(mutex_);
-    for_antialias(resident, p).antialias(p.image, p.channels, out, p.topology, p.visibility);
+    Frame& f = for_antialias(resident, p);
+    const TopologyUploads before = f.topology_uploads();
+    f.antialias(p.image, p.channels, out, p.topology, p.visibility);
+    count_topology_uploads(f, before);
     return true;
   }
   bool antialias_backward(const raster::DeviceGBuffer* resident, const raster::AntialiasParams<float>& p,
                           const float* grad_out, const raster::AntialiasGrads<float>& grads) const override {
     std::lock_guard<std::mutex> lock(mutex_);
     Frame& f = for_antialias(resident, p);
+    const TopologyUploads before = f.topology_uploads();
     f.antialias(p.image, p.channels, nullptr, p.topology, p.visibility);  // the pairs, on the device
+    count_topology_uploads(f, before);
     f.antialias_backward(grad_out, grads.image, grads.clip);
     return true;
   }
@@ -262,6 +267,12 @@ class VulkanBackend : public raster::RasterBackend {
     Frame& f = upload_frame();
     f.load_gbuffer(rp, options, p.tri_id, nullptr, 2, p.depth, nullptr);
     return f;
+  }
+  // Adds what f's antialias uploaded of the edge topology since `before`.
+  void count_topology_uploads(const Frame& f, const TopologyUploads& before) const {
+    const TopologyUploads now = f.topology_uploads();
+    stats_.topology_uploads += now.uploads - before.uploads;
+    stats_.topology_bytes += now.bytes - before.bytes;
   }
   // The frame a call without a kept G-buffer loads it into (counted as an upload).
   Frame& upload_frame() const {

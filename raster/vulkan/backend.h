@@ -38,6 +38,10 @@ struct ResidencyStats {
   std::int64_t resident_calls = 0;  // calls that read a G-buffer kept on the device: no upload
   std::int64_t uploads = 0;         // calls that uploaded the G-buffer from the host (Frame::load_gbuffer)
   int frames = 0;                   // frames made so far for kept G-buffers (at most `frames`; uploads use one more)
+  // antialias calls (forward and adjoint) that uploaded the edge topology, and its bytes: each frame keeps
+  // the last one it uploaded (Frame::antialias), so the same EdgeTopology on the same frame goes up once.
+  std::int64_t topology_uploads = 0;
+  std::int64_t topology_bytes = 0;
 };
 // ValueError if `backend` is not one of raster_backend's.
 ResidencyStats residency_stats(const raster::RasterBackend& backend);

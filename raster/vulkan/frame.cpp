@@ -85,9 +85,15 @@ struct Frame::State {
   bool grad_rast = false, grad_db = false;
   int aa_channels = -1;  // of the last antialias (-1: none since the last rasterize)
   bool aa_visibility = false;  // the last antialias was visibility_antialias's
-  // The triangles the device's edge topology (kNeighbour) is for, once topology_ready.
+  // What the device's edge topology (kNeighbour) holds: the adjacency of
+  // `tris` (the frame's own) once topology_ready, or the caller's EdgeTopology
+  // of serial neighbour_serial (0: none); never both. An EdgeTopology is
+  // immutable, so its serial names its content whatever triangles the frame
+  // has since (antialias checks the triangle count).
   std::vector<std::int32_t> tris;
   bool topology_ready = false;
+  std::uint64_t neighbour_serial = 0;
+  TopologyUploads topology_uploads;
 
   Buffer& operator[](Role r) { return buffers[r]; }
   std::int64_t pixels() const { return static_cast<std::int64_t>(width) * height; }
@@ -155,7 +161,7 @@ std::vector<std::int32_t> neighbours_of(const std::vector<std::int32_t>& tris) {
   if (3 * num_tris > std::numeric_limits<std::int32_t>::max())
     throw ValueError("vulkan antialias: too many triangles for 32-bit edge indices (" + std::to_string(num_tris) + ")");
   const raster::EdgeTopology topo = raster::build_edge_topology(tris.data(), num_tris);
-  return std::vector<std::int32_t>(topo.neighbour.begin(), topo.neighbour.end());
+  return std::vector<std::int32_t>(topo.neighbour().begin(), topo.neighbour().end());
 }
 
 // raster_common.glsl's depth_key on the host (an order-preserving map of a
@@ -584,19 +590,25 @@ GpuTimes Frame::antialias(const float* image, int channels, float* out, const ra
   const std::size_t image_bytes = px * static_cast<std::size_t>(channels) * sizeof(float);
   // No image: the last interpolate's output, copied on the device.
   const std::size_t upload_image = image ? image_bytes : 0;
-  if (topology && topology->num_tris != s.num_tris)
-    throw ValueError("vulkan antialias: the topology was built for " + std::to_string(topology->num_tris) +
+  if (topology && topology->num_tris() != s.num_tris)
+    throw ValueError("vulkan antialias: the topology was built for " + std::to_string(topology->num_tris()) +
                      " triangles, the frame has " + std::to_string(s.num_tris));
-  // The caller's topology, else the triangles' own (only when they changed since it was uploaded).
-  const std::vector<std::int32_t> neighbours =
-      topology ? std::vector<std::int32_t>(topology->neighbour.begin(), topology->neighbour.end())
-               : s.topology_ready ? std::vector<std::int32_t>() : neighbours_of(s.tris);
-  if (topology) s.topology_ready = false;  // uploaded below; not the triangles' own
+  // The caller's topology unless kNeighbour holds it (by serial; 0: always
+  // uploaded), else the triangles' own unless kNeighbour holds it.
+  const bool upload_topology =
+      topology ? topology->serial() == 0 || topology->serial() != s.neighbour_serial : !s.topology_ready;
+  std::vector<std::int32_t> neighbours;
+  if (upload_topology) {
+    neighbours = topology ? std::vector<std::int32_t>(topology->neighbour().begin(), topology->neighbour().end())
+                          : neighbours_of(s.tris);
+    s.topology_ready = false;  // kNeighbour is replaced below: it holds neither until the upload is done
+    s.neighbour_serial = 0;
+  }
   const std::size_t neighbour_bytes = neighbours.size() * sizeof(std::int32_t);
   s.reserve(kAaImage, image_bytes);
   s.reserve(kAaOut, image_bytes);
   s.reserve(kAaPairs, 2 * px * kPairBytes);
-  if (!s.topology_ready || topology) s.reserve(kNeighbour, neighbour_bytes);
+  if (upload_topology) s.reserve(kNeighbour, neighbour_bytes);
   s.upload.reserve(s.dev, upload_image + neighbour_bytes, true);
   s.download.reserve(s.dev, out ? image_bytes : 0, true);
   if (upload_image) std::memcpy(s.upload.mapped(), image, upload_image);
@@ -627,7 +639,14 @@ GpuTimes Frame::antialias(const float* image, int channels, float* out, const ra
     barrier(cb);
     s.timestamps.stamp(cb, 4);
   });
-  s.topology_ready = !topology;
+  if (upload_topology) {
+    if (topology)
+      s.neighbour_serial = topology->serial();
+    else
+      s.topology_ready = true;
+    ++s.topology_uploads.uploads;
+    s.topology_uploads.bytes += static_cast<std::int64_t>(neighbour_bytes);
+  }
   s.aa_channels = channels;
   s.aa_visibility = visibility;
   if (out) std::memcpy(out, s.download.mapped(), image_bytes);
@@ -675,6 +694,11 @@ GpuTimes Frame::antialias_backward(const float* grad_out, float* grad_image, flo
   add_to(grad_image, got, px * C);
   add_to(grad_clip, got + px * C, N * 4);
   return s.timestamps.read();
+}
+
+TopologyUploads Frame::topology_uploads() const {
+  std::lock_guard<std::mutex> lock(state_->dev.mutex);
+  return state_->topology_uploads;
 }
 
 void Frame::discard_gbuffer_gradient() {

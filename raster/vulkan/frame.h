@@ -34,6 +34,12 @@
 
 namespace gr::vulkan {
 
+// What a Frame's antialias calls uploaded of the edge topology, for tests and profiling.
+struct TopologyUploads {
+  std::int64_t uploads = 0;
+  std::int64_t bytes = 0;
+};
+
 class Frame {
  public:
   explicit Frame(std::shared_ptr<Device> device);
@@ -67,8 +73,10 @@ class Frame {
   // uv_stride: u, v in channels 0 and 1), depth (H x W: z/w, read on covered
   // pixels only) and db (H x W x 4: rast_db). options.derivatives marks the
   // frame as having rast_db (interpolate's derivatives, rasterize_backward's
-  // grad_db). Checks p as rasterize does, and the ids. The edge topology is
-  // rebuilt at the next antialias. pass_ms: upload, project.
+  // grad_db). Checks p as rasterize does, and the ids. The frame's own edge
+  // topology is rebuilt at the next antialias without one (a caller's
+  // topology the device holds stays: antialias knows it by its serial).
+  // pass_ms: upload, project.
   GpuTimes load_gbuffer(const raster::RasterParams<float>& p, const GpuRasterOptions& options,
                         const std::int32_t* tri_id, const float* uv, int uv_stride, const float* depth,
                         const float* db);
@@ -127,7 +135,10 @@ class Frame {
   // adjoint. image null: the last interpolate's output, which stays on the
   // device (its channel count must be `channels`). topology: the edge
   // topology to use instead (e.g. welded, raster::build_edge_topology with
-  // positions; built for these triangles), uploaded at this call.
+  // positions; built for these triangles), uploaded unless the device holds
+  // it already: the frame keeps the last one it uploaded, known by its
+  // serial (an EdgeTopology is immutable; serial 0 is always uploaded), until
+  // another topology replaces it (the caller's or the frame's own).
   // visibility: visibility_antialias_forward (raster/visibility_antialias.h)
   // instead, its pairs (edges and intersection crossings) and blends.
   // pass_ms: pairs, blend.
@@ -138,6 +149,10 @@ class Frame {
   // ACCUMULATED (+=) into grad_image (H x W x channels) and grad_clip (N x 4),
   // each may be null. pass_ms: image gradient and magnitudes, sums, finish.
   GpuTimes antialias_backward(const float* grad_out, float* grad_image, float* grad_clip);
+
+  // The edge topologies antialias uploaded so far (the caller's and the
+  // frame's own): how many, and their bytes (4 per edge).
+  TopologyUploads topology_uploads() const;
 
  private:
   struct State;

@@ -58,12 +58,19 @@ def scene(images):
     return pos, tri, torch.rand(pos.shape[1], 3, generator=torch.Generator().manual_seed(images))
 
 
+def kept(tri, gbuffers, resident_calls, frames):
+    """ctx.residency when every call read a kept G-buffer and each frame ran antialias on tri: the edge topology
+    (built once, _topologies.py) went up once per frame (the adjoint's antialias reuses it), 4 bytes per edge."""
+    return {'gbuffers': gbuffers, 'resident_calls': resident_calls, 'uploads': 0, 'frames': frames,
+            'topology_uploads': frames, 'topology_bytes': frames * 12 * tri.shape[0]}
+
+
 def test_the_chain_reads_the_kept_gbuffers_with_no_upload_and_gives_the_cpu_contexts_values_and_gradients():
     pos, tri, attr = scene(2)
     ctx = vulkan_context()
     compare(chain(ctx, pos, tri, attr), chain(dr.RasterizeCpuContext(), pos, tri, attr))
     # Per image: interpolate, antialias and their adjoints, the rasterize adjoint.
-    assert ctx.residency == {'gbuffers': 2, 'resident_calls': 2 * 5, 'uploads': 0, 'frames': 2}
+    assert ctx.residency == kept(tri, gbuffers=2, resident_calls=2 * 5, frames=2)
     assert ctx.device_calls == 2 * 6
 
 
@@ -72,7 +79,7 @@ def test_visibility_antialias_reads_the_kept_gbuffers_with_no_upload_either():
     ctx = vulkan_context()
     compare(chain(ctx, pos, tri, attr, antialias=dr.visibility_antialias),
             chain(dr.RasterizeCpuContext(), pos, tri, attr, antialias=dr.visibility_antialias))
-    assert ctx.residency == {'gbuffers': 2, 'resident_calls': 2 * 5, 'uploads': 0, 'frames': 2}
+    assert ctx.residency == kept(tri, gbuffers=2, resident_calls=2 * 5, frames=2)
     assert ctx.device_calls == 2 * 6
 
 
@@ -96,7 +103,7 @@ def test_the_pool_grows_to_the_largest_minibatch_so_none_is_uploaded():
     pos, tri, attr = scene(6)
     ctx = vulkan_context()
     compare(chain(ctx, pos, tri, attr), chain(dr.RasterizeCpuContext(), pos, tri, attr))
-    assert ctx.residency == {'gbuffers': 6, 'resident_calls': 6 * 5, 'uploads': 0, 'frames': 6}
+    assert ctx.residency == kept(tri, gbuffers=6, resident_calls=6 * 5, frames=6)
 
 
 def test_a_minibatch_larger_than_a_fixed_pool_is_uploaded_with_the_same_results():
@@ -124,7 +131,7 @@ def test_the_backward_reads_the_gbuffers_after_a_later_rasterize_while_the_pool_
         out, da = dr.interpolate(a, rast, tri, rast_db=db, diff_attrs=[0])
         images.append(dr.antialias(out, rast, p, tri))
     sum(i.sum() for i in images).backward()
-    assert ctx.residency == {'gbuffers': 4, 'resident_calls': 4 * 4, 'uploads': 0, 'frames': 4}
+    assert ctx.residency == kept(tri, gbuffers=4, resident_calls=4 * 4, frames=4)
 
 
 def test_depth_peeled_layers_keep_their_gbuffers_on_the_device():
@@ -138,7 +145,7 @@ def test_depth_peeled_layers_keep_their_gbuffers_on_the_device():
             out, _ = dr.interpolate(a, rast, tri, rast_db=db, diff_attrs='all')
             images.append(dr.antialias(out, rast, p, tri))
     sum(i.square().sum() for i in images).backward()
-    assert ctx.residency == {'gbuffers': 4, 'resident_calls': 4 * 5, 'uploads': 0, 'frames': 4}
+    assert ctx.residency == kept(tri, gbuffers=4, resident_calls=4 * 5, frames=4)
 
 
 def test_a_range_of_all_triangles_is_kept_and_a_range_of_some_is_uploaded():
@@ -158,6 +165,29 @@ def test_a_range_of_all_triangles_is_kept_and_a_range_of_some_is_uploaded():
         compare(*runs)
         assert ctx.residency['uploads'] == uploads
         assert ctx.residency['uploads'] + ctx.residency['resident_calls'] == 2 * 5
+
+
+def test_repeated_renders_of_one_mesh_upload_its_edge_topology_once_per_frame():
+    pos, tri, attr = scene(1)
+    ctx = vulkan_context()
+    cpu = dr.RasterizeCpuContext()
+    for _ in range(4):  # an optimisation loop: antialias without topology_hash, forward and backward
+        compare(chain(ctx, pos, tri, attr), chain(cpu, pos, tri, attr))
+    stats = ctx.residency
+    assert stats['uploads'] == 0
+    assert stats['topology_uploads'] == stats['frames'] < 2 * 4  # not once per antialias call, forward or backward
+    assert stats['topology_bytes'] == stats['frames'] * 12 * tri.shape[0]
+
+
+def test_a_written_tri_uploads_its_new_edge_topology():
+    pos, tri, attr = scene(1)
+    ctx = vulkan_context()
+    chain(ctx, pos, tri, attr)
+    before = ctx.residency['topology_uploads']
+    with torch.no_grad():
+        tri.data[:] = tri.flip(0).clone()  # the same triangles in another order: another adjacency
+    compare(chain(ctx, pos, tri, attr), chain(dr.RasterizeCpuContext(), pos, tri, attr))
+    assert ctx.residency['topology_uploads'] == before + 1
 
 
 def test_frames_must_be_none_or_a_positive_integer():

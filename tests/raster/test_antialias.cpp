@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdint>
 #include <numeric>
+#include <utility>
 #include <vector>
 
 #include "autodiff/base/error.h"
@@ -140,11 +141,11 @@ double image_sum(const Result& r) { return std::accumulate(r.out.begin(), r.out.
 TEST_CASE("antialias topology: a quad's diagonal is shared and its outline is boundary", "[raster][antialias]") {
   const std::vector<std::int32_t> tris = {0, 1, 2, 0, 2, 3};
   const EdgeTopology t = build_edge_topology(tris.data(), 2, 4);
-  REQUIRE(t.neighbour.size() == 6);
+  REQUIRE(t.neighbour().size() == 6);
   // Edge 1 of triangle 0 (vertices 2, 0) is edge 2 of triangle 1 (vertices 0, 2).
-  CHECK(t.neighbour[1] == 3 * 1 + 2);
-  CHECK(t.neighbour[3 * 1 + 2] == 1);
-  for (int e : {0, 2, 3, 4}) CHECK(t.neighbour[e] == kBoundaryEdge);
+  CHECK(t.neighbour()[1] == 3 * 1 + 2);
+  CHECK(t.neighbour()[3 * 1 + 2] == 1);
+  for (int e : {0, 2, 3, 4}) CHECK(t.neighbour()[e] == kBoundaryEdge);
 }
 
 TEST_CASE("antialias topology: duplicated vertices are welded by position, not by index", "[raster][antialias]") {
@@ -152,18 +153,44 @@ TEST_CASE("antialias topology: duplicated vertices are welded by position, not b
   const std::vector<std::int32_t> tris = {0, 1, 2, 4, 5, 3};
   const std::vector<double> pos = {0, 0, 1, 0, 1, 1, 0, 1, 0, 0, 1, 1};
   const EdgeTopology by_index = build_edge_topology(tris.data(), 2, 6);
-  for (std::int64_t e : by_index.neighbour) CHECK(e == kBoundaryEdge);
+  for (std::int64_t e : by_index.neighbour()) CHECK(e == kBoundaryEdge);
   const EdgeTopology welded = build_edge_topology(tris.data(), 2, 6, pos.data(), 2);
-  CHECK(welded.neighbour[1] == 3 * 1 + 2);  // edge (2, 0) ~ edge (4, 5)
-  CHECK(welded.neighbour[3 * 1 + 2] == 1);
+  CHECK(welded.neighbour()[1] == 3 * 1 + 2);  // edge (2, 0) ~ edge (4, 5)
+  CHECK(welded.neighbour()[3 * 1 + 2] == 1);
 }
 
 TEST_CASE("antialias topology: an edge of three triangles is non-manifold", "[raster][antialias]") {
   const std::vector<std::int32_t> tris = {0, 1, 2, 1, 0, 3, 0, 1, 4};
   const EdgeTopology t = build_edge_topology(tris.data(), 3, 5);
-  CHECK(t.neighbour[2] == kNonManifoldEdge);  // edge (0, 1) of triangle 0
-  CHECK(t.neighbour[3 + 2] == kNonManifoldEdge);
-  CHECK(t.neighbour[6 + 2] == kNonManifoldEdge);
+  CHECK(t.neighbour()[2] == kNonManifoldEdge);  // edge (0, 1) of triangle 0
+  CHECK(t.neighbour()[3 + 2] == kNonManifoldEdge);
+  CHECK(t.neighbour()[6 + 2] == kNonManifoldEdge);
+}
+
+TEST_CASE("antialias topology: each one made has its own serial, copies keep it and a moved-from one is empty",
+          "[raster][antialias]") {
+  const std::vector<std::int32_t> tris = {0, 1, 2, 0, 2, 3};
+  const EdgeTopology a = build_edge_topology(tris.data(), 2, 4), b = build_edge_topology(tris.data(), 2);
+  const std::vector<double> pos = {0, 0, 1, 0, 1, 1, 0, 1};
+  const EdgeTopology welded = build_edge_topology(tris.data(), 2, 4, pos.data(), 2);
+  const EdgeTopology given(2, a.neighbour());
+  CHECK(a.neighbour() == b.neighbour());
+  for (const EdgeTopology* t : {&a, &b, &welded, &given}) CHECK(t->serial() != 0);
+  CHECK(a.serial() != b.serial());
+  CHECK(a.serial() != welded.serial());
+  CHECK(given.serial() != a.serial());
+  CHECK(EdgeTopology().serial() == 0);
+  EdgeTopology copy = a;
+  CHECK(copy.serial() == a.serial());
+  CHECK(copy.neighbour() == a.neighbour());
+  EdgeTopology moved = std::move(copy);
+  CHECK(moved.serial() == a.serial());
+  CHECK(moved.neighbour() == a.neighbour());
+  CHECK(copy.serial() == 0);  // NOLINT(bugprone-use-after-move): left empty on purpose
+  CHECK(copy.num_tris() == 0);
+  CHECK(copy.neighbour().empty());
+  copy = b;
+  CHECK(copy.serial() == b.serial());
 }
 
 TEST_CASE("antialias kernel: a vertical silhouette blends like a box filter of the covered fraction",

@@ -21,6 +21,7 @@ from torch.autograd.function import once_differentiable
 from .. import _core
 from ._origin import kept_gbuffers, origin, record_origin
 from ._resident import KeptGBuffers, KeptTextures
+from ._topologies import KeptTopologies
 
 _MAX_SIDE = _core.MAX_SIDE  # pixels per side (the rasterizer's limit, raster::kMaxSide)
 _MAX_FLOAT32_IDS = 1 << 24  # float32 holds every triangle id + 1 exactly up to here
@@ -212,8 +213,9 @@ class RasterizeVulkanContext(RasterizeCpuContext):
     def residency(self):
         """What the device did with rasterize's G-buffers so far, a dict: 'gbuffers' made and kept there,
         'resident_calls' (interpolate, antialias, rasterize backward, per image) that read a kept one, 'uploads'
-        (such calls that uploaded rast instead: changed tensors, or let go), 'frames' made (docs/python.md,
-        "Vulkan")."""
+        (such calls that uploaded rast instead: changed tensors, or let go), 'frames' made, 'topology_uploads'
+        (antialias calls, forward or backward, per image, that uploaded the edge topology: each frame keeps the last
+        one) and 'topology_bytes' (docs/python.md, "Vulkan")."""
         return dict(self.cpp_wrapper.residency)
 
     @property
@@ -489,6 +491,22 @@ def _topology(tri, vertices, op):
     return _core.build_topology(_d(tri), vertices, op)
 
 
+# The topologies antialias built for itself, by tri (_topologies.py): a few meshes' worth (each holds 12 bytes per
+# triangle on the host, and its device copies only while a frame keeps it).
+_KEPT_TOPOLOGY_CAPACITY = 4
+_KEPT_TOPOLOGIES = KeptTopologies(_KEPT_TOPOLOGY_CAPACITY, _fingerprint)
+
+
+def _own_topology(tri, vertices, op):
+    """The adjacency of tri for a call without topology_hash: the one kept for this very tri while it is unchanged,
+    its indices within `vertices`; else built (indices checked against `vertices` first: never a table sized by a
+    bad index) and kept."""
+    topology = _KEPT_TOPOLOGIES.find(tri)
+    if topology is not None and topology.vertices_needed <= vertices:
+        return topology
+    return _KEPT_TOPOLOGIES.built(tri, lambda: _topology(tri, vertices, op))
+
+
 def _check_antialias(color, rast, pos, tri):
     _float('color', color, (4,))
     _rast('rast', rast, ('color', color))
@@ -548,8 +566,8 @@ def _apply_antialias(color, rast, pos, tri, topology_hash, pos_gradient_boost, v
             or not (abs(float(pos_gradient_boost)) < float('inf')):
         raise ValueError(f"'pos_gradient_boost' must be a finite number, got {pos_gradient_boost!r}")
     _check_antialias(color, rast, pos, tri)
-    if topology_hash is None:  # indices checked against pos first: never a table sized by a bad index
-        topology_hash = _topology(tri, pos.shape[-2], 'visibility_antialias' if visibility else 'antialias')
+    if topology_hash is None:
+        topology_hash = _own_topology(tri, pos.shape[-2], 'visibility_antialias' if visibility else 'antialias')
     elif not isinstance(topology_hash, _core.Topology):
         raise TypeError("'topology_hash' must come from antialias_construct_topology_hash(tri)")
     return _AntialiasFunc.apply(color, rast, pos, tri, topology_hash, float(pos_gradient_boost), visibility,

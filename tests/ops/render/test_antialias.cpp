@@ -377,8 +377,8 @@ TEST_CASE("antialias_topology without positions: huge indices cost memory by tri
   AntialiasTopology a = antialias_topology(Tensor::from_vector<std::int32_t>(dense, {4, 3}));
   AntialiasTopology b = antialias_topology(Tensor::from_vector<std::int32_t>(sparse, {4, 3}));
   CHECK(peak_rss_kib() - before < 16 * 1024);
-  CHECK(a->neighbour == b->neighbour);
-  CHECK(std::count(a->neighbour.begin(), a->neighbour.end(), raster::kBoundaryEdge) == 0);  // closed
+  CHECK(a->neighbour() == b->neighbour());
+  CHECK(std::count(a->neighbour().begin(), a->neighbour().end(), raster::kBoundaryEdge) == 0);  // closed
   // And what they take is checked against the memory budget first.
   const Tensor many = Tensor::zeros({20000, 3}, DType::Int32);
   {
@@ -388,7 +388,7 @@ TEST_CASE("antialias_topology without positions: huge indices cost memory by tri
     } limit;
     CHECK_THROWS_AS(antialias_topology(many), MemoryError);
   }
-  CHECK(antialias_topology(many)->num_tris == 20000);
+  CHECK(antialias_topology(many)->num_tris() == 20000);
 }
 
 TEST_CASE("antialias: pos_gradient_boost scales the clip gradient exactly and leaves the image gradient and output alone",

@@ -225,3 +225,115 @@ TEST_CASE("GPU antialias of the interpolated image left on the device equals ant
   REQUIRE(std::memcmp(from_host.data(), on_device.data(), image.size() * sizeof(float)) == 0);
   REQUIRE_THROWS_WITH(frame.antialias(nullptr, 2), Catch::Contains("3 channels"));
 }
+
+namespace {
+
+// antialias (with `topology`, or the frame's own when null) and its adjoint on the frame's current G-buffer.
+Result antialias_on(vulkan::Frame& frame, const Case& c, const std::vector<float>& image,
+                    const std::vector<float>& grad_out, const EdgeTopology* topology) {
+  Result r{std::vector<float>(values(c)), std::vector<float>(values(c)), std::vector<float>(vertices(c) * 4)};
+  frame.antialias(image.data(), c.C, r.out.data(), topology);
+  frame.antialias_backward(grad_out.data(), r.grad_image.data(), r.grad_clip.data());
+  return r;
+}
+
+bool same_bits(const std::vector<float>& a, const std::vector<float>& b) {
+  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0;
+}
+
+// The upload-every-time path: a new frame, which holds no topology.
+Result on_new_frame(const Case& c, const std::vector<float>& image, const std::vector<float>& grad_out,
+                    const EdgeTopology* topology) {
+  vulkan::Frame fresh(shared_gpu());
+  fresh.rasterize(c.scene.params(c.W, c.H));
+  return antialias_on(fresh, c, image, grad_out, topology);
+}
+
+void require_same_as_new_frame_and_cpu(const Result& r, const Case& c, const std::vector<float>& image,
+                                       const std::vector<float>& grad_out, const EdgeTopology* topology) {
+  const Result fresh = on_new_frame(c, image, grad_out, topology);
+  REQUIRE(same_bits(r.out, fresh.out));
+  REQUIRE(same_bits(r.grad_image, fresh.grad_image));
+  REQUIRE(same_bits(r.grad_clip, fresh.grad_clip));
+  const Result cpu = on_cpu(c, image, grad_out);
+  REQUIRE(same_bits(r.out, cpu.out));  // the CPU's pairs and blends, bit for bit
+  require_close(r, cpu);
+}
+
+}  // namespace
+
+TEST_CASE("GPU antialias uploads a caller's topology once while it is the same and again for another one",
+          "[vulkan]") {
+  if (!shared_gpu()) return;
+  const Case c{perspective(make_icosphere(2), 1.0, 3.0), 64, 56, 3};
+  const std::int64_t M = static_cast<std::int64_t>(c.scene.tris.size() / 3);
+  const std::vector<float> image = random_values(values(c), 21), grad_out = random_values(values(c), 22);
+  const EdgeTopology first = build_edge_topology(c.scene.tris.data(), M);
+  const EdgeTopology second = build_edge_topology(c.scene.tris.data(), M);  // the same content, another serial
+  const EdgeTopology copy = first;                                          // the same serial
+  REQUIRE(first.serial() != second.serial());
+  REQUIRE(copy.serial() == first.serial());
+  vulkan::Frame frame(shared_gpu());
+  frame.rasterize(c.scene.params(c.W, c.H));
+  const std::int64_t bytes = 3 * M * 4;
+  struct Step {
+    const EdgeTopology* topology;
+    std::int64_t uploads;  // so far, after the step
+  };
+  // Each antialias_on runs the forward once (the adjoint uploads nothing).
+  const Step steps[] = {{&first, 1}, {&first, 1}, {&copy, 1}, {&second, 2}, {&second, 2}, {&copy, 3}, {&first, 3}};
+  for (const Step& step : steps) {
+    const Result r = antialias_on(frame, c, image, grad_out, step.topology);
+    CHECK(frame.topology_uploads().uploads == step.uploads);
+    CHECK(frame.topology_uploads().bytes == step.uploads * bytes);
+    require_same_as_new_frame_and_cpu(r, c, image, grad_out, step.topology);
+  }
+  // A new G-buffer of the same triangles keeps the device's copy.
+  frame.rasterize(c.scene.params(c.W, c.H));
+  require_same_as_new_frame_and_cpu(antialias_on(frame, c, image, grad_out, &first), c, image, grad_out, &first);
+  CHECK(frame.topology_uploads().uploads == 3);
+}
+
+TEST_CASE("GPU antialias's own topology and a caller's replace each other on the device", "[vulkan]") {
+  if (!shared_gpu()) return;
+  const Case sphere{perspective(make_icosphere(2), 1.0, 3.0), 64, 56, 3};
+  const Case torus{perspective(make_torus(24, 12), 1.0, 2.2), 64, 56, 3};
+  const std::vector<float> image = random_values(values(sphere), 23), grad_out = random_values(values(sphere), 24);
+  const EdgeTopology sphere_topology =
+      build_edge_topology(sphere.scene.tris.data(), static_cast<std::int64_t>(sphere.scene.tris.size() / 3));
+  vulkan::Frame frame(shared_gpu());
+  struct Step {
+    const Case* c;
+    const EdgeTopology* topology;  // null: the frame's own
+    std::int64_t uploads;          // so far, after the step
+  };
+  const Step steps[] = {{&sphere, nullptr, 1},          {&sphere, nullptr, 1},         {&sphere, &sphere_topology, 2},
+                        {&sphere, &sphere_topology, 2}, {&sphere, nullptr, 3},         {&sphere, &sphere_topology, 4},
+                        {&torus, nullptr, 5},           {&sphere, &sphere_topology, 6}, {&sphere, nullptr, 7},
+                        {&sphere, nullptr, 7}};
+  for (const Step& step : steps) {
+    INFO("step " << (&step - steps));
+    frame.rasterize(step.c->scene.params(step.c->W, step.c->H));
+    const Result r = antialias_on(frame, *step.c, image, grad_out, step.topology);
+    CHECK(frame.topology_uploads().uploads == step.uploads);
+    require_same_as_new_frame_and_cpu(r, *step.c, image, grad_out, step.topology);
+  }
+}
+
+TEST_CASE("GPU antialias keeps a caller's topology across a loaded G-buffer", "[vulkan]") {
+  if (!shared_gpu()) return;
+  const Case c{perspective(make_icosphere(2), 1.0, 3.0), 48, 40, 2};
+  const std::int64_t M = static_cast<std::int64_t>(c.scene.tris.size() / 3);
+  const EdgeTopology topology = build_edge_topology(c.scene.tris.data(), M);
+  const std::vector<float> image = random_values(values(c), 25), grad_out = random_values(values(c), 26);
+  const CpuGBuffer gb = cpu_gbuffer(c.scene, c.W, c.H, false);
+  std::vector<float> depth(static_cast<std::size_t>(c.W) * c.H);
+  for (std::size_t q = 0; q < depth.size(); ++q) depth[q] = gb.rast[4 * q + 2];
+  vulkan::Frame frame(shared_gpu());
+  for (int call = 0; call < 3; ++call) {
+    frame.load_gbuffer(c.scene.params(c.W, c.H), {}, gb.id.data(), nullptr, 2, depth.data(), nullptr);
+    const Result r = antialias_on(frame, c, image, grad_out, &topology);
+    CHECK(frame.topology_uploads().uploads == 1);
+    require_same_as_new_frame_and_cpu(r, c, image, grad_out, &topology);
+  }
+}
