@@ -101,16 +101,17 @@ PYBIND11_MODULE(_core, m) {
       // What its backend did with the G-buffers (vulkan::residency_stats;
       // all 0 for a CPU context): made and kept, calls that read a kept one,
       // calls that uploaded one, frames made; antialias calls that uploaded
-      // the edge topology, and its bytes.
+      // the edge topology, and its bytes; triangle lists uploaded, and their bytes.
       .def_property_readonly("residency", [](const Context& ctx) {
         py::dict out;
         std::int64_t gbuffers = 0, resident_calls = 0, uploads = 0, frames = 0, topology_uploads = 0,
-                     topology_bytes = 0;
+                     topology_bytes = 0, triangle_uploads = 0, triangle_bytes = 0;
 #ifdef GRADRASTER_HAS_VULKAN
         if (ctx.gpu) {
           const gr::vulkan::ResidencyStats s = gr::vulkan::residency_stats(*ctx.backend);
           gbuffers = s.gbuffers, resident_calls = s.resident_calls, uploads = s.uploads, frames = s.frames;
           topology_uploads = s.topology_uploads, topology_bytes = s.topology_bytes;
+          triangle_uploads = s.triangle_uploads, triangle_bytes = s.triangle_bytes;
         }
 #endif
         out["gbuffers"] = gbuffers;
@@ -119,6 +120,8 @@ PYBIND11_MODULE(_core, m) {
         out["frames"] = frames;
         out["topology_uploads"] = topology_uploads;
         out["topology_bytes"] = topology_bytes;
+        out["triangle_uploads"] = triangle_uploads;
+        out["triangle_bytes"] = triangle_bytes;
         return out;
       })
       // What its device did with the textures' texels (vulkan::texture_residency;

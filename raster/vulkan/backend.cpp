@@ -183,7 +183,7 @@ class VulkanBackend : public raster::RasterBackend {
                          float* out) const override {
     std::lock_guard<std::mutex> lock(mutex_);
     Frame& f = for_antialias(resident, p);
-    const TopologyUploads before = f.topology_uploads();
+    const Uploads before = f.topology_uploads();
     f.antialias(p.image, p.channels, out, p.topology, p.visibility);
     count_topology_uploads(f, before);
     return true;
@@ -192,7 +192,7 @@ class VulkanBackend : public raster::RasterBackend {
                           const float* grad_out, const raster::AntialiasGrads<float>& grads) const override {
     std::lock_guard<std::mutex> lock(mutex_);
     Frame& f = for_antialias(resident, p);
-    const TopologyUploads before = f.topology_uploads();
+    const Uploads before = f.topology_uploads();
     f.antialias(p.image, p.channels, nullptr, p.topology, p.visibility);  // the pairs, on the device
     count_topology_uploads(f, before);
     f.antialias_backward(grad_out, grads.image, grads.clip);
@@ -223,6 +223,14 @@ class VulkanBackend : public raster::RasterBackend {
     std::lock_guard<std::mutex> lock(mutex_);
     ResidencyStats s = stats_;
     s.frames = pool_.frames();
+    Uploads tris = pool_.triangle_uploads();
+    if (scratch_) {
+      const Uploads u = scratch_->triangle_uploads();
+      tris.uploads += u.uploads;
+      tris.bytes += u.bytes;
+    }
+    s.triangle_uploads = tris.uploads;
+    s.triangle_bytes = tris.bytes;
     return s;
   }
   void reserve_frames(int frames) const {
@@ -269,8 +277,8 @@ class VulkanBackend : public raster::RasterBackend {
     return f;
   }
   // Adds what f's antialias uploaded of the edge topology since `before`.
-  void count_topology_uploads(const Frame& f, const TopologyUploads& before) const {
-    const TopologyUploads now = f.topology_uploads();
+  void count_topology_uploads(const Frame& f, const Uploads& before) const {
+    const Uploads now = f.topology_uploads();
     stats_.topology_uploads += now.uploads - before.uploads;
     stats_.topology_bytes += now.bytes - before.bytes;
   }

@@ -42,6 +42,10 @@ struct ResidencyStats {
   // the last one it uploaded (Frame::antialias), so the same EdgeTopology on the same frame goes up once.
   std::int64_t topology_uploads = 0;
   std::int64_t topology_bytes = 0;
+  // Triangle lists uploaded by the frames' rasterize and G-buffer loads, and their bytes: each frame keeps the
+  // last one (Frame::triangle_uploads), so a mesh whose triangles stay the same goes up once per frame.
+  std::int64_t triangle_uploads = 0;
+  std::int64_t triangle_bytes = 0;
 };
 // ValueError if `backend` is not one of raster_backend's.
 ResidencyStats residency_stats(const raster::RasterBackend& backend);

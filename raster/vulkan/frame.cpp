@@ -93,7 +93,11 @@ struct Frame::State {
   std::vector<std::int32_t> tris;
   bool topology_ready = false;
   std::uint64_t neighbour_serial = 0;
-  TopologyUploads topology_uploads;
+  Uploads topology_uploads;
+  // kTris holds `tris` (a mesh's triangles stay the same call after call:
+  // they go up once, issue 33).
+  bool tris_on_device = false;
+  Uploads triangle_uploads;
 
   Buffer& operator[](Role r) { return buffers[r]; }
   std::int64_t pixels() const { return static_cast<std::int64_t>(width) * height; }
@@ -124,6 +128,22 @@ struct Frame::State {
     if (tris.size() == n && (n == 0 || std::memcmp(tris.data(), t, n * sizeof(std::int32_t)) == 0)) return;
     tris.assign(t, t + n);
     topology_ready = false;
+    tris_on_device = false;
+  }
+  // The bytes of the triangle list this call uploads into kTris (0: it holds
+  // them already); kTris is sized, and marked stale until finish_triangles.
+  std::size_t triangles_to_upload() {
+    const std::size_t bytes = tris.size() * sizeof(std::int32_t);
+    if (tris_on_device) return 0;
+    reserve(kTris, bytes);
+    return bytes;
+  }
+  // After the upload of `bytes` (from triangles_to_upload) went through.
+  void finish_triangles(std::size_t bytes) {
+    if (tris_on_device) return;
+    tris_on_device = true;
+    ++triangle_uploads.uploads;
+    triangle_uploads.bytes += static_cast<std::int64_t>(bytes);
   }
   void use(VkCommandBuffer cb, VkDescriptorSet set) {
     vkCmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_COMPUTE, k.pipelines.layout(), 0, 1, &set, 0, nullptr);
@@ -268,7 +288,7 @@ GpuTimes Frame::rasterize_into(const raster::RasterParams<float>& p, const GpuRa
   s.begin_gbuffer(p, options.y_up, !coverage && options.derivatives);
   const std::size_t px = static_cast<std::size_t>(s.pixels());
   const std::size_t clip_bytes = static_cast<std::size_t>(p.num_vertices) * 4 * sizeof(float);
-  const std::size_t tri_bytes = static_cast<std::size_t>(p.num_tris) * 3 * sizeof(std::int32_t);
+  const std::size_t tri_bytes = s.triangles_to_upload();
   // Per pixel: tri_id, then uv and depth (coverage) or rast and db.
   const std::size_t values[3] = {1, coverage ? std::size_t(2) : std::size_t(4), coverage ? std::size_t(1) : std::size_t(4)};
   const Role roles[3] = {kTriId, coverage ? kUv : kRast, coverage ? kDepth : kDb};
@@ -282,7 +302,6 @@ GpuTimes Frame::rasterize_into(const raster::RasterParams<float>& p, const GpuRa
   const std::size_t floor_at = aligned(clip_bytes + tri_bytes);
   const std::size_t key_at = aligned(out_bytes[0] + out_bytes[1] + out_bytes[2]);
   s.reserve(kClip, clip_bytes);
-  s.reserve(kTris, tri_bytes);
   s.reserve(kVerts, static_cast<std::size_t>(p.num_vertices) * 32);
   s.reserve(kKeys, px * sizeof(std::uint64_t));
   s.reserve(kIds, px * sizeof(std::int32_t));
@@ -357,6 +376,7 @@ GpuTimes Frame::rasterize_into(const raster::RasterParams<float>& p, const GpuRa
     barrier(cb);
     s.timestamps.stamp(cb, last);
   });
+  s.finish_triangles(tri_bytes);
   const char* from = static_cast<const char*>(s.download.mapped());
   for (int i = 0; i < 3; ++i) {
     if (out_bytes[i]) std::memcpy(outs[i], from, out_bytes[i]);
@@ -388,12 +408,11 @@ GpuTimes Frame::load_gbuffer(const raster::RasterParams<float>& p, const GpuRast
   s.begin_gbuffer(p, options.y_up, options.derivatives);
   s.topology_ready = false;  // the caller's triangles may come with another topology
   const std::size_t clip_bytes = static_cast<std::size_t>(p.num_vertices) * 4 * sizeof(float);
-  const std::size_t tri_bytes = static_cast<std::size_t>(p.num_tris) * 3 * sizeof(std::int32_t);
+  const std::size_t tri_bytes = s.triangles_to_upload();
   const std::size_t id_bytes = static_cast<std::size_t>(px) * sizeof(std::int32_t);
   const std::size_t plane = static_cast<std::size_t>(px) * 4 * sizeof(float);
   const std::size_t db_bytes = db ? plane : 0;
   s.reserve(kClip, clip_bytes);
-  s.reserve(kTris, tri_bytes);
   s.reserve(kVerts, static_cast<std::size_t>(p.num_vertices) * 32);
   s.reserve(kKeys, 16);
   s.reserve(kIds, 16);
@@ -436,6 +455,7 @@ GpuTimes Frame::load_gbuffer(const raster::RasterParams<float>& p, const GpuRast
     barrier(cb);
     s.timestamps.stamp(cb, 2);
   });
+  s.finish_triangles(tri_bytes);
   s.rasterized = true;
   return s.timestamps.read();
 }
@@ -696,9 +716,14 @@ GpuTimes Frame::antialias_backward(const float* grad_out, float* grad_image, flo
   return s.timestamps.read();
 }
 
-TopologyUploads Frame::topology_uploads() const {
+Uploads Frame::topology_uploads() const {
   std::lock_guard<std::mutex> lock(state_->dev.mutex);
   return state_->topology_uploads;
+}
+
+Uploads Frame::triangle_uploads() const {
+  std::lock_guard<std::mutex> lock(state_->dev.mutex);
+  return state_->triangle_uploads;
 }
 
 void Frame::discard_gbuffer_gradient() {

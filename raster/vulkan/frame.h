@@ -34,8 +34,9 @@
 
 namespace gr::vulkan {
 
-// What a Frame's antialias calls uploaded of the edge topology, for tests and profiling.
-struct TopologyUploads {
+// What a Frame uploaded of one kind of mesh data (the edge topology, the
+// triangle list): how many uploads and their bytes, for tests and profiling.
+struct Uploads {
   std::int64_t uploads = 0;
   std::int64_t bytes = 0;
 };
@@ -152,7 +153,12 @@ class Frame {
 
   // The edge topologies antialias uploaded so far (the caller's and the
   // frame's own): how many, and their bytes (4 per edge).
-  TopologyUploads topology_uploads() const;
+  Uploads topology_uploads() const;
+  // The triangle lists rasterize and load_gbuffer uploaded so far: a frame
+  // keeps the last one on the device and uploads p.tris only when it differs
+  // (compared with the frame's host copy), so a mesh whose triangles stay
+  // the same goes up once per frame.
+  Uploads triangle_uploads() const;
 
  private:
   struct State;

@@ -39,6 +39,16 @@ void FramePool::tag(Frame& frame, std::uint64_t serial, std::weak_ptr<const void
     }
 }
 
+Uploads FramePool::triangle_uploads() const {
+  Uploads sum;
+  for (const Slot& s : slots_) {
+    const Uploads u = s.frame->triangle_uploads();
+    sum.uploads += u.uploads;
+    sum.bytes += u.bytes;
+  }
+  return sum;
+}
+
 Frame* FramePool::find(std::uint64_t serial) {
   if (serial == 0) return nullptr;
   for (Slot& s : slots_)

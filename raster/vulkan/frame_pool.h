@@ -28,6 +28,8 @@ class FramePool {
   // The frame still holding serial's G-buffer (now the most recently used), or null.
   Frame* find(std::uint64_t serial);
   int frames() const { return static_cast<int>(slots_.size()); }
+  // The triangle lists its frames uploaded (Frame::triangle_uploads), summed.
+  Uploads triangle_uploads() const;
   int capacity() const { return capacity_; }
   // Lets the pool hold `capacity` frames from now on, if that is more (never fewer).
   void reserve(int capacity) { capacity_ = capacity > capacity_ ? capacity : capacity_; }

@@ -60,9 +60,11 @@ def scene(images):
 
 def kept(tri, gbuffers, resident_calls, frames):
     """ctx.residency when every call read a kept G-buffer and each frame ran antialias on tri: the edge topology
-    (built once, _topologies.py) went up once per frame (the adjoint's antialias reuses it), 4 bytes per edge."""
+    (built once, _topologies.py) went up once per frame (the adjoint's antialias reuses it), 4 bytes per edge, and
+    so did the triangle list (each frame keeps the last one it uploaded), 12 bytes per triangle."""
     return {'gbuffers': gbuffers, 'resident_calls': resident_calls, 'uploads': 0, 'frames': frames,
-            'topology_uploads': frames, 'topology_bytes': frames * 12 * tri.shape[0]}
+            'topology_uploads': frames, 'topology_bytes': frames * 12 * tri.shape[0],
+            'triangle_uploads': frames, 'triangle_bytes': frames * 12 * tri.shape[0]}
 
 
 def test_the_chain_reads_the_kept_gbuffers_with_no_upload_and_gives_the_cpu_contexts_values_and_gradients():
@@ -167,7 +169,7 @@ def test_a_range_of_all_triangles_is_kept_and_a_range_of_some_is_uploaded():
         assert ctx.residency['uploads'] + ctx.residency['resident_calls'] == 2 * 5
 
 
-def test_repeated_renders_of_one_mesh_upload_its_edge_topology_once_per_frame():
+def test_repeated_renders_of_one_mesh_upload_its_edge_topology_and_triangles_once_per_frame():
     pos, tri, attr = scene(1)
     ctx = vulkan_context()
     cpu = dr.RasterizeCpuContext()
@@ -177,17 +179,20 @@ def test_repeated_renders_of_one_mesh_upload_its_edge_topology_once_per_frame():
     assert stats['uploads'] == 0
     assert stats['topology_uploads'] == stats['frames'] < 2 * 4  # not once per antialias call, forward or backward
     assert stats['topology_bytes'] == stats['frames'] * 12 * tri.shape[0]
+    assert stats['triangle_uploads'] == stats['frames']  # not once per rasterize
+    assert stats['triangle_bytes'] == stats['frames'] * 12 * tri.shape[0]
 
 
-def test_a_written_tri_uploads_its_new_edge_topology():
+def test_a_written_tri_uploads_its_new_edge_topology_and_triangles():
     pos, tri, attr = scene(1)
     ctx = vulkan_context()
     chain(ctx, pos, tri, attr)
-    before = ctx.residency['topology_uploads']
+    before = ctx.residency
     with torch.no_grad():
         tri.data[:] = tri.flip(0).clone()  # the same triangles in another order: another adjacency
     compare(chain(ctx, pos, tri, attr), chain(dr.RasterizeCpuContext(), pos, tri, attr))
-    assert ctx.residency['topology_uploads'] == before + 1
+    assert ctx.residency['topology_uploads'] == before['topology_uploads'] + 1
+    assert ctx.residency['triangle_uploads'] == before['triangle_uploads'] + 1
 
 
 def test_frames_must_be_none_or_a_positive_integer():

@@ -215,7 +215,9 @@ class RasterizeVulkanContext(RasterizeCpuContext):
         'resident_calls' (interpolate, antialias, rasterize backward, per image) that read a kept one, 'uploads'
         (such calls that uploaded rast instead: changed tensors, or let go), 'frames' made, 'topology_uploads'
         (antialias calls, forward or backward, per image, that uploaded the edge topology: each frame keeps the last
-        one) and 'topology_bytes' (docs/python.md, "Vulkan")."""
+        one), 'topology_bytes', 'triangle_uploads' (rasterize calls, per image, that uploaded tri, and G-buffer
+        uploads that did: each frame keeps the last triangle list it uploaded, so an unchanged tri goes up once per
+        frame) and 'triangle_bytes' (docs/python.md, "Vulkan")."""
         return dict(self.cpp_wrapper.residency)
 
     @property

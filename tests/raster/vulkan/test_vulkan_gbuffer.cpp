@@ -171,3 +171,46 @@ TEST_CASE("the GPU's G-buffer refuses db without derivatives and an adjoint befo
   REQUIRE_THROWS_WITH(frame.rasterize_backward(grad.data(), db.data(), grad_clip.data()),
                       Catch::Contains("without derivatives"));
 }
+
+TEST_CASE("the GPU's frame uploads a mesh's triangle list once while it stays the same and again when it changes",
+          "[vulkan]") {
+  if (!shared_gpu()) return;
+  Scene sphere = perspective(make_icosphere(3), 1.0, 3.0);
+  const Scene torus = perspective(make_torus(40, 20), 1.0, 2.2);
+  const std::int64_t sphere_bytes = static_cast<std::int64_t>(sphere.tris.size()) * 4;
+  const int W = 72, H = 64;
+  vulkan::Frame frame(shared_gpu());
+  // Every step's G-buffer is the CPU kernels', bit for bit, whether the triangles went up or not.
+  auto rasterize_and_check = [&](const Scene& s, std::int64_t uploads_after) {
+    const CpuGBuffer cpu = cpu_gbuffer(s, W, H, false, true);
+    CpuGBuffer gpu{std::vector<std::int32_t>(cpu.id.size(), -7), std::vector<float>(cpu.rast.size(), -7.f),
+                   std::vector<float>(cpu.db.size(), -7.f)};
+    frame.rasterize(s.params(W, H), options_for(false, true), gpu.id.data(), gpu.rast.data(), gpu.db.data());
+    CHECK(differing(gpu.id, cpu.id) == 0);
+    CHECK(differing(gpu.rast, cpu.rast) == 0);
+    CHECK(differing(gpu.db, cpu.db) == 0);
+    CHECK(frame.triangle_uploads().uploads == uploads_after);
+  };
+  rasterize_and_check(sphere, 1);
+  rasterize_and_check(sphere, 1);  // the same triangles: kept
+  CHECK(frame.triangle_uploads().bytes == sphere_bytes);
+  for (std::size_t i = 0; i < sphere.clip.size(); i += 4) sphere.clip[i] += 0.05f;  // moved vertices, same triangles
+  rasterize_and_check(sphere, 1);
+  rasterize_and_check(torus, 2);
+  rasterize_and_check(sphere, 3);
+  std::swap(sphere.tris[0], sphere.tris[1]);  // the same array written in place: its winding flips
+  rasterize_and_check(sphere, 4);
+  // A G-buffer loaded from the host keeps the device's triangles too, and its adjoint reads them.
+  const CpuGBuffer cpu = cpu_gbuffer(sphere, W, H, false, false);
+  std::vector<float> depth(static_cast<std::size_t>(W) * H);
+  for (std::size_t q = 0; q < depth.size(); ++q) depth[q] = cpu.rast[4 * q + 2];
+  const std::vector<float> grad = random_values(4 * W * H, 7);
+  std::vector<float> loaded(sphere.clip.size()), rasterized(sphere.clip.size());
+  frame.load_gbuffer(sphere.params(W, H), {}, cpu.id.data(), cpu.rast.data(), 4, depth.data(), nullptr);
+  CHECK(frame.triangle_uploads().uploads == 4);
+  frame.rasterize_backward(grad.data(), nullptr, loaded.data());
+  vulkan::Frame fresh(shared_gpu());
+  fresh.rasterize(sphere.params(W, H));
+  fresh.rasterize_backward(grad.data(), nullptr, rasterized.data());
+  CHECK(differing(loaded, rasterized) == 0);
+}
