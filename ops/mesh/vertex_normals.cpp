@@ -1,22 +1,202 @@
-// Vertex normals as a composite of gather, cross, scatter_add and normalize
-// (deterministic as they are: scatter_add adds duplicates in a fixed order).
+// Vertex normals: normalize (ops/tensor/vector.h) of the per-vertex sums of
+// the faces' cross products. The sums are one recorded op, forward and
+// adjoint side by side below (issue 31: as a composite of gathers, cross,
+// concat and scatter_add it built four index lists and seven temporaries per
+// call, about a tenth of the fit example's per-iteration work).
 #include "ops/mesh/vertex_normals.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <limits>
+#include <memory>
+#include <mutex>
 #include <string>
+#include <vector>
 
+#include "autodiff/base/dtype.h"
 #include "autodiff/base/error.h"
-
+#include "autodiff/base/parallel.h"
+#include "autodiff/tape.h"
 #include "ops/mesh/topology.h"
-#include "ops/tensor/shape_ops.h"
-#include "ops/tensor/elementwise.h"
+#include "ops/render/tensor_stamp.h"
+#include "raster/detail/buckets.h"
 
 namespace gr {
 namespace {
 
-// Column k of an int32 [F, 3] triangle list as an [F] index tensor.
-Tensor corner(const Tensor& triangles, int k) {
-  return reshape(slice(triangles, 1, k, k + 1), {triangles.size(0)});
+// Corner j = k F + f is corner k of face f (the three corner columns one after
+// another). corners.item lists each vertex's corners in ascending j: the
+// order in which a scatter_add of the columns adds them, kept so that the
+// sums are that composite's bits.
+struct NormalSumParams {
+  std::int64_t faces = 0, vertices = 0;
+  const std::int32_t* tris = nullptr;  // [F, 3]
+  std::shared_ptr<const raster::detail::Buckets> corners;
+  std::int64_t face_of(std::int64_t j) const { return j - faces * ((j >= faces) + (j >= 2 * faces)); }
+};
+
+// The corner lists of the last few triangle lists: a fit calls vertex_normals
+// with the same triangles at every iteration. An entry is used only while its
+// triangles are the tensor it was built from, unwritten since (TensorStamp);
+// stale entries are dropped at the next call.
+class CornerCache {
+ public:
+  std::shared_ptr<const raster::detail::Buckets> get(const Tensor& triangles, std::int64_t vertices) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      entries_.erase(std::remove_if(entries_.begin(), entries_.end(), [](const Entry& e) { return e.stamp.stale(); }),
+                     entries_.end());
+      for (std::size_t i = 0; i < entries_.size(); ++i)
+        if (entries_[i].vertices == vertices && entries_[i].stamp.matches(triangles)) {
+          std::rotate(entries_.begin(), entries_.begin() + i, entries_.begin() + i + 1);  // most recent first
+          return entries_.front().corners;
+        }
+    }
+    Entry e{detail::TensorStamp::of(triangles), vertices, build(triangles, vertices)};
+    std::lock_guard<std::mutex> lock(mutex_);
+    entries_.insert(entries_.begin(), e);
+    if (entries_.size() > kEntries) entries_.pop_back();
+    return e.corners;
+  }
+
+ private:
+  static constexpr std::size_t kEntries = 4;
+  struct Entry {
+    detail::TensorStamp stamp;
+    std::int64_t vertices;
+    std::shared_ptr<const raster::detail::Buckets> corners;
+  };
+  static std::shared_ptr<const raster::detail::Buckets> build(const Tensor& triangles, std::int64_t vertices) {
+    const std::int64_t F = triangles.size(0);
+    const std::int32_t* t = triangles.data<std::int32_t>();
+    auto corners = std::make_shared<raster::detail::Buckets>();
+    guard_allocation("vertex_normals", [&] {
+      std::vector<std::int32_t> column_major(static_cast<std::size_t>(3 * F));
+      for (int k = 0; k < 3; ++k)
+        for (std::int64_t f = 0; f < F; ++f) column_major[k * F + f] = t[3 * f + k];
+      raster::detail::bucket_items(3 * F, vertices, [&](std::int64_t j) { return column_major[j]; }, corners.get());
+    });
+    return corners;
+  }
+  std::mutex mutex_;
+  std::vector<Entry> entries_;
+};
+
+NormalSumParams normal_sum_params(const Tensor& triangles, std::int64_t vertices) {
+  static CornerCache cache;
+  NormalSumParams p;
+  p.faces = triangles.size(0);
+  p.vertices = vertices;
+  p.tris = triangles.data<std::int32_t>();
+  if (3 * p.faces > std::numeric_limits<std::int32_t>::max())
+    throw ValueError("vertex_normals: argument 'triangles' has " + std::to_string(p.faces) +
+                     " faces, more than 2^31 / 3 corners can number");
+  p.corners = cache.get(triangles, vertices);
+  return p;
+}
+
+// Faces per parallel chunk (about 30 flops each) and vertices (about six corners each).
+constexpr std::int64_t kFaceGrain = kElementwiseGrain / 8;
+constexpr std::int64_t kVertexGrain = kElementwiseGrain / 8;
+
+// s_v = sum over v's corners (ascending j) of n_f = (p1 - p0) x (p2 - p0),
+// all in T with cross's expressions (ops/tensor/vector.cpp); 0 for a vertex of no face.
+template <class T>
+void normal_sums_forward(const NormalSumParams& p, const T* positions, T* out) {
+  std::vector<T> face(static_cast<std::size_t>(3 * p.faces));
+  parallel_for(0, p.faces, kFaceGrain, [&](std::int64_t lo, std::int64_t hi) {
+    for (std::int64_t f = lo; f < hi; ++f) {
+      const T *p0 = positions + 3 * p.tris[3 * f], *p1 = positions + 3 * p.tris[3 * f + 1],
+              *p2 = positions + 3 * p.tris[3 * f + 2];
+      const T u[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
+      const T v[3] = {p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]};
+      T* n = face.data() + 3 * f;
+      n[0] = u[1] * v[2] - u[2] * v[1];
+      n[1] = u[2] * v[0] - u[0] * v[2];
+      n[2] = u[0] * v[1] - u[1] * v[0];
+    }
+  });
+  const raster::detail::Buckets& c = *p.corners;
+  parallel_for(0, p.vertices, kVertexGrain, [&](std::int64_t lo, std::int64_t hi) {
+    for (std::int64_t v = lo; v < hi; ++v) {
+      T s[3] = {0, 0, 0};
+      for (std::int64_t e = c.start[v]; e < c.start[v + 1]; ++e) {
+        const T* n = face.data() + 3 * p.face_of(c.item[e]);
+        for (int d = 0; d < 3; ++d) s[d] += n[d];
+      }
+      for (int d = 0; d < 3; ++d) out[3 * v + d] = s[d];
+    }
+  });
+}
+
+// The adjoint for g = dL/ds [V, 3], into grad [V, 3] (overwritten): face f
+// gets G_f = g_0 + g_1 + g_2 (its corners' g); with u = p1 - p0, v = p2 - p0
+// and g . (u x v) = u . (v x g) = v . (g x u), dL/dp1 = v x G, dL/dp2 = G x u
+// and dL/dp0 = -(both). Each vertex sums its corners' terms in double, in
+// ascending j (thread-count independent), rounded once.
+template <class T>
+void normal_sums_backward(const NormalSumParams& p, const T* positions, const T* g, T* grad) {
+  const std::int64_t F = p.faces;
+  std::vector<double> term(static_cast<std::size_t>(9 * F));  // corner j's term at 3 j
+  parallel_for(0, F, kFaceGrain, [&](std::int64_t lo, std::int64_t hi) {
+    for (std::int64_t f = lo; f < hi; ++f) {
+      const std::int32_t* t = p.tris + 3 * f;
+      const T *p0 = positions + 3 * t[0], *p1 = positions + 3 * t[1], *p2 = positions + 3 * t[2];
+      double u[3], v[3], G[3];
+      for (int d = 0; d < 3; ++d) {
+        u[d] = p1[d] - p0[d];  // in T, as the forward
+        v[d] = p2[d] - p0[d];
+        G[d] = (static_cast<double>(g[3 * t[0] + d]) + g[3 * t[1] + d]) + g[3 * t[2] + d];
+      }
+      const double d1[3] = {v[1] * G[2] - v[2] * G[1], v[2] * G[0] - v[0] * G[2], v[0] * G[1] - v[1] * G[0]};
+      const double d2[3] = {G[1] * u[2] - G[2] * u[1], G[2] * u[0] - G[0] * u[2], G[0] * u[1] - G[1] * u[0]};
+      double* t0 = term.data() + 3 * f;
+      double* t1 = term.data() + 3 * (F + f);
+      double* t2 = term.data() + 3 * (2 * F + f);
+      for (int d = 0; d < 3; ++d) {
+        t0[d] = -(d1[d] + d2[d]);
+        t1[d] = d1[d];
+        t2[d] = d2[d];
+      }
+    }
+  });
+  const raster::detail::Buckets& c = *p.corners;
+  parallel_for(0, p.vertices, kVertexGrain, [&](std::int64_t lo, std::int64_t hi) {
+    for (std::int64_t v = lo; v < hi; ++v) {
+      double s[3] = {0, 0, 0};
+      for (std::int64_t e = c.start[v]; e < c.start[v + 1]; ++e) {
+        const double* t = term.data() + 3 * static_cast<std::int64_t>(c.item[e]);
+        for (int d = 0; d < 3; ++d) s[d] += t[d];
+      }
+      for (int d = 0; d < 3; ++d) grad[3 * v + d] = static_cast<T>(s[d]);
+    }
+  });
+}
+
+// The recorded op: [V, 3] sums of the face normals at each vertex.
+Tensor normal_sums(const Tensor& positions, const Tensor& triangles) {
+  const NormalSumParams p = normal_sum_params(triangles, positions.size(0));
+  Tensor out = Tensor::empty(positions.shape(), positions.dtype());
+  dispatch_float(positions.dtype(), "vertex_normals", [&](auto tag) {
+    using T = decltype(tag);
+    normal_sums_forward<T>(p, positions.data<T>(), out.data<T>());
+  });
+  if (should_record({positions})) {
+    // triangles: no gradient, checked for in-place writes (autodiff/tape.h).
+    record("vertex_normal_sums", {positions, triangles}, {&out},
+           [p, values = positions.detach(), triangles](AdjointContext& ctx) {
+             const Tensor& g = ctx.grad_output();
+             if (!g.defined() || !ctx.needs_grad(0)) return;
+             Tensor grad = Tensor::empty(values.shape(), values.dtype());
+             dispatch_float(values.dtype(), "vertex_normals", [&](auto tag) {
+               using T = decltype(tag);
+               normal_sums_backward<T>(p, values.data<T>(), g.data<T>(), grad.data<T>());
+             });
+             ctx.accumulate(0, grad);
+           });
+  }
+  return out;
 }
 
 }  // namespace
@@ -25,12 +205,7 @@ Tensor vertex_normals(const Tensor& positions, const Tensor& triangles, double e
   detail::check_mesh(positions, triangles, "vertex_normals");
   if (!(eps > 0) || !std::isfinite(eps))
     throw ValueError("vertex_normals: argument 'eps' must be positive and finite, got " + std::to_string(eps));
-  const Tensor i0 = corner(triangles, 0), i1 = corner(triangles, 1), i2 = corner(triangles, 2);
-  const Tensor p0 = gather(positions, i0);
-  const Tensor face = cross(gather(positions, i1) - p0, gather(positions, i2) - p0);  // [F, 3]
-  const Tensor corners = concat({i0, i1, i2}, 0);                                     // [3F]
-  const Tensor summed = scatter_add(concat({face, face, face}, 0), corners, positions.size(0));
-  return normalize(summed, eps);
+  return normalize(normal_sums(positions, triangles), eps);
 }
 
 }  // namespace gr
