@@ -10,6 +10,7 @@
 #include "ops/tensor/broadcast.h"
 #include "ops/check.h"
 #include "ops/tensor/fused_rows.h"
+#include "ops/tensor/fused_rows_program.h"
 #include "ops/tensor/reduce.h"
 
 namespace gr {
@@ -95,14 +96,31 @@ std::vector<Tensor> block_shared(const std::vector<Tensor>& shared, bool leaves)
   return out;
 }
 
-// f called on block 0, and its fused program (null if f is not replayable or
-// fusion is off). With gradients on, the block runs on a private tape with the
+// f's trace: f called on the first `rows` rows of block 0 (the trace block),
+// and its fused program (null if f is not replayable or fusion is off). The
+// trace block is the first rows holding at least kTraceLanes pixels (or all of
+// block 0): f's ops cost per call plus per pixel, and the fused interpreter
+// replays the per-pixel part faster, so the whole of block 0 was paid twice
+// over at small sizes (issue 31). With gradients on, the block runs on a private tape with the
 // inputs needing a gradient as leaves, so a value f computes from them by an
 // op the trace does not know is never taken for a constant.
+constexpr std::int64_t kTraceLanes = detail::kLanes;  // one chunk of the interpreter
+
 struct Probe {
-  Tensor first;
+  Tensor first;       // f's output for the trace block (detached)
+  std::int64_t rows;  // the trace block's rows
   std::shared_ptr<const detail::FusedRows> fused;
 };
+
+// Rows of the trace block: rows[0]'s pixels per row (its axes but the first
+// and the last), enough for kTraceLanes, within block 0.
+std::int64_t trace_rows(const std::vector<Tensor>& rows, const Blocks& blocks) {
+  const Tensor& r = rows[0];
+  const std::int64_t n = blocks.rows;
+  const std::int64_t per_row = r.rank() >= 2 && n > 0 && r.size(-1) > 0 ? r.numel() / (n * r.size(-1)) : 1;
+  const std::int64_t want = (kTraceLanes + std::max<std::int64_t>(1, per_row) - 1) / std::max<std::int64_t>(1, per_row);
+  return std::min(blocks.count == 0 ? 0 : blocks.hi(0), want);
+}
 
 Probe probe(const RowFunction& f, const std::vector<Tensor>& rows, const std::vector<Tensor>& shared, const Blocks& blocks,
             bool fuse) {
@@ -112,16 +130,18 @@ Probe probe(const RowFunction& f, const std::vector<Tensor>& rows, const std::ve
     tape.emplace();
   else
     no_grad.emplace();
-  const std::vector<Tensor> r0 = block_rows(rows, blocks, 0, true), s0 = block_shared(shared, true);
-  detail::FusionTrace trace;
   Probe p;
+  p.rows = trace_rows(rows, blocks);
+  const Blocks trace_block{p.rows, p.rows, 1};
+  const std::vector<Tensor> r0 = block_rows(rows, trace_block, 0, true), s0 = block_shared(shared, true);
+  detail::FusionTrace trace;
   try {
     p.first = f(r0, s0);
   } catch (const TapeError& e) {
     throw TapeError(std::string(kOp) + ": f used a recorded tensor it captured; pass it in `rows` or `shared` (" +
                     e.what() + ")");
   }
-  check_block_output(p.first, 0, blocks.count == 0 ? 0 : blocks.hi(0), Tensor());
+  check_block_output(p.first, 0, p.rows, Tensor());
   if (fuse) {
     std::vector<bool> rows_grad, shared_grad;
     for (const Tensor& r : rows) rows_grad.push_back(r.requires_grad());
@@ -156,14 +176,16 @@ Blocks check_inputs(const RowFunction& f, const std::vector<Tensor>& rows, const
   return Blocks{n, size, (n + size - 1) / size};
 }
 
-// map_rows once block 0 has run (probe).
+// map_rows once f's trace has run (probe): its output is block 0's when the
+// trace block was all of block 0; the other blocks (or all) run now.
 Tensor map_rows_probed(const Probe& p, const RowFunction& f, const std::vector<Tensor>& rows,
                        const std::vector<Tensor>& shared, const Blocks& blocks) {
   const std::int64_t n = blocks.rows;
   const std::shared_ptr<const detail::FusedRows> fused = p.fused;
   Tensor out = Tensor::empty(with_rows(p.first.shape(), n), p.first.dtype());
-  write_rows(out, p.first, 0, blocks.count == 0 ? 0 : blocks.hi(0));
-  parallel_for(1, blocks.count, 1, [&](std::int64_t b0, std::int64_t b1) {
+  const bool first_done = blocks.count == 0 || p.rows == blocks.hi(0);
+  if (first_done) write_rows(out, p.first, 0, p.rows);
+  parallel_for(first_done ? 1 : 0, blocks.count, 1, [&](std::int64_t b0, std::int64_t b1) {
     if (fused) {
       fused->forward(rows, out, blocks.lo(b0), blocks.hi(b1 - 1));
       return;

@@ -10,11 +10,12 @@
 // Rows are split along the first axis: [N, C] inputs into pixels, an image's
 // [H, W, C] into rows of pixels (the fused interpreter then works on pixels).
 //
-// Forward: f runs on the first block (block_rows rows; copies of the rows of
-// every `rows` input, the `shared` inputs whole) while its ops are traced.
+// Forward: f runs on the trace block (copies of the first rows of every `rows`
+// input holding 256 pixels, or all of the first block of block_rows rows if
+// that is less; the `shared` inputs whole) while its ops are traced.
 // When every op f used can be replayed (ops/tensor/fused_rows.h: the arithmetic
 // ops, minimum/maximum, pow with a number, dot and normalize, on rows, columns,
-// shared vectors and constants), the other blocks run that trace through the
+// shared vectors and constants), every block runs that trace through the
 // fused interpreter: one pass over the inputs in chunks of 256 pixels held in
 // cache, forward and, in the adjoint, forward again and backward. Otherwise f
 // is called on each block, without recording, blocks in parallel, and its
@@ -26,7 +27,7 @@
 // f must be row-wise (output row i depends only on row i of each `rows` input
 // and on the shared inputs), return one row per input row, do the same ops on
 // every block (no branching on values or on the block's size: the trace of
-// the first block stands for all), and be safe to call from several threads
+// the trace block stands for all), and be safe to call from several threads
 // at once. Then the output, and the gradients of the `rows` inputs, are
 // bit-identical to calling f on the whole inputs, fused or not; the shared
 // inputs' gradients are summed per block and then over blocks in order, so
@@ -34,7 +35,7 @@
 // up to rounding. Every differentiable value must enter f through `rows` or
 // `shared`: a recorded tensor captured by f throws TapeError. Small tensors f
 // creates itself (at most 64 elements, such as 0.5 or a fixed direction) are
-// constants, taken from the first block's call.
+// constants, taken from the trace block's call.
 #pragma once
 
 #include <functional>
@@ -75,7 +76,7 @@ Tensor map_rows_mean(const RowFunction& f, const std::vector<Tensor>& rows, cons
                      const MapRowsOptions& options = {});
 
 // Whether map_rows(f, rows, shared, options) would run the fused interpreter
-// (it calls f once on the first block, without recording on the thread's tape).
+// (it calls f once on the trace block, without recording on the thread's tape).
 bool map_rows_fuses(const RowFunction& f, const std::vector<Tensor>& rows, const std::vector<Tensor>& shared = {},
                     const MapRowsOptions& options = {});
 

@@ -316,18 +316,43 @@ TEST_CASE("fused map_rows on images: rows of pixels give the eager graph's bits,
 }
 
 TEST_CASE("map_rows picks about 4096 pixels per block by default", "[ops][map_rows][fused]") {
-  // f is traced on the first block: the row count it sees there is the block size.
-  auto first_block = [](const Tensor& rows) {
-    std::atomic<std::int64_t> seen{-1};
+  // Unfused, f runs on every block: the most rows it sees at once is the block size.
+  auto block_size = [](const Tensor& rows) {
+    std::atomic<std::int64_t> most{0};
     map_rows([&](const Inputs& r, const Inputs&) {
-      std::int64_t none = -1;
-      seen.compare_exchange_strong(none, r[0].size(0));
+      std::int64_t seen = most.load();
+      while (r[0].size(0) > seen && !most.compare_exchange_weak(seen, r[0].size(0))) {}
       return r[0] * 2.0;
-    }, {rows});
-    return seen.load();
+    }, {rows}, {}, MapRowsOptions{0, false});
+    return most.load();
   };
-  CHECK(first_block(Tensor::full({10000, 3}, 1.0)) == 4096);
-  CHECK(first_block(Tensor::full({1000, 3}, 1.0)) == 1000);
-  CHECK(first_block(Tensor::full({50, 100, 3}, 1.0)) == 40);  // an image 100 pixels wide: 40 rows
-  CHECK(first_block(Tensor::full({3, 5000, 3}, 1.0)) == 1);   // wider than 4096 pixels: one row
+  CHECK(block_size(Tensor::full({10000, 3}, 1.0)) == 4096);
+  CHECK(block_size(Tensor::full({1000, 3}, 1.0)) == 1000);
+  CHECK(block_size(Tensor::full({50, 100, 3}, 1.0)) == 40);  // an image 100 pixels wide: 40 rows
+  CHECK(block_size(Tensor::full({3, 5000, 3}, 1.0)) == 1);   // wider than 4096 pixels: one row
+}
+
+TEST_CASE("map_rows traces f on its first 256 pixels and replays the rest, block 0 included",
+          "[ops][map_rows][fused]") {
+  // Fused, f runs once: on the trace block, the first rows holding 256 pixels.
+  auto calls = [](const Tensor& rows, std::int64_t* first_rows) {
+    std::atomic<int> count{0};
+    std::atomic<std::int64_t> first{-1};
+    const Tensor out = map_rows([&](const Inputs& r, const Inputs&) {
+      ++count;
+      std::int64_t none = -1;
+      first.compare_exchange_strong(none, r[0].size(0));
+      return r[0] * 2.0 + 1.0;
+    }, {rows});
+    CHECK(same_bits(out, rows * 2.0 + 1.0));
+    *first_rows = first.load();
+    return count.load();
+  };
+  std::int64_t first = 0;
+  CHECK(calls(Tensor::uniform({10000, 3}, -1, 1, 3), &first) == 1);
+  CHECK(first == 256);
+  CHECK(calls(Tensor::uniform({50, 100, 3}, -1, 1, 4), &first) == 1);
+  CHECK(first == 3);  // 300 pixels
+  CHECK(calls(Tensor::uniform({200, 3}, -1, 1, 5), &first) == 1);
+  CHECK(first == 200);  // all of it
 }
