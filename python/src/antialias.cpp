@@ -153,7 +153,8 @@ std::shared_ptr<AntialiasState> antialias_forward(Context& ctx, const pybind11::
       T* o = out.out<T>() + pixels * channels * b;
       if constexpr (std::is_same_v<T, float>)
         if (state->backend) {
-          if (counted(ctx, state->backend->antialias_forward(whole_on_device(state->kept.get(), b, p), p, o))) {
+          const raster::DeviceGBuffer* on_device = whole_on_device(state->kept.get(), b, p);
+          if (counted(ctx, state->backend->antialias_forward(on_device, p, o))) {
             state->on_backend[b] = 1;
             return;
           }
@@ -219,7 +220,8 @@ void antialias_backward(Context& ctx, const pybind11::object& pos, const pybind1
       if (!state.on_backend[b]) {
         raster::blend_boundaries_backward(p, state.pairs[b], g_out, g);
       } else if constexpr (std::is_same_v<T, float>) {
-        if (!counted(ctx, state.backend->antialias_backward(whole_on_device(state.kept.get(), b, p), p, g_out, g)))
+        const raster::DeviceGBuffer* on_device = whole_on_device(state.kept.get(), b, p);
+        if (!counted(ctx, state.backend->antialias_backward(on_device, p, g_out, g)))
           throw Error(std::string(op) + ": the device ran the forward but refused the adjoint");
       }
       if (!grad_pos) return;

@@ -1,8 +1,9 @@
 """RasterizeVulkanContext keeps rasterize's G-buffers on the device: interpolate, antialias (visibility_antialias
-too) and the rasterize backward read the device's copy (no upload of rast) while rast, rast_db, pos and tri are the
-very tensors rasterize made or read, unwritten since, and upload them otherwise (a tensor written in place or a copy,
-a G-buffer the pool let go), with the CPU context's values within 1e-6 and gradients within 1e-5 either way, and the
-same bits uploaded or not (glctx.residency counts the uploads).
+too) and the rasterize backward read the device's copy (no upload of rast; in range mode interpolate and the
+rasterize backward read each image's copy with its range's triangles, antialias only a range of all triangles) while
+rast, rast_db, pos and tri are the very tensors rasterize made or read, unwritten since, and upload them otherwise (a
+tensor written in place or a copy, a G-buffer the pool let go), with the CPU context's values within 1e-6 and
+gradients within 1e-5 either way, and the same bits uploaded or not (glctx.residency counts the uploads).
 The pool grows to the largest minibatch unless `frames` fixes it. Textures (2D and cube maps) stay too: later calls
 on the very tensor, unwritten since (torch's _version), read the device's copy; one written in place or another tensor
 is uploaded, with the CPU context's results (glctx.texture_residency counts); so is one written where torch does not
@@ -228,6 +229,28 @@ def test_range_mode_rast_written_in_place_is_uploaded_with_the_same_bits(ranges)
     assert stats['resident_calls'] == before['resident_calls']
     assert torch.equal(written[0][2], kept[0][2]) and torch.equal(written[0][3], kept[0][3])  # out, out_da
     assert torch.equal(written[1][0], kept[1][0])  # the attr gradient
+
+
+def test_range_mode_depth_peeled_layers_keep_their_gbuffers_on_the_device():
+    pos, tri, attr = scene(1)
+    ranges = torch.tensor(RANGES['first above 0'], dtype=torch.int32)
+    runs = []
+    ctx = vulkan_context()
+    for glctx in (ctx, dr.RasterizeCpuContext()):
+        p, a = leaf(pos[0]), leaf(attr)
+        values = []
+        with dr.DepthPeeler(glctx, p, tri, RESOLUTION, ranges=ranges) as peeler:
+            for _ in range(2):
+                rast, db = peeler.rasterize_next_layer()
+                out, da = dr.interpolate(a, rast, tri, rast_db=db, diff_attrs='all')
+                values += [rast, db, out, da]
+        sum(v.square().sum() for v in values[2::4] + values[3::4]).backward()
+        runs.append((values, [a.grad, p.grad]))
+    for layer in range(2):
+        compare_range_runs((runs[0][0][4 * layer:4 * layer + 4], runs[0][1] if layer else []),
+                           (runs[1][0][4 * layer:4 * layer + 4], runs[1][1] if layer else []))
+    # 2 images x 2 layers, each read by interpolate, its adjoint and the rasterize adjoint.
+    assert ctx.residency['uploads'] == 0 and ctx.residency['resident_calls'] == 4 * 3
 
 
 def test_antialias_reads_a_range_copy_only_if_the_range_is_all_the_triangles():
