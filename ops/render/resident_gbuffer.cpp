@@ -35,25 +35,9 @@ const raster::DeviceGBuffer* resident_of(const GBuffer& gb) {
 
 ImageOnDevice image_on_device(const GBuffer* made, std::int64_t b, const Tensor& triangles,
                               const std::int32_t* tri_id, std::int64_t pixels, bool whole_only) {
-  ImageOnDevice on;
-  on.tris = triangles.data<std::int32_t>();
-  on.num_tris = triangles.size(0);
-  on.host_ids = tri_id;
   const ResidentGBuffer::Image* image = made ? resident_image(*made, b) : nullptr;
-  if (!image) return on;
-  const bool whole = image->first == 0 && image->count == on.num_tris;
-  if (whole_only && !whole) return on;
-  on.device = image->device.get();
-  if (whole) return on;
-  // The range's triangles, ids numbered from 1 in it (0 stays background).
-  on.tris += 3 * image->first;
-  on.num_tris = image->count;
-  const auto first = static_cast<std::int32_t>(image->first);
-  if (first != 0) {
-    on.local_ids.resize(static_cast<std::size_t>(pixels));
-    for (std::int64_t q = 0; q < pixels; ++q) on.local_ids[q] = tri_id[q] ? tri_id[q] - first : 0;
-  }
-  return on;
+  return raster::image_on_device(image, triangles.data<std::int32_t>(), triangles.size(0), tri_id, pixels,
+                                 whole_only);
 }
 
 }  // namespace gr::detail

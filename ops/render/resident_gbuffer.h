@@ -16,18 +16,14 @@
 #include "ops/render/rasterize.h"
 #include "ops/render/tensor_stamp.h"
 #include "raster/backend.h"
+#include "raster/image_on_device.h"
 
 namespace gr {
 
 struct ResidentGBuffer {
-  // One image's copy (null: the backend made none) and the triangles it
-  // drew: rows first..first+count-1 of the G-buffer's triangles (a range
-  // mode image's range; all of them otherwise), its ids numbered from 1 in
-  // that range (the host's tri_id adds `first`).
-  struct Image {
-    std::shared_ptr<const raster::DeviceGBuffer> device;
-    std::int64_t first = 0, count = 0;
-  };
+  // One image's copy and the triangles it drew (raster/image_on_device.h:
+  // a range mode image's range, all the triangles otherwise).
+  using Image = raster::KeptImage;
   std::vector<Image> images;  // one per image, in image order (one for an [H, W] G-buffer)
   // The host tensors as they were when the device's copies were made.
   detail::TensorStamp tri_id, uv, depth, db, clip, triangles;
@@ -47,20 +43,13 @@ const ResidentGBuffer::Image* resident_image(const GBuffer& gb, std::int64_t b);
 // resident_image(gb, 0)'s device handle (an [H, W] G-buffer's), or null.
 const raster::DeviceGBuffer* resident_of(const GBuffer& gb);
 
-// What a batch op hands the backend for image b: the device's copy and the
-// triangles and ids it drew (a range's, ids made local to it) while `made`
-// (the G-buffer as made, may be null) still matches it (with whole_only:
-// and it drew all the triangles, for antialias, whose topology indexes them
-// all); else no copy, all the triangles and the host's ids (the backend
-// uploads them). Either way the same image for the kernels.
-struct ImageOnDevice {
-  const raster::DeviceGBuffer* device = nullptr;
-  const std::int32_t* tris = nullptr;
-  std::int64_t num_tris = 0;
-  const std::int32_t* host_ids = nullptr;
-  std::vector<std::int32_t> local_ids;  // made local, or empty
-  const std::int32_t* ids() const { return local_ids.empty() ? host_ids : local_ids.data(); }
-};
+// What a batch op hands the backend for image b (raster::image_on_device):
+// the device's copy and the triangles and ids it drew (a range's, ids made
+// local to it) while `made` (the G-buffer as made, may be null) still matches
+// it (with whole_only: and it drew all the triangles, for antialias, whose
+// topology indexes them all); else no copy, all the triangles and the host's
+// ids (the backend uploads them). Either way the same image for the kernels.
+using ImageOnDevice = raster::ImageOnDevice;
 // tri_id: image b's host ids (pixels of them), indexing all of triangles.
 ImageOnDevice image_on_device(const GBuffer* made, std::int64_t b, const Tensor& triangles,
                               const std::int32_t* tri_id, std::int64_t pixels, bool whole_only);

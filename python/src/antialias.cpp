@@ -76,6 +76,15 @@ void check_shapes(const Mesh& mesh, const Array& color, const Array& rast, const
                      std::to_string(color.size(3)));
 }
 
+// Image b's copy in kept (may be null) if it drew all of p's triangles, else
+// null (the device uploads): the edge topology indexes the whole list, and a
+// range's copy numbers its ids in the range (raster::image_on_device).
+const raster::DeviceGBuffer* whole_on_device(const DeviceGBuffers* kept, std::int64_t b,
+                                             const raster::AntialiasParams<float>& p) {
+  const std::int64_t pixels = static_cast<std::int64_t>(p.width) * p.height;
+  return image_on_device(kept, b, p.tris, p.num_tris, p.tri_id, pixels, true).device;
+}
+
 void check_topology(const Topology& topology, const Mesh& mesh, const char* op) {
   if (topology.triangles != mesh.triangles)
     throw ValueError(std::string(op) + ": 'topology_hash' was built for " + std::to_string(topology.triangles) +
@@ -144,7 +153,7 @@ std::shared_ptr<AntialiasState> antialias_forward(Context& ctx, const pybind11::
       T* o = out.out<T>() + pixels * channels * b;
       if constexpr (std::is_same_v<T, float>)
         if (state->backend) {
-          const raster::DeviceGBuffer* on_device = state->kept ? state->kept->image(b) : nullptr;
+          const raster::DeviceGBuffer* on_device = whole_on_device(state->kept.get(), b, p);
           if (counted(ctx, state->backend->antialias_forward(on_device, p, o))) {
             state->on_backend[b] = 1;
             return;
@@ -211,7 +220,7 @@ void antialias_backward(Context& ctx, const pybind11::object& pos, const pybind1
       if (!state.on_backend[b]) {
         raster::blend_boundaries_backward(p, state.pairs[b], g_out, g);
       } else if constexpr (std::is_same_v<T, float>) {
-        const raster::DeviceGBuffer* on_device = state.kept ? state.kept->image(b) : nullptr;
+        const raster::DeviceGBuffer* on_device = whole_on_device(state.kept.get(), b, p);
         if (!counted(ctx, state.backend->antialias_backward(on_device, p, g_out, g)))
           throw Error(std::string(op) + ": the device ran the forward but refused the adjoint");
       }

@@ -48,8 +48,9 @@ struct AntialiasState {
 // which runs either (float32), forward and
 // adjoint (the backward then runs on the state's backend). kept (may be
 // null): rasterize_forward's handles for this very rast, pos and tri,
-// unchanged since: the device then reads its copy of the G-buffer, forward
-// and adjoint.
+// unchanged since: the device then reads its copy of an image that drew all
+// of tri, forward and adjoint (a range's copy: it uploads, the topology
+// indexes all of tri).
 std::shared_ptr<AntialiasState> antialias_forward(Context& ctx, const pybind11::object& pos,
                                                   const pybind11::object& tri, Ranges ranges, const Topology& topology,
                                                   const pybind11::object& color, const pybind11::object& rast,

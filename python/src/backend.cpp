@@ -16,6 +16,12 @@ const DeviceGBuffers* check_kept(const DeviceGBuffers* kept, std::int64_t images
   return kept;
 }
 
+raster::ImageOnDevice image_on_device(const DeviceGBuffers* kept, std::int64_t b, const std::int32_t* tris,
+                                      std::int64_t num_tris, const std::int32_t* tri_id, std::int64_t pixels,
+                                      bool whole_only) {
+  return raster::image_on_device(kept ? &kept->image(b) : nullptr, tris, num_tris, tri_id, pixels, whole_only);
+}
+
 void keep_gbuffers(const Context& ctx, std::int64_t images) {
 #ifdef GRADRASTER_HAS_VULKAN
   if (ctx.grow_frames && ctx.backend && images <= INT32_MAX)

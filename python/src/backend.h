@@ -15,22 +15,33 @@
 #include "python/src/rasterize.h"
 #include "raster/backend.h"
 #include "raster/image_batch.h"
+#include "raster/image_on_device.h"
 
 namespace gr::python {
 
-// The G-buffers one rasterize call kept on its context's device, one handle
-// per image (raster::RasterBackend::rasterize_gbuffer; null: none kept, e.g.
-// a range of some of the triangles, whose ids the ops' calls do not share).
+// The G-buffers one rasterize call kept on its context's device, one per
+// image (raster::RasterBackend::rasterize_gbuffer; a null handle: none kept)
+// with the triangles it drew (a range mode image's range: its copy numbers
+// its ids from 1 in the range, so the calls reading it pass the range's
+// triangles and ids made local to it, raster::image_on_device).
 // gradraster.torch hands them to interpolate, antialias and the rasterize
 // adjoint only while rast and what they read (rast_db, pos, tri) are the
 // tensors rasterize made or read, unwritten since (_resident.py); these then
 // read the device's copy (a backend that let it go uploads the host's
-// arrays, as the calls without a handle do).
+// arrays, as the calls without a handle do). antialias reads a copy only if
+// it drew all the triangles (its edge topology indexes them all).
 struct DeviceGBuffers {
-  std::vector<std::shared_ptr<const raster::DeviceGBuffer>> images;
-  // Image b's handle, or null.
-  const raster::DeviceGBuffer* image(std::int64_t b) const { return images[static_cast<std::size_t>(b)].get(); }
+  std::vector<raster::KeptImage> images;
+  // Image b's copy and range (its handle may be null).
+  const raster::KeptImage& image(std::int64_t b) const { return images[static_cast<std::size_t>(b)]; }
 };
+
+// What a call hands the backend for image b (raster::image_on_device): kept's
+// copy (kept may be null) with the triangles and ids it drew, else tris and
+// tri_id (the caller's whole list and image b's host ids, pixels of them).
+raster::ImageOnDevice image_on_device(const DeviceGBuffers* kept, std::int64_t b, const std::int32_t* tris,
+                                      std::int64_t num_tris, const std::int32_t* tri_id, std::int64_t pixels,
+                                      bool whole_only);
 
 // `kept` (may be null) for a call over `images` images: ValueError naming
 // `op` if it holds another count.

@@ -30,12 +30,19 @@ raster::BarycentricInterpolateParams<T> image_params(const InterpolateArgs& a, s
   return p;
 }
 
-// p with its coverage as int32 ids (what a backend reads), kept in s.
-template <class T>
-raster::BarycentricInterpolateParams<T> with_ids(raster::BarycentricInterpolateParams<T> p, ImageScratch& s) {
+// What image b's call hands the backend: p with its coverage as int32 ids
+// (kept in s), as kept's copy drew the image (a range's triangles, ids
+// local to it) with that copy, or p's with none (raster::image_on_device);
+// call(on.device, q) runs it.
+template <class Call>
+bool on_backend(const DeviceGBuffers* kept, std::int64_t b, raster::BarycentricInterpolateParams<float> p,
+                ImageScratch& s, const Call& call) {
   rast_ids(p.rast, p.pixels, &s.tri_id);
-  p.tri_id = s.tri_id.data();
-  return p;
+  const raster::ImageOnDevice on = image_on_device(kept, b, p.tris, p.num_tris, s.tri_id.data(), p.pixels, false);
+  p.tris = on.tris;
+  p.num_tris = on.num_tris;
+  p.tri_id = on.ids();
+  return call(on.device, p);
 }
 
 // The values the kernels index with: tri's indices, rast's ids.
@@ -101,11 +108,11 @@ void interpolate_forward(Context* ctx, const pybind11::object& attr, const pybin
       T* o_da = out_da ? out_da.out<T>() + b * pixels * 2 * K : nullptr;
       if constexpr (std::is_same_v<T, float>)
         if (backend) {
-          const raster::BarycentricInterpolateParams<float> q = with_ids(p, ctx->image(b));
           const int w = int(a.width), h = int(a.height);
-          const raster::DeviceGBuffer* on_device = kept ? kept->image(b) : nullptr;
-          if (counted(*ctx, backend->interpolate_forward(on_device, q, w, h, o, o_da)))
-            return;
+          const bool ran = on_backend(kept, b, p, ctx->image(b), [&](const raster::DeviceGBuffer* on, const auto& q) {
+            return backend->interpolate_forward(on, q, w, h, o, o_da);
+          });
+          if (counted(*ctx, ran)) return;
         }
       raster::barycentric_interpolate_forward(p, o, o_da);
     });
@@ -158,11 +165,11 @@ void interpolate_backward(Context* ctx, const pybind11::object& attr, const pybi
       const T* g_da = grad_da ? grad_da.in<T>() + b * pixels * 2 * K : nullptr;
       if constexpr (std::is_same_v<T, float>)
         if (backend) {
-          const raster::BarycentricInterpolateParams<float> q = with_ids(p, ctx->image(b));
           const int w = int(a.width), h = int(a.height);
-          const raster::DeviceGBuffer* on_device = kept ? kept->image(b) : nullptr;
-          if (counted(*ctx, backend->interpolate_backward(on_device, q, w, h, g_out, g_da, g)))
-            return;
+          const bool ran = on_backend(kept, b, p, ctx->image(b), [&](const raster::DeviceGBuffer* on, const auto& q) {
+            return backend->interpolate_backward(on, q, w, h, g_out, g_da, g);
+          });
+          if (counted(*ctx, ran)) return;
         }
       raster::barycentric_interpolate_backward(p, g_out, g_da, g);
     });

@@ -27,7 +27,8 @@ struct InterpolateArgs {
 // ctx: None (the CPU kernels) or the context that made rast, whose device
 // (a RasterizeVulkanContext's) then runs float32 calls, forward and adjoint;
 // kept (may be null): rasterize_forward's handles for this very rast (and
-// rast_db, tri), unchanged since: the device then reads its copy of them.
+// rast_db, tri), unchanged since: the device then reads its copy of them (a
+// range mode image's with its range's triangles, raster::image_on_device).
 // out: [images, H, W, C]; out_da: [images, H, W, 2 len(diff)], required
 // with diff, else None.
 void interpolate_forward(Context* ctx, const pybind11::object& attr, const pybind11::object& rast,

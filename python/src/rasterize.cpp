@@ -105,9 +105,8 @@ std::shared_ptr<DeviceGBuffers> rasterize_forward(Context& ctx, const pybind11::
         if (backend) {
           auto handle = device_gbuffer(*backend, p, first, s, image_rast, image_db, key_depth);
           done = counted(ctx, handle != nullptr);
-          // The ops' calls read all of tri (ids offset by first): a range of
-          // some of its triangles is another G-buffer to them.
-          if (count == mesh.triangles) kept->images[static_cast<std::size_t>(b)] = std::move(handle);
+          // The copy drew the range's triangles, its ids numbered from 1 in it.
+          kept->images[static_cast<std::size_t>(b)] = {std::move(handle), first, count};
         }
       if (!done) {
         // The coverage, then the values (barycentric_gbuffer_forward).
@@ -165,11 +164,15 @@ void rasterize_backward(Context& ctx, const pybind11::object& pos, const pybind1
       const T* g_db = grad_db ? grad_db.in<T>() + 4 * pixels * b : nullptr;
       if constexpr (std::is_same_v<T, float>)
         if (backend) {
-          // The device reads the coverage as int32 ids (rast's id channel).
+          // The device reads the coverage as int32 ids (rast's id channel),
+          // as its copy drew the image (a range's triangles, ids local to it).
           rast_ids(image_rast, pixels, &s.tri_id);
-          g.tri_id = s.tri_id.data();
-          const raster::DeviceGBuffer* on_device = kept ? kept->image(b) : nullptr;
-          if (counted(ctx, backend->gbuffer_backward(on_device, g, g_rast, g_db, out)))
+          const raster::ImageOnDevice on = image_on_device(kept, b, g.tris, g.num_tris, s.tri_id.data(), pixels, false);
+          raster::BarycentricGBufferParams<float> pb = g;
+          pb.tris = on.tris;
+          pb.num_tris = on.num_tris;
+          pb.tri_id = on.ids();
+          if (counted(ctx, backend->gbuffer_backward(on.device, pb, g_rast, g_db, out)))
             return;
         }
       raster::barycentric_gbuffer_backward(g, image_rast, g_rast, g_db, out);

@@ -1,8 +1,9 @@
 """RasterizeVulkanContext keeps rasterize's G-buffers on the device: interpolate, antialias (visibility_antialias
-too) and the rasterize backward read the device's copy (no upload of rast) while rast, rast_db, pos and tri are the
-very tensors rasterize made or read, unwritten since, and upload them otherwise (a tensor written in place or a copy,
-a G-buffer the pool let go), with the CPU context's values within 1e-6 and gradients within 1e-5 either way, and the
-same bits uploaded or not (glctx.residency counts the uploads).
+too) and the rasterize backward read the device's copy (no upload of rast; in range mode interpolate and the
+rasterize backward read each image's copy with its range's triangles, antialias only a range of all triangles) while
+rast, rast_db, pos and tri are the very tensors rasterize made or read, unwritten since, and upload them otherwise (a
+tensor written in place or a copy, a G-buffer the pool let go), with the CPU context's values within 1e-6 and
+gradients within 1e-5 either way, and the same bits uploaded or not (glctx.residency counts the uploads).
 The pool grows to the largest minibatch unless `frames` fixes it. Textures (2D and cube maps) stay too: later calls
 on the very tensor, unwritten since (torch's _version), read the device's copy; one written in place or another tensor
 is uploaded, with the CPU context's results (glctx.texture_residency counts); so is one written where torch does not
@@ -150,10 +151,114 @@ def test_depth_peeled_layers_keep_their_gbuffers_on_the_device():
     assert ctx.residency == kept(tri, gbuffers=4, resident_calls=4 * 5, frames=4)
 
 
-def test_a_range_of_all_triangles_is_kept_and_a_range_of_some_is_uploaded():
+# ---------------------------------------------------------------------------- range mode
+# Each image's copy was rasterized from its range's triangles only (its ids numbered from 1 in the range): interpolate
+# and the rasterize adjoint read it with the range's triangles and the ids made local to it, as the C++ batches do;
+# antialias uploads a range of some of the triangles (its edge topology indexes them all).
+
+RANGES = {  # tri has 144 triangles
+    'first above 0': [[72, 72], [10, 100]],
+    'an empty range': [[0, 144], [30, 0], [50, 60]],
+    'overlapping ranges': [[0, 90], [40, 104], [40, 104]],
+}
+
+
+def range_chain(glctx, flat, tri, attr, ranges, write_rast=False):
+    """Range mode rasterize -> interpolate (diff_attrs) -> backward, to pos through rast and rast_db unless
+    `write_rast` (rast written in place after rasterize: pos then takes no gradient). Returns the outputs and
+    gradients."""
+    p, a = (flat.clone() if write_rast else leaf(flat)), leaf(attr)
+    rast, db = dr.rasterize(glctx, p, tri, RESOLUTION, ranges=torch.tensor(ranges, dtype=torch.int32))
+    if write_rast:
+        with torch.no_grad():
+            rast.add_(0)  # the same values, a new version: the kept copies no longer count
+    out, da = dr.interpolate(a, rast, tri, rast_db=db, diff_attrs='all')
+    (out.square().sum() + da.square().sum()).backward()
+    return [rast, db, out, da], [a.grad] + ([] if write_rast else [p.grad])
+
+
+def compare_range_runs(gpu, cpu):
+    (values_g, grads_g), (values_c, grads_c) = gpu, cpu
+    assert torch.equal(values_g[0], values_c[0]) and torch.equal(values_g[1], values_c[1])  # rast, rast_db
+    for name, g, c in zip(('out', 'out_da'), values_g[2:], values_c[2:]):
+        assert_values_close(g, c, name)
+    for name, g, c in zip(('attr gradient', 'pos gradient'), grads_g, grads_c):
+        assert_grads_close(g, c, name)
+
+
+def assert_same_bits(a, b):
+    for x, y in zip(a[0] + a[1], b[0] + b[1]):
+        assert torch.equal(x, y)
+
+
+@pytest.mark.parametrize('ranges', RANGES)
+def test_range_mode_interpolate_and_the_backward_read_the_kept_copies_with_no_gbuffer_upload(ranges):
+    pos, tri, attr = scene(1)
+    ranges = RANGES[ranges]
+    images = len(ranges)
+    ctx = vulkan_context()
+    resident = range_chain(ctx, pos[0], tri, attr, ranges)
+    compare_range_runs(resident, range_chain(dr.RasterizeCpuContext(), pos[0], tri, attr, ranges))
+    stats = ctx.residency
+    # Per image: interpolate and its adjoint, the rasterize adjoint; each frame drew its range's triangles.
+    assert stats['gbuffers'] == images and stats['uploads'] == 0
+    assert stats['resident_calls'] == 3 * images
+    assert stats['triangle_uploads'] == images
+    assert stats['triangle_bytes'] == 12 * sum(count for _, count in ranges)
+    assert ctx.device_calls == 4 * images
+    # The device's results are the same bits whether it read its copies or uploaded the tensors (a pool of one
+    # frame keeps only the last image's copy).
+    small = dr.RasterizeVulkanContext(frames=1)
+    assert_same_bits(range_chain(small, pos[0], tri, attr, ranges), resident)
+    assert small.residency['uploads'] == 3 * (images - 1)
+
+
+@pytest.mark.parametrize('ranges', RANGES)
+def test_range_mode_rast_written_in_place_is_uploaded_with_the_same_bits(ranges):
+    pos, tri, attr = scene(1)
+    ranges = RANGES[ranges]
+    images = len(ranges)
+    ctx = vulkan_context()
+    kept = range_chain(ctx, pos[0].clone(), tri, attr, ranges)  # pos takes no gradient here either
+    before = ctx.residency
+    written = range_chain(ctx, pos[0], tri, attr, ranges, write_rast=True)
+    compare_range_runs(written, range_chain(dr.RasterizeCpuContext(), pos[0], tri, attr, ranges, write_rast=True))
+    stats = ctx.residency
+    assert before['uploads'] == 0 and before['resident_calls'] == 3 * images
+    assert stats['uploads'] == 2 * images  # interpolate and its adjoint
+    assert stats['resident_calls'] == before['resident_calls']
+    assert torch.equal(written[0][2], kept[0][2]) and torch.equal(written[0][3], kept[0][3])  # out, out_da
+    assert torch.equal(written[1][0], kept[1][0])  # the attr gradient
+
+
+def test_range_mode_depth_peeled_layers_keep_their_gbuffers_on_the_device():
+    pos, tri, attr = scene(1)
+    ranges = torch.tensor(RANGES['first above 0'], dtype=torch.int32)
+    runs = []
+    ctx = vulkan_context()
+    for glctx in (ctx, dr.RasterizeCpuContext()):
+        p, a = leaf(pos[0]), leaf(attr)
+        values = []
+        with dr.DepthPeeler(glctx, p, tri, RESOLUTION, ranges=ranges) as peeler:
+            for _ in range(2):
+                rast, db = peeler.rasterize_next_layer()
+                out, da = dr.interpolate(a, rast, tri, rast_db=db, diff_attrs='all')
+                values += [rast, db, out, da]
+        sum(v.square().sum() for v in values[2::4] + values[3::4]).backward()
+        runs.append((values, [a.grad, p.grad]))
+    for layer in range(2):
+        compare_range_runs((runs[0][0][4 * layer:4 * layer + 4], runs[0][1] if layer else []),
+                           (runs[1][0][4 * layer:4 * layer + 4], runs[1][1] if layer else []))
+    # 2 images x 2 layers, each read by interpolate, its adjoint and the rasterize adjoint.
+    assert ctx.residency['uploads'] == 0 and ctx.residency['resident_calls'] == 4 * 3
+
+
+def test_antialias_reads_a_range_copy_only_if_the_range_is_all_the_triangles():
     pos, tri, attr = scene(1)
     flat = pos[0]
-    for ranges, uploads in (([[0, tri.shape[0]]] * 2, 0), ([[0, 40], [30, 42]], 2 * 5)):
+    # Per image: interpolate and its adjoint and the rasterize adjoint read the copy; antialias and its adjoint
+    # upload a range of some of the triangles.
+    for ranges, uploads in (([[0, tri.shape[0]]] * 2, 0), ([[0, 40], [30, 42]], 2 * 2)):
         ranges = torch.tensor(ranges, dtype=torch.int32)
         runs = []
         ctx = vulkan_context()
