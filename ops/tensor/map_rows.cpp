@@ -72,6 +72,15 @@ struct Blocks {
   std::int64_t hi(std::int64_t b) const { return std::min(rows, b * size + size); }
 };
 
+// Pixels in one row of rows[0] (the product of its axes but the first and the
+// last; 1 for [N, C]), at least 1.
+std::int64_t pixels_per_row(const std::vector<Tensor>& rows) {
+  const Tensor& r = rows[0];
+  const std::int64_t n = r.size(0);
+  const std::int64_t pixels = r.rank() >= 2 && n > 0 && r.size(-1) > 0 ? r.numel() / (n * r.size(-1)) : 1;
+  return std::max<std::int64_t>(1, pixels);
+}
+
 // Inputs of block b: copies of its rows, and the shared inputs (as given, or
 // as fresh leaves requiring grad when `leaves` is set).
 std::vector<Tensor> block_rows(const std::vector<Tensor>& rows, const Blocks& blocks, std::int64_t b, bool leaves) {
@@ -112,14 +121,10 @@ struct Probe {
   std::shared_ptr<const detail::FusedRows> fused;
 };
 
-// Rows of the trace block: rows[0]'s pixels per row (its axes but the first
-// and the last), enough for kTraceLanes, within block 0.
+// Rows of the trace block: enough for kTraceLanes pixels, within block 0.
 std::int64_t trace_rows(const std::vector<Tensor>& rows, const Blocks& blocks) {
-  const Tensor& r = rows[0];
-  const std::int64_t n = blocks.rows;
-  const std::int64_t per_row = r.rank() >= 2 && n > 0 && r.size(-1) > 0 ? r.numel() / (n * r.size(-1)) : 1;
-  const std::int64_t want = (kTraceLanes + std::max<std::int64_t>(1, per_row) - 1) / std::max<std::int64_t>(1, per_row);
-  return std::min(blocks.count == 0 ? 0 : blocks.hi(0), want);
+  const std::int64_t per_row = pixels_per_row(rows);
+  return std::min(blocks.count == 0 ? 0 : blocks.hi(0), (kTraceLanes + per_row - 1) / per_row);
 }
 
 Probe probe(const RowFunction& f, const std::vector<Tensor>& rows, const std::vector<Tensor>& shared, const Blocks& blocks,
@@ -168,11 +173,7 @@ Blocks check_inputs(const RowFunction& f, const std::vector<Tensor>& rows, const
   }
   const std::int64_t n = rows[0].size(0);
   std::int64_t size = options.block_rows;
-  if (size == 0) {  // about kAutoBlockPixels pixels: rows[0]'s axes but its first and last
-    const Tensor& r = rows[0];
-    const std::int64_t per_row = r.rank() >= 2 && n > 0 && r.size(-1) > 0 ? r.numel() / (n * r.size(-1)) : 1;
-    size = std::max<std::int64_t>(1, kAutoBlockPixels / std::max<std::int64_t>(1, per_row));
-  }
+  if (size == 0) size = std::max<std::int64_t>(1, kAutoBlockPixels / pixels_per_row(rows));  // about 4096 pixels
   return Blocks{n, size, (n + size - 1) / size};
 }
 
