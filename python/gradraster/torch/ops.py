@@ -22,6 +22,7 @@ from .. import _core
 from ._origin import kept_gbuffers, origin, record_origin
 from ._resident import KeptGBuffers, KeptTextures
 from ._topologies import KeptTopologies
+from ._versions import version
 
 _MAX_SIDE = _core.MAX_SIDE  # pixels per side (the rasterizer's limit, raster::kMaxSide)
 _MAX_FLOAT32_IDS = 1 << 24  # float32 holds every triangle id + 1 exactly up to here
@@ -342,10 +343,14 @@ def _kept(rast, **reads):
 
 
 def _identity(t):
-    """What an in-place change of t alters: its memory, shape, layout or contents (torch's version counter)."""
+    """What an in-place change of t alters: its memory, shape, layout or contents (torch's version counter, or for
+    an inference tensor, which has none, a fingerprint of its bytes)."""
     if t is None:
         return None
-    return t.data_ptr(), tuple(t.shape), t.stride(), t.dtype, t.device, t._version
+    written = version(t)
+    if written is None:
+        written = _fingerprint(t) if t.is_contiguous() else None  # not contiguous: its strides differ already
+    return t.data_ptr(), tuple(t.shape), t.stride(), t.dtype, t.device, written
 
 
 class DepthPeeler:
