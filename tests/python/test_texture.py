@@ -236,3 +236,18 @@ def test_a_huge_max_mip_level_means_the_whole_chain_not_a_type_error():
     for bad in (-1, 2.5, True, '3'):
         with pytest.raises(ValueError, match="'max_mip_level' must be None or an integer >= 0"):
             dr.texture(tex, uv, uv_da, max_mip_level=bad)
+
+
+@pytest.mark.parametrize('filter_mode', ['linear-mipmap-linear', 'linear-mipmap-nearest'])
+@pytest.mark.parametrize('empty', ['no rows', 'no columns'])
+def test_a_mipmapped_lookup_of_an_empty_image_gives_an_empty_result_and_zero_gradients(filter_mode, empty):
+    tex = torch.rand(1, 8, 8, 3, dtype=torch.float64, requires_grad=True)
+    size = (0, 3) if empty == 'no rows' else (3, 0)
+    uv = torch.rand(2, *size, 2, dtype=torch.float64, requires_grad=True)
+    uv_da = torch.rand(2, *size, 4, dtype=torch.float64, requires_grad=True)
+    bias = torch.rand(2, *size, dtype=torch.float64, requires_grad=True)
+    out = dr.texture(tex, uv, uv_da, bias, filter_mode=filter_mode)
+    assert out.shape == (2, *size, 3)
+    grads = torch.autograd.grad(out.sum(), (tex, uv, uv_da, bias), allow_unused=True)
+    assert torch.equal(grads[0], torch.zeros_like(tex))
+    assert all(g is None or g.shape == t.shape for g, t in zip(grads[1:], (uv, uv_da, bias)))
