@@ -653,8 +653,8 @@ def _check_prebuilt_mip(mip, tex):
                         f"this texture: texture_construct_mip(tex)")
     if pyramid.device != tex.device:
         raise ValueError(f"'mip' is on {pyramid.device} but 'tex' is on {tex.device}")
-    levels = len(mip.sizes) - 1
-    if levels < 1 or list(mip.sizes) != _core.mip_sizes(tex.shape[-3], tex.shape[-2], levels):
+    levels = len(mip.sizes) - 1  # 0: built with max_mip_level=0 (level 0 only, an empty stack)
+    if levels < 0 or list(mip.sizes) != _core.mip_sizes(tex.shape[-3], tex.shape[-2], levels):
         raise ValueError(f"'mip' levels {list(mip.sizes)} are not the mip chain of a {tex.shape[-3]} x {tex.shape[-2]} "
                          f"texture")
     want = (tex.shape[0], _pyramid_texels(mip.sizes, mip.cube), tex.shape[-1])
@@ -666,6 +666,8 @@ def _check_prebuilt_mip(mip, tex):
 def _build_pyramid(tex, sizes, cube=False):
     texels = _pyramid_texels(sizes, cube)
     pyramid = tex.new_empty((tex.shape[0], texels, tex.shape[-1]))
+    if len(sizes) == 1:  # level 0 only: no stack to build
+        return pyramid
     _core.mip_build(_texture_mode(len(sizes), False, 1, _CUBE if cube else 0), _d(tex), pyramid, _threads())
     return pyramid
 
@@ -834,7 +836,8 @@ def texture(tex, uv, uv_da=None, mip_level_bias=None, mip=None, filter_mode='aut
             if mip.cube != cube:
                 raise ValueError(f"'mip' was built with cube_mode={mip.cube} but boundary_mode is {boundary_mode!r}")
             _check_prebuilt_mip(mip, tex)
-            prebuilt, sizes = mip.pyramid, mip.sizes
+            # A stack of level 0 only (max_mip_level=0) has nothing for the kernels to read.
+            prebuilt, sizes = mip.pyramid if len(mip.sizes) > 1 else None, mip.sizes
         elif isinstance(mip, (list, tuple)) and cube:
             raise NotImplementedError("texture: a custom mip stack (a list) for a cube map is not implemented yet in "
                                       "gradraster; use texture_construct_mip(tex, cube_mode=True)")
