@@ -47,6 +47,12 @@ def _d(t):
     return None if t is None else t.detach()
 
 
+def _saved(ctx):
+    """ctx.saved_tensors, each contiguous (None stays None): a saved_tensors_hooks pair (offloading, compression)
+    may give them back with the same values in another memory layout."""
+    return [None if t is None else t.contiguous() for t in ctx.saved_tensors]
+
+
 def _fingerprint(t):
     """A 64-bit fingerprint of contiguous t's bytes, the same for any thread count (python/src/fingerprint.h)."""
     return _core.fingerprint(t.detach(), _threads())
@@ -285,7 +291,7 @@ class _RasterizeFunc(torch.autograd.Function):
     @staticmethod
     @once_differentiable
     def backward(ctx, drast, ddb):
-        pos, tri, rast = ctx.saved_tensors  # autograd refuses these if written in place since: ctx.kept holds
+        pos, tri, rast = _saved(ctx)  # autograd refuses these if written in place since: ctx.kept holds
         mesh = _mesh(pos, tri, ctx.ranges, 'rasterize')
         grad_pos = torch.zeros_like(pos)
         _core.rasterize_backward(ctx.raster_ctx.cpp_wrapper, *mesh, _d(rast), _d(drast.contiguous()),
@@ -447,7 +453,7 @@ class _InterpolateFunc(torch.autograd.Function):
     @staticmethod
     @once_differentiable
     def backward(ctx, dy, dda):
-        attr, rast, tri, rast_db = ctx.saved_tensors
+        attr, rast, tri, rast_db = _saved(ctx)
         args = _interpolate_args(attr, rast, tri, rast_db, ctx.diff)
         need_attr, need_rast, _, need_db = ctx.needs_input_grad[:4]
         g_attr = torch.zeros_like(attr) if need_attr else None
@@ -558,7 +564,7 @@ class _AntialiasFunc(torch.autograd.Function):
     @staticmethod
     @once_differentiable
     def backward(ctx, dy):
-        color, rast, pos, tri = ctx.saved_tensors
+        color, rast, pos, tri = _saved(ctx)
         mesh = _antialias_mesh(color, rast, pos, tri)
         need_color, _, need_pos = ctx.needs_input_grad[:3]
         g_color = torch.zeros_like(color) if need_color else None
@@ -715,7 +721,7 @@ class _TextureFunc(torch.autograd.Function):
     @staticmethod
     @once_differentiable
     def backward(ctx, dy):
-        tex, uv, uv_dx, uv_dy, bias, pyramid, jacobian = ctx.saved_tensors
+        tex, uv, uv_dx, uv_dy, bias, pyramid, jacobian = _saved(ctx)
         needs = ctx.needs_input_grad[1:]  # as forward's arguments after `on`
         zeros = lambda t, need: torch.zeros_like(t) if need and t is not None else None
         g_tex, g_uv = zeros(tex, needs[4]), zeros(uv, needs[5] and ctx.filter_mode != 0)
