@@ -257,6 +257,14 @@ def test_a_mip_stack_built_with_max_mip_level_0_gives_the_lookups_and_gradients_
     assert torch.equal(torch.autograd.grad(got, tex, w)[0], torch.autograd.grad(want, tex, w)[0])
 
 
+
+def test_the_mip_stack_of_a_1x1_texture_is_level_0_alone():
+    tex = torch.rand(1, 1, 1, 3, dtype=torch.float64)
+    uv, uv_da = torch.rand(1, 2, 2, 2, dtype=torch.float64), torch.rand(1, 2, 2, 4, dtype=torch.float64)
+    mip = dr.texture_construct_mip(tex)
+    assert mip.sizes == [(1, 1)]
+    assert torch.equal(dr.texture(tex, uv, uv_da, mip=mip), dr.texture(tex, uv, uv_da))
+
 @pytest.mark.parametrize('filter_mode', ['linear-mipmap-linear', 'linear-mipmap-nearest'])
 @pytest.mark.parametrize('empty', ['no rows', 'no columns'])
 def test_a_mipmapped_lookup_of_an_empty_image_gives_an_empty_result_and_zero_gradients(filter_mode, empty):
