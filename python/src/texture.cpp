@@ -219,6 +219,9 @@ std::shared_ptr<DeviceTextures> texture_forward(Context* ctx, const TextureMode&
   out.same_elem(a.tex).shape({a.images, a.uv.size(1), a.uv.size(2), a.channels});
   check_disjoint(op, {&out, &a.uv_jacobian}, {&a.tex, &a.pyramid, &a.uv, &a.uv_dx, &a.uv_dy, &a.bias});
   const raster::RasterBackend* backend = lookups_backend(ctx, a, op);
+  // No samples (an image of no rows or columns): nothing to look up, and the
+  // kernels would take its empty uv_dx, uv_dy (null data) for absent ones.
+  if (a.samples == 0) return kept_before;
   // On a device: one handle per texture image, for the backward and later
   // calls (a device runs the images in order); an earlier call's to start from.
   std::shared_ptr<DeviceTextures> kept;
@@ -279,6 +282,7 @@ void texture_backward(Context* ctx, const TextureMode& mode, Objects tex, Object
   check_disjoint(op, {&grad_tex, &grad_uv, &grad_uv_dx, &grad_uv_dy, &grad_bias, &grad_pyramid},
                  {&a.tex, &a.pyramid, &a.uv, &a.uv_dx, &a.uv_dy, &a.bias, &a.uv_jacobian, &grad_out});
   const raster::RasterBackend* backend = lookups_backend(ctx, a, op);
+  if (a.samples == 0) return;  // no samples: every gradient stays zero (as texture_forward)
   KernelCall call(threads);
   dispatch(a.f64(), [&](auto tag) {
     using T = decltype(tag);

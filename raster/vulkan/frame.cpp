@@ -526,7 +526,8 @@ GpuTimes Frame::interpolate_backward(const float* grad_out, const float* grad_da
                                      float* grad_rast, float* grad_db) {
   State& s = *state_;
   if (s.channels < 0) throw ValueError("vulkan interpolate_backward: the frame has no interpolate to differentiate");
-  if (!grad_out) throw ValueError("vulkan interpolate_backward: grad_out is missing");
+  if (!grad_out && s.pixels() * s.channels > 0)  // no channels: an empty grad_out (its data may be null)
+    throw ValueError("vulkan interpolate_backward: grad_out is missing");
   std::lock_guard<std::mutex> lock(s.dev.mutex);
   // Without grad_da the derivatives get no gradient (nor does rast_db), as on the CPU.
   const std::int64_t N = s.num_vertices, C = s.channels, K = grad_da ? s.num_diff : 0, px = s.pixels();

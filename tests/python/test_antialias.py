@@ -136,3 +136,27 @@ def test_a_topology_hash_with_sparse_indices_pairs_the_same_edges():
     sparse_hash = dr.antialias_construct_topology_hash(sparse.int())
     assert torch.equal(dr.antialias(color, rast, pos, tri, topology_hash=dense_hash),
                        dr.antialias(color, rast, pos, tri, topology_hash=sparse_hash))
+
+
+@pytest.mark.parametrize('op', [dr.antialias, dr.visibility_antialias])
+def test_antialias_runs_under_torch_inference_mode_with_the_no_grad_result(glctx, op):
+    # Tensors made under torch.inference_mode() keep no version counter (reading tri._version raises); the
+    # topology antialias keeps for tri must still be found again, and built anew once tri is written.
+    pos, tri = two_triangles(dtype=torch.float32)
+    other = torch.tensor([[0, 1, 3], [0, 3, 2]], dtype=torch.int32)  # the quad's other diagonal
+    color = torch.rand(1, 16, 14, 3, generator=torch.Generator().manual_seed(1))
+    want = {}
+    with torch.no_grad():
+        for name, t in (('tri', tri), ('other', other)):
+            rast, _ = dr.rasterize(glctx, pos, t, (16, 14))
+            want[name] = (rast, op(color, rast, pos, t))
+    stale = op(color, want['other'][0], pos, other, topology_hash=dr.antialias_construct_topology_hash(tri))
+    assert not torch.equal(stale, want['other'][1])  # the test sees a topology kept for tri's old values
+    with torch.inference_mode():
+        pos_i, tri_i, color_i = pos.clone(), tri.clone(), color.clone()
+        assert tri_i.is_inference()
+        got = [op(color_i, want['tri'][0], pos_i, tri_i) for _ in range(2)]
+        tri_i.copy_(other)
+        written = op(color_i, want['other'][0], pos_i, tri_i)
+    assert all(torch.equal(g, want['tri'][1]) for g in got)
+    assert torch.equal(written, want['other'][1])

@@ -115,3 +115,20 @@ def test_the_peel_state_refuses_a_layer_of_another_size_even_past_the_python_che
         with pytest.raises(ValueError, match="DepthPeeler: layer 2 has 4 images of 16 x 16 pixels, but the layers "
                                              "before it had 256 pixels in all"):
             peeler.rasterize_next_layer()
+
+
+def test_depth_peeling_runs_under_torch_inference_mode_and_still_refuses_pos_written_between_layers(glctx):
+    # Inference tensors keep no version counter: the peeler must see writes to them another way.
+    pos, tri = random_mesh(4, images=1, triangles=8)
+    with dr.DepthPeeler(glctx, pos, tri, (8, 8)) as peeler:
+        want = [peeler.rasterize_next_layer()[0] for _ in range(2)]
+    with torch.inference_mode():
+        pos_i, tri_i = pos.clone(), tri.clone()
+        with dr.DepthPeeler(glctx, pos_i, tri_i, (8, 8)) as peeler:
+            got = [peeler.rasterize_next_layer()[0] for _ in range(2)]
+        assert all(torch.equal(g, w) for g, w in zip(got, want))
+        with dr.DepthPeeler(glctx, pos_i, tri_i, (8, 8)) as peeler:
+            peeler.rasterize_next_layer()
+            pos_i[0, 0] += 0.1
+            with pytest.raises(RuntimeError, match="DepthPeeler: 'pos' was changed in place"):
+                peeler.rasterize_next_layer()

@@ -236,3 +236,45 @@ def test_a_huge_max_mip_level_means_the_whole_chain_not_a_type_error():
     for bad in (-1, 2.5, True, '3'):
         with pytest.raises(ValueError, match="'max_mip_level' must be None or an integer >= 0"):
             dr.texture(tex, uv, uv_da, max_mip_level=bad)
+
+
+
+@pytest.mark.parametrize('filter_mode', ['linear-mipmap-linear', 'linear-mipmap-nearest'])
+@pytest.mark.parametrize('cube', [False, True])
+def test_a_mip_stack_built_with_max_mip_level_0_gives_the_lookups_and_gradients_of_level_0(cube, filter_mode):
+    # nvdiffrast's texture_construct_mip(tex, max_mip_level=0): level 0 only, as texture(max_mip_level=0).
+    g = torch.Generator().manual_seed(8)
+    tex = torch.rand((1, 6, 8, 8, 3) if cube else (1, 8, 16, 3), generator=g, dtype=torch.float64, requires_grad=True)
+    uv = torch.rand(2, 4, 4, 3 if cube else 2, generator=g, dtype=torch.float64) * 2 - 0.5
+    uv_da = torch.rand(2, 4, 4, 6 if cube else 4, generator=g, dtype=torch.float64) * 0.5
+    boundary = 'cube' if cube else 'wrap'
+    mip = dr.texture_construct_mip(tex, max_mip_level=0, cube_mode=cube)
+    assert mip.sizes == [tuple(tex.shape[-3:-1])]
+    got = dr.texture(tex, uv, uv_da, mip=mip, filter_mode=filter_mode, boundary_mode=boundary)
+    want = dr.texture(tex, uv, uv_da, filter_mode=filter_mode, boundary_mode=boundary, max_mip_level=0)
+    assert torch.equal(got, want)
+    w = torch.rand(want.shape, generator=g, dtype=torch.float64)
+    assert torch.equal(torch.autograd.grad(got, tex, w)[0], torch.autograd.grad(want, tex, w)[0])
+
+
+
+def test_the_mip_stack_of_a_1x1_texture_is_level_0_alone():
+    tex = torch.rand(1, 1, 1, 3, dtype=torch.float64)
+    uv, uv_da = torch.rand(1, 2, 2, 2, dtype=torch.float64), torch.rand(1, 2, 2, 4, dtype=torch.float64)
+    mip = dr.texture_construct_mip(tex)
+    assert mip.sizes == [(1, 1)]
+    assert torch.equal(dr.texture(tex, uv, uv_da, mip=mip), dr.texture(tex, uv, uv_da))
+
+@pytest.mark.parametrize('filter_mode', ['linear-mipmap-linear', 'linear-mipmap-nearest'])
+@pytest.mark.parametrize('empty', ['no rows', 'no columns'])
+def test_a_mipmapped_lookup_of_an_empty_image_gives_an_empty_result_and_zero_gradients(filter_mode, empty):
+    tex = torch.rand(1, 8, 8, 3, dtype=torch.float64, requires_grad=True)
+    size = (0, 3) if empty == 'no rows' else (3, 0)
+    uv = torch.rand(2, *size, 2, dtype=torch.float64, requires_grad=True)
+    uv_da = torch.rand(2, *size, 4, dtype=torch.float64, requires_grad=True)
+    bias = torch.rand(2, *size, dtype=torch.float64, requires_grad=True)
+    out = dr.texture(tex, uv, uv_da, bias, filter_mode=filter_mode)
+    assert out.shape == (2, *size, 3)
+    grads = torch.autograd.grad(out.sum(), (tex, uv, uv_da, bias), allow_unused=True)
+    assert torch.equal(grads[0], torch.zeros_like(tex))
+    assert all(g is None or g.shape == t.shape for g, t in zip(grads[1:], (uv, uv_da, bias)))

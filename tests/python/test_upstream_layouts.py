@@ -197,3 +197,62 @@ def test_a_96_mib_permuted_upstream_gradient_neither_crashes_nor_changes_the_tex
                          env=dict(os.environ), timeout=300)
     assert run.returncode == 0, f"exit status {run.returncode}: {run.stderr[-2000:]}"
     assert run.stdout.strip() == 'equal'
+
+
+# ----------------------------------------------------------------------------
+# Saved tensors: a saved_tensors_hooks pair (offloading, compression) may give
+# them back with the same values in another memory layout.
+
+def transposed_storage(t):
+    """t's values in storage of the reverse axis order (not contiguous unless t has fewer than 2 long axes)."""
+    return t.transpose(0, -1).contiguous().transpose(0, -1) if t.dim() >= 2 else t.clone()
+
+
+def saved_in_another_layout():
+    return torch.autograd.graph.saved_tensors_hooks(transposed_storage, lambda t: t)
+
+
+def gradients_of(program, inputs):
+    out = program(*inputs)
+    outs = out if isinstance(out, tuple) else (out,)
+    grads = [torch.rand(o.shape, generator=torch.Generator().manual_seed(k), dtype=o.dtype)
+             for k, o in enumerate(outs)]
+    return torch.autograd.grad(outs, inputs, grads, allow_unused=True)
+
+
+def assert_gradients_ignore_saved_layout(program, inputs):
+    want = gradients_of(program, inputs)
+    with saved_in_another_layout():
+        got = gradients_of(program, inputs)
+    for k, (a, b) in enumerate(zip(want, got)):
+        assert (a is None) == (b is None) and (a is None or torch.equal(a, b)), f"input {k}"
+
+
+@pytest.mark.parametrize('mode', ['instanced', 'range'])
+def test_rasterize_interpolate_and_the_antialiases_take_saved_tensors_a_hook_gave_back_in_another_layout(glctx, mode):
+    pos, tri, ranges = scene(mode)
+    attr = torch.rand(pos.shape[-2], 3, dtype=torch.float64, requires_grad=True)
+
+    def program(p, a):
+        rast, db = dr.rasterize(glctx, p, tri, (12, 10), ranges=ranges)
+        out, da = dr.interpolate(a, rast, tri, rast_db=db, diff_attrs='all')
+        return dr.antialias(out, rast, p, tri), dr.visibility_antialias(out, rast, p, tri), da
+    assert_gradients_ignore_saved_layout(program, [pos, attr])
+
+
+@pytest.mark.parametrize('filter_mode, boundary, mip_source', list(texture_cases()))
+def test_texture_takes_saved_tensors_a_hook_gave_back_in_another_layout(filter_mode, boundary, mip_source):
+    tex, uv, uv_da, bias = texture_inputs(boundary)
+    levels = [torch.rand(2, 8, 4, 3, dtype=tex.dtype, requires_grad=True),
+              torch.rand(2, 4, 2, 3, dtype=tex.dtype, requires_grad=True)]
+
+    def program(t, u, d, b, *m):
+        kwargs = dict(filter_mode=filter_mode, boundary_mode=boundary)
+        if filter_mode in MIPMAPPED:
+            kwargs.update(uv_da=d, mip_level_bias=b)
+        if mip_source == 'texture_construct_mip':
+            kwargs['mip'] = dr.texture_construct_mip(t, cube_mode=boundary == 'cube')
+        elif mip_source == 'a list':
+            kwargs['mip'] = list(m)
+        return dr.texture(t, u, **kwargs)
+    assert_gradients_ignore_saved_layout(program, [tex, uv, uv_da, bias] + (levels if mip_source == 'a list' else []))

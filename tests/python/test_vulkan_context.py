@@ -275,6 +275,22 @@ def test_interpolate_on_the_device_matches_the_cpu_with_its_derivatives_and_grad
     assert calls == 2 * 4  # per image: rasterize, interpolate, its adjoint, rasterize's adjoint
 
 
+
+def test_interpolate_of_attributes_with_no_channels_runs_on_the_device_and_its_adjoint_gives_zero_gradients():
+    pos, tri = grid_mesh(3, images=2)
+
+    def program(glctx):
+        p, a = leaf(pos), leaf(torch.rand(pos.shape[1], 0))
+        rast, db = dr.rasterize(glctx, p, tri, (36, 44))
+        out, da = dr.interpolate(a, rast, tri, rast_db=db, diff_attrs='all')
+        (out.sum() + da.sum() + rast[..., :3].sum()).backward()
+        return out, da, a.grad, p.grad
+
+    cpu, gpu, calls = run_both(program)
+    assert gpu[0].shape == (2, 36, 44, 0) and gpu[1].shape == (2, 36, 44, 0) and gpu[2].shape == (pos.shape[1], 0)
+    assert_grads_close(gpu[3], cpu[3], 'pos gradient')  # from rast's own channels alone
+    assert calls == 2 * 4  # per image: rasterize, interpolate, its adjoint, rasterize's adjoint
+
 @pytest.mark.parametrize('scene', SCENES)
 @pytest.mark.parametrize('boost', [1.0, 2.5])
 def test_antialias_on_the_device_matches_the_cpu_with_gradients_to_color_and_pos(scene, boost):

@@ -560,3 +560,31 @@ def test_lookups_without_a_pyramid_are_refused_where_no_device_builds_the_levels
         _core.texture_forward(None, mode, tex, uv, da, da, None, None, out, None, 1)
     with pytest.raises(ValueError, match="pyramid"):  # a pyramid given as well
         _core.texture_forward(None, mode, tex, uv, da, da, None, torch.rand(1, 20, 3), out, None, 1)
+
+
+def inference_render(glctx, pos, tri, attr, tex):
+    """rasterize -> interpolate -> texture -> antialias under torch.inference_mode(), twice, tex written in place
+    (which torch counts nowhere for inference tensors) between the two: the images."""
+    images = []
+    with torch.inference_mode():
+        pos, tri, attr, tex = pos.clone(), tri.clone(), attr.clone(), tex.clone()
+        for _ in range(2):
+            rast, db = dr.rasterize(glctx, pos, tri, RESOLUTION)
+            uv, uv_da = dr.interpolate(attr, rast, tri, rast_db=db, diff_attrs='all')
+            images.append(dr.antialias(dr.texture(tex, uv, uv_da), rast, pos, tri))
+            tex.mul_(0.5)
+    return images
+
+
+def test_inference_mode_tensors_run_on_the_device_with_the_cpu_contexts_results_and_no_stale_texture():
+    pos, tri, _ = scene(2)
+    attr = torch.rand(pos.shape[1], 2, generator=torch.Generator().manual_seed(3))
+    tex = torch.rand(1, 16, 24, 3, generator=torch.Generator().manual_seed(4))
+    glctx = vulkan_context()
+    got = inference_render(glctx, pos, tri, attr, tex)
+    want = inference_render(dr.RasterizeCpuContext(), pos, tri, attr, tex)
+    assert glctx.device_calls == 2 * 2 * 4  # two renders of two images: rasterize, interpolate, texture, antialias
+    for k, (g, c) in enumerate(zip(got, want)):
+        assert_values_close(g, c, f'render {k}')
+    # One upload per call (both images read the one texture): the written texture went up again.
+    assert glctx.texture_residency['uploads'] == 2

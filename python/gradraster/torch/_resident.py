@@ -19,22 +19,24 @@ tex.grad`), also compare a fingerprint of their bytes (KeptTextures).
 import threading
 import weakref
 
+from ._versions import version
+
 
 class KeptGBuffers:
     """A rasterize call's handles and the tensors (by name) they equal."""
 
     def __init__(self, handles, **tensors):
         self.handles = handles
-        self._made = {name: (weakref.ref(t), t._version) for name, t in tensors.items()}
+        self._made = {name: (weakref.ref(t), version(t)) for name, t in tensors.items()}
 
     def handles_for(self, **tensors):
         """The handles if each tensor given (None: one the call does not read) is the very one of its name,
-        unwritten since; else None."""
+        unwritten since; else None (always for an inference tensor, whose writes nothing counts)."""
         for name, t in tensors.items():
             if t is None:
                 continue
-            made, version = self._made[name]
-            if made() is not t or t._version != version:
+            made, made_version = self._made[name]
+            if made() is not t or made_version is None or version(t) != made_version:
                 return None
         return self.handles
 
@@ -73,7 +75,7 @@ class KeptTextures:
     @staticmethod
     def _same_objects(refs, tensors):
         return len(refs) == len(tensors) and all(
-            ref() is t and t._version == version for (ref, version, _), t in zip(refs, tensors))
+            ref() is t and version(t) == made for (ref, made, _), t in zip(refs, tensors))
 
     @staticmethod
     def _same(refs, texels):
@@ -99,7 +101,7 @@ class KeptTextures:
             if handles is None or self.capacity < 1:
                 return
             prints = texels.fingerprints()
-            self._entries.append((how, [(weakref.ref(t), t._version, p) for t, p in zip(texels.tensors, prints)],
+            self._entries.append((how, [(weakref.ref(t), version(t), p) for t, p in zip(texels.tensors, prints)],
                                   handles))
             del self._entries[:-self.capacity]
 

@@ -7,7 +7,7 @@ The adjacency depends on tri's indices alone (python/src/antialias.cpp,
 raster::build_edge_topology: not on pos, nor on its vertex count), so it is
 reused while tri is unchanged: the very object (held weakly, by a table here,
 never an attribute on the tensor), not written in place since (torch's
-version counter), with the same shape, dtype and data pointer, and the same
+version counter; an inference tensor has none: _versions.py), with the same shape, dtype and data pointer, and the same
 bytes (a 64-bit fingerprint, as KeptTextures in _resident.py: it sees the
 writes torch does not count, through .data or a numpy view). Otherwise it is
 built again: results never depend on the table. The fingerprint costs one
@@ -19,6 +19,8 @@ across calls too (docs/gpu.md, "What stays resident").
 """
 import threading
 import weakref
+
+from ._versions import version
 
 
 class KeptTopologies:
@@ -39,7 +41,7 @@ class KeptTopologies:
 
     @staticmethod
     def _state(tri):
-        return tri._version, tuple(tri.shape), tri.dtype, tri.data_ptr()
+        return version(tri), tuple(tri.shape), tri.dtype, tri.data_ptr()
 
     def find(self, tri):
         """The topology kept for `tri` as it is now, or None."""

@@ -22,6 +22,7 @@ from .. import _core
 from ._origin import kept_gbuffers, origin, record_origin
 from ._resident import KeptGBuffers, KeptTextures
 from ._topologies import KeptTopologies
+from ._versions import version
 
 _MAX_SIDE = _core.MAX_SIDE  # pixels per side (the rasterizer's limit, raster::kMaxSide)
 _MAX_FLOAT32_IDS = 1 << 24  # float32 holds every triangle id + 1 exactly up to here
@@ -44,6 +45,12 @@ def _threads():
 def _d(t):
     """t, detached (None stays None): what _core takes."""
     return None if t is None else t.detach()
+
+
+def _saved(ctx):
+    """ctx.saved_tensors, each contiguous (None stays None): a saved_tensors_hooks pair (offloading, compression)
+    may give them back with the same values in another memory layout."""
+    return [None if t is None else t.contiguous() for t in ctx.saved_tensors]
 
 
 def _fingerprint(t):
@@ -284,7 +291,7 @@ class _RasterizeFunc(torch.autograd.Function):
     @staticmethod
     @once_differentiable
     def backward(ctx, drast, ddb):
-        pos, tri, rast = ctx.saved_tensors  # autograd refuses these if written in place since: ctx.kept holds
+        pos, tri, rast = _saved(ctx)  # autograd refuses these if written in place since: ctx.kept holds
         mesh = _mesh(pos, tri, ctx.ranges, 'rasterize')
         grad_pos = torch.zeros_like(pos)
         _core.rasterize_backward(ctx.raster_ctx.cpp_wrapper, *mesh, _d(rast), _d(drast.contiguous()),
@@ -342,10 +349,14 @@ def _kept(rast, **reads):
 
 
 def _identity(t):
-    """What an in-place change of t alters: its memory, shape, layout or contents (torch's version counter)."""
+    """What an in-place change of t alters: its memory, shape, layout or contents (torch's version counter, or for
+    an inference tensor, which has none, a fingerprint of its bytes)."""
     if t is None:
         return None
-    return t.data_ptr(), tuple(t.shape), t.stride(), t.dtype, t.device, t._version
+    written = version(t)
+    if written is None:
+        written = _fingerprint(t) if t.is_contiguous() else None  # not contiguous: its strides differ already
+    return t.data_ptr(), tuple(t.shape), t.stride(), t.dtype, t.device, written
 
 
 class DepthPeeler:
@@ -442,7 +453,7 @@ class _InterpolateFunc(torch.autograd.Function):
     @staticmethod
     @once_differentiable
     def backward(ctx, dy, dda):
-        attr, rast, tri, rast_db = ctx.saved_tensors
+        attr, rast, tri, rast_db = _saved(ctx)
         args = _interpolate_args(attr, rast, tri, rast_db, ctx.diff)
         need_attr, need_rast, _, need_db = ctx.needs_input_grad[:4]
         g_attr = torch.zeros_like(attr) if need_attr else None
@@ -553,7 +564,7 @@ class _AntialiasFunc(torch.autograd.Function):
     @staticmethod
     @once_differentiable
     def backward(ctx, dy):
-        color, rast, pos, tri = ctx.saved_tensors
+        color, rast, pos, tri = _saved(ctx)
         mesh = _antialias_mesh(color, rast, pos, tri)
         need_color, _, need_pos = ctx.needs_input_grad[:3]
         g_color = torch.zeros_like(color) if need_color else None
@@ -648,8 +659,8 @@ def _check_prebuilt_mip(mip, tex):
                         f"this texture: texture_construct_mip(tex)")
     if pyramid.device != tex.device:
         raise ValueError(f"'mip' is on {pyramid.device} but 'tex' is on {tex.device}")
-    levels = len(mip.sizes) - 1
-    if levels < 1 or list(mip.sizes) != _core.mip_sizes(tex.shape[-3], tex.shape[-2], levels):
+    levels = len(mip.sizes) - 1  # 0: built with max_mip_level=0 (level 0 only, an empty stack)
+    if levels < 0 or list(mip.sizes) != _core.mip_sizes(tex.shape[-3], tex.shape[-2], levels):
         raise ValueError(f"'mip' levels {list(mip.sizes)} are not the mip chain of a {tex.shape[-3]} x {tex.shape[-2]} "
                          f"texture")
     want = (tex.shape[0], _pyramid_texels(mip.sizes, mip.cube), tex.shape[-1])
@@ -661,6 +672,8 @@ def _check_prebuilt_mip(mip, tex):
 def _build_pyramid(tex, sizes, cube=False):
     texels = _pyramid_texels(sizes, cube)
     pyramid = tex.new_empty((tex.shape[0], texels, tex.shape[-1]))
+    if len(sizes) == 1:  # level 0 only: no stack to build
+        return pyramid
     _core.mip_build(_texture_mode(len(sizes), False, 1, _CUBE if cube else 0), _d(tex), pyramid, _threads())
     return pyramid
 
@@ -708,7 +721,7 @@ class _TextureFunc(torch.autograd.Function):
     @staticmethod
     @once_differentiable
     def backward(ctx, dy):
-        tex, uv, uv_dx, uv_dy, bias, pyramid, jacobian = ctx.saved_tensors
+        tex, uv, uv_dx, uv_dy, bias, pyramid, jacobian = _saved(ctx)
         needs = ctx.needs_input_grad[1:]  # as forward's arguments after `on`
         zeros = lambda t, need: torch.zeros_like(t) if need and t is not None else None
         g_tex, g_uv = zeros(tex, needs[4]), zeros(uv, needs[5] and ctx.filter_mode != 0)
@@ -829,7 +842,8 @@ def texture(tex, uv, uv_da=None, mip_level_bias=None, mip=None, filter_mode='aut
             if mip.cube != cube:
                 raise ValueError(f"'mip' was built with cube_mode={mip.cube} but boundary_mode is {boundary_mode!r}")
             _check_prebuilt_mip(mip, tex)
-            prebuilt, sizes = mip.pyramid, mip.sizes
+            # A stack of level 0 only (max_mip_level=0) has nothing for the kernels to read.
+            prebuilt, sizes = mip.pyramid if len(mip.sizes) > 1 else None, mip.sizes
         elif isinstance(mip, (list, tuple)) and cube:
             raise NotImplementedError("texture: a custom mip stack (a list) for a cube map is not implemented yet in "
                                       "gradraster; use texture_construct_mip(tex, cube_mode=True)")

@@ -251,3 +251,16 @@ TEST_CASE("GPU interpolate refuses bad calls with a message", "[vulkan]") {
   const std::int32_t beyond[1] = {1};
   REQUIRE_THROWS_AS(frame.interpolate(attr, 1, nullptr, beyond, 1), IndexError);
 }
+
+TEST_CASE("GPU interpolate of no channels and its adjoint take empty (null) buffers and add no gradient",
+          "[vulkan]") {
+  if (!shared_gpu()) return;
+  vulkan::Frame frame(shared_gpu());
+  const Scene s = random_soup(3, 1);
+  frame.rasterize(s.params(8, 8));
+  frame.interpolate(nullptr, 0);
+  std::vector<float> grad_rast(4 * 64, 0.5f);
+  // A caller's empty grad_out (no channels: torch and numpy give it no memory) is null.
+  REQUIRE_NOTHROW(frame.interpolate_backward(nullptr, nullptr, nullptr, grad_rast.data()));
+  CHECK(std::all_of(grad_rast.begin(), grad_rast.end(), [](float g) { return g == 0.5f; }));
+}
