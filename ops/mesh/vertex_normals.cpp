@@ -104,14 +104,16 @@ constexpr std::int64_t kVertexGrain = kElementwiseGrain / 8;
 // all in T with cross's expressions (ops/tensor/vector.cpp); 0 for a vertex of no face.
 template <class T>
 void normal_sums_forward(const NormalSumParams& p, const T* positions, T* out) {
-  const std::unique_ptr<T[]> face(new T[static_cast<std::size_t>(3 * p.faces)]);  // every row written
+  // Scratch from the storage cache (no page faults once warm); every row written.
+  Tensor face_rows = Tensor::empty({p.faces, 3}, dtype_of<T>::value);
+  T* const face = face_rows.data<T>();
   parallel_for(0, p.faces, kFaceGrain, [&](std::int64_t lo, std::int64_t hi) {
     for (std::int64_t f = lo; f < hi; ++f) {
       const T *p0 = positions + 3 * p.tris[3 * f], *p1 = positions + 3 * p.tris[3 * f + 1],
               *p2 = positions + 3 * p.tris[3 * f + 2];
       const T u[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
       const T v[3] = {p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]};
-      T* n = face.get() + 3 * f;
+      T* n = face + 3 * f;
       n[0] = u[1] * v[2] - u[2] * v[1];
       n[1] = u[2] * v[0] - u[0] * v[2];
       n[2] = u[0] * v[1] - u[1] * v[0];
@@ -122,7 +124,7 @@ void normal_sums_forward(const NormalSumParams& p, const T* positions, T* out) {
     for (std::int64_t v = lo; v < hi; ++v) {
       T s[3] = {0, 0, 0};
       for (std::int64_t e = c.start[v]; e < c.start[v + 1]; ++e) {
-        const T* n = face.get() + 3 * p.face_of(c.item[e]);
+        const T* n = face + 3 * p.face_of(c.item[e]);
         for (int d = 0; d < 3; ++d) s[d] += n[d];
       }
       for (int d = 0; d < 3; ++d) out[3 * v + d] = s[d];
@@ -138,7 +140,9 @@ void normal_sums_forward(const NormalSumParams& p, const T* positions, T* out) {
 template <class T>
 void normal_sums_backward(const NormalSumParams& p, const T* positions, const T* g, T* grad) {
   const std::int64_t F = p.faces;
-  const std::unique_ptr<double[]> term(new double[static_cast<std::size_t>(9 * F)]);  // corner j's at 3 j, all written
+  // Per face dL/dp1 and dL/dp2 (six doubles), from the storage cache; every row written.
+  Tensor face_terms = Tensor::empty({F, 6}, DType::Float64);
+  double* const term = face_terms.data<double>();
   parallel_for(0, F, kFaceGrain, [&](std::int64_t lo, std::int64_t hi) {
     for (std::int64_t f = lo; f < hi; ++f) {
       const std::int32_t* t = p.tris + 3 * f;
@@ -149,16 +153,9 @@ void normal_sums_backward(const NormalSumParams& p, const T* positions, const T*
         v[d] = p2[d] - p0[d];
         G[d] = (static_cast<double>(g[3 * t[0] + d]) + g[3 * t[1] + d]) + g[3 * t[2] + d];
       }
-      const double d1[3] = {v[1] * G[2] - v[2] * G[1], v[2] * G[0] - v[0] * G[2], v[0] * G[1] - v[1] * G[0]};
-      const double d2[3] = {G[1] * u[2] - G[2] * u[1], G[2] * u[0] - G[0] * u[2], G[0] * u[1] - G[1] * u[0]};
-      double* t0 = term.get() + 3 * f;
-      double* t1 = term.get() + 3 * (F + f);
-      double* t2 = term.get() + 3 * (2 * F + f);
-      for (int d = 0; d < 3; ++d) {
-        t0[d] = -(d1[d] + d2[d]);
-        t1[d] = d1[d];
-        t2[d] = d2[d];
-      }
+      double* d12 = term + 6 * f;
+      d12[0] = v[1] * G[2] - v[2] * G[1], d12[1] = v[2] * G[0] - v[0] * G[2], d12[2] = v[0] * G[1] - v[1] * G[0];
+      d12[3] = G[1] * u[2] - G[2] * u[1], d12[4] = G[2] * u[0] - G[0] * u[2], d12[5] = G[0] * u[1] - G[1] * u[0];
     }
   });
   const raster::detail::Buckets& c = *p.corners;
@@ -166,8 +163,14 @@ void normal_sums_backward(const NormalSumParams& p, const T* positions, const T*
     for (std::int64_t v = lo; v < hi; ++v) {
       double s[3] = {0, 0, 0};
       for (std::int64_t e = c.start[v]; e < c.start[v + 1]; ++e) {
-        const double* t = term.get() + 3 * static_cast<std::int64_t>(c.item[e]);
-        for (int d = 0; d < 3; ++d) s[d] += t[d];
+        const std::int64_t j = c.item[e], f = p.face_of(j);
+        const double* d12 = term + 6 * f;
+        if (j >= 2 * F)  // corner 2: dL/dp2
+          for (int d = 0; d < 3; ++d) s[d] += d12[3 + d];
+        else if (j >= F)  // corner 1: dL/dp1
+          for (int d = 0; d < 3; ++d) s[d] += d12[d];
+        else  // corner 0: -(both)
+          for (int d = 0; d < 3; ++d) s[d] += -(d12[d] + d12[3 + d]);
       }
       for (int d = 0; d < 3; ++d) grad[3 * v + d] = static_cast<T>(s[d]);
     }
