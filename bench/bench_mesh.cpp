@@ -3,7 +3,7 @@
 // scatter_add of the three corner columns, normalize): the fit example calls
 // it once per iteration on a 2562-point sphere (issue 31).
 //   Args {icosphere subdivisions, backward (0/1), threads (set_num_threads)}.
-// Measured: docs/performance.md, "Vertex normals as one op (session 25)".
+// Measured: docs/performance.md, "Vertex normals as one op, and map_rows' trace block".
 #include <benchmark/benchmark.h>
 
 #include <functional>
