@@ -152,13 +152,19 @@ class RasterBackend {
   // antialias_forward / antialias_backward (raster/antialias.h), or with
   // p.visibility visibility_antialias_forward / _backward
   // (raster/visibility_antialias.h); the adjoint takes the forward's whole p
-  // (a backend may recompute the pairs) instead of its pairs.
-  virtual bool antialias_forward(const DeviceGBuffer* /*resident*/, const AntialiasParams<float>& /*p*/,
-                                 float* /*out*/) const {
+  // (a backend may recompute the pairs) instead of its pairs. p holds the
+  // whole triangle list (the topology's) and the host's ids; resident_first:
+  // the row of p.tris where the triangles `resident` drew start (a range
+  // mode image's copy, drawn from rows resident_first.. of p.tris, numbers
+  // its ids from 1 in its range: the device adds resident_first; 0 for a
+  // copy of the whole list or none).
+  virtual bool antialias_forward(const DeviceGBuffer* /*resident*/, std::int64_t /*resident_first*/,
+                                 const AntialiasParams<float>& /*p*/, float* /*out*/) const {
     return false;
   }
-  virtual bool antialias_backward(const DeviceGBuffer* /*resident*/, const AntialiasParams<float>& /*p*/,
-                                  const float* /*grad_out*/, const AntialiasGrads<float>& /*grads*/) const {
+  virtual bool antialias_backward(const DeviceGBuffer* /*resident*/, std::int64_t /*resident_first*/,
+                                  const AntialiasParams<float>& /*p*/, const float* /*grad_out*/,
+                                  const AntialiasGrads<float>& /*grads*/) const {
     return false;
   }
   // barycentric_gbuffer_backward (raster/barycentric_gbuffer.h) for

@@ -71,8 +71,9 @@ void record_on_backend(const char* name, bool visibility, const Tensor& image, c
            p.visibility = visibility;
            auto ptr = [](Tensor& t) { return t.defined() ? t.data<float>() : nullptr; };
            const raster::AntialiasGrads<float> grads{ptr(g_image), ptr(g_clip)};
-           const raster::DeviceGBuffer* kept = made ? detail::resident_of(*made) : nullptr;
-           if (!backend->antialias_backward(kept, p, g.data<float>(), grads))
+           const detail::ImageOnDevice on =
+               detail::image_on_device(made.get(), 0, triangles, p.tri_id, p.width * std::int64_t(p.height), true);
+           if (!backend->antialias_backward(on.device, on.first, p, g.data<float>(), grads))
              throw Error(std::string(name) + ": the backend ran the forward but refused the adjoint");
            boost_gradient<float>(g_clip, boost);
            if (g_image.defined()) ctx.accumulate(0, g_image);
@@ -165,7 +166,8 @@ Tensor antialias(const Tensor& image, const GBuffer& gbuffer, const Tensor& clip
     p.projected = detail::projection_of(gbuffer, clip, static_cast<int>(w), static_cast<int>(h));
     if constexpr (std::is_same_v<T, float>)
       if (backend) {
-        if (backend->antialias_forward(detail::resident_of(gbuffer), p, out.data<T>())) {
+        const detail::ImageOnDevice on = detail::image_on_device(&gbuffer, 0, triangles, p.tri_id, w * h, true);
+        if (backend->antialias_forward(on.device, on.first, p, out.data<T>())) {
           on_backend = true;
           return;
         }

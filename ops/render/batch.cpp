@@ -370,8 +370,8 @@ Tensor antialias_batch(const Tensor& image, const GBuffer& gbuffer, const Tensor
   Tensor out = Tensor::empty(image.shape(), image.dtype());
   const Tensor tri_id = gbuffer.tri_id, depth = gbuffer.depth;
   // The G-buffer's backend runs either kernel (float32), image by image in
-  // image order, on the device's copy where it drew all the triangles (the
-  // topology indexes them all).
+  // image order, on the device's copy (a range's too: it reads the whole
+  // list, which the topology indexes, with the copy's ids offset by its first row).
   const std::shared_ptr<const raster::RasterBackend> backend =
       clip.dtype() == DType::Float32 ? gbuffer.backend : nullptr;
   const std::shared_ptr<const GBuffer> made = backend && gbuffer.resident ? std::make_shared<const GBuffer>(gbuffer)
@@ -402,7 +402,7 @@ Tensor antialias_batch(const Tensor& image, const GBuffer& gbuffer, const Tensor
           gbuffer_params(p, b, topology, pos.shared);
           const detail::ImageOnDevice on = detail::image_on_device(made.get(), b, triangles, p.tri_id, P, true);
           float* o = out.data<float>() + b * P * C;
-          on_backend = backend->antialias_forward(on.device, p, o);
+          on_backend = backend->antialias_forward(on.device, on.first, p, o);
         }
         if (on_backend) return;
       }
@@ -430,7 +430,7 @@ Tensor antialias_batch(const Tensor& image, const GBuffer& gbuffer, const Tensor
                if (ctx.needs_grad(1)) g.clip = g_clip.at<float>(c, b);
                const detail::ImageOnDevice on = detail::image_on_device(made.get(), b, triangles, p.tri_id, P, true);
                const float* go = ctx.grad_output().data<float>() + b * P * C;
-               if (!backend->antialias_backward(on.device, p, go, g))
+               if (!backend->antialias_backward(on.device, on.first, p, go, g))
                  throw Error("antialias_batch: the backend ran the forward but refused the adjoint");
                if (g.clip && boost != 1.0)
                  for (std::int64_t i = 0; i < 4 * N; ++i) g.clip[i] = static_cast<float>(boost * g.clip[i]);

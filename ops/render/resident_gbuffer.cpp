@@ -34,10 +34,10 @@ const raster::DeviceGBuffer* resident_of(const GBuffer& gb) {
 }
 
 ImageOnDevice image_on_device(const GBuffer* made, std::int64_t b, const Tensor& triangles,
-                              const std::int32_t* tri_id, std::int64_t pixels, bool whole_only) {
+                              const std::int32_t* tri_id, std::int64_t pixels, bool whole_list) {
   const ResidentGBuffer::Image* image = made ? resident_image(*made, b) : nullptr;
   return raster::image_on_device(image, triangles.data<std::int32_t>(), triangles.size(0), tri_id, pixels,
-                                 whole_only);
+                                 whole_list);
 }
 
 }  // namespace gr::detail

@@ -46,13 +46,14 @@ const raster::DeviceGBuffer* resident_of(const GBuffer& gb);
 // What a batch op hands the backend for image b (raster::image_on_device):
 // the device's copy and the triangles and ids it drew (a range's, ids made
 // local to it) while `made` (the G-buffer as made, may be null) still matches
-// it (with whole_only: and it drew all the triangles, for antialias, whose
-// topology indexes them all); else no copy, all the triangles and the host's
-// ids (the backend uploads them). Either way the same image for the kernels.
+// it (with whole_list: the copy with all the triangles, the host's ids and the
+// copy's first row, for antialias, whose topology indexes them all); else no
+// copy, all the triangles and the host's ids (the backend uploads them).
+// Either way the same image for the kernels.
 using ImageOnDevice = raster::ImageOnDevice;
 // tri_id: image b's host ids (pixels of them), indexing all of triangles.
 ImageOnDevice image_on_device(const GBuffer* made, std::int64_t b, const Tensor& triangles,
-                              const std::int32_t* tri_id, std::int64_t pixels, bool whole_only);
+                              const std::int32_t* tri_id, std::int64_t pixels, bool whole_list);
 
 }  // namespace detail
 }  // namespace gr

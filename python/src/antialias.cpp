@@ -76,13 +76,13 @@ void check_shapes(const Mesh& mesh, const Array& color, const Array& rast, const
                      std::to_string(color.size(3)));
 }
 
-// Image b's copy in kept (may be null) if it drew all of p's triangles, else
-// null (the device uploads): the edge topology indexes the whole list, and a
-// range's copy numbers its ids in the range (raster::image_on_device).
-const raster::DeviceGBuffer* whole_on_device(const DeviceGBuffers* kept, std::int64_t b,
-                                             const raster::AntialiasParams<float>& p) {
+// Image b's copy in kept (may be null; null: the device uploads) and the
+// row of p's whole list its triangles start at: the edge topology indexes
+// the whole list, so a range's copy is read with it, its ids offset by the
+// range's first row (raster::image_on_device).
+raster::ImageOnDevice on_device(const DeviceGBuffers* kept, std::int64_t b, const raster::AntialiasParams<float>& p) {
   const std::int64_t pixels = static_cast<std::int64_t>(p.width) * p.height;
-  return image_on_device(kept, b, p.tris, p.num_tris, p.tri_id, pixels, true).device;
+  return image_on_device(kept, b, p.tris, p.num_tris, p.tri_id, pixels, true);
 }
 
 void check_topology(const Topology& topology, const Mesh& mesh, const char* op) {
@@ -153,8 +153,8 @@ std::shared_ptr<AntialiasState> antialias_forward(Context& ctx, const pybind11::
       T* o = out.out<T>() + pixels * channels * b;
       if constexpr (std::is_same_v<T, float>)
         if (state->backend) {
-          const raster::DeviceGBuffer* on_device = whole_on_device(state->kept.get(), b, p);
-          if (counted(ctx, state->backend->antialias_forward(on_device, p, o))) {
+          const raster::ImageOnDevice on = on_device(state->kept.get(), b, p);
+          if (counted(ctx, state->backend->antialias_forward(on.device, on.first, p, o))) {
             state->on_backend[b] = 1;
             return;
           }
@@ -220,8 +220,8 @@ void antialias_backward(Context& ctx, const pybind11::object& pos, const pybind1
       if (!state.on_backend[b]) {
         raster::blend_boundaries_backward(p, state.pairs[b], g_out, g);
       } else if constexpr (std::is_same_v<T, float>) {
-        const raster::DeviceGBuffer* on_device = whole_on_device(state.kept.get(), b, p);
-        if (!counted(ctx, state.backend->antialias_backward(on_device, p, g_out, g)))
+        const raster::ImageOnDevice on = on_device(state.kept.get(), b, p);
+        if (!counted(ctx, state.backend->antialias_backward(on.device, on.first, p, g_out, g)))
           throw Error(std::string(op) + ": the device ran the forward but refused the adjoint");
       }
       if (!grad_pos) return;

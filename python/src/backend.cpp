@@ -18,8 +18,8 @@ const DeviceGBuffers* check_kept(const DeviceGBuffers* kept, std::int64_t images
 
 raster::ImageOnDevice image_on_device(const DeviceGBuffers* kept, std::int64_t b, const std::int32_t* tris,
                                       std::int64_t num_tris, const std::int32_t* tri_id, std::int64_t pixels,
-                                      bool whole_only) {
-  return raster::image_on_device(kept ? &kept->image(b) : nullptr, tris, num_tris, tri_id, pixels, whole_only);
+                                      bool whole_list) {
+  return raster::image_on_device(kept ? &kept->image(b) : nullptr, tris, num_tris, tri_id, pixels, whole_list);
 }
 
 void keep_gbuffers(const Context& ctx, std::int64_t images) {

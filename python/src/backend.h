@@ -28,8 +28,9 @@ namespace gr::python {
 // adjoint only while rast and what they read (rast_db, pos, tri) are the
 // tensors rasterize made or read, unwritten since (_resident.py); these then
 // read the device's copy (a backend that let it go uploads the host's
-// arrays, as the calls without a handle do). antialias reads a copy only if
-// it drew all the triangles (its edge topology indexes them all).
+// arrays, as the calls without a handle do). antialias reads a range's copy
+// with the whole list (its edge topology indexes it all), the device adding
+// the range's first row to the copy's ids.
 struct DeviceGBuffers {
   std::vector<raster::KeptImage> images;
   // Image b's copy and range (its handle may be null).
@@ -38,10 +39,11 @@ struct DeviceGBuffers {
 
 // What a call hands the backend for image b (raster::image_on_device): kept's
 // copy (kept may be null) with the triangles and ids it drew, else tris and
-// tri_id (the caller's whole list and image b's host ids, pixels of them).
+// tri_id (the caller's whole list and image b's host ids, pixels of them);
+// whole_list: the copy with tris, tri_id and its first row (antialias).
 raster::ImageOnDevice image_on_device(const DeviceGBuffers* kept, std::int64_t b, const std::int32_t* tris,
                                       std::int64_t num_tris, const std::int32_t* tri_id, std::int64_t pixels,
-                                      bool whole_only);
+                                      bool whole_list);
 
 // `kept` (may be null) for a call over `images` images: ValueError naming
 // `op` if it holds another count.

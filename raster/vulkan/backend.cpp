@@ -179,21 +179,24 @@ class VulkanBackend : public raster::RasterBackend {
       }
     return true;
   }
-  bool antialias_forward(const raster::DeviceGBuffer* resident, const raster::AntialiasParams<float>& p,
-                         float* out) const override {
+  bool antialias_forward(const raster::DeviceGBuffer* resident, std::int64_t resident_first,
+                         const raster::AntialiasParams<float>& p, float* out) const override {
     std::lock_guard<std::mutex> lock(mutex_);
-    Frame& f = for_antialias(resident, p);
+    WholeTriangles whole;
+    Frame& f = for_antialias(resident, resident_first, p, &whole);
     const Uploads before = f.topology_uploads();
-    f.antialias(p.image, p.channels, out, p.topology, p.visibility);
+    f.antialias(p.image, p.channels, out, p.topology, p.visibility, &whole);
     count_topology_uploads(f, before);
     return true;
   }
-  bool antialias_backward(const raster::DeviceGBuffer* resident, const raster::AntialiasParams<float>& p,
-                          const float* grad_out, const raster::AntialiasGrads<float>& grads) const override {
+  bool antialias_backward(const raster::DeviceGBuffer* resident, std::int64_t resident_first,
+                          const raster::AntialiasParams<float>& p, const float* grad_out,
+                          const raster::AntialiasGrads<float>& grads) const override {
     std::lock_guard<std::mutex> lock(mutex_);
-    Frame& f = for_antialias(resident, p);
+    WholeTriangles whole;
+    Frame& f = for_antialias(resident, resident_first, p, &whole);
     const Uploads before = f.topology_uploads();
-    f.antialias(p.image, p.channels, nullptr, p.topology, p.visibility);  // the pairs, on the device
+    f.antialias(p.image, p.channels, nullptr, p.topology, p.visibility, &whole);  // the pairs, on the device
     count_topology_uploads(f, before);
     f.antialias_backward(grad_out, grads.image, grads.clip);
     return true;
@@ -266,9 +269,19 @@ class VulkanBackend : public raster::RasterBackend {
                    p.num_diff > 0 ? p.rast_db : nullptr);
     return f;
   }
-  Frame& for_antialias(const raster::DeviceGBuffer* resident, const raster::AntialiasParams<float>& p) const {
-    if (Frame* f = kept_frame(resident, {p.width, p.height, p.num_vertices, p.num_tris, true, p.y_up, false}))
-      return *f;
+  // The frame for an antialias on p (its whole list and the host's ids) and
+  // *whole: p's list, of which `resident` (a range mode image's copy) drew
+  // rows first.. (the frame reads the whole list, the copy's ids offset by
+  // first); an uploaded frame has p's list itself (first 0).
+  Frame& for_antialias(const raster::DeviceGBuffer* resident, std::int64_t first,
+                       const raster::AntialiasParams<float>& p, WholeTriangles* whole) const {
+    *whole = {p.tris, p.num_tris, 0};
+    const auto* g = dynamic_cast<const VulkanGBuffer*>(resident);
+    if (g && first >= 0 && first <= p.num_tris - g->num_tris)
+      if (Frame* f = kept_frame(resident, {p.width, p.height, p.num_vertices, g->num_tris, true, p.y_up, false})) {
+        whole->first = first;
+        return *f;
+      }
     raster::RasterParams<float> rp{p.clip, p.num_vertices, p.tris, p.num_tris, {p.width, p.height}};
     GpuRasterOptions options;
     options.y_up = p.y_up;

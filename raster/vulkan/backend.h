@@ -43,7 +43,8 @@ struct ResidencyStats {
   std::int64_t topology_uploads = 0;
   std::int64_t topology_bytes = 0;
   // Triangle lists uploaded by the frames' rasterize and G-buffer loads, and their bytes: each frame keeps the
-  // last one (Frame::triangle_uploads), so a mesh whose triangles stay the same goes up once per frame.
+  // last one (Frame::triangle_uploads), so a mesh whose triangles stay the same goes up once per frame; and the
+  // whole lists antialias read on a range mode image's frame (kept likewise, apart from the range's).
   std::int64_t triangle_uploads = 0;
   std::int64_t triangle_bytes = 0;
 };

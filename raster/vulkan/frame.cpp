@@ -39,8 +39,10 @@ constexpr std::int32_t kDeviceRast = 1, kDeviceDb = 2, kHostRast = 4, kHostDb = 
 struct FinishPush {
   std::int32_t count, split, pixels, pad[5];
 };
+// id_offset: the row of the list the shaders read (binding 1) where the
+// G-buffer's triangles start (antialias's `whole`), added to its ids.
 struct AntialiasPush {
-  std::int32_t width, height, num_vertices, num_tris, channels, pass, y_up, pad;
+  std::int32_t width, height, num_vertices, id_offset, channels, pass, y_up, visibility;
 };
 static_assert(sizeof(RasterPush) == kPushBytes && sizeof(InterpolatePush) == kPushBytes &&
                   sizeof(GBufferPush) == kPushBytes &&
@@ -56,6 +58,7 @@ enum Role {
   kHostGradGBuffer,  // rasterize_backward's from the host, in the same layout
   kSums, kLargest, kFinished,  // an adjoint's fixed-point sums, their scales, its result
   kNeighbour, kAaImage, kAaOut, kAaPairs, kAaGradOut, kAaGradImage,  // antialias
+  kAaTris,  // antialias's whole list, of which a range mode G-buffer drew a part
   kFloor,  // depth peeling: the previous layer's key per pixel (FloorKey)
   kRoles
 };
@@ -85,6 +88,13 @@ struct Frame::State {
   bool grad_rast = false, grad_db = false;
   int aa_channels = -1;  // of the last antialias (-1: none since the last rasterize)
   bool aa_visibility = false;  // the last antialias was visibility_antialias's
+  // The last antialias read the whole list in kAaTris, the G-buffer's ids
+  // offset by aa_first (a range mode G-buffer); else the frame's own, kTris.
+  bool aa_whole = false;
+  std::int32_t aa_first = 0;
+  // The host copy of what kAaTris holds once aa_tris_on_device.
+  std::vector<std::int32_t> aa_tris;
+  bool aa_tris_on_device = false;
   // What the device's edge topology (kNeighbour) holds: the adjacency of
   // `tris` (the frame's own) once topology_ready, or the caller's EdgeTopology
   // of serial neighbour_serial (0: none); never both. An EdgeTopology is
@@ -119,6 +129,8 @@ struct Frame::State {
     derivatives = with_derivatives;
     channels = -1;
     aa_channels = -1;
+    aa_whole = false;
+    aa_first = 0;
     grad_rast = grad_db = false;
     note_triangles(p.tris, p.num_tris);
   }
@@ -241,6 +253,22 @@ void check_channels(std::int64_t channels, std::int64_t pixels, const char* op) 
   if (channels < 0 || (channels > 0 && pixels * channels > kMaxIndex))
     throw ValueError(std::string(op) + ": " + std::to_string(channels) + " channels of " + std::to_string(pixels) +
                      " pixels: at most " + std::to_string(kMaxIndex) + " values on the GPU path");
+}
+
+// A range mode G-buffer's whole list (Frame::antialias): its rows from
+// whole.first on must be the frame's triangles, and the topology (needed) of it.
+void check_whole_triangles(const WholeTriangles& whole, const std::vector<std::int32_t>& frame_tris,
+                           const raster::EdgeTopology* topology) {
+  const char* op = "vulkan antialias";
+  const std::int64_t count = static_cast<std::int64_t>(frame_tris.size() / 3);
+  if (whole.num_tris < 0 || whole.first < 0 || whole.first > whole.num_tris - count ||
+      3 * whole.num_tris > kMaxIndex || (whole.num_tris > 0 && !whole.tris))
+    throw ValueError(std::string(op) + ": the frame's " + std::to_string(count) + " triangles are no range of a "
+                     "whole list of " + std::to_string(whole.num_tris) + " from row " + std::to_string(whole.first));
+  if (count > 0 && std::memcmp(whole.tris + 3 * whole.first, frame_tris.data(), frame_tris.size() * sizeof(std::int32_t)) != 0)
+    throw ValueError(std::string(op) + ": rows " + std::to_string(whole.first) + ".." +
+                     std::to_string(whole.first + count - 1) + " of the whole list are not the frame's triangles");
+  if (!topology) throw ValueError(std::string(op) + ": a range's G-buffer needs the whole list's edge topology");
 }
 
 }  // namespace
@@ -596,7 +624,7 @@ GpuTimes Frame::interpolate_backward(const float* grad_out, const float* grad_da
 }
 
 GpuTimes Frame::antialias(const float* image, int channels, float* out, const raster::EdgeTopology* topology,
-                          bool visibility) {
+                          bool visibility, const WholeTriangles* whole) {
   State& s = *state_;
   if (!s.rasterized) throw ValueError("vulkan antialias: the frame has no G-buffer (call rasterize first)");
   if (channels < 1) throw ValueError("vulkan antialias: channels must be at least 1, got " + std::to_string(channels));
@@ -605,15 +633,33 @@ GpuTimes Frame::antialias(const float* image, int channels, float* out, const ra
     throw ValueError("vulkan antialias: no image given, and the last interpolate's output has " +
                      (s.channels < 0 ? std::string("not been made") : std::to_string(s.channels) + " channels") +
                      ", not " + std::to_string(channels));
+  // A range mode G-buffer's pairs walk the whole list (ids offset by its first row).
+  if (whole && whole->first == 0 && whole->num_tris == s.num_tris) whole = nullptr;  // the frame's own list
+  if (whole) check_whole_triangles(*whole, s.tris, topology);
   std::lock_guard<std::mutex> lock(s.dev.mutex);
   s.aa_channels = -1;
   const std::size_t px = static_cast<std::size_t>(s.pixels());
   const std::size_t image_bytes = px * static_cast<std::size_t>(channels) * sizeof(float);
   // No image: the last interpolate's output, copied on the device.
   const std::size_t upload_image = image ? image_bytes : 0;
-  if (topology && topology->num_tris() != s.num_tris)
+  const std::int64_t list_tris = whole ? whole->num_tris : s.num_tris;
+  if (topology && topology->num_tris() != list_tris)
     throw ValueError("vulkan antialias: the topology was built for " + std::to_string(topology->num_tris()) +
-                     " triangles, the frame has " + std::to_string(s.num_tris));
+                     " triangles, the " + (whole ? "whole list" : "frame") + " has " + std::to_string(list_tris));
+  // The whole list goes up unless kAaTris holds it (checked when it does not).
+  std::size_t whole_bytes = 0;
+  if (whole) {
+    const std::size_t n = static_cast<std::size_t>(3 * whole->num_tris);
+    if (s.aa_tris.size() != n || std::memcmp(s.aa_tris.data(), whole->tris, n * sizeof(std::int32_t)) != 0) {
+      raster::detail::check_triangles(whole->tris, whole->num_tris, s.num_vertices, "vulkan antialias");
+      s.aa_tris.assign(whole->tris, whole->tris + n);
+      s.aa_tris_on_device = false;
+    }
+    if (!s.aa_tris_on_device) {
+      whole_bytes = n * sizeof(std::int32_t);
+      s.reserve(kAaTris, whole_bytes);
+    }
+  }
   // The caller's topology unless kNeighbour holds it (by serial; 0: always
   // uploaded), else the triangles' own unless kNeighbour holds it.
   const bool upload_topology =
@@ -630,16 +676,20 @@ GpuTimes Frame::antialias(const float* image, int channels, float* out, const ra
   s.reserve(kAaOut, image_bytes);
   s.reserve(kAaPairs, 2 * px * kPairBytes);
   if (upload_topology) s.reserve(kNeighbour, neighbour_bytes);
-  s.upload.reserve(s.dev, upload_image + neighbour_bytes, true);
+  s.upload.reserve(s.dev, upload_image + neighbour_bytes + whole_bytes, true);
   s.download.reserve(s.dev, out ? image_bytes : 0, true);
-  if (upload_image) std::memcpy(s.upload.mapped(), image, upload_image);
-  if (neighbour_bytes) std::memcpy(static_cast<char*>(s.upload.mapped()) + upload_image, neighbours.data(), neighbour_bytes);
-  // Bindings (antialias_common.glsl): 0 clip, 1 tris, 2 verts, 3 tri_id, 4 rast (z/w: the depth),
-  // 5 neighbours, 6 image, 7 pairs, 9 out.
-  const VkDescriptorSet set = s.bind(s.aa_forward_set, {{0, kClip}, {1, kTris}, {2, kVerts}, {3, kTriId}, {4, kRast},
+  char* staged = static_cast<char*>(s.upload.mapped());
+  if (upload_image) std::memcpy(staged, image, upload_image);
+  if (neighbour_bytes) std::memcpy(staged + upload_image, neighbours.data(), neighbour_bytes);
+  if (whole_bytes) std::memcpy(staged + upload_image + neighbour_bytes, whole->tris, whole_bytes);
+  // Bindings (antialias_common.glsl): 0 clip, 1 tris (the whole list's for a range), 2 verts, 3 tri_id,
+  // 4 rast (z/w: the depth), 5 neighbours, 6 image, 7 pairs, 9 out.
+  const Role list = whole ? kAaTris : kTris;
+  const VkDescriptorSet set = s.bind(s.aa_forward_set, {{0, kClip}, {1, list}, {2, kVerts}, {3, kTriId}, {4, kRast},
                                                         {5, kNeighbour}, {6, kAaImage}, {7, kAaPairs}, {9, kAaOut}});
-  const AntialiasPush push{s.width, s.height, static_cast<std::int32_t>(s.num_vertices),
-                           static_cast<std::int32_t>(s.num_tris), channels, 0, s.y_up ? 1 : 0, visibility ? 1 : 0};
+  const std::int32_t first = whole ? static_cast<std::int32_t>(whole->first) : 0;
+  const AntialiasPush push{s.width, s.height, static_cast<std::int32_t>(s.num_vertices), first, channels, 0,
+                           s.y_up ? 1 : 0, visibility ? 1 : 0};
   s.dev.run([&](VkCommandBuffer cb) {
     s.timestamps.begin(cb, 5);
     if (image)
@@ -647,6 +697,7 @@ GpuTimes Frame::antialias(const float* image, int channels, float* out, const ra
     else
       copy(cb, s[kInterpolated].handle(), 0, s[kAaImage].handle(), 0, image_bytes);
     copy(cb, s.upload.handle(), upload_image, s[kNeighbour].handle(), 0, neighbour_bytes);
+    copy(cb, s.upload.handle(), upload_image + neighbour_bytes, s[kAaTris].handle(), 0, whole_bytes);
     barrier(cb);
     s.timestamps.stamp(cb, 1);
     s.use(cb, set);
@@ -668,8 +719,15 @@ GpuTimes Frame::antialias(const float* image, int channels, float* out, const ra
     ++s.topology_uploads.uploads;
     s.topology_uploads.bytes += static_cast<std::int64_t>(neighbour_bytes);
   }
+  if (whole_bytes) {
+    s.aa_tris_on_device = true;
+    ++s.triangle_uploads.uploads;
+    s.triangle_uploads.bytes += static_cast<std::int64_t>(whole_bytes);
+  }
   s.aa_channels = channels;
   s.aa_visibility = visibility;
+  s.aa_whole = whole != nullptr;
+  s.aa_first = first;
   if (out) std::memcpy(out, s.download.mapped(), image_bytes);
   return s.timestamps.read();
 }
@@ -692,13 +750,14 @@ GpuTimes Frame::antialias_backward(const float* grad_out, float* grad_image, flo
   s.upload.reserve(s.dev, image_bytes, true);
   s.download.reserve(s.dev, image_bytes + clip_bytes, true);
   std::memcpy(s.upload.mapped(), grad_out, image_bytes);
-  // Bindings: 0 clip, 1 tris (a crossing's vertices), 2 verts, 3 grad_out, 4 grad_image, 5 screen sums,
-  // 6 image, 7 pairs, 8 largest, 9 grad_clip.
+  // Bindings: 0 clip, 1 tris (a crossing's vertices: the list the forward read), 2 verts, 3 grad_out,
+  // 4 grad_image, 5 screen sums, 6 image, 7 pairs, 8 largest, 9 grad_clip.
   const VkDescriptorSet set =
-      s.bind(s.aa_backward_set, {{0, kClip}, {1, kTris}, {2, kVerts}, {3, kAaGradOut}, {4, kAaGradImage},
-                                 {5, kSums}, {6, kAaImage}, {7, kAaPairs}, {8, kLargest}, {9, kFinished}});
-  AntialiasPush push{s.width, s.height, static_cast<std::int32_t>(N), static_cast<std::int32_t>(s.num_tris),
-                     static_cast<std::int32_t>(C), 0, s.y_up ? 1 : 0, s.aa_visibility ? 1 : 0};
+      s.bind(s.aa_backward_set, {{0, kClip}, {1, s.aa_whole ? kAaTris : kTris}, {2, kVerts}, {3, kAaGradOut},
+                                 {4, kAaGradImage}, {5, kSums}, {6, kAaImage}, {7, kAaPairs}, {8, kLargest},
+                                 {9, kFinished}});
+  AntialiasPush push{s.width, s.height, static_cast<std::int32_t>(N), s.aa_first, static_cast<std::int32_t>(C), 0,
+                     s.y_up ? 1 : 0, s.aa_visibility ? 1 : 0};
   s.dev.run([&](VkCommandBuffer cb) {
     s.timestamps.begin(cb, 6);
     copy(cb, s.upload.handle(), 0, s[kAaGradOut].handle(), 0, image_bytes);

@@ -41,6 +41,15 @@ struct Uploads {
   std::int64_t bytes = 0;
 };
 
+// The whole triangle list a range mode G-buffer was rasterized from part of
+// (Frame::antialias): the frame's triangles are rows first..first + M - 1 of
+// tris (num_tris rows), and its ids number them from 1.
+struct WholeTriangles {
+  const std::int32_t* tris = nullptr;
+  std::int64_t num_tris = 0;
+  std::int64_t first = 0;
+};
+
 class Frame {
  public:
   explicit Frame(std::shared_ptr<Device> device);
@@ -142,9 +151,17 @@ class Frame {
   // another topology replaces it (the caller's or the frame's own).
   // visibility: visibility_antialias_forward (raster/visibility_antialias.h)
   // instead, its pairs (edges and intersection crossings) and blends.
-  // pass_ms: pairs, blend.
+  // whole (may be null): the list the frame's triangles are a range of (its
+  // rasterize's were rows whole->first.. of it; ValueError if not): the
+  // pairs and blends are then those of the whole list's G-buffer (ids offset
+  // by whole->first), as the CPU kernels give in range mode: the walks cross
+  // into triangles outside the range. It needs the topology of the whole
+  // list; the list is kept on the device and uploaded only when it differs
+  // from the last one (counted in triangle_uploads). A whole that is the
+  // frame's own list changes nothing. pass_ms: pairs, blend.
   GpuTimes antialias(const float* image, int channels, float* out = nullptr,
-                     const raster::EdgeTopology* topology = nullptr, bool visibility = false);
+                     const raster::EdgeTopology* topology = nullptr, bool visibility = false,
+                     const WholeTriangles* whole = nullptr);
 
   // The adjoint of the last antialias (or visibility antialias) for grad_out (H x W x channels),
   // ACCUMULATED (+=) into grad_image (H x W x channels) and grad_clip (N x 4),
@@ -157,7 +174,8 @@ class Frame {
   // The triangle lists rasterize and load_gbuffer uploaded so far: a frame
   // keeps the last one on the device and uploads p.tris only when it differs
   // (compared with the frame's host copy), so a mesh whose triangles stay
-  // the same goes up once per frame.
+  // the same goes up once per frame; likewise antialias's whole list (kept
+  // apart from the frame's own).
   Uploads triangle_uploads() const;
 
  private:

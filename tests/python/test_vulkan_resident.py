@@ -1,6 +1,7 @@
 """RasterizeVulkanContext keeps rasterize's G-buffers on the device: interpolate, antialias (visibility_antialias
 too) and the rasterize backward read the device's copy (no upload of rast; in range mode interpolate and the
-rasterize backward read each image's copy with its range's triangles, antialias only a range of all triangles) while
+rasterize backward read each image's copy with its range's triangles, antialias with the whole list its topology
+indexes, the copy's ids offset by the range's first row) while
 rast, rast_db, pos and tri are the very tensors rasterize made or read, unwritten since, and upload them otherwise (a
 tensor written in place or a copy, a G-buffer the pool let go), with the CPU context's values within 1e-6 and
 gradients within 1e-5 either way, and the same bits uploaded or not (glctx.residency counts the uploads).
@@ -154,7 +155,8 @@ def test_depth_peeled_layers_keep_their_gbuffers_on_the_device():
 # ---------------------------------------------------------------------------- range mode
 # Each image's copy was rasterized from its range's triangles only (its ids numbered from 1 in the range): interpolate
 # and the rasterize adjoint read it with the range's triangles and the ids made local to it, as the C++ batches do;
-# antialias uploads a range of some of the triangles (its edge topology indexes them all).
+# antialias reads it with the whole list (its edge topology indexes them all: a walk may leave the range, as on the
+# CPU), the device adding the range's first row to the copy's ids.
 
 RANGES = {  # tri has 144 triangles
     'first above 0': [[72, 72], [10, 100]],
@@ -253,25 +255,46 @@ def test_range_mode_depth_peeled_layers_keep_their_gbuffers_on_the_device():
     assert ctx.residency['uploads'] == 0 and ctx.residency['resident_calls'] == 4 * 3
 
 
-def test_antialias_reads_a_range_copy_only_if_the_range_is_all_the_triangles():
+@pytest.mark.parametrize('antialias', [dr.antialias, dr.visibility_antialias])
+@pytest.mark.parametrize('ranges', [[[0, 144]] * 2, [[0, 40], [30, 42]], [[72, 72], [10, 100], [30, 0]],
+                                    [[40, 104], [40, 104], [0, 90]]])
+def test_antialias_reads_a_range_copy_with_no_upload_and_gives_the_cpu_contexts_values_and_gradients(ranges,
+                                                                                                   antialias):
     pos, tri, attr = scene(1)
+    assert tri.shape[0] == 144
     flat = pos[0]
-    # Per image: interpolate and its adjoint and the rasterize adjoint read the copy; antialias and its adjoint
-    # upload a range of some of the triangles.
-    for ranges, uploads in (([[0, tri.shape[0]]] * 2, 0), ([[0, 40], [30, 42]], 2 * 2)):
-        ranges = torch.tensor(ranges, dtype=torch.int32)
-        runs = []
-        ctx = vulkan_context()
-        for glctx in (ctx, dr.RasterizeCpuContext()):
-            p, a = leaf(flat), leaf(attr)
-            rast, db = dr.rasterize(glctx, p, tri, RESOLUTION, ranges=ranges)
-            out, da = dr.interpolate(a, rast, tri, rast_db=db, diff_attrs='all')
-            image = dr.antialias(out, rast, p, tri)
-            (image.square().sum() + da.square().sum()).backward()
-            runs.append(([rast, db, out, da, image], [a.grad, p.grad]))
-        compare(*runs)
-        assert ctx.residency['uploads'] == uploads
-        assert ctx.residency['uploads'] + ctx.residency['resident_calls'] == 2 * 5
+    images = len(ranges)
+    ranges = torch.tensor(ranges, dtype=torch.int32)
+    runs = []
+    ctx = vulkan_context()
+    for glctx in (ctx, dr.RasterizeCpuContext()):
+        p, a = leaf(flat), leaf(attr)
+        rast, db = dr.rasterize(glctx, p, tri, RESOLUTION, ranges=ranges)
+        out, da = dr.interpolate(a, rast, tri, rast_db=db, diff_attrs='all')
+        image = antialias(out, rast, p, tri)
+        (image.square().sum() + da.square().sum()).backward()
+        runs.append(([rast, db, out, da, image], [a.grad, p.grad]))
+    compare(*runs)
+    # Per image: interpolate and its adjoint, antialias and its adjoint, the rasterize adjoint, all on the copy.
+    stats = ctx.residency
+    assert stats['uploads'] == 0 and stats['resident_calls'] == 5 * images
+    assert ctx.device_calls == 6 * images  # and the rasterize
+    # The edge topology of the whole list goes up once per frame; so does the whole list where the frame's range
+    # is not all of it, besides the range's own triangles.
+    partial = sum(1 for first, count in ranges.tolist() if (first, count) != (0, 144))
+    assert stats['topology_uploads'] == images
+    assert stats['triangle_uploads'] == images + partial
+    assert stats['triangle_bytes'] == 12 * (int(ranges[:, 1].sum()) + 144 * partial)
+    # The same bits as the device gives uploading the G-buffers (a pool of one frame keeps only the last image's).
+    small = dr.RasterizeVulkanContext(frames=1)
+    p, a = leaf(flat), leaf(attr)
+    rast, db = dr.rasterize(small, p, tri, RESOLUTION, ranges=ranges)
+    out, da = dr.interpolate(a, rast, tri, rast_db=db, diff_attrs='all')
+    image = antialias(out, rast, p, tri)
+    (image.square().sum() + da.square().sum()).backward()
+    assert small.residency['uploads'] == 5 * (images - 1)
+    for x, y in zip([image, a.grad, p.grad], [runs[0][0][4]] + runs[0][1]):
+        assert torch.equal(x, y)
 
 
 def test_repeated_renders_of_one_mesh_upload_its_edge_topology_and_triangles_once_per_frame():

@@ -1,7 +1,8 @@
 // What a call reading one image's G-buffer hands a backend
 // (raster/image_on_device.h): the kept copy with the triangles it drew (a
 // range's, ids made local to it) or, without a copy it may read, all the
-// triangles and the host's ids.
+// triangles and the host's ids; with whole_list (antialias) the copy with all
+// the triangles, the host's ids and the range's first row.
 #include <catch2/catch.hpp>
 
 #include <cstdint>
@@ -27,26 +28,30 @@ void check_uploads(const raster::ImageOnDevice& on) {
   CHECK(on.tris == kTris.data());
   CHECK(on.num_tris == 5);
   CHECK(on.ids() == kIds.data());
+  CHECK(on.first == 0);
 }
 
 }  // namespace
 
 TEST_CASE("image on device: without a kept copy the call gets all the triangles and the host's ids",
           "[raster][image_on_device]") {
-  check_uploads(raster::image_on_device(nullptr, kTris.data(), 5, kIds.data(), 5, false));
-  const raster::KeptImage none{nullptr, 2, 3};  // the backend made no copy
-  check_uploads(raster::image_on_device(&none, kTris.data(), 5, kIds.data(), 5, false));
+  for (bool whole_list : {false, true}) {
+    check_uploads(raster::image_on_device(nullptr, kTris.data(), 5, kIds.data(), 5, whole_list));
+    const raster::KeptImage none{nullptr, 2, 3};  // the backend made no copy
+    check_uploads(raster::image_on_device(&none, kTris.data(), 5, kIds.data(), 5, whole_list));
+  }
 }
 
 TEST_CASE("image on device: a copy of all the triangles is read with them and the host's ids",
           "[raster][image_on_device]") {
   const raster::KeptImage whole = kept(0, 5);
-  for (bool whole_only : {false, true}) {
-    const raster::ImageOnDevice on = raster::image_on_device(&whole, kTris.data(), 5, kIds.data(), 5, whole_only);
+  for (bool whole_list : {false, true}) {
+    const raster::ImageOnDevice on = raster::image_on_device(&whole, kTris.data(), 5, kIds.data(), 5, whole_list);
     CHECK(on.device == whole.device.get());
     CHECK(on.tris == kTris.data());
     CHECK(on.num_tris == 5);
     CHECK(on.ids() == kIds.data());
+    CHECK(on.first == 0);
   }
 }
 
@@ -77,8 +82,14 @@ TEST_CASE("image on device: an empty range's copy is read with no triangles", "[
   CHECK(std::vector<std::int32_t>(on.ids(), on.ids() + 5) == background);
 }
 
-TEST_CASE("image on device: whole_only passes no copy of a range of some of the triangles",
+TEST_CASE("image on device: whole_list passes a range's copy with all the triangles, the host's ids and its first row",
           "[raster][image_on_device]") {
-  for (const raster::KeptImage& range : {kept(2, 3), kept(0, 4), kept(3, 0)})
-    check_uploads(raster::image_on_device(&range, kTris.data(), 5, kIds.data(), 5, true));
+  for (const raster::KeptImage& range : {kept(2, 3), kept(0, 4), kept(3, 0)}) {
+    const raster::ImageOnDevice on = raster::image_on_device(&range, kTris.data(), 5, kIds.data(), 5, true);
+    CHECK(on.device == range.device.get());
+    CHECK(on.first == range.first);
+    CHECK(on.tris == kTris.data());
+    CHECK(on.num_tris == 5);
+    CHECK(on.ids() == kIds.data());
+  }
 }

@@ -10,7 +10,7 @@ layout(push_constant) uniform Params {
   int width;
   int height;
   int num_vertices;
-  int num_tris;
+  int id_offset;  // the row of `tris` where the G-buffer's triangles start (a range's first; else 0)
   int channels;
   int pass;  // antialias_backward: 0 = image gradient and largest magnitudes, 1 = sums
   int y_up;  // the G-buffer was rasterized with y negated (row 0 at the bottom)
@@ -45,6 +45,10 @@ double edge_fn(dvec2 q, dvec2 a, dvec2 b) {
   precise double e = (q.x - a.x) * (b.y - a.y) - (q.y - a.y) * (b.x - a.x);
   return e;
 }
+
+// The triangle (row of `tris`) of a G-buffer id (numbered from 1 in its
+// triangles), -1 for the background (0).
+int triangle_of(int id) { return id == 0 ? -1 : id - 1 + P.id_offset; }
 
 // The centre of pixel p.
 dvec2 centre(int p) { return dvec2(double(p % P.width) + 0.5, double(p / P.width) + 0.5); }

@@ -18,7 +18,8 @@ layout(std430, binding = 7) writeonly buffer PairBuf { Pair pairs[]; };
 
 #include "surface_walk.glsl"
 
-// The pair (p, q): front pixel by the (depth, id) key, background behind all.
+// The pair (p, q): front pixel by the (depth, id) key, background behind all
+// (offsetting the ids keeps their order).
 Pair evaluate(int p, int q, bool horizontal) {
   Pair none = Pair(0.0, -1, 0);
   int ip = tri_id[p], iq = tri_id[q];
@@ -26,7 +27,8 @@ Pair evaluate(int p, int q, bool horizontal) {
   bool p_front = iq == 0 || (ip != 0 && (depth(p) < depth(q) || (depth(p) == depth(q) && ip < iq)));
   int inside = p_front ? p : q, outside = p_front ? q : p;
   WalkPath path;
-  WalkEnd e = walk_surface((p_front ? ip : iq) - 1, (p_front ? iq : ip) - 1, centre(inside), centre(outside), path);
+  WalkEnd e = walk_surface(triangle_of(p_front ? ip : iq), triangle_of(p_front ? iq : ip), centre(inside),
+                           centre(outside), path);
   if (e.kind != kSilhouette) return none;
   dvec2 sa = screen_of(e.a), sb = screen_of(e.b);
   if (!pair_owns_direction(horizontal, sb.x - sa.x, sb.y - sa.y)) return none;

@@ -84,7 +84,7 @@ Pair evaluate(int p, int q, bool horizontal) {
   if (ip == iq) return kNone;
   bool p_front = iq == 0 || (ip != 0 && (depth(p) < depth(q) || (depth(p) == depth(q) && ip < iq)));
   int f = p_front ? p : q, b = p_front ? q : p;
-  int tf = (p_front ? ip : iq) - 1, tb = (p_front ? iq : ip) - 1;  // tb < 0: background
+  int tf = triangle_of(p_front ? ip : iq), tb = triangle_of(p_front ? iq : ip);  // tb < 0: background
   dvec2 fc = centre(f), bc = centre(b);
   // 1. The front surface, towards the other centre.
   WalkPath path_f, path_b;

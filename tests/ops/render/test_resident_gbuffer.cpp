@@ -52,7 +52,7 @@ class CountingBackend : public raster::RasterBackend {
                             const raster::BarycentricInterpolateGrads<float>&) const override {
     return count(resident);
   }
-  bool antialias_forward(const raster::DeviceGBuffer* resident, const raster::AntialiasParams<float>&,
+  bool antialias_forward(const raster::DeviceGBuffer* resident, std::int64_t, const raster::AntialiasParams<float>&,
                          float*) const override {
     return count(resident);
   }

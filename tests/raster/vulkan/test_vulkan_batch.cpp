@@ -5,9 +5,10 @@
 // adjoint run image by image on the backend: values within 1e-6 and
 // gradients within 1e-5 of the CPU's (relative to the largest), the same run
 // to run. With no more images than the backend's frames the ops read the
-// device's copies (no upload, but range mode's antialias, whose topology
-// indexes the whole triangle list); with more they upload the host's, with
-// the same results.
+// device's copies (no upload; range mode's antialias too, reading the whole
+// triangle list, which its topology indexes, with the copy's ids offset by
+// the range's first row); with more they upload the host's, with the same
+// results.
 #include <catch2/catch.hpp>
 
 #include <cstring>
@@ -173,13 +174,36 @@ TEST_CASE("a range mode batch on a Vulkan backend gives the CPU's G-buffers, val
   const Batch in = range_batch();
   const auto backend = vulkan::raster_backend(shared_gpu(), 4);
   expect_cpu_results(in, 40, 32, backend);
-  // Interpolate's and the rasterize adjoint's calls read the device's
-  // copies; antialias (forward and adjoint) uploads each image, whose
-  // triangles are a range of the list its topology indexes.
+  // Every call reads the device's copies: interpolate's, the rasterize
+  // adjoint's, and antialias's (forward and adjoint), which read the whole
+  // list its topology indexes, the copy's ids offset by the range's first row.
   const vulkan::ResidencyStats stats = vulkan::residency_stats(*backend);
   CHECK(stats.gbuffers == 2 * kImages);
-  CHECK(stats.resident_calls == 2 * 3 * kImages);
-  CHECK(stats.uploads == 2 * 2 * kImages);
+  CHECK(stats.resident_calls == 2 * 5 * kImages);
+  CHECK(stats.uploads == 0);
+}
+
+TEST_CASE("range mode antialias walks past its range into the whole mesh as the CPU does, reading the kept copies",
+          "[vulkan][batch]") {
+  if (!shared_gpu()) return;
+  // Parts of two connected spheres: a walk from a range's triangle crosses
+  // its interior edges into triangles outside the range (the CPU's
+  // antialias walks the whole list's surface), so a sub-list's topology
+  // would blend where the CPU does not.
+  const Scene s = two_spheres(false);
+  const std::int64_t n = static_cast<std::int64_t>(s.clip.size() / 4), m = static_cast<std::int64_t>(s.tris.size() / 3);
+  const auto third = static_cast<std::int32_t>(m / 3);
+  const std::vector<std::int32_t> ranges = {third, third, 5, 2 * third, 2 * third, 0};
+  const Batch in{Tensor::from_vector<float>(s.clip, {n, 4}), Tensor::from_vector<std::int32_t>(s.tris, {m, 3}),
+                 Tensor::from_vector<std::int32_t>(ranges, {kImages, 2}),
+                 Tensor::from_vector<float>(random_values(static_cast<std::size_t>(n * 2), 9), {n, 2})};
+  for (bool visibility : {false, true}) {
+    const auto backend = vulkan::raster_backend(shared_gpu(), 4);
+    expect_cpu_results(in, 48, 40, backend, visibility);
+    const vulkan::ResidencyStats stats = vulkan::residency_stats(*backend);
+    CHECK(stats.uploads == 0);
+    CHECK(stats.resident_calls == 2 * 5 * kImages);
+  }
 }
 
 TEST_CASE("a batch with more images than the backend's frames uploads them and gives the CPU's results",
