@@ -4,6 +4,7 @@
 
 #include "autodiff/base/dtype.h"
 #include "autodiff/base/error.h"
+#include "autodiff/base/parallel.h"
 #include "autodiff/tape.h"
 
 namespace gr {
@@ -149,13 +150,17 @@ std::vector<double> ViewGradients::reduce(Communicator& comm) {
   for (int v = 0; v < views_; ++v)
     if (!record_of[v]) throw ValueError("ViewGradients::reduce: no process took view " + std::to_string(v));
 
-  // Sums in view order, float64.
+  // Sums in view order, float64, each element by one thread (so the same
+  // additions for any thread count).
   std::vector<double>& sum = sum_;
   sum.assign(values + gradient_length_, 0.0);
-  for (int v = 0; v < views_; ++v) {
-    const double* rec = record_of[v] + 1;
-    for (std::size_t i = 0; i < sum.size(); ++i) sum[i] += rec[i];
-  }
+  parallel_for(0, static_cast<std::int64_t>(sum.size()), kElementwiseGrain / 4,
+               [&](std::int64_t lo, std::int64_t hi) {
+                 for (int v = 0; v < views_; ++v) {
+                   const double* rec = record_of[v] + 1;
+                   for (std::int64_t i = lo; i < hi; ++i) sum[i] += rec[i];
+                 }
+               });
   std::size_t at = values;
   ScopedTape own_tape;  // setting the params' gradients leaves the caller's recording alone
   for (Tensor& p : params_) {

@@ -436,10 +436,19 @@ FitResult run_shape(const FitOptions& options, std::ostream& log) {
     phases.mark("positions, normals, gathers");
 
     std::vector<Tensor> images(static_cast<std::size_t>(views));
+    const double penalty_weight = options.laplacian_weight * decay;
+    Tensor penalty_grad;  // d(penalty_weight * penalty)/d positions
     std::exception_ptr failure;  // every process must reach the reduction, failed or not
     try {
       if (it == 0 && mine.begin < mine.end) fail_if_asked(comm);
-      parallel_tasks(mine.end - mine.begin, [&](int i) {
+      // The views, then the Laplacian penalty's gradient: it needs no view,
+      // so it runs beside them instead of after them.
+      const int my_views = mine.end - mine.begin;
+      parallel_tasks(my_views + 1, [&](int i) {
+        if (i == my_views) {
+          penalty_grad = penalty_gradient(smoothed.laplacian, positions, penalty_weight);
+          return;
+        }
         const int v = schedule.view(i);
         const auto view_start = Clock::now();
         ScopedTape tape;
@@ -474,8 +483,9 @@ FitResult run_shape(const FitOptions& options, std::ostream& log) {
     phases.mark("snapshots (hand-off)");
 
     // The views' gradient and the Laplacian term, once: d/d offsets of
-    // penalty(positions) + <surface(positions), dL/dsurface> (dL/dsurface held constant).
-    backward(options.laplacian_weight * decay * laplacian_penalty(smoothed.laplacian, positions) + shared.pullback());
+    // <positions, dP/dpositions> + <surface(positions), dL/dsurface> (both
+    // gradients held constant), P = penalty_weight penalty(positions).
+    backward(sum(positions * penalty_grad) + shared.pullback());
     shared.zero_grad();
     phases.mark("Laplacian, smoothing, normals backward");
     adam.step();

@@ -23,6 +23,13 @@ Tensor laplacian_penalty(const MeshLaplacian& laplacian, const Tensor& positions
   return mean(sum(l * l, -1));
 }
 
+Tensor penalty_gradient(const MeshLaplacian& laplacian, const Tensor& positions, double weight) {
+  ScopedTape tape;
+  Tensor x = positions.detach().set_requires_grad();
+  backward(weight * laplacian_penalty(laplacian, x));
+  return x.grad();
+}
+
 Tensor SurfaceMesh::to_render(const Tensor& per_point) const { return gather(per_point, render_to_point); }
 
 namespace {

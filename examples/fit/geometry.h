@@ -18,6 +18,9 @@ using gr::Tensor;
 // The fit's smoothness penalty: mean over points of |L p_i|^2, L the uniform
 // Laplacian (gr::MeshLaplacian; its sign does not matter here).
 Tensor laplacian_penalty(const gr::MeshLaplacian& laplacian, const Tensor& positions);
+// d(weight * laplacian_penalty(laplacian, positions))/d positions, on a tape
+// of its own (positions' own tape records nothing).
+Tensor penalty_gradient(const gr::MeshLaplacian& laplacian, const Tensor& positions, double weight);
 
 // A triangle mesh as the fit example renders and optimizes it. `positions`
 // has one row per distinct point (welded), so a uv seam cannot tear open when
