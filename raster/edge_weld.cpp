@@ -4,11 +4,11 @@
 #include "raster/edge_weld.h"
 
 #include <algorithm>
-#include <atomic>
 #include <cstring>
 #include <numeric>
+#include <type_traits>
 
-#include "autodiff/base/parallel.h"
+#include "autodiff/base/storage.h"
 
 namespace gr::raster {
 
@@ -21,22 +21,27 @@ bool rows_equal(const T* pos, int dims, std::int64_t a, std::int64_t b) {
   return true;
 }
 
-// A hash of a row consistent with rows_equal: +0 for -0 (equal under ==);
-// rows are finite, so equal rows have equal bits otherwise.
+// A hash of a row consistent with rows_equal (FxHash's rotate, xor and
+// multiply per component): +0 for -0 (equal under ==); rows are finite, so
+// equal rows have equal bits otherwise.
 template <class T>
 std::uint64_t row_hash(const T* row, int dims) {
-  std::uint64_t h = 0x9e3779b97f4a7c15ull;
+  std::uint64_t h = 0;
   for (int d = 0; d < dims; ++d) {
     const T x = row[d] == T(0) ? T(0) : row[d];
-    std::uint64_t bits = 0;
+    std::conditional_t<sizeof(T) == 8, std::uint64_t, std::uint32_t> bits;
     std::memcpy(&bits, &x, sizeof(T));
-    h ^= bits + 0x9e3779b97f4a7c15ull + (h << 6) + (h >> 2);
+    h = (((h << 5) | (h >> 59)) ^ bits) * 0x517cc1b727220a95ull;
   }
-  // splitmix64's finalizer: the low bits (the table's slot) depend on all of them.
-  h = (h ^ (h >> 30)) * 0xbf58476d1ce4e5b9ull;
-  h = (h ^ (h >> 27)) * 0x94d049bb133111ebull;
-  return h ^ (h >> 31);
+  return h;
 }
+
+// A slot of an open-addressing table of vertices by row: the hash's low 32
+// bits (to skip most row comparisons) and the vertex (-1: empty).
+struct Slot {
+  std::uint32_t tag;
+  std::int32_t vertex;
+};
 
 }  // namespace
 
@@ -78,32 +83,28 @@ bool weld_holds(const T* pos, int dims, const std::vector<std::int32_t>& canon) 
       if (canon[v] != v) return false;
     return true;
   }
-  std::atomic<bool> within{true};
-  parallel_for(0, n, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
-    for (std::int64_t v = lo; v < hi && within.load(std::memory_order_relaxed); ++v) {
-      const std::int64_t c = canon[v];
-      if (c < 0 || c > v || canon[c] != c || !rows_equal(pos, dims, v, c)) within.store(false);
-    }
-  });
-  if (!within.load()) return false;
-  // Open addressing over the self-named vertices, at most half full.
   std::int64_t named = 0;
   for (std::int64_t v = 0; v < n; ++v) named += canon[v] == v;
-  std::size_t slots = 2;
-  while (slots < 2 * static_cast<std::size_t>(named)) slots *= 2;
-  struct Slot {
-    std::uint64_t hash;
-    std::int64_t vertex = -1;
-  };
-  std::vector<Slot> table(slots);
-  const std::size_t mask = slots - 1;
+  int bits = 1;  // slots = 2^bits >= 2 named: at most half full
+  while ((std::int64_t(1) << bits) < 2 * named) ++bits;
+  // From the storage cache: no page faults once warm, and no memory kept aside from it.
+  const std::size_t slots = std::size_t(1) << bits, mask = slots - 1;
+  Storage scratch(slots * sizeof(Slot));
+  Slot* const table = static_cast<Slot*>(scratch.data());
+  std::fill_n(table, slots, Slot{0, -1});
   for (std::int64_t v = 0; v < n; ++v) {
-    if (canon[v] != v) continue;
+    const std::int64_t c = canon[v];
+    if (c != v) {  // (1): a vertex named by a smaller one, naming itself, of the same row
+      if (c < 0 || c > v || canon[c] != c || !rows_equal(pos, dims, v, c)) return false;
+      continue;
+    }
+    // (2): a self-named vertex's row, new among the self-named ones so far.
     const std::uint64_t h = row_hash(pos + v * dims, dims);
-    std::size_t s = static_cast<std::size_t>(h) & mask;
+    const std::uint32_t tag = static_cast<std::uint32_t>(h);
+    std::size_t s = static_cast<std::size_t>(h >> (64 - bits));
     for (; table[s].vertex >= 0; s = (s + 1) & mask)
-      if (table[s].hash == h && rows_equal(pos, dims, v, table[s].vertex)) return false;
-    table[s] = {h, v};
+      if (table[s].tag == tag && rows_equal(pos, dims, v, table[s].vertex)) return false;
+    table[s] = {tag, static_cast<std::int32_t>(v)};
   }
   return true;
 }
