@@ -7,6 +7,8 @@
 // (raster::weld_holds: the same vertices have equal rows; O(N), no sort);
 // otherwise it is built again. The result is always the topology
 // build_edge_topology gives for these rows, neighbour for neighbour.
+// The last 4 welds are kept (24 bytes per triangle and 4 per vertex each);
+// an entry whose triangles were freed or written goes at the next call.
 #pragma once
 
 #include <cstdint>
