@@ -101,6 +101,20 @@ void BM_Antialias(benchmark::State& state) {
           {s.image, s.gbuffer.tri_id, s.gbuffer.depth, s.clip, s.triangles});
 }
 
+// antialias with no topology given: the op welds one from the clip rows and
+// keeps it for the next call on the same triangles (ops/render/topology_cache.h).
+//   Args {size, backward, kept}: kept = 1 reuses it (the weld checked, O(N));
+//   kept = 0 writes the triangles (in place, no change) before each call, so
+//   the op welds and builds it again, as it did at every call before.
+void BM_AntialiasOwnTopology(benchmark::State& state) {
+  Scene s = make_scene(static_cast<int>(state.range(0)));
+  const bool kept = state.range(2) != 0;
+  time_op(state, [&] {
+    if (!kept) s.triangles.data<std::int32_t>();  // counted as a write
+    return antialias(s.image, s.gbuffer, s.clip, s.triangles);
+  });
+}
+
 // visibility_antialias on the same image (one closed sphere: silhouettes only,
 // so the cost of locating boundaries from both surfaces against antialias's).
 void BM_VisibilityAntialias(benchmark::State& state) {
@@ -297,6 +311,11 @@ BENCHMARK(BM_Interpolate)->Apply(Sizes);
 BENCHMARK(BM_InterpolateFragments)->Apply(Sizes);
 BENCHMARK(BM_Antialias)->Apply(Sizes);
 BENCHMARK(BM_VisibilityAntialias)->Apply(Sizes);
+BENCHMARK(BM_AntialiasOwnTopology)
+    ->ArgNames({"size", "backward", "kept"})
+    ->ArgsProduct({{256}, {0, 1}, {0, 1}})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 BENCHMARK(BM_TextureBilinear)->Apply(Sizes);
 BENCHMARK(BM_TextureBilinearNoGrad)->ArgName("size")->Arg(256)->Arg(1024)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_TextureTrilinear)->Apply(Sizes);

@@ -7,6 +7,13 @@
 //                          (Device::open()'s device; GRADRASTER_VULKAN_DEVICE
 //                          selects). A torus (20,000 triangles) framed by
 //                          bench/mesh_framing.h, size x size pixels.
+//   BM_OpChain/.../kept: 1 = antialias's own welded topology kept between
+//                          iterations (the op's default,
+//                          ops/render/topology_cache.h); 0 = the triangles
+//                          written (in place, unchanged) each iteration, so
+//                          it is welded, built and uploaded again, as before
+//                          the op kept it. Counter topology_uploads: per
+//                          iteration (ResidencyStats), on the Vulkan backend.
 #include <benchmark/benchmark.h>
 
 #include <memory>
@@ -22,7 +29,7 @@ struct ChainScene {
   gr::Tensor clip, tris, colours, normals, weights;
 };
 
-const ChainScene& chain_scene(int size) {
+ChainScene& chain_scene(int size) {
   static ChainScene s;
   static int made = 0;
   if (made == size) return s;
@@ -50,8 +57,11 @@ void BM_OpChain(benchmark::State& state) {
     state.SetLabel(backend->name());
   }
   const int size = static_cast<int>(state.range(1));
-  const ChainScene& s = chain_scene(size);
+  ChainScene& s = chain_scene(size);
+  const bool kept = state.range(2) != 0;
+  const std::int64_t uploads_before = backend ? gr::vulkan::residency_stats(*backend).topology_uploads : 0;
   for (auto _ : state) {
+    if (!kept) s.tris.data<std::int32_t>();  // counted as a write
     gr::Tensor clip = s.clip.detach().set_requires_grad();
     gr::Tensor colours = s.colours.detach().set_requires_grad();
     gr::RasterizeOptions ro{size, size};
@@ -64,10 +74,16 @@ void BM_OpChain(benchmark::State& state) {
     gr::backward(gr::sum(image * s.weights) + gr::sum(c.d_dx * c.d_dy));
     benchmark::DoNotOptimize(clip.grad().data<float>());
   }
+  if (backend)
+    state.counters["topology_uploads"] = benchmark::Counter(
+        double(gr::vulkan::residency_stats(*backend).topology_uploads - uploads_before), benchmark::Counter::kAvgIterations);
 }
 
 }  // namespace
 
-BENCHMARK(BM_OpChain)->ArgNames({"backend", "size"})->Args({0, 256})->Args({1, 256})->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_OpChain)
+    ->ArgNames({"backend", "size", "kept"})
+    ->ArgsProduct({{0, 1}, {256}, {1, 0}})
+    ->Unit(benchmark::kMillisecond);
 
 BENCHMARK_MAIN();

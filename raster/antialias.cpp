@@ -10,7 +10,6 @@
 #include <cassert>
 #include <cmath>
 #include <limits>
-#include <numeric>
 #include <optional>
 #include <utility>
 
@@ -19,6 +18,7 @@
 #include "raster/project.h"
 #include "raster/detail/rasterize_setup.h"
 #include "raster/detail/surface_walk.h"
+#include "raster/edge_weld.h"
 
 namespace gr::raster {
 
@@ -61,27 +61,12 @@ EdgeTopology& EdgeTopology::operator=(EdgeTopology&& other) noexcept {
 template <class T>
 EdgeTopology build_edge_topology(const std::int32_t* tris, std::int64_t num_tris, std::int64_t num_vertices,
                                  const T* pos, int dims) {
-  // Canonical vertex ids: the smallest index among vertices with equal rows.
-  std::vector<std::int32_t> canon(static_cast<std::size_t>(num_vertices));
-  std::iota(canon.begin(), canon.end(), 0);
-  if (pos && dims > 0) {
-    auto row_less = [&](std::int32_t a, std::int32_t b) {
-      for (int d = 0; d < dims; ++d) {
-        const T pa = pos[std::int64_t(a) * dims + d], pb = pos[std::int64_t(b) * dims + d];
-        if (pa != pb) return pa < pb;
-      }
-      return false;
-    };
-    std::vector<std::int32_t> order(canon);
-    std::sort(order.begin(), order.end(), [&](std::int32_t a, std::int32_t b) {
-      if (row_less(a, b)) return true;
-      if (row_less(b, a)) return false;
-      return a < b;
-    });
-    for (std::size_t i = 1; i < order.size(); ++i)
-      if (!row_less(order[i - 1], order[i])) canon[order[i]] = canon[order[i - 1]];
-  }
+  return build_edge_topology_welded(tris, num_tris, weld_vertices(pos, num_vertices, dims));
+}
 
+EdgeTopology build_edge_topology_welded(const std::int32_t* tris, std::int64_t num_tris,
+                                        const std::vector<std::int32_t>& canon) {
+  const std::int64_t num_vertices = static_cast<std::int64_t>(canon.size());
   std::vector<std::int64_t> neighbour(static_cast<std::size_t>(3 * num_tris), kBoundaryEdge);
 
   // Bucket the undirected edges by their smaller canonical vertex (counting sort).

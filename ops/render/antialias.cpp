@@ -15,6 +15,7 @@
 #include "autodiff/tape.h"
 #include "ops/check.h"
 #include "ops/render/resident_gbuffer.h"
+#include "ops/render/topology_cache.h"
 #include "raster/blended_pairs.h"
 
 namespace gr {
@@ -154,8 +155,9 @@ Tensor antialias(const Tensor& image, const GBuffer& gbuffer, const Tensor& clip
   bool on_backend = false;
   dispatch_float(clip.dtype(), op, [&](auto tag) {
     using T = decltype(tag);
-    // Default topology: weld vertices with equal clip rows.
-    if (!topology) topology = make_topology(triangles, n, clip.data<T>(), 4);
+    // Default topology: weld vertices with equal clip rows (kept for the next
+    // call on these triangles while that weld holds: ops/render/topology_cache.h).
+    if (!topology) topology = detail::welded_topology(triangles, n, clip.data<T>());
     raster::AntialiasParams<T> p = image_params<T>(image, clip);
     p.tri_id = gbuffer.tri_id.data<std::int32_t>();
     p.depth = gbuffer.depth.data<T>();

@@ -28,9 +28,11 @@ using AntialiasTopology = std::shared_ptr<const raster::EdgeTopology>;
 AntialiasTopology antialias_topology(const Tensor& triangles, const Tensor& positions = Tensor());
 
 struct AntialiasOptions {
-  // Precomputed antialias_topology(triangles, ...). Empty: built on every call
-  // from the triangles, welding vertices with equal clip-space rows (cheap for
-  // small meshes; pass one in optimization loops).
+  // Precomputed antialias_topology(triangles, ...). Empty: built from the
+  // triangles, welding vertices with equal clip-space rows, and kept for the
+  // next calls on the same triangle tensor (unwritten since) while the same
+  // vertices have equal rows: those calls check the weld (O(N)) instead of
+  // building it again, and a device keeps its upload.
   AntialiasTopology topology;
   raster::AntialiasStats* stats = nullptr;  // if set, receives the pair counts
   // nvdiffrast's pos_gradient_boost: the gradient to clip is multiplied by

@@ -14,6 +14,7 @@
 #include "autodiff/tape.h"
 #include "ops/check.h"
 #include "ops/render/resident_gbuffer.h"
+#include "ops/render/topology_cache.h"
 #include "raster/blended_pairs.h"
 #include "raster/barycentric_interpolate.h"
 
@@ -391,8 +392,7 @@ Tensor antialias_batch(const Tensor& image, const GBuffer& gbuffer, const Tensor
   dispatch_float(clip.dtype(), op, [&](auto tag) {
     using T = decltype(tag);
     for_each_image(topologies, [&](std::int64_t b) {
-      topology[b] = std::make_shared<const raster::EdgeTopology>(raster::build_edge_topology(
-          triangles.data<std::int32_t>(), triangles.size(0), N, pos.at<T>(b), 4));
+      topology[b] = detail::welded_topology(triangles, N, pos.at<T>(b));  // kept while its weld holds
     });
     if constexpr (std::is_same_v<T, float>)
       if (backend) {

@@ -24,8 +24,8 @@
 namespace gr {
 
 struct VisibilityAntialiasOptions {
-  // Precomputed antialias_topology(triangles, ...). Empty: built on every call,
-  // welding vertices with equal clip-space rows (pass one in loops).
+  // Precomputed antialias_topology(triangles, ...). Empty: welded from the
+  // clip rows and kept between calls, as antialias's (AntialiasOptions).
   AntialiasTopology topology;
   raster::VisibilityAntialiasStats* stats = nullptr;  // if set, receives the pair counts
   double pos_gradient_boost = 1.0;  // as antialias's: scales the gradient to clip

@@ -411,3 +411,37 @@ TEST_CASE("two threads rendering on one backend at once get the CPU's results", 
   CHECK(stats.gbuffers == 2 * kRounds);
   CHECK(stats.uploads == 0);  // at most two G-buffers alive, four frames
 }
+
+TEST_CASE("antialias without a topology uploads its welded topology once over calls on the same triangles",
+          "[vulkan]") {
+  if (!shared_gpu()) return;
+  // The op keeps the topology it welds (ops/render/topology_cache.h): the same
+  // object while the triangles are unwritten and the weld holds, so the
+  // frame keeps its upload; written triangles give a new one, uploaded again.
+  const Scene s = perspective(raster::make_icosphere(2), 1.0, 3.0);
+  const std::int64_t n = static_cast<std::int64_t>(s.clip.size() / 4), m = static_cast<std::int64_t>(s.tris.size() / 3);
+  Tensor tris = Tensor::from_vector<std::int32_t>(s.tris, {m, 3});
+  const Tensor attr = Tensor::from_vector<float>(random_values(static_cast<std::size_t>(n * 3), 9), {n, 3});
+  const auto backend = vulkan::raster_backend(shared_gpu(), 1);
+  auto render = [&](float shift, const std::shared_ptr<const raster::RasterBackend>& on) {
+    std::vector<float> rows = s.clip;
+    for (std::int64_t v = 0; v < n; ++v) rows[4 * v] += shift * rows[4 * v + 3];  // x moved by `shift` in NDC
+    Tensor clip = Tensor::from_vector<float>(rows, {n, 4}).set_requires_grad();
+    RasterizeOptions ro{48, 40};
+    ro.backend = on;
+    const GBuffer gb = rasterize(clip, tris, ro);
+    const Tensor image = antialias(interpolate(attr, gb, tris), gb, clip, tris);
+    backward(sum(image * weights(image, 3)));
+    return std::make_pair(values_of(image), values_of(clip.grad()));
+  };
+  const float shifts[] = {0.0f, 0.0f, 0.0f, 0.05f, -0.05f};
+  for (float shift : shifts) {
+    const auto gpu = render(shift, backend), cpu = render(shift, nullptr);
+    CHECK(relative_error(gpu.first, cpu.first) <= 1e-6);
+    CHECK(relative_error(gpu.second, cpu.second) <= 1e-5);
+  }
+  CHECK(vulkan::residency_stats(*backend).topology_uploads == 1);
+  tris.data<std::int32_t>();  // counted as a write: the kept topology is not used again
+  render(0.0f, backend);
+  CHECK(vulkan::residency_stats(*backend).topology_uploads == 2);
+}
