@@ -20,7 +20,7 @@ namespace gr::detail {
 inline std::int64_t row_sum_grain(const VertexRows& r, std::int64_t channels) {
   const std::int64_t rows = std::max<std::int64_t>(1, r.rows());
   const std::int64_t reads = (std::int64_t(r.column.size()) / rows + 1) * std::max<std::int64_t>(1, channels);
-  return std::max<std::int64_t>(1, kElementwiseGrain / reads);
+  return std::max<std::int64_t>(1, 4 * kElementwiseGrain / reads);
 }
 
 // For every row i (in parallel over rows) and channel c < C:
