@@ -201,6 +201,43 @@ TEST_CASE("view gradients: views evaluated concurrently on their own leaves give
   set_num_threads(0);
 }
 
+TEST_CASE("view gradients: a long gradient is summed in view order, the same bits for any thread count",
+          "[autodiff][distributed][parallel]") {
+  // Long enough that reduce splits its sum over threads; values of mixed
+  // magnitudes, so that another order of additions would round differently.
+  constexpr int kLongViews = 5;
+  constexpr std::int64_t kLength = 50000;
+  auto view_gradient = [](int v) {
+    std::vector<double> g(static_cast<std::size_t>(kLength));
+    for (std::int64_t i = 0; i < kLength; ++i)
+      g[static_cast<std::size_t>(i)] = std::pow(10.0, double((i + v) % 9) - 4.0) * (((i * 7 + v) % 5) - 2.0) / 3.0;
+    return g;
+  };
+  std::vector<double> expected(static_cast<std::size_t>(kLength));
+  for (std::int64_t i = 0; i < kLength; ++i) {
+    double sum = 0;
+    for (int v = 0; v < kLongViews; ++v) sum += double(float(view_gradient(v)[static_cast<std::size_t>(i)]));
+    expected[static_cast<std::size_t>(i)] = double(float(sum));
+  }
+  for (int threads : {1, 2, 8}) {
+    set_num_threads(threads);
+    INFO(threads << " threads");
+    Tensor p = Tensor::zeros({kLength}, DType::Float32).set_requires_grad();
+    ViewGradients grads({p}, kLongViews, 1);
+    for (int v = 0; v < kLongViews; ++v) {
+      ScopedTape tape;
+      const std::vector<Tensor> mine = grads.view_leaves();
+      const std::vector<double> g = view_gradient(v);
+      backward(sum(mine[0] * Tensor::from_values(g, {kLength}, DType::Float32)));
+      grads.take(v, mine, {double(v)});
+    }
+    SingleProcess one;
+    CHECK(grads.reduce(one) == std::vector<double>{0.0 + 1 + 2 + 3 + 4});
+    CHECK(p.grad().to_vector() == expected);
+  }
+  set_num_threads(0);
+}
+
 TEST_CASE("view gradients: a view's leaves share the params' values but not their gradients", "[autodiff][distributed]") {
   Tensor w = Tensor::from_values({1, 2}, {2}).set_requires_grad();
   ViewGradients grads({w}, 2, 0);
