@@ -1,7 +1,8 @@
 // The antialias walk's prefilter (raster/detail/silhouette_mask.h): with it
 // forced on, antialias_forward finds the same pairs, blends and gradients bit
 // for bit as with it off, on random vertex soups (folds, non-manifold edges),
-// icospheres, open meshes, welded topologies, near-plane clipping and y_up,
+// icospheres (up to 20480 triangles at 512 x 448), jittered planes and
+// spheres, open meshes, welded topologies, near-plane clipping and y_up,
 // at any thread count; and it does skip walks where it can.
 #include <catch2/catch.hpp>
 
@@ -175,6 +176,7 @@ TEST_CASE("silhouette prefilter: antialias of a fine icosphere is bit for bit th
   CHECK(skipped > 0);
   CHECK(check_identical(s, 97, 61, true) > 0);
   CHECK(check_identical(view_of(make_icosphere(2), 2.2, 1.1), 31, 37) >= 0);
+  CHECK(check_identical(view_of(make_icosphere(5), 2.8, 2.3), 512, 448) > 0);
 }
 
 TEST_CASE("silhouette prefilter: random vertex soups with folds and non-manifold edges give the unfiltered result",
@@ -208,6 +210,21 @@ TEST_CASE("silhouette prefilter: open meshes, folded planes and welded topologie
   // Welded: the torus with split vertices, and the folded plane.
   check_identical(split(view_of(make_torus(24, 12), 3.0, 0.7)), 100, 80);
   check_identical(split(folded), 90, 70);
+}
+
+TEST_CASE("silhouette prefilter: jittered planes and spheres at several sizes and angles give the unfiltered result",
+          "[raster][antialias][silhouette_mask]") {
+  ModeGuard guard;
+  for (std::uint32_t seed = 1; seed <= 24; ++seed) {
+    INFO("seed " << seed);
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> angle(0.0, 3.0), amount(0.0, 0.05);
+    Scene s = view_of(seed % 2 ? make_plane(30, 20, 2.0f) : make_icosphere(3), 2.4, angle(rng));
+    std::normal_distribution<double> jitter(0.0, amount(rng));
+    for (std::size_t i = 0; i < s.clip.size(); i += 4)
+      for (int d = 0; d < 3; ++d) s.clip[i + d] += jitter(rng);
+    check_identical(s, 48 + static_cast<int>(seed * 37 % 160), 40 + static_cast<int>(seed * 29 % 150), seed % 3 == 0);
+  }
 }
 
 TEST_CASE("silhouette prefilter: a mesh crossing the near plane is walked in full with the same result",
