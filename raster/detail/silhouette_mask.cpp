@@ -65,6 +65,19 @@ SignedVolume signed_volume(const Vertices& v, std::int32_t a, std::int32_t b, st
   return {value, bound};
 }
 
+// Screen coordinates within 2^36 px of the origin (finite): there the walk's
+// edge values place a point to about 2^36 * 2^-52 = 2^-16 px, well inside the
+// margin; a vertex beyond (w near 0) could round the exit point off its edge.
+constexpr double kMaxScreen = 0x1p36;
+bool on_sane_screen(const Vertices& v, const std::int32_t* tri) {
+  bool ok = true;
+  for (int k = 0; k < 3; ++k) {
+    const double* s = &v.screen[3 * static_cast<std::size_t>(tri[k])];
+    ok &= std::abs(s[0]) <= kMaxScreen && std::abs(s[1]) <= kMaxScreen;
+  }
+  return ok;
+}
+
 bool same_screen_point(const Vertices& v, std::int32_t i, std::int32_t j) {
   return i == j || (v.screen[3 * static_cast<std::size_t>(i)] == v.screen[3 * static_cast<std::size_t>(j)] &&
                     v.screen[3 * static_cast<std::size_t>(i) + 1] == v.screen[3 * static_cast<std::size_t>(j) + 1]);
@@ -99,9 +112,10 @@ bool build_silhouette_mask(const Vertices& v, const std::int32_t* tris, std::int
   // that side's sign where rounding cannot flip it (0 where it could).
   std::vector<std::int8_t> certain(static_cast<std::size_t>(num_tris));
   parallel_for(0, num_tris, 2048, [&](std::int64_t t0, std::int64_t t1) {
+    if (refused.load(std::memory_order_relaxed)) return;
     for (std::int64_t t = t0; t < t1; ++t) {
       const std::int32_t* tri = tris + 3 * t;
-      if (needs_clipping(v, tri)) {
+      if (needs_clipping(v, tri) || !on_sane_screen(v, tri)) {
         refused.store(true, std::memory_order_relaxed);
         return;
       }
@@ -120,6 +134,7 @@ bool build_silhouette_mask(const Vertices& v, const std::int32_t* tris, std::int
   const std::int64_t* neighbour = topology.neighbour().data();
   constexpr int kNext[3] = {1, 2, 0}, kPrev[3] = {2, 0, 1};
   parallel_for(0, num_tris, 2048, [&](std::int64_t t0, std::int64_t t1) {
+    if (refused.load(std::memory_order_relaxed)) return;
     for (std::int64_t t = t0; t < t1; ++t) {
       const int side = sides.tri(t);
       if (side == 0) continue;  // a walk in t ends "Lost" before any edge
@@ -152,13 +167,8 @@ bool build_silhouette_mask(const Vertices& v, const std::int32_t* tris, std::int
           }
         }
         if (!silhouette) continue;
-        const double* sa = &v.screen[3 * static_cast<std::size_t>(a)];
-        const double* sb = &v.screen[3 * static_cast<std::size_t>(b)];
-        if (!(std::isfinite(sa[0]) && std::isfinite(sa[1]) && std::isfinite(sb[0]) && std::isfinite(sb[1]))) {
-          refused.store(true, std::memory_order_relaxed);
-          return;
-        }
-        mark_segment(sa, sb, W, H, mask);
+        mark_segment(&v.screen[3 * static_cast<std::size_t>(a)], &v.screen[3 * static_cast<std::size_t>(b)], W, H,
+                     mask);
       }
     }
   });

@@ -13,7 +13,8 @@
 // passes to lie on the triangle it is in, which holds (up to rounding, which
 // the margin covers) when the walk starts in the triangle the rasterizer
 // found at that centre, every vertex is in front of the near plane, and
-// neighbours share their edge on screen; the mask is refused otherwise.
+// neighbours share their edge on screen and no vertex is 2^36 px or more
+// off the image; the mask is refused otherwise.
 #pragma once
 
 #include <atomic>
@@ -49,8 +50,9 @@ bool prefilter_pays(std::int64_t candidates, std::int64_t num_tris);
 // Marks (mask[p] = 1, W x H, zeroed by the caller) every pixel whose square,
 // grown by kSilhouetteMargin, touches a half-edge at which a walk could end
 // "Silhouette", storing the sides it computes in `sides`. Returns false, the
-// mask unusable, when a triangle has a vertex behind the near plane or two
-// neighbours' shared edge differs on screen (welded vertices apart).
+// mask unusable, when a triangle has a vertex behind the near plane or 2^36
+// px or more off the image, or two neighbours' shared edge differs on screen
+// (welded vertices apart).
 bool build_silhouette_mask(const Vertices& v, const std::int32_t* tris, std::int64_t num_tris,
                            const EdgeTopology& topology, int W, int H, SurfaceSides& sides,
                            std::vector<std::atomic<std::uint8_t>>& mask);

@@ -238,6 +238,18 @@ TEST_CASE("silhouette prefilter: a mesh crossing the near plane is walked in ful
   CHECK(check_identical(s, 80, 64) == 0);
 }
 
+TEST_CASE("silhouette prefilter: a vertex just in front of the eye, far off screen, makes every pair walk",
+          "[raster][antialias][silhouette_mask]") {
+  ModeGuard guard;
+  Scene s = view_of(make_icosphere(3), 3.0, 0.4);
+  REQUIRE(check_identical(s, 96, 80) > 0);
+  // One more triangle from the sphere's first two vertices to a point at w = 1e-12 (screen ~1e13 px).
+  const std::int32_t far = static_cast<std::int32_t>(s.clip.size() / 4);
+  s.clip.insert(s.clip.end(), {0.3, 0.2, 0.0, 1e-12});
+  s.tris.insert(s.tris.end(), {0, 1, far});
+  CHECK(check_identical(s, 96, 80) == 0);
+}
+
 TEST_CASE("silhouette prefilter: the prefiltered result is the same on 1, 3 and 8 threads",
           "[raster][antialias][silhouette_mask]") {
   ModeGuard guard;
