@@ -13,10 +13,6 @@ std::atomic<std::int64_t> g_prefilter_skipped_walks{0};
 
 namespace {
 
-// The half-edge pass costs about 220 instructions per triangle, and saves
-// about 270 per candidate pair (most of a walk); break-even measured at 0.8
-// pairs per triangle (the fit at 32 to 256 px, docs/performance.md).
-
 // Marks the pixels whose square [x, x + 1] x [y, y + 1], grown by m, touches
 // the screen segment a-b: per pixel row, the part of the segment inside the
 // row's grown band spans [xlo, xhi]; columns whose grown square meets it.
@@ -102,6 +98,9 @@ std::int64_t count_id_boundaries(const std::int32_t* tri_id, std::int64_t W, std
   return total;
 }
 
+// The half-edge pass costs about 220 instructions per triangle and saves
+// about 270 per candidate pair (most of a walk); break-even measured at 0.8
+// pairs per triangle (the fit at 32 to 256 px, docs/performance.md).
 bool prefilter_pays(std::int64_t candidates, std::int64_t num_tris) { return candidates >= num_tris; }
 
 bool build_silhouette_mask(const Vertices& v, const std::int32_t* tris, std::int64_t num_tris,
