@@ -61,17 +61,23 @@ SignedVolume signed_volume(const Vertices& v, std::int32_t a, std::int32_t b, st
   return {value, bound};
 }
 
-// Screen coordinates within 2^36 px of the origin (finite): there the walk's
-// edge values place a point to about 2^36 * 2^-52 = 2^-16 px, well inside the
+// Screen coordinates within 2^36 px of the origin: there the walk's edge
+// values place a point to about 2^36 * 2^-52 = 2^-16 px, well inside the
 // margin; a vertex beyond (w near 0) could round the exit point off its edge.
+// (Checked per vertex in front: a triangle with another is refused anyway.)
 constexpr double kMaxScreen = 0x1p36;
-bool on_sane_screen(const Vertices& v, const std::int32_t* tri) {
-  bool ok = true;
-  for (int k = 0; k < 3; ++k) {
-    const double* s = &v.screen[3 * static_cast<std::size_t>(tri[k])];
-    ok &= std::abs(s[0]) <= kMaxScreen && std::abs(s[1]) <= kMaxScreen;
-  }
-  return ok;
+bool all_on_sane_screen(const Vertices& v) {
+  const std::int64_t n = static_cast<std::int64_t>(v.front.size());
+  std::atomic<bool> off{false};
+  parallel_for(0, n, 8192, [&](std::int64_t lo, std::int64_t hi) {
+    bool bad = false;
+    for (std::int64_t i = lo; i < hi; ++i) {
+      const double* s = &v.screen[3 * static_cast<std::size_t>(i)];
+      bad |= v.front[i] && !(std::abs(s[0]) <= kMaxScreen && std::abs(s[1]) <= kMaxScreen);
+    }
+    if (bad) off.store(true, std::memory_order_relaxed);
+  });
+  return !off.load();
 }
 
 bool same_screen_point(const Vertices& v, std::int32_t i, std::int32_t j) {
@@ -106,6 +112,7 @@ bool prefilter_pays(std::int64_t candidates, std::int64_t num_tris) { return can
 bool build_silhouette_mask(const Vertices& v, const std::int32_t* tris, std::int64_t num_tris,
                            const EdgeTopology& topology, int W, int H, SurfaceSides& sides,
                            std::vector<std::atomic<std::uint8_t>>& mask) {
+  if (!all_on_sane_screen(v)) return false;
   std::atomic<bool> refused{false};
   // 1. Per triangle: its side (walk_surface's expression, into the memo) and
   // that side's sign where rounding cannot flip it (0 where it could).
@@ -114,7 +121,7 @@ bool build_silhouette_mask(const Vertices& v, const std::int32_t* tris, std::int
     if (refused.load(std::memory_order_relaxed)) return;
     for (std::int64_t t = t0; t < t1; ++t) {
       const std::int32_t* tri = tris + 3 * t;
-      if (needs_clipping(v, tri) || !on_sane_screen(v, tri)) {
+      if (needs_clipping(v, tri)) {
         refused.store(true, std::memory_order_relaxed);
         return;
       }
