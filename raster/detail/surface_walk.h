@@ -132,7 +132,8 @@ inline int surface_side(const Vertices& v, std::int32_t a, std::int32_t b, std::
 // triangles: per triangle (det[V1, V2, V0]) and per edge 3t + k (the
 // neighbour's side of t's edge k). Walks along a long edge cross it again and
 // again (issue 31); each side is computed once, on first use, by whichever
-// thread asks first. Relaxed atomics suffice: every thread computes the same
+// thread asks first (antialias's prefilter, raster/detail/silhouette_mask.h,
+// stores every triangle's side before the walks, by the same expression). Relaxed atomics suffice: every thread computes the same
 // value with the same expression, so the results are those of no memo.
 class SurfaceSides {
  public:
