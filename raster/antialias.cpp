@@ -17,6 +17,7 @@
 #include "raster/detail/guarded_math.h"
 #include "raster/project.h"
 #include "raster/detail/rasterize_setup.h"
+#include "raster/detail/silhouette_mask.h"
 #include "raster/detail/surface_walk.h"
 #include "raster/edge_weld.h"
 
@@ -174,6 +175,22 @@ void antialias_forward(const AntialiasParams<T>& prm, T* out, std::vector<Antial
   const detail::Vertices& v = prm.projected ? *prm.projected : **own;
   detail::SurfaceSides sides(prm.num_tris);
 
+  // Issue 31: only pairs next to a half-edge where a walk can end "Silhouette"
+  // need their walk (raster/detail/silhouette_mask.h), when the half-edge pass
+  // costs less than the walks it saves. The same pairs, blends and order.
+  const detail::SilhouettePrefilter mode = detail::g_silhouette_prefilter.load(std::memory_order_relaxed);
+  std::vector<std::atomic<std::uint8_t>> mask;
+  bool masked = false;
+  // (2 P bounds the candidates: no count when even that would not pay.)
+  const bool prefilter = mode == detail::SilhouettePrefilter::Always ||
+                         (mode == detail::SilhouettePrefilter::Auto && detail::prefilter_pays(2 * P, prm.num_tris) &&
+                          detail::prefilter_pays(detail::count_id_boundaries(tri_id, W, H), prm.num_tris));
+  if (prefilter) {
+    mask = std::vector<std::atomic<std::uint8_t>>(static_cast<std::size_t>(P));
+    masked = detail::build_silhouette_mask(v, tris, prm.num_tris, topology, W, H, sides, mask);
+  }
+  std::atomic<std::int64_t> skipped{0};
+
   // Unchanged pixels: a plain copy.
   parallel_for(0, P * C, kElementwiseGrain, [&](std::int64_t lo, std::int64_t hi) {
     std::copy(image + lo, image + hi, out + lo);
@@ -184,6 +201,10 @@ void antialias_forward(const AntialiasParams<T>& prm, T* out, std::vector<Antial
   // silhouette edge is crossed before the other centre (blend, if the pair's
   // axis owns that edge) or not (none).
   auto evaluate = [&](std::int64_t p, std::int64_t q, bool horizontal, std::vector<AntialiasPair>& found) {
+    if (masked && !mask[p].load(std::memory_order_relaxed) && !mask[q].load(std::memory_order_relaxed)) {
+      if (mode == detail::SilhouettePrefilter::Always) skipped.fetch_add(1, std::memory_order_relaxed);  // tests count
+      return;
+    }
     const std::int32_t ip = tri_id[p], iq = tri_id[q];
     // Front: smaller (depth, id) key; background (id 0) is behind everything.
     const bool p_front = iq == 0 || (ip != 0 && (depth[p] < depth[q] || (depth[p] == depth[q] && ip < iq)));
@@ -213,6 +234,7 @@ void antialias_forward(const AntialiasParams<T>& prm, T* out, std::vector<Antial
       detail::apply_blend(detail::blend_step(pr), image, out, C);
       if (pairs_out) pairs_out->push_back(pr);
     }
+  detail::g_prefilter_skipped_walks.fetch_add(skipped.load(), std::memory_order_relaxed);
   if (stats) {
     stats->candidate_pairs = candidates;
     stats->blended_pairs = static_cast<std::int64_t>(total);

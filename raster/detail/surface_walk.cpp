@@ -5,18 +5,6 @@
 #include <limits>
 
 namespace gr::raster::detail {
-namespace {
-
-// Side of the line a-b (screen) on which the surface of the triangle through
-// a, b and o lies near the edge: the sign of E(.; a, b) there, computed in
-// homogeneous coordinates (-sign det[Va, Vb, Vo]); 0 if degenerate.
-int surface_side(const Vertices& v, std::int32_t a, std::int32_t b, std::int32_t o, int w, int h) {
-  const double d = dot(cross(homogeneous(v, a, w, h), homogeneous(v, b, w, h)), homogeneous(v, o, w, h));
-  return d > 0.0 ? -1 : (d < 0.0 ? 1 : 0);
-}
-
-}  // namespace
-
 WalkEnd walk_surface(const Vertices& v, const std::int32_t* tris, const EdgeTopology& topology, int width,
                      int height, std::int64_t start, std::int64_t target, double cix, double ciy, double cox,
                      double coy, WalkPath* path, SurfaceSides* sides) {

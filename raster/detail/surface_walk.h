@@ -119,11 +119,21 @@ struct WalkEnd {
   double t = 0;                 // Silhouette: crossing position in [0, 1)
 };
 
+// Side of the line a-b (screen) on which the surface of the triangle through
+// a, b and o lies near the edge: the sign of E(.; a, b) there, computed in
+// homogeneous coordinates (-sign det[Va, Vb, Vo]); 0 if degenerate. The walk
+// and the silhouette prefilter (raster/detail/silhouette_mask.h) share it.
+inline int surface_side(const Vertices& v, std::int32_t a, std::int32_t b, std::int32_t o, int w, int h) {
+  const double d = dot(cross(homogeneous(v, a, w, h), homogeneous(v, b, w, h)), homogeneous(v, o, w, h));
+  return d > 0.0 ? -1 : (d < 0.0 ? 1 : 0);
+}
+
 // The surface sides a walk computes, memoized for one call's vertices and
 // triangles: per triangle (det[V1, V2, V0]) and per edge 3t + k (the
 // neighbour's side of t's edge k). Walks along a long edge cross it again and
 // again (issue 31); each side is computed once, on first use, by whichever
-// thread asks first. Relaxed atomics suffice: every thread computes the same
+// thread asks first (antialias's prefilter, raster/detail/silhouette_mask.h,
+// stores every triangle's side before the walks, by the same expression). Relaxed atomics suffice: every thread computes the same
 // value with the same expression, so the results are those of no memo.
 class SurfaceSides {
  public:
