@@ -10,7 +10,7 @@
 #include <cstdint>
 #include <limits>
 #include <memory>
-#include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -19,6 +19,7 @@
 #include "autodiff/base/parallel.h"
 #include "autodiff/tape.h"
 #include "ops/mesh/topology.h"
+#include "ops/render/recent_entries.h"
 #include "ops/render/tensor_stamp.h"
 #include "raster/detail/buckets.h"
 
@@ -36,55 +37,40 @@ struct NormalSumParams {
   std::int64_t face_of(std::int64_t j) const { return j - faces * ((j >= faces) + (j >= 2 * faces)); }
 };
 
-// The corner lists of the last few triangle lists: a fit calls vertex_normals
-// with the same triangles at every iteration. An entry is used only while its
-// triangles are the tensor it was built from, unwritten since (TensorStamp);
-// stale entries are dropped at the next call.
-class CornerCache {
- public:
-  std::shared_ptr<const raster::detail::Buckets> get(const Tensor& triangles, std::int64_t vertices) {
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      entries_.erase(std::remove_if(entries_.begin(), entries_.end(), [](const Entry& e) { return e.stamp.stale(); }),
-                     entries_.end());
-      for (std::size_t i = 0; i < entries_.size(); ++i)
-        if (entries_[i].vertices == vertices && entries_[i].stamp.matches(triangles)) {
-          std::rotate(entries_.begin(), entries_.begin() + i, entries_.begin() + i + 1);  // most recent first
-          return entries_.front().corners;
-        }
-    }
-    Entry e{detail::TensorStamp::of(triangles), vertices, build(triangles, vertices)};
-    std::lock_guard<std::mutex> lock(mutex_);
-    entries_.insert(entries_.begin(), e);
-    if (entries_.size() > kEntries) entries_.pop_back();
-    return e.corners;
-  }
+// The corner lists of a triangle list, column-major corners j = kF + f
+// bucketed by vertex.
+std::shared_ptr<const raster::detail::Buckets> corner_lists(const Tensor& triangles, std::int64_t vertices) {
+  const std::int64_t F = triangles.size(0);
+  const std::int32_t* t = triangles.data<std::int32_t>();
+  auto corners = std::make_shared<raster::detail::Buckets>();
+  guard_allocation("vertex_normals", [&] {
+    std::vector<std::int32_t> column_major(static_cast<std::size_t>(3 * F));
+    for (int k = 0; k < 3; ++k)
+      for (std::int64_t f = 0; f < F; ++f) column_major[k * F + f] = t[3 * f + k];
+    raster::detail::bucket_items(3 * F, vertices, [&](std::int64_t j) { return column_major[j]; }, corners.get());
+  });
+  return corners;
+}
 
- private:
-  static constexpr std::size_t kEntries = 4;
-  struct Entry {
-    detail::TensorStamp stamp;
-    std::int64_t vertices;
-    std::shared_ptr<const raster::detail::Buckets> corners;
-  };
-  static std::shared_ptr<const raster::detail::Buckets> build(const Tensor& triangles, std::int64_t vertices) {
-    const std::int64_t F = triangles.size(0);
-    const std::int32_t* t = triangles.data<std::int32_t>();
-    auto corners = std::make_shared<raster::detail::Buckets>();
-    guard_allocation("vertex_normals", [&] {
-      std::vector<std::int32_t> column_major(static_cast<std::size_t>(3 * F));
-      for (int k = 0; k < 3; ++k)
-        for (std::int64_t f = 0; f < F; ++f) column_major[k * F + f] = t[3 * f + k];
-      raster::detail::bucket_items(3 * F, vertices, [&](std::int64_t j) { return column_major[j]; }, corners.get());
-    });
-    return corners;
-  }
-  std::mutex mutex_;
-  std::vector<Entry> entries_;
+// The corner lists of the last few triangle lists: a fit calls vertex_normals
+// with the same triangles at every iteration (ops/render/recent_entries.h:
+// used only while the triangles are the tensor they were built from,
+// unwritten since).
+struct KeptCorners {
+  detail::TensorStamp stamp;
+  std::int64_t vertices;
+  std::shared_ptr<const raster::detail::Buckets> corners;
 };
 
+std::shared_ptr<const raster::detail::Buckets> kept_corner_lists(const Tensor& triangles, std::int64_t vertices) {
+  static detail::RecentEntries<KeptCorners> kept;
+  auto same = [&](const KeptCorners& e) { return e.vertices == vertices && e.stamp.matches(triangles); };
+  if (std::optional<KeptCorners> e = kept.find(same)) return e->corners;
+  return kept.find_or_keep(same, {detail::TensorStamp::of(triangles), vertices, corner_lists(triangles, vertices)})
+      .corners;
+}
+
 NormalSumParams normal_sum_params(const Tensor& triangles, std::int64_t vertices) {
-  static CornerCache cache;
   NormalSumParams p;
   p.faces = triangles.size(0);
   p.vertices = vertices;
@@ -92,7 +78,7 @@ NormalSumParams normal_sum_params(const Tensor& triangles, std::int64_t vertices
   if (3 * p.faces > std::numeric_limits<std::int32_t>::max())
     throw ValueError("vertex_normals: argument 'triangles' has " + std::to_string(p.faces) +
                      " faces, more than 2^31 / 3 corners can number");
-  p.corners = cache.get(triangles, vertices);
+  p.corners = kept_corner_lists(triangles, vertices);
   return p;
 }
 
