@@ -19,7 +19,7 @@ using gr::Tensor;
 // Laplacian (gr::MeshLaplacian; its sign does not matter here).
 Tensor laplacian_penalty(const gr::MeshLaplacian& laplacian, const Tensor& positions);
 // d(weight * laplacian_penalty(laplacian, positions))/d positions, on a tape
-// of its own (positions' own tape records nothing).
+// of its own (the caller's tape records nothing).
 Tensor penalty_gradient(const gr::MeshLaplacian& laplacian, const Tensor& positions, double weight);
 
 // A triangle mesh as the fit example renders and optimizes it. `positions`
