@@ -88,20 +88,8 @@ bool same_screen_point(const Vertices& v, std::int32_t i, std::int32_t j) {
 }  // namespace
 
 std::int64_t count_id_boundaries(const std::int32_t* tri_id, std::int64_t W, std::int64_t H) {
-  std::vector<std::int64_t> per_row(static_cast<std::size_t>(H), 0);
-  parallel_for(0, H, 16, [&](std::int64_t y0, std::int64_t y1) {
-    for (std::int64_t y = y0; y < y1; ++y) {
-      const std::int32_t* row = tri_id + y * W;
-      std::int64_t count = 0;
-      for (std::int64_t x = 0; x + 1 < W; ++x) count += row[x] != row[x + 1];
-      if (y + 1 < H)
-        for (std::int64_t x = 0; x < W; ++x) count += row[x] != row[x + W];
-      per_row[y] = count;
-    }
-  });
-  std::int64_t total = 0;
-  for (const std::int64_t c : per_row) total += c;
-  return total;
+  std::vector<std::vector<char>> none;  // for_each_id_boundary's count, nothing evaluated
+  return for_each_id_boundary(tri_id, W, H, none, [](std::int64_t, std::int64_t, bool, std::vector<char>&) {});
 }
 
 // The half-edge pass costs about 220 instructions per triangle and saves

@@ -39,7 +39,7 @@ extern std::atomic<std::int64_t> g_prefilter_skipped_walks;
 constexpr double kSilhouetteMargin = 1.0 / 64.0;
 
 // Pixel pairs (right and lower neighbours) whose triangle ids differ: the
-// walks for_each_id_boundary would make. Rows in parallel, summed in order.
+// walks for_each_id_boundary would make (its own count, with nothing evaluated).
 std::int64_t count_id_boundaries(const std::int32_t* tri_id, std::int64_t W, std::int64_t H);
 
 // Whether prefiltering `candidates` walks over num_tris triangles costs less
