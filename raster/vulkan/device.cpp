@@ -78,10 +78,18 @@ std::string missing_features(VkPhysicalDevice pd) {
   VkPhysicalDeviceFeatures2 f{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
   f.pNext = &f12;
   vkGetPhysicalDeviceFeatures2(pd, &f);
+  // The adjoints' largest magnitudes are reduced per subgroup (fixed_point.glsl).
+  VkPhysicalDeviceSubgroupProperties subgroup{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SUBGROUP_PROPERTIES};
+  VkPhysicalDeviceProperties2 p2{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2};
+  p2.pNext = &subgroup;
+  vkGetPhysicalDeviceProperties2(pd, &p2);
+  const VkSubgroupFeatureFlags ops = VK_SUBGROUP_FEATURE_BASIC_BIT | VK_SUBGROUP_FEATURE_ARITHMETIC_BIT;
   std::string lack;
   if (!f.features.shaderFloat64) lack += " float64";
   if (!f.features.shaderInt64) lack += " int64";
   if (!f12.shaderBufferInt64Atomics) lack += " 64-bit buffer atomics";
+  if (!(subgroup.supportedStages & VK_SHADER_STAGE_COMPUTE_BIT) || (subgroup.supportedOperations & ops) != ops)
+    lack += " subgroup arithmetic in compute shaders";
   return lack;
 }
 

@@ -8,15 +8,18 @@
 // (e: the exponent with x < 2^e). Resolution: 2^-S = 2^(e(M) + e(P) - 62),
 // about M P 2^-61, relative to the largest contribution.
 #extension GL_EXT_shader_atomic_int64 : require
+#extension GL_KHR_shader_subgroup_arithmetic : require
 
 // Largest magnitudes of the contributions, one per summed tensor (the bits
 // of a non-negative double order as unsigned integers).
 layout(std430, binding = 8) buffer MaxBuf { uint64_t largest[]; };
 
-// Each invocation keeps the largest of its own contributions per tensor and
-// publishes it once, with an atomic only where it exceeds what the slot
-// already holds: an atomic max per contribution on one address serialized
-// millions of atomics (the interpolate adjoint took 3.7 ms on an H200).
+// Each invocation keeps the largest of its own contributions per tensor;
+// publish_magnitudes takes the largest of its subgroup's and one invocation
+// of the subgroup publishes it, with an atomic only where it exceeds what the
+// slot already holds. An atomic max per contribution on one address
+// serialized millions of atomics (the interpolate adjoint took 3.7 ms on an
+// H200); one per subgroup is at most pixels / 32 there (8 on lavapipe).
 uint64_t own_largest[2] = uint64_t[2](uint64_t(0), uint64_t(0));
 
 void note_magnitude(int tensor, double x) {
@@ -25,9 +28,17 @@ void note_magnitude(int tensor, double x) {
   if ((b.y & 0x7ff00000u) != 0x7ff00000u && bits > own_largest[tensor]) own_largest[tensor] = bits;
 }
 
+// Called by every invocation (uniform control flow: subgroup operations).
+// The subgroup's largest from 32-bit maxima: the high words', then the low
+// words' among the invocations holding that high word.
 void publish_magnitudes() {
-  for (int t = 0; t < 2; ++t)
-    if (own_largest[t] > largest[t]) atomicMax(largest[t], own_largest[t]);
+  for (int t = 0; t < 2; ++t) {
+    uint hi = uint(own_largest[t] >> 32), lo = uint(own_largest[t] & 0xffffffffu);
+    uint top_hi = subgroupMax(hi);
+    uint top_lo = subgroupMax(hi == top_hi ? lo : 0u);
+    uint64_t top = (uint64_t(top_hi) << 32) | uint64_t(top_lo);
+    if (subgroupElect() && top > largest[t]) atomicMax(largest[t], top);
+  }
 }
 
 // S for tensor `tensor` with at most `count` contributions per element.
