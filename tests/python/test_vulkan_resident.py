@@ -611,3 +611,29 @@ def test_inference_mode_tensors_run_on_the_device_with_the_cpu_contexts_results_
         assert_values_close(g, c, f'render {k}')
     # One upload per call (both images read the one texture): the written texture went up again.
     assert glctx.texture_residency['uploads'] == 2
+    # interpolate and antialias read the kept G-buffers, matched by the inference tensors' fingerprints.
+    assert glctx.residency['uploads'] == 0 and glctx.residency['resident_calls'] == 2 * 2 * 2
+
+
+@pytest.mark.parametrize('write', ['rast', 'pos', 'tri'])
+def test_an_inference_tensor_written_after_rasterize_is_uploaded_with_the_cpu_contexts_results(write):
+    # Torch counts no write to an inference tensor: the fingerprint taken when rasterize kept the G-buffer sees it.
+    pos, tri, attr = scene(1)
+    results = []
+    for glctx in (vulkan_context(), dr.RasterizeCpuContext()):
+        with torch.inference_mode():
+            p, t = pos.clone(), tri.clone()
+            rast, _ = dr.rasterize(glctx, p, t, RESOLUTION)
+            if write == 'rast':
+                rast[..., :2] *= 0.75
+            elif write == 'pos':
+                p[..., 0] += 0.01
+            else:
+                t[:] = t.flip(1)  # the same triangles, wound the other way
+            out, _ = dr.interpolate(attr, rast, t)
+            results.append((dr.antialias(out, rast, p, t), glctx))
+    (got, glctx), (want, _) = results
+    assert_values_close(got, want, f'{write} written')
+    # interpolate reads rast and tri (uploaded once rast or tri changed), antialias rast, pos and tri.
+    uploads = {'rast': 2, 'pos': 1, 'tri': 2}[write]
+    assert glctx.residency['uploads'] == uploads and glctx.residency['resident_calls'] == 2 - uploads

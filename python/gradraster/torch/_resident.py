@@ -10,9 +10,11 @@ the tensors they read are the very ones rasterize made or read (rast,
 rast_db, pos, tri), not written in place since (torch's version counter);
 otherwise none, and the device uploads the host's tensors, so results never
 depend on residency. Each backward passes what its forward did: autograd
-refuses saved tensors written in place since the forward. For G-buffers,
-writes torch does not count (through .data or a numpy view) are not seen, as
-autograd does not see them (docs/python.md, "Vulkan"); textures, kept across
+refuses saved tensors written in place since the forward. Inference tensors,
+which have no version counter, are compared by a fingerprint of their bytes.
+For other G-buffer tensors, writes torch does not count (through .data or a
+numpy view) are not seen, as autograd does not see them (docs/python.md,
+"Vulkan"); textures, kept across
 calls and so across such writes (an optimizer loop's `tex.data -= lr *
 tex.grad`), also compare a fingerprint of their bytes (KeptTextures).
 """
@@ -23,20 +25,31 @@ from ._versions import version
 
 
 class KeptGBuffers:
-    """A rasterize call's handles and the tensors (by name) they equal."""
+    """A rasterize call's handles and the tensors (by name) they equal.
 
-    def __init__(self, handles, **tensors):
+    An inference tensor has no version counter (_versions.py): its bytes' fingerprint (`fingerprint`, taken
+    when kept and at each later call) stands in for it, so an inference-mode render reads the device's copy too,
+    and a write to it is still seen. A non-contiguous inference tensor is never matched (the device uploads)."""
+
+    def __init__(self, handles, fingerprint, **tensors):
         self.handles = handles
-        self._made = {name: (weakref.ref(t), version(t)) for name, t in tensors.items()}
+        self._fingerprint = fingerprint
+        self._made = {name: (weakref.ref(t), version(t), self._print(t)) for name, t in tensors.items()}
+
+    def _print(self, t):
+        """The fingerprint of an inference tensor's bytes (None for others, and where it cannot be taken)."""
+        return self._fingerprint(t) if version(t) is None and t.is_contiguous() else None
 
     def handles_for(self, **tensors):
         """The handles if each tensor given (None: one the call does not read) is the very one of its name,
-        unwritten since; else None (always for an inference tensor, whose writes nothing counts)."""
+        unwritten since (its version, or for an inference tensor its fingerprint); else None."""
         for name, t in tensors.items():
             if t is None:
                 continue
-            made, made_version = self._made[name]
-            if made() is not t or made_version is None or version(t) != made_version:
+            made, made_version, made_print = self._made[name]
+            if made() is not t or version(t) != made_version:
+                return None
+            if made_version is None and (made_print is None or self._print(t) != made_print):
                 return None
         return self.handles
 

@@ -4,11 +4,9 @@ _topologies.py) and the DepthPeeler see writes.
 
 A tensor made under torch.inference_mode() (an inference tensor) has no
 counter: reading t._version raises there. version() gives None for it, and
-each caller then relies on what else it compares: the tables of textures and
-topologies on a fingerprint of the bytes (which they compare anyway), the
-peeler on one it takes itself, and the kept G-buffers on nothing, so they are
-not read again for inference tensors (the device uploads; results are the
-same).
+each caller then relies on a fingerprint of the bytes: the tables of textures
+and topologies on the one they compare anyway, the peeler and the kept
+G-buffers on one they take for inference tensors only.
 """
 
 

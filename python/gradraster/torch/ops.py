@@ -335,8 +335,9 @@ def _rasterize(glctx, pos, tri, resolution, ranges, grad_db, peel):
     rast, db = _RasterizeFunc.apply(glctx, pos, tri, resolution, ranges, grad_db and glctx.output_db, peel, kept)
     # interpolate and antialias run on its device, reading the G-buffers kept there while these are unchanged.
     handles = kept[0]
-    record_origin(rast, glctx, None if handles is None else KeptGBuffers(handles, rast=rast, rast_db=db, pos=pos,
-                                                                         tri=tri))
+    gbuffers = None if handles is None else KeptGBuffers(handles, _fingerprint, rast=rast, rast_db=db, pos=pos,
+                                                         tri=tri)
+    record_origin(rast, glctx, gbuffers)
     if not glctx.output_db:  # RasterizeGLContext(output_db=False), as nvdiffrast's
         db = db.new_zeros(db.shape[:3] + (0,))
     return rast, db
