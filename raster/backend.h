@@ -53,6 +53,17 @@ class DeviceTexture {
   virtual ~DeviceTexture() = default;
 };
 
+// An antialias forward's pairs kept on a backend's device (antialias_forward
+// with a handle): opaque to the caller, who hands it to that call's adjoint
+// only, with the forward's inputs unchanged. The adjoint then reads the pairs
+// instead of recomputing them, while the device still holds them (another
+// antialias or G-buffer on the same copy lets them go; the adjoint then
+// recomputes, with the same results).
+class DeviceAntialias {
+ public:
+  virtual ~DeviceAntialias() = default;
+};
+
 class RasterBackend {
  public:
   virtual ~RasterBackend() = default;
@@ -157,14 +168,19 @@ class RasterBackend {
   // the row of p.tris where the triangles `resident` drew start (a range
   // mode image's copy, drawn from rows resident_first.. of p.tris, numbers
   // its ids from 1 in its range: the device adds resident_first; 0 for a
-  // copy of the whole list or none).
+  // copy of the whole list or none). kept (forward, may be null): receives
+  // the handle of the pairs the device keeps, or null; the adjoint of that
+  // very call may pass it as `forward` (else null).
   virtual bool antialias_forward(const DeviceGBuffer* /*resident*/, std::int64_t /*resident_first*/,
-                                 const AntialiasParams<float>& /*p*/, float* /*out*/) const {
+                                 const AntialiasParams<float>& /*p*/, float* /*out*/,
+                                 std::shared_ptr<const DeviceAntialias>* kept) const {
+    if (kept) *kept = nullptr;
     return false;
   }
   virtual bool antialias_backward(const DeviceGBuffer* /*resident*/, std::int64_t /*resident_first*/,
                                   const AntialiasParams<float>& /*p*/, const float* /*grad_out*/,
-                                  const AntialiasGrads<float>& /*grads*/) const {
+                                  const AntialiasGrads<float>& /*grads*/,
+                                  const DeviceAntialias* /*forward*/) const {
     return false;
   }
   // barycentric_gbuffer_backward (raster/barycentric_gbuffer.h) for

@@ -51,15 +51,17 @@ void boost_gradient(Tensor& g_clip, double boost) {
 }
 
 // The adjoint of an antialias run on a backend (float32): the backend's
-// antialias_backward, which takes the forward's inputs (it recomputes the pairs).
+// antialias_backward, which takes the forward's inputs and the pairs it kept
+// (`pairs`; it recomputes them where it no longer holds them).
 void record_on_backend(const char* name, bool visibility, const Tensor& image, const GBuffer& gbuffer,
                        const Tensor& clip, const Tensor& triangles, const AntialiasTopology& topology,
-                       const std::shared_ptr<const raster::RasterBackend>& backend, double boost, Tensor* out) {
+                       const std::shared_ptr<const raster::RasterBackend>& backend,
+                       std::shared_ptr<const raster::DeviceAntialias> pairs, double boost, Tensor* out) {
   // The G-buffer, to find the device's copy of it at the adjoint.
   const std::shared_ptr<const GBuffer> made = gbuffer.resident ? std::make_shared<const GBuffer>(gbuffer) : nullptr;
   record(name, {image, clip}, {out},
          [image = image.detach(), clip = clip.detach(), tri_id = gbuffer.tri_id, depth = gbuffer.depth, triangles,
-          topology, backend, boost, made, name, visibility](AdjointContext& ctx) {
+          topology, backend, pairs = std::move(pairs), boost, made, name, visibility](AdjointContext& ctx) {
            const Tensor& g = ctx.grad_output();
            Tensor g_image = ctx.needs_grad(0) ? Tensor::zeros(image.shape(), image.dtype()) : Tensor();
            Tensor g_clip = ctx.needs_grad(1) ? Tensor::zeros(clip.shape(), clip.dtype()) : Tensor();
@@ -74,7 +76,7 @@ void record_on_backend(const char* name, bool visibility, const Tensor& image, c
            const raster::AntialiasGrads<float> grads{ptr(g_image), ptr(g_clip)};
            const detail::ImageOnDevice on =
                detail::image_on_device(made.get(), 0, triangles, p.tri_id, p.width * std::int64_t(p.height), true);
-           if (!backend->antialias_backward(on.device, on.first, p, g.data<float>(), grads))
+           if (!backend->antialias_backward(on.device, on.first, p, g.data<float>(), grads, pairs.get()))
              throw Error(std::string(name) + ": the backend ran the forward but refused the adjoint");
            boost_gradient<float>(g_clip, boost);
            if (g_image.defined()) ctx.accumulate(0, g_image);
@@ -153,6 +155,7 @@ Tensor antialias(const Tensor& image, const GBuffer& gbuffer, const Tensor& clip
   const std::shared_ptr<const raster::RasterBackend> backend =
       gbuffer.backend && !counted && clip.dtype() == DType::Float32 ? gbuffer.backend : nullptr;
   bool on_backend = false;
+  std::shared_ptr<const raster::DeviceAntialias> kept_pairs;  // on the backend, for the adjoint
   dispatch_float(clip.dtype(), op, [&](auto tag) {
     using T = decltype(tag);
     // Default topology: weld vertices with equal clip rows (kept for the next
@@ -169,7 +172,7 @@ Tensor antialias(const Tensor& image, const GBuffer& gbuffer, const Tensor& clip
     if constexpr (std::is_same_v<T, float>)
       if (backend) {
         const detail::ImageOnDevice on = detail::image_on_device(&gbuffer, 0, triangles, p.tri_id, w * h, true);
-        if (backend->antialias_forward(on.device, on.first, p, out.data<T>())) {
+        if (backend->antialias_forward(on.device, on.first, p, out.data<T>(), rec ? &kept_pairs : nullptr)) {
           on_backend = true;
           return;
         }
@@ -178,7 +181,8 @@ Tensor antialias(const Tensor& image, const GBuffer& gbuffer, const Tensor& clip
                                      {options.stats, options.visibility_stats});
   });
   if (rec && on_backend) {
-    record_on_backend(name, options.visibility, image, gbuffer, clip, triangles, topology, backend, boost, &out);
+    record_on_backend(name, options.visibility, image, gbuffer, clip, triangles, topology, backend,
+                      std::move(kept_pairs), boost, &out);
   } else if (rec) {
     record(name, {image, clip}, {&out},
            [image = image.detach(), clip = clip.detach(), pairs, boost, name](AdjointContext& ctx) {

@@ -389,6 +389,8 @@ Tensor antialias_batch(const Tensor& image, const GBuffer& gbuffer, const Tensor
     p.topology = given ? given.get() : built[shared ? 0 : b].get();
   };
   bool on_backend = false;
+  // On the backend: each image's pairs kept on the device, for its adjoint.
+  auto kept_pairs = std::make_shared<std::vector<std::shared_ptr<const raster::DeviceAntialias>>>(B);
   dispatch_float(clip.dtype(), op, [&](auto tag) {
     using T = decltype(tag);
     for_each_image(topologies, [&](std::int64_t b) {
@@ -402,7 +404,7 @@ Tensor antialias_batch(const Tensor& image, const GBuffer& gbuffer, const Tensor
           gbuffer_params(p, b, topology, pos.shared);
           const detail::ImageOnDevice on = detail::image_on_device(made.get(), b, triangles, p.tri_id, P, true);
           float* o = out.data<float>() + b * P * C;
-          on_backend = backend->antialias_forward(on.device, on.first, p, o);
+          on_backend = backend->antialias_forward(on.device, on.first, p, o, &(*kept_pairs)[b]);
         }
         if (on_backend) return;
       }
@@ -413,11 +415,11 @@ Tensor antialias_batch(const Tensor& image, const GBuffer& gbuffer, const Tensor
     });
   });
   if (on_backend && should_record({image, clip})) {
-    // The backend's adjoint takes the forward's inputs (it recomputes the pairs).
+    // The backend's adjoint takes the forward's inputs (it reads the pairs it kept, or recomputes them).
     auto built = std::make_shared<const std::vector<AntialiasTopology>>(std::move(topology));
     record(name, {image, clip}, {&out},
            [image = image.detach(), clip = clip.detach(), pos, boost, B, P, C, N, image_params, gbuffer_params, built,
-            backend, made, triangles](AdjointContext& ctx) {
+            backend, made, triangles, kept_pairs](AdjointContext& ctx) {
              PerImage c = pos;
              c.t = &clip;
              Tensor g_image = ctx.needs_grad(0) ? Tensor::zeros(image.shape(), image.dtype()) : Tensor();
@@ -430,7 +432,7 @@ Tensor antialias_batch(const Tensor& image, const GBuffer& gbuffer, const Tensor
                if (ctx.needs_grad(1)) g.clip = g_clip.at<float>(c, b);
                const detail::ImageOnDevice on = detail::image_on_device(made.get(), b, triangles, p.tri_id, P, true);
                const float* go = ctx.grad_output().data<float>() + b * P * C;
-               if (!backend->antialias_backward(on.device, on.first, p, go, g))
+               if (!backend->antialias_backward(on.device, on.first, p, go, g, (*kept_pairs)[b].get()))
                  throw Error("antialias_batch: the backend ran the forward but refused the adjoint");
                if (g.clip && boost != 1.0)
                  for (std::int64_t i = 0; i < 4 * N; ++i) g.clip[i] = static_cast<float>(boost * g.clip[i]);

@@ -141,6 +141,7 @@ std::shared_ptr<AntialiasState> antialias_forward(Context& ctx, const pybind11::
   state->triangles = mesh.triangles;
   state->visibility = visibility;
   state->on_backend.assign(static_cast<std::size_t>(mesh.images), 0);
+  state->device_pairs.resize(static_cast<std::size_t>(mesh.images));
   ctx.reserve(mesh.images);
   dispatch(mesh.f64, [&](auto tag) {
     using T = decltype(tag);
@@ -154,7 +155,7 @@ std::shared_ptr<AntialiasState> antialias_forward(Context& ctx, const pybind11::
       if constexpr (std::is_same_v<T, float>)
         if (state->backend) {
           const raster::ImageOnDevice on = on_device(state->kept.get(), b, p);
-          if (counted(ctx, state->backend->antialias_forward(on.device, on.first, p, o))) {
+          if (counted(ctx, state->backend->antialias_forward(on.device, on.first, p, o, &state->device_pairs[b]))) {
             state->on_backend[b] = 1;
             return;
           }
@@ -221,7 +222,8 @@ void antialias_backward(Context& ctx, const pybind11::object& pos, const pybind1
         raster::blend_boundaries_backward(p, state.pairs[b], g_out, g);
       } else if constexpr (std::is_same_v<T, float>) {
         const raster::ImageOnDevice on = on_device(state.kept.get(), b, p);
-        if (!counted(ctx, state.backend->antialias_backward(on.device, on.first, p, g_out, g)))
+        if (!counted(ctx, state.backend->antialias_backward(on.device, on.first, p, g_out, g,
+                                                            state.device_pairs[b].get())))
           throw Error(std::string(op) + ": the device ran the forward but refused the adjoint");
       }
       if (!grad_pos) return;

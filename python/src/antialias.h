@@ -36,6 +36,8 @@ struct AntialiasState {
   std::vector<raster::BlendedPairs> pairs;
   std::shared_ptr<const raster::RasterBackend> backend;
   std::vector<char> on_backend;  // per image
+  // Per image on the backend: the pairs its device kept, which the adjoint reads (the forward's inputs).
+  std::vector<std::shared_ptr<const raster::DeviceAntialias>> device_pairs;
   std::shared_ptr<const DeviceGBuffers> kept;  // the forward's (the adjoint's inputs are the forward's)
   std::int64_t height = 0, width = 0, channels = 0, vertices = 0, triangles = 0;
   bool visibility = false;

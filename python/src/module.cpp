@@ -105,13 +105,14 @@ PYBIND11_MODULE(_core, m) {
       .def_property_readonly("residency", [](const Context& ctx) {
         py::dict out;
         std::int64_t gbuffers = 0, resident_calls = 0, uploads = 0, frames = 0, topology_uploads = 0,
-                     topology_bytes = 0, triangle_uploads = 0, triangle_bytes = 0;
+                     topology_bytes = 0, triangle_uploads = 0, triangle_bytes = 0, antialias_reused = 0;
 #ifdef GRADRASTER_HAS_VULKAN
         if (ctx.gpu) {
           const gr::vulkan::ResidencyStats s = gr::vulkan::residency_stats(*ctx.backend);
           gbuffers = s.gbuffers, resident_calls = s.resident_calls, uploads = s.uploads, frames = s.frames;
           topology_uploads = s.topology_uploads, topology_bytes = s.topology_bytes;
           triangle_uploads = s.triangle_uploads, triangle_bytes = s.triangle_bytes;
+          antialias_reused = s.antialias_reused;
         }
 #endif
         out["gbuffers"] = gbuffers;
@@ -122,6 +123,7 @@ PYBIND11_MODULE(_core, m) {
         out["topology_bytes"] = topology_bytes;
         out["triangle_uploads"] = triangle_uploads;
         out["triangle_bytes"] = triangle_bytes;
+        out["antialias_reused"] = antialias_reused;
         return out;
       })
       // What its device did with the textures' texels (vulkan::texture_residency;

@@ -51,6 +51,12 @@ void check_pixels(const raster::BarycentricInterpolateParams<float>& p, int widt
                      " pixels, but the parameters hold " + std::to_string(p.pixels));
 }
 
+// An antialias forward's pairs, kept in its frame (Frame::antialias_serial).
+struct VulkanAntialias final : raster::DeviceAntialias {
+  explicit VulkanAntialias(std::uint64_t serial) : serial(serial) {}
+  std::uint64_t serial;
+};
+
 // Texels a VulkanBackend's device keeps (texture.h's KeptTexels serial).
 struct VulkanTexture final : raster::DeviceTexture {
   explicit VulkanTexture(std::uint64_t serial) : serial(serial) {}
@@ -180,24 +186,34 @@ class VulkanBackend : public raster::RasterBackend {
     return true;
   }
   bool antialias_forward(const raster::DeviceGBuffer* resident, std::int64_t resident_first,
-                         const raster::AntialiasParams<float>& p, float* out) const override {
+                         const raster::AntialiasParams<float>& p, float* out,
+                         std::shared_ptr<const raster::DeviceAntialias>* kept) const override {
     std::lock_guard<std::mutex> lock(mutex_);
     WholeTriangles whole;
     Frame& f = for_antialias(resident, resident_first, p, &whole);
     const Uploads before = f.topology_uploads();
     f.antialias(p.image, p.channels, out, p.topology, p.visibility, &whole);
     count_topology_uploads(f, before);
+    if (kept) *kept = std::make_shared<VulkanAntialias>(f.antialias_serial());
     return true;
   }
   bool antialias_backward(const raster::DeviceGBuffer* resident, std::int64_t resident_first,
                           const raster::AntialiasParams<float>& p, const float* grad_out,
-                          const raster::AntialiasGrads<float>& grads) const override {
+                          const raster::AntialiasGrads<float>& grads,
+                          const raster::DeviceAntialias* forward) const override {
     std::lock_guard<std::mutex> lock(mutex_);
     WholeTriangles whole;
     Frame& f = for_antialias(resident, resident_first, p, &whole);
-    const Uploads before = f.topology_uploads();
-    f.antialias(p.image, p.channels, nullptr, p.topology, p.visibility, &whole);  // the pairs, on the device
-    count_topology_uploads(f, before);
+    // The forward's pairs while its frame still holds them (the caller vouches
+    // that p is that forward's), else the pairs again, on the device.
+    const auto* mine = dynamic_cast<const VulkanAntialias*>(forward);
+    if (mine && mine->serial == f.antialias_serial()) {
+      ++stats_.antialias_reused;
+    } else {
+      const Uploads before = f.topology_uploads();
+      f.antialias(p.image, p.channels, nullptr, p.topology, p.visibility, &whole);
+      count_topology_uploads(f, before);
+    }
     f.antialias_backward(grad_out, grads.image, grads.clip);
     return true;
   }

@@ -2,6 +2,7 @@
 // command buffer with timestamps between them, submits it and waits.
 #include "raster/vulkan/frame.h"
 
+#include <atomic>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -16,6 +17,9 @@
 
 namespace gr::vulkan {
 namespace {
+
+// Frame::antialias_serial's source: unique in the process, never 0.
+std::atomic<std::uint64_t> g_antialias_serial{0};
 
 // Bytes of one antialias pair slot (struct Pair, antialias_common.glsl): t, a, b.
 constexpr std::size_t kPairBytes = 16;
@@ -87,6 +91,7 @@ struct Frame::State {
   // since the last rasterize or rasterize_backward; else it is stale.
   bool grad_rast = false, grad_db = false;
   int aa_channels = -1;  // of the last antialias (-1: none since the last rasterize)
+  std::uint64_t aa_serial = 0;  // of the last antialias (0: none)
   bool aa_visibility = false;  // the last antialias was visibility_antialias's
   // The last antialias read the whole list in kAaTris, the G-buffer's ids
   // offset by aa_first (a range mode G-buffer); else the frame's own, kTris.
@@ -129,6 +134,7 @@ struct Frame::State {
     derivatives = with_derivatives;
     channels = -1;
     aa_channels = -1;
+    aa_serial = 0;
     aa_whole = false;
     aa_first = 0;
     grad_rast = grad_db = false;
@@ -638,6 +644,7 @@ GpuTimes Frame::antialias(const float* image, int channels, float* out, const ra
   if (whole) check_whole_triangles(*whole, s.tris, topology);
   std::lock_guard<std::mutex> lock(s.dev.mutex);
   s.aa_channels = -1;
+  s.aa_serial = 0;
   const std::size_t px = static_cast<std::size_t>(s.pixels());
   const std::size_t image_bytes = px * static_cast<std::size_t>(channels) * sizeof(float);
   // No image: the last interpolate's output, copied on the device.
@@ -725,6 +732,7 @@ GpuTimes Frame::antialias(const float* image, int channels, float* out, const ra
     s.triangle_uploads.bytes += static_cast<std::int64_t>(whole_bytes);
   }
   s.aa_channels = channels;
+  s.aa_serial = ++g_antialias_serial;
   s.aa_visibility = visibility;
   s.aa_whole = whole != nullptr;
   s.aa_first = first;
@@ -774,6 +782,11 @@ GpuTimes Frame::antialias_backward(const float* grad_out, float* grad_image, flo
   add_to(grad_image, got, px * C);
   add_to(grad_clip, got + px * C, N * 4);
   return s.timestamps.read();
+}
+
+std::uint64_t Frame::antialias_serial() const {
+  std::lock_guard<std::mutex> lock(state_->dev.mutex);
+  return state_->aa_serial;
 }
 
 Uploads Frame::topology_uploads() const {

@@ -163,6 +163,12 @@ class Frame {
                      const raster::EdgeTopology* topology = nullptr, bool visibility = false,
                      const WholeTriangles* whole = nullptr);
 
+  // The last antialias's serial (unique in the process): its pairs and image
+  // stay on the device for antialias_backward until another antialias or a
+  // new G-buffer (rasterize, load_gbuffer) replaces them (0 then, and before
+  // any antialias). A caller that keeps it knows whether they are still there.
+  std::uint64_t antialias_serial() const;
+
   // The adjoint of the last antialias (or visibility antialias) for grad_out (H x W x channels),
   // ACCUMULATED (+=) into grad_image (H x W x channels) and grad_clip (N x 4),
   // each may be null. pass_ms: image gradient and magnitudes, sums, finish.

@@ -61,12 +61,13 @@ def scene(images):
 
 
 def kept(tri, gbuffers, resident_calls, frames):
-    """ctx.residency when every call read a kept G-buffer and each frame ran antialias on tri: the edge topology
-    (built once, _topologies.py) went up once per frame (the adjoint's antialias reuses it), 4 bytes per edge, and
-    so did the triangle list (each frame keeps the last one it uploaded), 12 bytes per triangle."""
+    """ctx.residency when every call read a kept G-buffer and each frame ran antialias on tri and its adjoint:
+    the edge topology (built once, _topologies.py) went up once per frame, 4 bytes per edge, and so did the
+    triangle list (each frame keeps the last one it uploaded), 12 bytes per triangle; each adjoint read the pairs
+    its forward kept (no second pair pass)."""
     return {'gbuffers': gbuffers, 'resident_calls': resident_calls, 'uploads': 0, 'frames': frames,
             'topology_uploads': frames, 'topology_bytes': frames * 12 * tri.shape[0],
-            'triangle_uploads': frames, 'triangle_bytes': frames * 12 * tri.shape[0]}
+            'triangle_uploads': frames, 'triangle_bytes': frames * 12 * tri.shape[0], 'antialias_reused': gbuffers}
 
 
 def test_the_chain_reads_the_kept_gbuffers_with_no_upload_and_gives_the_cpu_contexts_values_and_gradients():
@@ -101,6 +102,26 @@ def test_a_tensor_written_in_place_or_copied_after_rasterize_is_uploaded_with_th
     assert stats['uploads'] == 2 * CHANGES[change]
     assert stats['resident_calls'] == 2 * (4 - CHANGES[change])
     assert ctx.device_calls == 2 * 5  # all on the device: rasterize, interpolate, antialias, their adjoints
+
+
+def test_two_antialiases_on_one_rast_give_the_cpu_contexts_gradients_whichever_pairs_the_device_kept():
+    # The second's pairs replace the first's on the device: its backward (run first) reads them, the first's
+    # recomputes its own.
+    pos, tri, attr = scene(2)
+    results = []
+    for glctx in (vulkan_context(), dr.RasterizeCpuContext()):
+        p, a = leaf(pos), leaf(attr)
+        rast, _ = dr.rasterize(glctx, p, tri, RESOLUTION)
+        out, _ = dr.interpolate(a, rast, tri)
+        first, second = dr.antialias(out, rast, p, tri), dr.antialias(out.square(), rast, p, tri)
+        (first.sum() + (second * 2).sum()).backward()
+        results.append(([first, second, p.grad, a.grad], glctx))
+    (got, glctx), (want, _) = results
+    for name, g, c in zip(('first', 'second'), got[:2], want[:2]):
+        assert_values_close(g, c, name)
+    for name, g, c in zip(('pos gradient', 'attr gradient'), got[2:], want[2:]):
+        assert_grads_close(g, c, name)
+    assert glctx.residency['antialias_reused'] == 2 and glctx.residency['uploads'] == 0  # the second's, per image
 
 
 def test_the_pool_grows_to_the_largest_minibatch_so_none_is_uploaded():

@@ -224,8 +224,9 @@ class RasterizeVulkanContext(RasterizeCpuContext):
         (antialias calls, forward or backward, per image, that uploaded the edge topology: each frame keeps the last
         one), 'topology_bytes', 'triangle_uploads' (rasterize calls, per image, that uploaded tri, and G-buffer
         uploads that did: each frame keeps the last triangle list it uploaded, so an unchanged tri goes up once per
-        frame; in range mode antialias on a range of some of tri also uploads the whole tri once per frame) and
-        'triangle_bytes' (docs/python.md, "Vulkan")."""
+        frame; in range mode antialias on a range of some of tri also uploads the whole tri once per frame),
+        'triangle_bytes' and 'antialias_reused' (antialias backward calls, per image, that read the pairs their
+        forward kept on the device instead of recomputing them) (docs/python.md, "Vulkan")."""
         return dict(self.cpp_wrapper.residency)
 
     @property

@@ -53,7 +53,7 @@ class CountingBackend : public raster::RasterBackend {
     return count(resident);
   }
   bool antialias_forward(const raster::DeviceGBuffer* resident, std::int64_t, const raster::AntialiasParams<float>&,
-                         float*) const override {
+                         float*, std::shared_ptr<const raster::DeviceAntialias>*) const override {
     return count(resident);
   }
   bool gbuffer_backward(const raster::DeviceGBuffer* resident, const raster::BarycentricGBufferParams<float>&,

@@ -254,6 +254,34 @@ Run run_two_interpolates(const Scene& s, int W, int H, const std::shared_ptr<con
   return r;
 }
 
+// interpolate -> antialias -> loss -> backward; with `another`, a second
+// antialias (of another image, without gradient) on the same G-buffer between
+// the first and its adjoint: its pairs replace the first's on the device, so
+// the first's adjoint recomputes them.
+Run run_antialias(const Scene& s, int W, int H, const std::shared_ptr<const raster::RasterBackend>& backend,
+                  bool another) {
+  const std::int64_t n = static_cast<std::int64_t>(s.clip.size() / 4), m = static_cast<std::int64_t>(s.tris.size() / 3);
+  Tensor clip = Tensor::from_vector<float>(s.clip, {n, 4}).set_requires_grad();
+  const Tensor tris = Tensor::from_vector<std::int32_t>(s.tris, {m, 3});
+  Tensor colours = Tensor::from_vector<float>(random_values(static_cast<std::size_t>(n * 3), 27), {n, 3})
+                       .set_requires_grad();
+  RasterizeOptions ro{W, H};
+  ro.backend = backend;
+  const GBuffer gb = rasterize(clip, tris, ro);
+  const Tensor c = interpolate(colours, gb, tris);
+  const Tensor image = antialias(c, gb, clip, tris);
+  if (another) {
+    NoGradGuard no_grad;
+    antialias(c * c, gb, clip, tris);
+  }
+  backward(sum(image * weights(image, 28)));
+  Run r;
+  r.image = values_of(image);
+  r.grad_clip = values_of(clip.grad());
+  r.grad_attr = values_of(colours.grad());
+  return r;
+}
+
 // Every scene's G-buffer made first, then each one's interpolate, then each
 // one's antialias, one loss: the G-buffers are read (and their adjoints run)
 // interleaved, while all are alive.
@@ -305,6 +333,21 @@ TEST_CASE("two interpolates on one G-buffer read the device's copy and give the 
   const Run again = run_two_interpolates(s, 48, 40, backend);
   CHECK(same_bits(again.grad_clip, gpu.grad_clip));
   CHECK(same_bits(again.grad_attr, gpu.grad_attr));
+}
+
+TEST_CASE("an antialias adjoint reads its forward's pairs while the device keeps them, else recomputes them, with the same bits",
+          "[vulkan]") {
+  if (!shared_gpu()) return;
+  const Scene s = perspective(raster::make_torus(30, 16), 1.0, 1.6);
+  const Run cpu = run_antialias(s, 48, 40, nullptr, false);
+  const auto backend = vulkan::raster_backend(shared_gpu());
+  const Run kept = expect_same(run_antialias(s, 48, 40, backend, false), cpu);
+  CHECK(vulkan::residency_stats(*backend).antialias_reused == 1);
+  const Run recomputed = expect_same(run_antialias(s, 48, 40, backend, true), cpu);
+  CHECK(vulkan::residency_stats(*backend).antialias_reused == 1);  // the pairs had gone
+  CHECK(vulkan::residency_stats(*backend).uploads == 0);
+  CHECK(same_bits(recomputed.grad_clip, kept.grad_clip));
+  CHECK(same_bits(recomputed.grad_attr, kept.grad_attr));
 }
 
 TEST_CASE("G-buffers the backend has let go are uploaded again and give the CPU's results", "[vulkan]") {
