@@ -224,7 +224,6 @@ void backward_channels(const BarycentricInterpolateParams<T>& p, const T* grad_o
   // 2. Per used triangle s, in parallel: its pixels' terms summed per corner
   // in pixel order (corner k at partial[(3 s + k) C]), and the per-pixel gradients.
   sc.partial.resize(static_cast<std::size_t>(3 * used * C));
-  sc.live.assign(static_cast<std::size_t>(used), 1);
   double* const partial = sc.partial.data();
   parallel_for(0, used, 16, [&](std::int64_t s0, std::int64_t s1) {
     for (std::int64_t s = s0; s < s1; ++s) {
@@ -252,12 +251,18 @@ void backward_channels(const BarycentricInterpolateParams<T>& p, const T* grad_o
       if (kC > 0) std::copy(acc, acc + 3 * C, partial + 3 * s * C);
     }
   });
-  // 3. Each vertex adds its corners' sums in corner order, once.
-  detail::gather_corners(p.tris, by_tri.nonempty.data(), used, sc.live.data(), partial, C, p.num_vertices,
-                         &sc.by_vertex, [&](std::int64_t v, const double* total) {
-                           T* ga = grads.attr + v * C;
-                           for (std::int64_t c = 0; c < C; ++c) ga[c] += static_cast<T>(total[c]);
-                         });
+  // 3. Each vertex adds its corners' sums in corner order, once (the
+  // corners grouped by vertex once per G-buffer and triangle list).
+  const detail::Buckets* corners =
+      shared ? p.groups->corners_by_vertex(p.tri_id, p.tris, p.num_tris, p.num_vertices) : nullptr;
+  if (!corners) {
+    detail::group_corners(p.tris, by_tri.nonempty.data(), used, nullptr, p.num_vertices, &sc.by_vertex);
+    corners = &sc.by_vertex;
+  }
+  detail::sum_corners(*corners, partial, C, [&](std::int64_t v, const double* total) {
+    T* ga = grads.attr + v * C;
+    for (std::int64_t c = 0; c < C; ++c) ga[c] += static_cast<T>(total[c]);
+  });
 }
 
 }  // namespace

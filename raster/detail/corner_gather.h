@@ -16,22 +16,26 @@
 
 namespace gr::raster::detail {
 
-// Corner j = 3 s + k is corner k of triangle tri_of[s] (s in [0, n)); its
-// partial sum is partial[j * S, j * S + S). Corners of slots with live[s] == 0
-// are left out. For every vertex v with a live corner, apply(v, total) gets
-// total[0, S) = sum over v's corners, ascending j, of their partials.
-// by_vertex is scratch (kept for reuse across calls).
-template <class Apply>
-void gather_corners(const std::int32_t* tris, const std::int32_t* tri_of, std::int64_t n,
-                    const std::uint8_t* live, const double* partial, std::int64_t S, std::int64_t num_vertices,
-                    Buckets* by_vertex, const Apply& apply) {
+// Corner j = 3 s + k is corner k of triangle tri_of[s] (s in [0, n));
+// corners of slots with live[s] == 0 are left out (live null: none is).
+// by_vertex: those corners grouped by their vertex (num_vertices keys), in
+// ascending corner order.
+inline void group_corners(const std::int32_t* tris, const std::int32_t* tri_of, std::int64_t n,
+                          const std::uint8_t* live, std::int64_t num_vertices, Buckets* by_vertex) {
   bucket_items(3 * n, num_vertices,
                [&](std::int64_t j) -> std::int64_t {
                  const std::int64_t s = j / 3;
-                 return live[s] ? tris[3 * static_cast<std::int64_t>(tri_of[s]) + j % 3] : -1;
+                 return !live || live[s] ? tris[3 * static_cast<std::int64_t>(tri_of[s]) + j % 3] : -1;
                },
                by_vertex);
-  const Buckets& b = *by_vertex;
+}
+
+// For every vertex v with a corner in by_vertex (group_corners'), apply(v,
+// total) gets total[0, S) = sum over v's corners, ascending j, of their
+// partials partial[j * S, j * S + S).
+template <class Apply>
+void sum_corners(const Buckets& by_vertex, const double* partial, std::int64_t S, const Apply& apply) {
+  const Buckets& b = by_vertex;
   const std::int64_t used = static_cast<std::int64_t>(b.nonempty.size());
   parallel_for(0, used, 256, [&](std::int64_t lo, std::int64_t hi) {
     std::vector<double> total(static_cast<std::size_t>(S));
@@ -45,6 +49,15 @@ void gather_corners(const std::int32_t* tris, const std::int32_t* tri_of, std::i
       apply(static_cast<std::int64_t>(v), total.data());
     }
   });
+}
+
+// group_corners then sum_corners; by_vertex is scratch (kept for reuse across calls).
+template <class Apply>
+void gather_corners(const std::int32_t* tris, const std::int32_t* tri_of, std::int64_t n,
+                    const std::uint8_t* live, const double* partial, std::int64_t S, std::int64_t num_vertices,
+                    Buckets* by_vertex, const Apply& apply) {
+  group_corners(tris, tri_of, n, live, num_vertices, by_vertex);
+  sum_corners(*by_vertex, partial, S, apply);
 }
 
 // The buffers of an adjoint that scatters by gathering (pixels grouped by

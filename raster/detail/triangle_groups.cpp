@@ -1,6 +1,7 @@
 #include "raster/detail/triangle_groups.h"
 
 #include "autodiff/base/parallel.h"
+#include "raster/detail/corner_gather.h"
 
 namespace gr::raster {
 namespace {
@@ -39,6 +40,32 @@ const detail::Buckets* TriangleGroups::by_triangle(const std::int32_t* tri_id, s
     num_tris_ = num_tris;
   }
   return n_ == n && num_tris_ == num_tris ? &**buckets_ : nullptr;
+}
+
+const detail::Buckets* TriangleGroups::corners_by_vertex(const std::int32_t* tri_id, const std::int32_t* tris,
+                                                         std::int64_t num_tris, std::int64_t num_vertices) {
+  if (tri_id != tri_id_) return nullptr;
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!buckets_ || num_tris_ != num_tris) return nullptr;
+  // The grouping reads the rows of the used triangles only: those are compared.
+  const std::vector<std::int32_t>& used = (*buckets_)->nonempty;
+  auto same_rows = [&] {
+    for (std::size_t s = 0; s < used.size(); ++s)
+      for (int k = 0; k < 3; ++k)
+        if (corner_tris_[3 * s + k] != tris[3 * static_cast<std::int64_t>(used[s]) + k]) return false;
+    return true;
+  };
+  if (!corners_) {  // made once and never changed: a caller may read it while another asks
+    detail::ScratchPool<detail::Buckets>::Lease b = bucket_pool().take();
+    detail::group_corners(tris, used.data(), static_cast<std::int64_t>(used.size()), nullptr, num_vertices, &*b);
+    corners_.emplace(std::move(b));
+    corner_tris_.resize(3 * used.size());
+    for (std::size_t s = 0; s < used.size(); ++s)
+      for (int k = 0; k < 3; ++k) corner_tris_[3 * s + k] = tris[3 * static_cast<std::int64_t>(used[s]) + k];
+    corner_vertices_ = num_vertices;
+    return &**corners_;
+  }
+  return corner_vertices_ == num_vertices && same_rows() ? &**corners_ : nullptr;
 }
 
 void TriangleGroups::set_fragments(const std::int32_t* tri_id, std::shared_ptr<TriangleGroups> fragments,

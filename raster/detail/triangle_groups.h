@@ -23,6 +23,7 @@
 #include <mutex>
 #include <optional>
 #include <utility>
+#include <vector>
 
 #include "raster/detail/buckets.h"
 #include "raster/detail/rasterize_setup.h"
@@ -43,6 +44,17 @@ class TriangleGroups {
   // another tri_id keeps its groups.
   const detail::Buckets* by_triangle(const std::int32_t* tri_id, std::int64_t n, std::int64_t num_tris);
 
+  // The corners of the triangles by_triangle found (corner j = 3 s + k is
+  // corner k of triangle nonempty[s]) grouped by their vertex in tris
+  // (group_corners, every corner), grouped at the first call; null where
+  // the used triangles' rows of tris or num_vertices differ from that call's
+  // (compared by content), and where by_triangle gives null or has not
+  // grouped yet. For adjoints whose every covered triangle contributes to its
+  // corners (interpolate's): two interpolate adjoints over one G-buffer group
+  // the corners once.
+  const detail::Buckets* corners_by_vertex(const std::int32_t* tri_id, const std::int32_t* tris, std::int64_t num_tris,
+                                           std::int64_t num_vertices);
+
   // For a G-buffer's groups: `fragments` groups the `count` fragments that
   // list the covered pixels of the buffer at `tri_id` in ascending order,
   // fragment f at pixel pixel_index[f] (kept alive by `owner`). If tri_id is
@@ -62,6 +74,10 @@ class TriangleGroups {
   // The grouping once made, in buffers leased from a pool and given back with
   // this object (a new G-buffer every iteration must not page-fault new ones in).
   std::optional<detail::ScratchPool<detail::Buckets>::Lease> buckets_;
+  // corners_by_vertex's grouping and the triangles and vertex count it is of.
+  std::optional<detail::ScratchPool<detail::Buckets>::Lease> corners_;
+  std::vector<std::int32_t> corner_tris_;  // the used triangles' rows, in nonempty order
+  std::int64_t corner_vertices_ = -1;
   // set_fragments' arguments.
   std::shared_ptr<TriangleGroups> fragments_;
   const std::int32_t* pixel_index_ = nullptr;

@@ -210,8 +210,8 @@ TEST_CASE("interpolate and antialias op: triangles or a clip other than the rast
   CHECK(interpolate(attr, fixed, swapped).to_vector() == interpolate(attr, gb, tris).to_vector());
 }
 
-TEST_CASE("interpolate op: adjoints sharing the G-buffer's grouping by triangle give the bits of adjoints grouping "
-          "on their own",
+TEST_CASE("interpolate op: adjoints sharing the G-buffer's grouping by triangle and of corners by vertex give the "
+          "bits of adjoints grouping on their own",
           "[ops][interpolate][rasterize]") {
   auto gradients = [](bool shared) {
     Tensor clip = clip_of_two_triangles().set_requires_grad();

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "autodiff/base/parallel.h"
+#include "raster/detail/corner_gather.h"
 #include "raster/detail/triangle_groups.h"
 
 using namespace gr;
@@ -114,4 +115,44 @@ TEST_CASE("triangle groups: recycled buffers give the same groupings, smaller af
     g.set_fragments(small.id.data(), grouped_fragments(small), small.pixel_index.data(), small.fragments(), nullptr);
     CHECK(same(*g.by_triangle(small.id.data(), small.pixels(), kTris), direct(small)));
   }
+}
+
+TEST_CASE("triangle groups: the corners grouped by vertex once are the grouping of the used triangles' rows, "
+          "and are refused for other rows or another vertex count",
+          "[raster][triangle_groups]") {
+  const Image im(400, 6);  // about 240 covered pixels over 300 triangles: some triangles uncovered
+  constexpr std::int64_t kVertices = 200;
+  std::mt19937 rng(7);
+  std::vector<std::int32_t> tris(3 * kTris);
+  for (std::int32_t& v : tris) v = static_cast<std::int32_t>(rng() % kVertices);
+  TriangleGroups g(im.id.data(), nullptr);
+  // Not before the pixels are grouped by triangle.
+  CHECK(g.corners_by_vertex(im.id.data(), tris.data(), kTris, kVertices) == nullptr);
+  const detail::Buckets* by_tri = g.by_triangle(im.id.data(), im.pixels(), kTris);
+  REQUIRE(by_tri != nullptr);
+  const detail::Buckets* corners = g.corners_by_vertex(im.id.data(), tris.data(), kTris, kVertices);
+  REQUIRE(corners != nullptr);
+  detail::Buckets expected;
+  detail::group_corners(tris.data(), by_tri->nonempty.data(), static_cast<std::int64_t>(by_tri->nonempty.size()),
+                        nullptr, kVertices, &expected);
+  CHECK(same(*corners, expected));
+  // The same rows again (another copy): the same grouping.
+  const std::vector<std::int32_t> copy = tris;
+  CHECK(g.corners_by_vertex(im.id.data(), copy.data(), kTris, kVertices) == corners);
+  // A used triangle's row changed, another vertex count, another buffer: refused.
+  std::vector<std::int32_t> changed = tris;
+  const std::int64_t t = by_tri->nonempty.back();
+  changed[3 * t + 1] = (changed[3 * t + 1] + 1) % kVertices;
+  CHECK(g.corners_by_vertex(im.id.data(), changed.data(), kTris, kVertices) == nullptr);
+  CHECK(g.corners_by_vertex(im.id.data(), tris.data(), kTris, kVertices + 1) == nullptr);
+  CHECK(g.corners_by_vertex(copy.data(), tris.data(), kTris, kVertices) == nullptr);
+  // A row no pixel covers does not matter.
+  std::vector<bool> covered(kTris, false);
+  for (std::int32_t u : by_tri->nonempty) covered[u] = true;
+  std::int64_t uncovered = 0;
+  while (uncovered < kTris && covered[uncovered]) ++uncovered;
+  REQUIRE(uncovered < kTris);
+  std::vector<std::int32_t> other = tris;
+  other[3 * uncovered] = (other[3 * uncovered] + 1) % kVertices;
+  CHECK(g.corners_by_vertex(im.id.data(), other.data(), kTris, kVertices) == corners);
 }
