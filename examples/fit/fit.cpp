@@ -203,9 +203,8 @@ class SmoothedPositions {
         passes_(passes) {}
 
   Tensor evaluate() const {
-    Tensor x = offsets;
-    for (int k = 0; k < passes_; ++k) x = x + 0.5 * laplacian.apply(x);
-    return mesh_.positions + x;
+    // x <- x + L(x) / 2, passes_ times, as one op (the composite's bits).
+    return mesh_.positions + laplacian.smooth(offsets, passes_, 0.5);
   }
 
   Tensor offsets;  // the parameter u

@@ -122,41 +122,46 @@ void normal_sums_forward(const NormalSumParams& p, const T* positions, T* out) {
 // gets G_f = g_0 + g_1 + g_2 (its corners' g); with u = p1 - p0, v = p2 - p0
 // and g . (u x v) = u . (v x g) = v . (g x u), dL/dp1 = v x G, dL/dp2 = G x u
 // and dL/dp0 = -(both). Each vertex sums its corners' terms in double, in
-// ascending j (thread-count independent), rounded once.
+// ascending j (thread-count independent), rounded once. The face pass writes
+// every corner's term at its j, so the vertex pass only adds (issue 31: the
+// corner's kind, found per corner in the vertex pass, cost twice the adds).
 template <class T>
 void normal_sums_backward(const NormalSumParams& p, const T* positions, const T* g, T* grad) {
   const std::int64_t F = p.faces;
-  // Per face dL/dp1 and dL/dp2 (six doubles), from the storage cache; every row written.
-  Tensor face_terms = Tensor::empty({F, 6}, DType::Float64);
-  double* const term = face_terms.data<double>();
-  parallel_for(0, F, kFaceGrain, [&](std::int64_t lo, std::int64_t hi) {
+  // dL/dp of corner j = kF + f, three doubles each, from the storage cache; every row written.
+  Tensor corner_terms = Tensor::empty({3 * F, 3}, DType::Float64);
+  double* const term = corner_terms.data<double>();
+  const std::int32_t* const tris = p.tris;
+  parallel_for(0, F, kFaceGrain, [=](std::int64_t lo, std::int64_t hi) {
     for (std::int64_t f = lo; f < hi; ++f) {
-      const std::int32_t* t = p.tris + 3 * f;
-      const T *p0 = positions + 3 * t[0], *p1 = positions + 3 * t[1], *p2 = positions + 3 * t[2];
+      const T *g0 = g + 3 * std::int64_t(tris[3 * f]), *g1 = g + 3 * std::int64_t(tris[3 * f + 1]),
+              *g2 = g + 3 * std::int64_t(tris[3 * f + 2]);
+      const T *p0 = positions + 3 * std::int64_t(tris[3 * f]), *p1 = positions + 3 * std::int64_t(tris[3 * f + 1]),
+              *p2 = positions + 3 * std::int64_t(tris[3 * f + 2]);
       double u[3], v[3], G[3];
       for (int d = 0; d < 3; ++d) {
         u[d] = p1[d] - p0[d];  // in T, as the forward
         v[d] = p2[d] - p0[d];
-        G[d] = (static_cast<double>(g[3 * t[0] + d]) + g[3 * t[1] + d]) + g[3 * t[2] + d];
+        G[d] = (static_cast<double>(g0[d]) + g1[d]) + g2[d];
       }
-      double* d12 = term + 6 * f;
-      d12[0] = v[1] * G[2] - v[2] * G[1], d12[1] = v[2] * G[0] - v[0] * G[2], d12[2] = v[0] * G[1] - v[1] * G[0];
-      d12[3] = G[1] * u[2] - G[2] * u[1], d12[4] = G[2] * u[0] - G[0] * u[2], d12[5] = G[0] * u[1] - G[1] * u[0];
+      const double d1[3] = {v[1] * G[2] - v[2] * G[1], v[2] * G[0] - v[0] * G[2], v[0] * G[1] - v[1] * G[0]};
+      const double d2[3] = {G[1] * u[2] - G[2] * u[1], G[2] * u[0] - G[0] * u[2], G[0] * u[1] - G[1] * u[0]};
+      double *t0 = term + 3 * f, *t1 = term + 3 * (F + f), *t2 = term + 3 * (2 * F + f);
+      for (int d = 0; d < 3; ++d) {
+        t0[d] = -(d1[d] + d2[d]);
+        t1[d] = d1[d];
+        t2[d] = d2[d];
+      }
     }
   });
-  const raster::detail::Buckets& c = *p.corners;
-  parallel_for(0, p.vertices, kVertexGrain, [&](std::int64_t lo, std::int64_t hi) {
+  const std::int64_t* const start = p.corners->start.data();
+  const std::int32_t* const item = p.corners->item.data();
+  parallel_for(0, p.vertices, kVertexGrain, [=](std::int64_t lo, std::int64_t hi) {
     for (std::int64_t v = lo; v < hi; ++v) {
       double s[3] = {0, 0, 0};
-      for (std::int64_t e = c.start[v]; e < c.start[v + 1]; ++e) {
-        const std::int64_t j = c.item[e], f = p.face_of(j);
-        const double* d12 = term + 6 * f;
-        if (j >= 2 * F)  // corner 2: dL/dp2
-          for (int d = 0; d < 3; ++d) s[d] += d12[3 + d];
-        else if (j >= F)  // corner 1: dL/dp1
-          for (int d = 0; d < 3; ++d) s[d] += d12[d];
-        else  // corner 0: -(both)
-          for (int d = 0; d < 3; ++d) s[d] += -(d12[d] + d12[3 + d]);
+      for (std::int64_t e = start[v]; e < start[v + 1]; ++e) {
+        const double* t = term + 3 * std::int64_t(item[e]);
+        for (int d = 0; d < 3; ++d) s[d] += t[d];
       }
       for (int d = 0; d < 3; ++d) grad[3 * v + d] = static_cast<T>(s[d]);
     }
