@@ -167,8 +167,8 @@ void laplacian_forward(const Operator& op, const T* x, T* out, std::int64_t C) {
 
 // q = S (a g) (a = 1: S g), each vertex's scale applied once: the products
 // the transpose's terms read, the same float products as scaling per term.
-template <class T>
-void scale_rows(const T* s, T a, const T* g, T* q, std::int64_t rows, std::int64_t C) {
+template <class T, class Channels>
+void scale_rows(const T* s, T a, const T* g, T* q, std::int64_t rows, Channels C) {
   parallel_for(0, rows, std::max<std::int64_t>(1, kElementwiseGrain / std::max<std::int64_t>(1, C)),
                [=](std::int64_t lo, std::int64_t hi) {
                  for (std::int64_t i = lo; i < hi; ++i) {
@@ -180,8 +180,8 @@ void scale_rows(const T* s, T a, const T* g, T* q, std::int64_t rows, std::int64
 
 // W q, the transpose's sum over the same rows (W is symmetric) of q = S g,
 // passed to emit(i, c, sum) (Cot, CotCurv: each term w_e q_j).
-template <class T, class Emit>
-void weighted_rows(const Operator& op, const T* q, std::int64_t C, Emit emit) {
+template <class T, class Channels, class Emit>
+void weighted_rows(const Operator& op, const T* q, Channels C, Emit emit) {
   const T* w = op.coefficients<T>().weight.data();
   if (op.method == LaplacianMethod::Uniform)
     return detail::row_sums<T>(op.rows, C, [=](std::int64_t, std::int32_t j, std::int64_t c) { return q[j * C + c]; },
@@ -197,7 +197,7 @@ void laplacian_transpose(const Operator& op, const T* g, T* out, std::int64_t C)
   const std::int64_t V = op.rows.rows();
   Tensor scaled = Tensor::empty({V, C}, dtype_of<T>::value);  // scratch, every entry written
   T* const q = scaled.data<T>();
-  scale_rows(k.scale.data(), T(1), g, q, V, C);
+  detail::with_channels(C, [&](auto channels) { scale_rows(k.scale.data(), T(1), g, q, V, channels); });
   if (op.method == LaplacianMethod::CotCurv) {
     const T* d = k.diag.data();
     return weighted_rows<T>(op, q, C, [=](std::int64_t i, std::int64_t c, T sum) {
@@ -344,7 +344,9 @@ Tensor MeshLaplacian::smooth(const Tensor& x, int passes, double step) const {
         // The passes in reverse; the last one writes grad.
         T* dst[2] = {(passes % 2 ? grad : other).data<T>(), (passes % 2 ? other : grad).data<T>()};
         const T* src = g.data<T>();
-        scale_rows(op->coefficients<T>().scale.data(), a, src, q[0].data<T>(), op->rows.rows(), channels);
+        detail::with_channels(channels, [&](auto C) {  // C constant: the row's loop unrolled
+          scale_rows(op->coefficients<T>().scale.data(), a, src, q[0].data<T>(), op->rows.rows(), C);
+        });
         for (int k = 0; k < passes; ++k) {
           T* q_next = k + 1 < passes ? q[(k + 1) % 2].data<T>() : nullptr;
           smooth_backward(*op, a, src, std::as_const(q[k % 2]).data<T>(), dst[k % 2], q_next, channels);
