@@ -34,7 +34,6 @@ struct NormalSumParams {
   std::int64_t faces = 0, vertices = 0;
   const std::int32_t* tris = nullptr;  // [F, 3]
   std::shared_ptr<const raster::detail::Buckets> corners;
-  std::int64_t face_of(std::int64_t j) const { return j - faces * ((j >= faces) + (j >= 2 * faces)); }
 };
 
 // The corner lists of a triangle list, column-major corners j = kF + f
@@ -87,30 +86,34 @@ constexpr std::int64_t kFaceGrain = kElementwiseGrain / 8;
 constexpr std::int64_t kVertexGrain = kElementwiseGrain / 8;
 
 // s_v = sum over v's corners (ascending j) of n_f = (p1 - p0) x (p2 - p0),
-// all in T with cross's expressions (ops/tensor/vector.cpp); 0 for a vertex of no face.
+// all in T with cross's expressions (ops/tensor/vector.cpp); 0 for a vertex of
+// no face. The face pass writes n_f at each of its corners' j, so the vertex
+// pass reads by j directly.
 template <class T>
 void normal_sums_forward(const NormalSumParams& p, const T* positions, T* out) {
+  const std::int64_t F = p.faces;
   // Scratch from the storage cache (no page faults once warm); every row written.
-  Tensor face_rows = Tensor::empty({p.faces, 3}, dtype_of<T>::value);
-  T* const face = face_rows.data<T>();
-  parallel_for(0, p.faces, kFaceGrain, [&](std::int64_t lo, std::int64_t hi) {
+  Tensor corner_rows = Tensor::empty({3 * F, 3}, dtype_of<T>::value);
+  T* const corner = corner_rows.data<T>();
+  const std::int32_t* const tris = p.tris;
+  parallel_for(0, F, kFaceGrain, [=](std::int64_t lo, std::int64_t hi) {
     for (std::int64_t f = lo; f < hi; ++f) {
-      const T *p0 = positions + 3 * p.tris[3 * f], *p1 = positions + 3 * p.tris[3 * f + 1],
-              *p2 = positions + 3 * p.tris[3 * f + 2];
+      const T *p0 = positions + 3 * std::int64_t(tris[3 * f]), *p1 = positions + 3 * std::int64_t(tris[3 * f + 1]),
+              *p2 = positions + 3 * std::int64_t(tris[3 * f + 2]);
       const T u[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
       const T v[3] = {p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]};
-      T* n = face + 3 * f;
-      n[0] = u[1] * v[2] - u[2] * v[1];
-      n[1] = u[2] * v[0] - u[0] * v[2];
-      n[2] = u[0] * v[1] - u[1] * v[0];
+      const T n[3] = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]};
+      T *n0 = corner + 3 * f, *n1 = corner + 3 * (F + f), *n2 = corner + 3 * (2 * F + f);
+      for (int d = 0; d < 3; ++d) n0[d] = n1[d] = n2[d] = n[d];
     }
   });
-  const raster::detail::Buckets& c = *p.corners;
-  parallel_for(0, p.vertices, kVertexGrain, [&](std::int64_t lo, std::int64_t hi) {
+  const std::int64_t* const start = p.corners->start.data();
+  const std::int32_t* const item = p.corners->item.data();
+  parallel_for(0, p.vertices, kVertexGrain, [=](std::int64_t lo, std::int64_t hi) {
     for (std::int64_t v = lo; v < hi; ++v) {
       T s[3] = {0, 0, 0};
-      for (std::int64_t e = c.start[v]; e < c.start[v + 1]; ++e) {
-        const T* n = face + 3 * p.face_of(c.item[e]);
+      for (std::int64_t e = start[v]; e < start[v + 1]; ++e) {
+        const T* n = corner + 3 * std::int64_t(item[e]);
         for (int d = 0; d < 3; ++d) s[d] += n[d];
       }
       for (int d = 0; d < 3; ++d) out[3 * v + d] = s[d];
