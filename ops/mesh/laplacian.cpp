@@ -257,6 +257,135 @@ void smooth_backward(const Operator& op, T a, const T* g, const T* q, T* gx, T* 
   });
 }
 
+// Three channels (positions, normals) padded to four lanes: one vector add
+// per neighbour instead of three scalar ones. Lane c does channel c's scalar
+// operations in the same order (lane 3 is padding), so the bits are those of
+// the one-channel-at-a-time kernels above.
+template <class T>
+struct LaneType;
+template <>
+struct LaneType<float> {
+  typedef float type __attribute__((vector_size(16)));
+};
+template <>
+struct LaneType<double> {
+  typedef double type __attribute__((vector_size(32)));
+};
+template <class T>
+using Lanes = typename LaneType<T>::type;
+
+// rows [V, 3] -> [V, 4] (lane 3 zero).
+template <class T>
+void pad_rows(const T* in, Lanes<T>* out, std::int64_t rows) {
+  parallel_for(0, rows, kElementwiseGrain / 4, [=](std::int64_t lo, std::int64_t hi) {
+    for (std::int64_t i = lo; i < hi; ++i) out[i] = Lanes<T>{in[3 * i], in[3 * i + 1], in[3 * i + 2], T(0)};
+  });
+}
+
+// emit(i, sum of row i's terms) with lanes; the terms as weighted_rows' (w_e v_j, or v_j for Uniform).
+template <class T, class Emit>
+void lane_row_sums(const Operator& op, const Lanes<T>* v, Emit emit) {
+  const detail::VertexRows& r = op.rows;
+  const std::int64_t* start = r.start.data();
+  const std::int32_t* col = r.column.data();
+  const T* w = op.coefficients<T>().weight.data();
+  const bool weighted = op.method != LaplacianMethod::Uniform;
+  parallel_for(0, r.rows(), detail::row_sum_grain(r, 3), [&](std::int64_t lo, std::int64_t hi) {
+    for (std::int64_t i = lo; i < hi; ++i) {
+      Lanes<T> sum = {};
+      if (weighted)
+        for (std::int64_t e = start[i]; e < start[i + 1]; ++e) sum += w[e] * v[col[e]];
+      else
+        for (std::int64_t e = start[i]; e < start[i + 1]; ++e) sum += v[col[e]];
+      emit(i, sum);
+    }
+  });
+}
+
+// Stores row i's lanes into padded rows, or its three channels into [V, 3].
+template <class T>
+struct LaneOut {
+  Lanes<T>* padded = nullptr;
+  T* rows3 = nullptr;
+  void store(std::int64_t i, const Lanes<T>& v) const {
+    if (padded) {
+      padded[i] = v;
+    } else {
+      rows3[3 * i] = v[0], rows3[3 * i + 1] = v[1], rows3[3 * i + 2] = v[2];
+    }
+  }
+};
+
+// smooth_forward with lanes: x padded, y padded or [V, 3].
+template <class T>
+void smooth_forward_lanes(const Operator& op, T a, const Lanes<T>* x, LaneOut<T> y) {
+  const auto& k = op.coefficients<T>();
+  const T* s = k.scale.data();
+  const T* d = k.diag.data();
+  if (op.method == LaplacianMethod::CotCurv)
+    return lane_row_sums<T>(op, x, [=](std::int64_t i, const Lanes<T>& sum) {
+      y.store(i, x[i] + a * ((sum - d[i] * x[i]) * s[i]));
+    });
+  lane_row_sums<T>(op, x, [=](std::int64_t i, const Lanes<T>& sum) { y.store(i, x[i] + a * (sum * s[i] - x[i])); });
+}
+
+// smooth_backward with lanes: g, q padded; gx padded or [V, 3]; q_next as there.
+template <class T>
+void smooth_backward_lanes(const Operator& op, T a, const Lanes<T>* g, const Lanes<T>* q, LaneOut<T> gx,
+                           Lanes<T>* q_next) {
+  const auto& k = op.coefficients<T>();
+  const T* s = k.scale.data();
+  auto next = [=](std::int64_t i, const Lanes<T>& value) {
+    gx.store(i, value);
+    if (q_next) q_next[i] = (a * value) * s[i];
+  };
+  if (op.method == LaplacianMethod::CotCurv) {
+    const T* d = k.diag.data();
+    return lane_row_sums<T>(op, q, [=](std::int64_t i, const Lanes<T>& sum) { next(i, g[i] + (sum - d[i] * q[i])); });
+  }
+  lane_row_sums<T>(op, q, [=](std::int64_t i, const Lanes<T>& sum) { next(i, (g[i] + -(a * g[i])) + sum); });
+}
+
+// (I + a L)^passes on [V, 3]: x in, out written (passes >= 1).
+template <class T>
+void smooth_lanes(const Operator& op, T a, const T* x, T* out, int passes) {
+  const std::int64_t V = op.rows.rows();
+  Tensor buffers = Tensor::empty({3, V, 4}, dtype_of<T>::value);  // the padded input and two ping-pong rows
+  Lanes<T>* const b = reinterpret_cast<Lanes<T>*>(buffers.data<T>());
+  Lanes<T>* const in = b;
+  Lanes<T>* const pong[2] = {b + V, b + 2 * V};
+  pad_rows(x, in, V);
+  const Lanes<T>* src = in;
+  for (int k = 0; k < passes; ++k) {
+    const bool last = k + 1 == passes;
+    smooth_forward_lanes<T>(op, a, src, last ? LaneOut<T>{nullptr, out} : LaneOut<T>{pong[k % 2], nullptr});
+    src = pong[k % 2];
+  }
+}
+
+// Its adjoint: g [V, 3] in, grad [V, 3] written.
+template <class T>
+void smooth_lanes_adjoint(const Operator& op, T a, const T* g, T* grad, int passes) {
+  const std::int64_t V = op.rows.rows();
+  Tensor buffers = Tensor::empty({5, V, 4}, dtype_of<T>::value);  // g padded, two ping-pong g, two q
+  Lanes<T>* const b = reinterpret_cast<Lanes<T>*>(buffers.data<T>());
+  Lanes<T>* const g_pad = b;
+  Lanes<T>* const pong[2] = {b + V, b + 2 * V};
+  Lanes<T>* const q[2] = {b + 3 * V, b + 4 * V};
+  pad_rows(g, g_pad, V);
+  const T* s = op.coefficients<T>().scale.data();
+  parallel_for(0, V, kElementwiseGrain / 4, [=](std::int64_t lo, std::int64_t hi) {
+    for (std::int64_t i = lo; i < hi; ++i) q[0][i] = (a * g_pad[i]) * s[i];
+  });
+  const Lanes<T>* src = g_pad;
+  for (int k = 0; k < passes; ++k) {
+    const bool last = k + 1 == passes;
+    smooth_backward_lanes<T>(op, a, src, q[k % 2], last ? LaneOut<T>{nullptr, grad} : LaneOut<T>{pong[k % 2], nullptr},
+                             last ? nullptr : q[(k + 1) % 2]);
+    src = pong[k % 2];
+  }
+}
+
 }  // namespace
 
 MeshLaplacian::MeshLaplacian(const Tensor& triangles, std::int64_t num_vertices)
@@ -320,10 +449,11 @@ Tensor MeshLaplacian::smooth(const Tensor& x, int passes, double step) const {
   const std::int64_t channels = x.size(1);
   // Ping-pong: pass k reads one buffer and writes the other; the last one written is the result.
   Tensor out = Tensor::empty(x.shape(), x.dtype());
-  Tensor other = passes > 1 ? Tensor::empty(x.shape(), x.dtype()) : out;  // unused for one pass
   dispatch_float(x.dtype(), name, [&](auto tag) {
     using T = decltype(tag);
     const T a = static_cast<T>(step);  // the composite's scalar, in x's dtype
+    if (channels == 3) return smooth_lanes(*op_, a, std::as_const(x).data<T>(), out.data<T>(), passes);
+    Tensor other = passes > 1 ? Tensor::empty(x.shape(), x.dtype()) : out;  // unused for one pass
     T* dst[2] = {(passes % 2 ? out : other).data<T>(), (passes % 2 ? other : out).data<T>()};
     const T* src = std::as_const(x).data<T>();
     for (int k = 0; k < passes; ++k) {
@@ -336,11 +466,12 @@ Tensor MeshLaplacian::smooth(const Tensor& x, int passes, double step) const {
       const Tensor& g = ctx.grad_output();
       if (!g.defined()) return;
       Tensor grad = Tensor::empty(g.shape(), g.dtype());
-      Tensor other = passes > 1 ? Tensor::empty(g.shape(), g.dtype()) : grad;
-      Tensor q[2] = {Tensor::empty(g.shape(), g.dtype()), Tensor::empty(g.shape(), g.dtype())};  // S (a g) per pass
       dispatch_float(g.dtype(), "mesh_laplacian_smooth", [&](auto tag) {
         using T = decltype(tag);
         const T a = static_cast<T>(step);
+        if (channels == 3) return smooth_lanes_adjoint(*op, a, g.data<T>(), grad.data<T>(), passes);
+        Tensor other = passes > 1 ? Tensor::empty(g.shape(), g.dtype()) : grad;
+        Tensor q[2] = {Tensor::empty(g.shape(), g.dtype()), Tensor::empty(g.shape(), g.dtype())};  // S (a g) per pass
         // The passes in reverse; the last one writes grad.
         T* dst[2] = {(passes % 2 ? grad : other).data<T>(), (passes % 2 ? other : grad).data<T>()};
         const T* src = g.data<T>();
