@@ -16,6 +16,7 @@
 #include "autodiff/tape.h"
 #include "ops/check.h"
 #include "ops/tensor/elementwise.h"
+#include "ops/mesh/lanes.h"
 #include "ops/mesh/row_sums.h"
 #include "ops/mesh/topology.h"
 
@@ -257,22 +258,11 @@ void smooth_backward(const Operator& op, T a, const T* g, const T* q, T* gx, T* 
   });
 }
 
-// Three channels (positions, normals) padded to four lanes: one vector add
-// per neighbour instead of three scalar ones. Lane c does channel c's scalar
-// operations in the same order (lane 3 is padding), so the bits are those of
+// Three channels (positions, normals) padded to four lanes (ops/mesh/lanes.h):
+// one vector add per neighbour instead of three scalar ones, with the bits of
 // the one-channel-at-a-time kernels above.
 template <class T>
-struct LaneType;
-template <>
-struct LaneType<float> {
-  typedef float type __attribute__((vector_size(16)));
-};
-template <>
-struct LaneType<double> {
-  typedef double type __attribute__((vector_size(32)));
-};
-template <class T>
-using Lanes = typename LaneType<T>::type;
+using Lanes = detail::Lanes4<T>;
 
 // rows [V, 3] -> [V, 4] (lane 3 zero).
 template <class T>

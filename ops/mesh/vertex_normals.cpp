@@ -18,6 +18,7 @@
 #include "autodiff/base/error.h"
 #include "autodiff/base/parallel.h"
 #include "autodiff/tape.h"
+#include "ops/mesh/lanes.h"
 #include "ops/mesh/topology.h"
 #include "ops/render/recent_entries.h"
 #include "ops/render/tensor_stamp.h"
@@ -88,13 +89,14 @@ constexpr std::int64_t kVertexGrain = kElementwiseGrain / 8;
 // s_v = sum over v's corners (ascending j) of n_f = (p1 - p0) x (p2 - p0),
 // all in T with cross's expressions (ops/tensor/vector.cpp); 0 for a vertex of
 // no face. The face pass writes n_f at each of its corners' j, so the vertex
-// pass reads by j directly.
+// pass reads by j directly (four-lane rows: one vector add per corner).
 template <class T>
 void normal_sums_forward(const NormalSumParams& p, const T* positions, T* out) {
+  using Lanes = detail::Lanes4<T>;  // n_f padded to four lanes (ops/mesh/lanes.h)
   const std::int64_t F = p.faces;
   // Scratch from the storage cache (no page faults once warm); every row written.
-  Tensor corner_rows = Tensor::empty({3 * F, 3}, dtype_of<T>::value);
-  T* const corner = corner_rows.data<T>();
+  Tensor corner_rows = Tensor::empty({3 * F, 4}, dtype_of<T>::value);
+  Lanes* const corner = reinterpret_cast<Lanes*>(corner_rows.data<T>());
   const std::int32_t* const tris = p.tris;
   parallel_for(0, F, kFaceGrain, [=](std::int64_t lo, std::int64_t hi) {
     for (std::int64_t f = lo; f < hi; ++f) {
@@ -102,20 +104,16 @@ void normal_sums_forward(const NormalSumParams& p, const T* positions, T* out) {
               *p2 = positions + 3 * std::int64_t(tris[3 * f + 2]);
       const T u[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
       const T v[3] = {p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]};
-      const T n[3] = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]};
-      T *n0 = corner + 3 * f, *n1 = corner + 3 * (F + f), *n2 = corner + 3 * (2 * F + f);
-      for (int d = 0; d < 3; ++d) n0[d] = n1[d] = n2[d] = n[d];
+      const Lanes n = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0], T(0)};
+      corner[f] = corner[F + f] = corner[2 * F + f] = n;
     }
   });
   const std::int64_t* const start = p.corners->start.data();
   const std::int32_t* const item = p.corners->item.data();
   parallel_for(0, p.vertices, kVertexGrain, [=](std::int64_t lo, std::int64_t hi) {
     for (std::int64_t v = lo; v < hi; ++v) {
-      T s[3] = {0, 0, 0};
-      for (std::int64_t e = start[v]; e < start[v + 1]; ++e) {
-        const T* n = corner + 3 * std::int64_t(item[e]);
-        for (int d = 0; d < 3; ++d) s[d] += n[d];
-      }
+      Lanes s = {};
+      for (std::int64_t e = start[v]; e < start[v + 1]; ++e) s += corner[item[e]];
       for (int d = 0; d < 3; ++d) out[3 * v + d] = s[d];
     }
   });
@@ -127,13 +125,15 @@ void normal_sums_forward(const NormalSumParams& p, const T* positions, T* out) {
 // and dL/dp0 = -(both). Each vertex sums its corners' terms in double, in
 // ascending j (thread-count independent), rounded once. The face pass writes
 // every corner's term at its j, so the vertex pass only adds (issue 31: the
-// corner's kind, found per corner in the vertex pass, cost twice the adds).
+// corner's kind, found per corner in the vertex pass, cost twice the adds);
+// terms and sums are four-lane vectors, lane d doing component d's operations.
 template <class T>
 void normal_sums_backward(const NormalSumParams& p, const T* positions, const T* g, T* grad) {
+  using Lanes = detail::Lanes4<double>;  // a corner's term padded to four lanes (ops/mesh/lanes.h)
   const std::int64_t F = p.faces;
-  // dL/dp of corner j = kF + f, three doubles each, from the storage cache; every row written.
-  Tensor corner_terms = Tensor::empty({3 * F, 3}, DType::Float64);
-  double* const term = corner_terms.data<double>();
+  // dL/dp of corner j = kF + f, from the storage cache; every row written.
+  Tensor corner_terms = Tensor::empty({3 * F, 4}, DType::Float64);
+  Lanes* const term = reinterpret_cast<Lanes*>(corner_terms.data<double>());
   const std::int32_t* const tris = p.tris;
   parallel_for(0, F, kFaceGrain, [=](std::int64_t lo, std::int64_t hi) {
     for (std::int64_t f = lo; f < hi; ++f) {
@@ -147,25 +147,19 @@ void normal_sums_backward(const NormalSumParams& p, const T* positions, const T*
         v[d] = p2[d] - p0[d];
         G[d] = (static_cast<double>(g0[d]) + g1[d]) + g2[d];
       }
-      const double d1[3] = {v[1] * G[2] - v[2] * G[1], v[2] * G[0] - v[0] * G[2], v[0] * G[1] - v[1] * G[0]};
-      const double d2[3] = {G[1] * u[2] - G[2] * u[1], G[2] * u[0] - G[0] * u[2], G[0] * u[1] - G[1] * u[0]};
-      double *t0 = term + 3 * f, *t1 = term + 3 * (F + f), *t2 = term + 3 * (2 * F + f);
-      for (int d = 0; d < 3; ++d) {
-        t0[d] = -(d1[d] + d2[d]);
-        t1[d] = d1[d];
-        t2[d] = d2[d];
-      }
+      const Lanes d1 = {v[1] * G[2] - v[2] * G[1], v[2] * G[0] - v[0] * G[2], v[0] * G[1] - v[1] * G[0], 0.0};
+      const Lanes d2 = {G[1] * u[2] - G[2] * u[1], G[2] * u[0] - G[0] * u[2], G[0] * u[1] - G[1] * u[0], 0.0};
+      term[f] = -(d1 + d2);
+      term[F + f] = d1;
+      term[2 * F + f] = d2;
     }
   });
   const std::int64_t* const start = p.corners->start.data();
   const std::int32_t* const item = p.corners->item.data();
   parallel_for(0, p.vertices, kVertexGrain, [=](std::int64_t lo, std::int64_t hi) {
     for (std::int64_t v = lo; v < hi; ++v) {
-      double s[3] = {0, 0, 0};
-      for (std::int64_t e = start[v]; e < start[v + 1]; ++e) {
-        const double* t = term + 3 * std::int64_t(item[e]);
-        for (int d = 0; d < 3; ++d) s[d] += t[d];
-      }
+      Lanes s = {};
+      for (std::int64_t e = start[v]; e < start[v + 1]; ++e) s += term[item[e]];
       for (int d = 0; d < 3; ++d) grad[3 * v + d] = static_cast<T>(s[d]);
     }
   });
