@@ -42,10 +42,10 @@ Surface SharedSurface::as_surface(const std::vector<Tensor>& leaves) const {
   return s;
 }
 
-Tensor SharedSurface::pullback() const {
-  Tensor total = sum(recorded_.vertices * leaves_[0].grad()) + sum(recorded_.normals * leaves_[1].grad());
-  if (recorded_.colours.defined()) total = total + sum(recorded_.colours * leaves_[2].grad());
-  return total;
+void SharedSurface::add_pullback(std::vector<Tensor>& values, std::vector<Tensor>& weights) const {
+  values.insert(values.end(), {recorded_.vertices, recorded_.normals});
+  weights.insert(weights.end(), {leaves_[0].grad(), leaves_[1].grad()});
+  if (recorded_.colours.defined()) values.push_back(recorded_.colours), weights.push_back(leaves_[2].grad());
 }
 
 void SharedSurface::zero_grad() {

@@ -17,7 +17,7 @@ namespace fit {
 // them once per step from the smoothed positions, recorded on this thread's
 // tape, and copies their values into the leaves. Each view renders from its
 // aliases of the leaves (ViewGradients::view_leaves) on a tape of its own;
-// once the views' gradients are summed into the leaves, pullback() carries
+// once the views' gradients are summed into the leaves, add_pullback() carries
 // them on to the positions in one backward.
 class SharedSurface {
  public:
@@ -31,10 +31,11 @@ class SharedSurface {
   void update(const Tensor& positions);
   // A view's surface from its aliases of leaves() (the first three of `leaves`).
   Surface as_surface(const std::vector<Tensor>& leaves) const;
-  // sum over the recorded values of value * (its leaf's gradient): its
-  // gradient with respect to each value is the leaf's gradient, so its
-  // backward carries the views' sum on to the positions (and colours).
-  Tensor pullback() const;
+  // Adds to a linear form's pairs (gr::sum_of_products) each recorded value
+  // with its leaf's gradient: the form's gradient with respect to each value
+  // is the leaf's gradient, so its backward carries the views' sum on to the
+  // positions (and colours).
+  void add_pullback(std::vector<Tensor>& values, std::vector<Tensor>& weights) const;
   // Clears the leaves' gradients (not the texture's: the optimizer owns it).
   void zero_grad();
 

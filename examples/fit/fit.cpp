@@ -203,9 +203,8 @@ class SmoothedPositions {
         passes_(passes) {}
 
   Tensor evaluate() const {
-    Tensor x = offsets;
-    for (int k = 0; k < passes_; ++k) x = x + 0.5 * laplacian.apply(x);
-    return mesh_.positions + x;
+    // x <- x + L(x) / 2, passes_ times, as one op (the composite's bits).
+    return mesh_.positions + laplacian.smooth(offsets, passes_, 0.5);
   }
 
   Tensor offsets;  // the parameter u
@@ -485,7 +484,11 @@ FitResult run_shape(const FitOptions& options, std::ostream& log) {
     // The views' gradient and the Laplacian term, once: d/d offsets of
     // <positions, dP/dpositions> + <surface(positions), dL/dsurface> (both
     // gradients held constant), P = penalty_weight penalty(positions).
-    backward(sum(positions * penalty_grad) + shared.pullback());
+    // One linear form (the composite sum(positions * penalty_grad) + the
+    // surface's sums gave the same gradients through products and broadcasts).
+    std::vector<Tensor> values{positions}, weights{penalty_grad};
+    shared.add_pullback(values, weights);
+    backward(sum_of_products(values, weights));
     shared.zero_grad();
     phases.mark("Laplacian, smoothing, normals backward");
     adam.step();

@@ -11,10 +11,12 @@
 #include <vector>
 
 #include "autodiff/base/dtype.h"
+#include "autodiff/base/parallel.h"
 #include "autodiff/base/error.h"
 #include "autodiff/tape.h"
 #include "ops/check.h"
 #include "ops/tensor/elementwise.h"
+#include "ops/mesh/lanes.h"
 #include "ops/mesh/row_sums.h"
 #include "ops/mesh/topology.h"
 
@@ -164,10 +166,52 @@ void laplacian_forward(const Operator& op, const T* x, T* out, std::int64_t C) {
   }
 }
 
-// W (S g), the transpose's sum over the same rows (W is symmetric), weighted by
-// the neighbour's scale; for CotCurv minus D (S g) as well (the whole adjoint).
+// q = S (a g) (a = 1: S g), each vertex's scale applied once: the products
+// the transpose's terms read, the same float products as scaling per term.
+template <class T, class Channels>
+void scale_rows(const T* s, T a, const T* g, T* q, std::int64_t rows, Channels C) {
+  parallel_for(0, rows, std::max<std::int64_t>(1, kElementwiseGrain / std::max<std::int64_t>(1, C)),
+               [=](std::int64_t lo, std::int64_t hi) {
+                 for (std::int64_t i = lo; i < hi; ++i) {
+                   const T si = s[i];
+                   for (std::int64_t c = 0; c < C; ++c) q[i * C + c] = (a * g[i * C + c]) * si;  // 1 g = g
+                 }
+               });
+}
+
+// W q, the transpose's sum over the same rows (W is symmetric) of q = S g,
+// passed to emit(i, c, sum) (Cot, CotCurv: each term w_e q_j).
+template <class T, class Channels, class Emit>
+void weighted_rows(const Operator& op, const T* q, Channels C, Emit emit) {
+  const T* w = op.coefficients<T>().weight.data();
+  if (op.method == LaplacianMethod::Uniform)
+    return detail::row_sums<T>(op.rows, C, [=](std::int64_t, std::int32_t j, std::int64_t c) { return q[j * C + c]; },
+                               emit);
+  return detail::row_sums<T>(
+      op.rows, C, [=](std::int64_t e, std::int32_t j, std::int64_t c) { return w[e] * q[j * C + c]; }, emit);
+}
+
+// W (S g); for CotCurv minus D (S g) as well (the whole adjoint).
 template <class T>
 void laplacian_transpose(const Operator& op, const T* g, T* out, std::int64_t C) {
+  const auto& k = op.coefficients<T>();
+  const std::int64_t V = op.rows.rows();
+  Tensor scaled = Tensor::empty({V, C}, dtype_of<T>::value);  // scratch, every entry written
+  T* const q = scaled.data<T>();
+  detail::with_channels(C, [&](auto channels) { scale_rows(k.scale.data(), T(1), g, q, V, channels); });
+  if (op.method == LaplacianMethod::CotCurv) {
+    const T* d = k.diag.data();
+    return weighted_rows<T>(op, q, C, [=](std::int64_t i, std::int64_t c, T sum) {
+      out[i * C + c] = sum - d[i] * q[i * C + c];
+    });
+  }
+  weighted_rows<T>(op, q, C, [=](std::int64_t i, std::int64_t c, T sum) { out[i * C + c] = sum; });
+}
+
+// One smoothing pass y = x + a (L x), in T with the composite's roundings
+// (L x as laplacian_forward, then a times it, then the sum).
+template <class T>
+void smooth_forward(const Operator& op, T a, const T* x, T* y, std::int64_t C) {
   const auto& k = op.coefficients<T>();
   const T* w = k.weight.data();
   const T* s = k.scale.data();
@@ -175,16 +219,160 @@ void laplacian_transpose(const Operator& op, const T* g, T* out, std::int64_t C)
   switch (op.method) {
     case LaplacianMethod::Uniform:
       return detail::row_sums<T>(
-          op.rows, C, [=](std::int64_t, std::int32_t j, std::int64_t c) { return g[j * C + c] * s[j]; },
-          [=](std::int64_t i, std::int64_t c, T sum) { out[i * C + c] = sum; });
+          op.rows, C, [=](std::int64_t, std::int32_t j, std::int64_t c) { return x[j * C + c]; },
+          [=](std::int64_t i, std::int64_t c, T sum) { y[i * C + c] = x[i * C + c] + a * (sum * s[i] - x[i * C + c]); });
     case LaplacianMethod::Cot:
       return detail::row_sums<T>(
-          op.rows, C, [=](std::int64_t e, std::int32_t j, std::int64_t c) { return w[e] * (g[j * C + c] * s[j]); },
-          [=](std::int64_t i, std::int64_t c, T sum) { out[i * C + c] = sum; });
+          op.rows, C, [=](std::int64_t e, std::int32_t j, std::int64_t c) { return w[e] * x[j * C + c]; },
+          [=](std::int64_t i, std::int64_t c, T sum) { y[i * C + c] = x[i * C + c] + a * (sum * s[i] - x[i * C + c]); });
     case LaplacianMethod::CotCurv:
       return detail::row_sums<T>(
-          op.rows, C, [=](std::int64_t e, std::int32_t j, std::int64_t c) { return w[e] * (g[j * C + c] * s[j]); },
-          [=](std::int64_t i, std::int64_t c, T sum) { out[i * C + c] = sum - d[i] * (g[i * C + c] * s[i]); });
+          op.rows, C, [=](std::int64_t e, std::int32_t j, std::int64_t c) { return w[e] * x[j * C + c]; },
+          [=](std::int64_t i, std::int64_t c, T sum) {
+            y[i * C + c] = x[i * C + c] + a * ((sum - d[i] * x[i * C + c]) * s[i]);
+          });
+  }
+}
+
+// Its adjoint for g = dL/dy, into gx (overwritten): gx = g + L^T (a g), with
+// h = a g and the composite's order of accumulation: for Uniform and Cot
+// (g - h) + W (S h) (g, then apply's -h, then its sum), for CotCurv
+// g + (W (S h) - D (S h)). q = S h (scale_rows); q_next, if given, gets the
+// next pass's S (a gx).
+template <class T>
+void smooth_backward(const Operator& op, T a, const T* g, const T* q, T* gx, T* q_next, std::int64_t C) {
+  const auto& k = op.coefficients<T>();
+  const T* s = k.scale.data();
+  auto next = [=](std::int64_t i, std::int64_t c, T value) {
+    gx[i * C + c] = value;
+    if (q_next) q_next[i * C + c] = (a * value) * s[i];
+  };
+  if (op.method == LaplacianMethod::CotCurv) {
+    const T* d = k.diag.data();
+    return weighted_rows<T>(op, q, C, [=](std::int64_t i, std::int64_t c, T sum) {
+      next(i, c, g[i * C + c] + (sum - d[i] * q[i * C + c]));
+    });
+  }
+  weighted_rows<T>(op, q, C, [=](std::int64_t i, std::int64_t c, T sum) {
+    next(i, c, (g[i * C + c] + -(a * g[i * C + c])) + sum);
+  });
+}
+
+// Three channels (positions, normals) padded to four lanes (ops/mesh/lanes.h):
+// one vector add per neighbour instead of three scalar ones, with the bits of
+// the one-channel-at-a-time kernels above.
+template <class T>
+using Lanes = detail::Lanes4<T>;
+
+// rows [V, 3] -> [V, 4] (lane 3 zero).
+template <class T>
+void pad_rows(const T* in, Lanes<T>* out, std::int64_t rows) {
+  parallel_for(0, rows, kElementwiseGrain / 4, [=](std::int64_t lo, std::int64_t hi) {
+    for (std::int64_t i = lo; i < hi; ++i) out[i] = Lanes<T>{in[3 * i], in[3 * i + 1], in[3 * i + 2], T(0)};
+  });
+}
+
+// emit(i, sum of row i's terms) with lanes; the terms as weighted_rows' (w_e v_j, or v_j for Uniform).
+template <class T, class Emit>
+void lane_row_sums(const Operator& op, const Lanes<T>* v, Emit emit) {
+  const detail::VertexRows& r = op.rows;
+  const std::int64_t* start = r.start.data();
+  const std::int32_t* col = r.column.data();
+  const T* w = op.coefficients<T>().weight.data();
+  const bool weighted = op.method != LaplacianMethod::Uniform;
+  parallel_for(0, r.rows(), detail::row_sum_grain(r, 3), [&](std::int64_t lo, std::int64_t hi) {
+    for (std::int64_t i = lo; i < hi; ++i) {
+      Lanes<T> sum = {};
+      if (weighted)
+        for (std::int64_t e = start[i]; e < start[i + 1]; ++e) sum += w[e] * v[col[e]];
+      else
+        for (std::int64_t e = start[i]; e < start[i + 1]; ++e) sum += v[col[e]];
+      emit(i, sum);
+    }
+  });
+}
+
+// Stores row i's lanes into padded rows, or its three channels into [V, 3].
+template <class T>
+struct LaneOut {
+  Lanes<T>* padded = nullptr;
+  T* rows3 = nullptr;
+  void store(std::int64_t i, const Lanes<T>& v) const {
+    if (padded) {
+      padded[i] = v;
+    } else {
+      rows3[3 * i] = v[0], rows3[3 * i + 1] = v[1], rows3[3 * i + 2] = v[2];
+    }
+  }
+};
+
+// smooth_forward with lanes: x padded, y padded or [V, 3].
+template <class T>
+void smooth_forward_lanes(const Operator& op, T a, const Lanes<T>* x, LaneOut<T> y) {
+  const auto& k = op.coefficients<T>();
+  const T* s = k.scale.data();
+  const T* d = k.diag.data();
+  if (op.method == LaplacianMethod::CotCurv)
+    return lane_row_sums<T>(op, x, [=](std::int64_t i, const Lanes<T>& sum) {
+      y.store(i, x[i] + a * ((sum - d[i] * x[i]) * s[i]));
+    });
+  lane_row_sums<T>(op, x, [=](std::int64_t i, const Lanes<T>& sum) { y.store(i, x[i] + a * (sum * s[i] - x[i])); });
+}
+
+// smooth_backward with lanes: g, q padded; gx padded or [V, 3]; q_next as there.
+template <class T>
+void smooth_backward_lanes(const Operator& op, T a, const Lanes<T>* g, const Lanes<T>* q, LaneOut<T> gx,
+                           Lanes<T>* q_next) {
+  const auto& k = op.coefficients<T>();
+  const T* s = k.scale.data();
+  auto next = [=](std::int64_t i, const Lanes<T>& value) {
+    gx.store(i, value);
+    if (q_next) q_next[i] = (a * value) * s[i];
+  };
+  if (op.method == LaplacianMethod::CotCurv) {
+    const T* d = k.diag.data();
+    return lane_row_sums<T>(op, q, [=](std::int64_t i, const Lanes<T>& sum) { next(i, g[i] + (sum - d[i] * q[i])); });
+  }
+  lane_row_sums<T>(op, q, [=](std::int64_t i, const Lanes<T>& sum) { next(i, (g[i] + -(a * g[i])) + sum); });
+}
+
+// (I + a L)^passes on [V, 3]: x in, out written (passes >= 1).
+template <class T>
+void smooth_lanes(const Operator& op, T a, const T* x, T* out, int passes) {
+  const std::int64_t V = op.rows.rows();
+  Tensor buffers = Tensor::empty({3, V, 4}, dtype_of<T>::value);  // the padded input and two ping-pong rows
+  Lanes<T>* const b = reinterpret_cast<Lanes<T>*>(buffers.data<T>());
+  Lanes<T>* const in = b;
+  Lanes<T>* const pong[2] = {b + V, b + 2 * V};
+  pad_rows(x, in, V);
+  const Lanes<T>* src = in;
+  for (int k = 0; k < passes; ++k) {
+    const bool last = k + 1 == passes;
+    smooth_forward_lanes<T>(op, a, src, last ? LaneOut<T>{nullptr, out} : LaneOut<T>{pong[k % 2], nullptr});
+    src = pong[k % 2];
+  }
+}
+
+// Its adjoint: g [V, 3] in, grad [V, 3] written.
+template <class T>
+void smooth_lanes_adjoint(const Operator& op, T a, const T* g, T* grad, int passes) {
+  const std::int64_t V = op.rows.rows();
+  Tensor buffers = Tensor::empty({5, V, 4}, dtype_of<T>::value);  // g padded, two ping-pong g, two q
+  Lanes<T>* const b = reinterpret_cast<Lanes<T>*>(buffers.data<T>());
+  Lanes<T>* const g_pad = b;
+  Lanes<T>* const pong[2] = {b + V, b + 2 * V};
+  Lanes<T>* const q[2] = {b + 3 * V, b + 4 * V};
+  pad_rows(g, g_pad, V);
+  const T* s = op.coefficients<T>().scale.data();
+  parallel_for(0, V, kElementwiseGrain / 4, [=](std::int64_t lo, std::int64_t hi) {
+    for (std::int64_t i = lo; i < hi; ++i) q[0][i] = (a * g_pad[i]) * s[i];
+  });
+  const Lanes<T>* src = g_pad;
+  for (int k = 0; k < passes; ++k) {
+    const bool last = k + 1 == passes;
+    smooth_backward_lanes<T>(op, a, src, q[k % 2], last ? LaneOut<T>{nullptr, grad} : LaneOut<T>{pong[k % 2], nullptr},
+                             last ? nullptr : q[(k + 1) % 2]);
+    src = pong[k % 2];
   }
 }
 
@@ -234,6 +422,59 @@ Tensor MeshLaplacian::apply(const Tensor& x) const {
       // example's composite added its parts in, so its bits are kept).
       ctx.accumulate(0, neg(g));
       ctx.accumulate(0, part);
+    });
+  }
+  return out;
+}
+
+Tensor MeshLaplacian::smooth(const Tensor& x, int passes, double step) const {
+  const std::string name = "MeshLaplacian::smooth";
+  detail::check_float(x, name, "x");
+  if (x.rank() != 2 || x.size(0) != num_vertices_)
+    throw ShapeError(name + ": argument 'x' must have shape [V, C] with V = " + std::to_string(num_vertices_) +
+                     ", got " + x.describe());
+  if (passes < 0) throw ValueError(name + ": argument 'passes' must be >= 0, got " + std::to_string(passes));
+  if (!std::isfinite(step)) throw ValueError(name + ": argument 'step' must be finite, got " + std::to_string(step));
+  if (passes == 0) return x;
+  const std::int64_t channels = x.size(1);
+  // Ping-pong: pass k reads one buffer and writes the other; the last one written is the result.
+  Tensor out = Tensor::empty(x.shape(), x.dtype());
+  dispatch_float(x.dtype(), name, [&](auto tag) {
+    using T = decltype(tag);
+    const T a = static_cast<T>(step);  // the composite's scalar, in x's dtype
+    if (channels == 3) return smooth_lanes(*op_, a, std::as_const(x).data<T>(), out.data<T>(), passes);
+    Tensor other = passes > 1 ? Tensor::empty(x.shape(), x.dtype()) : out;  // unused for one pass
+    T* dst[2] = {(passes % 2 ? out : other).data<T>(), (passes % 2 ? other : out).data<T>()};
+    const T* src = std::as_const(x).data<T>();
+    for (int k = 0; k < passes; ++k) {
+      smooth_forward(*op_, a, src, dst[k % 2], channels);
+      src = dst[k % 2];
+    }
+  });
+  if (should_record({x})) {
+    record("mesh_laplacian_smooth", {x}, {&out}, [op = op_, channels, passes, step](AdjointContext& ctx) {
+      const Tensor& g = ctx.grad_output();
+      if (!g.defined()) return;
+      Tensor grad = Tensor::empty(g.shape(), g.dtype());
+      dispatch_float(g.dtype(), "mesh_laplacian_smooth", [&](auto tag) {
+        using T = decltype(tag);
+        const T a = static_cast<T>(step);
+        if (channels == 3) return smooth_lanes_adjoint(*op, a, g.data<T>(), grad.data<T>(), passes);
+        Tensor other = passes > 1 ? Tensor::empty(g.shape(), g.dtype()) : grad;
+        Tensor q[2] = {Tensor::empty(g.shape(), g.dtype()), Tensor::empty(g.shape(), g.dtype())};  // S (a g) per pass
+        // The passes in reverse; the last one writes grad.
+        T* dst[2] = {(passes % 2 ? grad : other).data<T>(), (passes % 2 ? other : grad).data<T>()};
+        const T* src = g.data<T>();
+        detail::with_channels(channels, [&](auto C) {  // C constant: the row's loop unrolled
+          scale_rows(op->coefficients<T>().scale.data(), a, src, q[0].data<T>(), op->rows.rows(), C);
+        });
+        for (int k = 0; k < passes; ++k) {
+          T* q_next = k + 1 < passes ? q[(k + 1) % 2].data<T>() : nullptr;
+          smooth_backward(*op, a, src, std::as_const(q[k % 2]).data<T>(), dst[k % 2], q_next, channels);
+          src = dst[k % 2];
+        }
+      });
+      ctx.accumulate(0, grad);
     });
   }
   return out;

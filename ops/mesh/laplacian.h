@@ -50,6 +50,12 @@ class MeshLaplacian {
   //   CotCurv:      L x = S (W x - D x),      L^T g = W (S g) - D (S g)
   // with S the row scales (1/deg_i, 1/s_i, 1/(4 A_i)) and D = diag(s_i).
   Tensor apply(const Tensor& x) const;
+  // (I + step L)^passes x for x [V, C], float32 or float64: `passes` times
+  // x <- x + step * apply(x), as one recorded op with the bits of that
+  // composite (value and gradient; step is rounded to x's dtype first). Its
+  // adjoint needs no saved values: g <- g + L^T (step g), passes times.
+  // passes = 0 returns x. Throws for passes < 0 or a non-finite step.
+  Tensor smooth(const Tensor& x, int passes, double step) const;
   // The matrix of apply, dense [V, V] float64 (for checks on small meshes).
   Tensor to_dense() const;
 

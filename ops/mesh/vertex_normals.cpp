@@ -18,6 +18,7 @@
 #include "autodiff/base/error.h"
 #include "autodiff/base/parallel.h"
 #include "autodiff/tape.h"
+#include "ops/mesh/lanes.h"
 #include "ops/mesh/topology.h"
 #include "ops/render/recent_entries.h"
 #include "ops/render/tensor_stamp.h"
@@ -34,7 +35,6 @@ struct NormalSumParams {
   std::int64_t faces = 0, vertices = 0;
   const std::int32_t* tris = nullptr;  // [F, 3]
   std::shared_ptr<const raster::detail::Buckets> corners;
-  std::int64_t face_of(std::int64_t j) const { return j - faces * ((j >= faces) + (j >= 2 * faces)); }
 };
 
 // The corner lists of a triangle list, column-major corners j = kF + f
@@ -87,32 +87,33 @@ constexpr std::int64_t kFaceGrain = kElementwiseGrain / 8;
 constexpr std::int64_t kVertexGrain = kElementwiseGrain / 8;
 
 // s_v = sum over v's corners (ascending j) of n_f = (p1 - p0) x (p2 - p0),
-// all in T with cross's expressions (ops/tensor/vector.cpp); 0 for a vertex of no face.
+// all in T with cross's expressions (ops/tensor/vector.cpp); 0 for a vertex of
+// no face. The face pass writes n_f at each of its corners' j, so the vertex
+// pass reads by j directly (four-lane rows: one vector add per corner).
 template <class T>
 void normal_sums_forward(const NormalSumParams& p, const T* positions, T* out) {
+  using Lanes = detail::Lanes4<T>;  // n_f padded to four lanes (ops/mesh/lanes.h)
+  const std::int64_t F = p.faces;
   // Scratch from the storage cache (no page faults once warm); every row written.
-  Tensor face_rows = Tensor::empty({p.faces, 3}, dtype_of<T>::value);
-  T* const face = face_rows.data<T>();
-  parallel_for(0, p.faces, kFaceGrain, [&](std::int64_t lo, std::int64_t hi) {
+  Tensor corner_rows = Tensor::empty({3 * F, 4}, dtype_of<T>::value);
+  Lanes* const corner = reinterpret_cast<Lanes*>(corner_rows.data<T>());
+  const std::int32_t* const tris = p.tris;
+  parallel_for(0, F, kFaceGrain, [=](std::int64_t lo, std::int64_t hi) {
     for (std::int64_t f = lo; f < hi; ++f) {
-      const T *p0 = positions + 3 * p.tris[3 * f], *p1 = positions + 3 * p.tris[3 * f + 1],
-              *p2 = positions + 3 * p.tris[3 * f + 2];
+      const T *p0 = positions + 3 * std::int64_t(tris[3 * f]), *p1 = positions + 3 * std::int64_t(tris[3 * f + 1]),
+              *p2 = positions + 3 * std::int64_t(tris[3 * f + 2]);
       const T u[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
       const T v[3] = {p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]};
-      T* n = face + 3 * f;
-      n[0] = u[1] * v[2] - u[2] * v[1];
-      n[1] = u[2] * v[0] - u[0] * v[2];
-      n[2] = u[0] * v[1] - u[1] * v[0];
+      const Lanes n = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0], T(0)};
+      corner[f] = corner[F + f] = corner[2 * F + f] = n;
     }
   });
-  const raster::detail::Buckets& c = *p.corners;
-  parallel_for(0, p.vertices, kVertexGrain, [&](std::int64_t lo, std::int64_t hi) {
+  const std::int64_t* const start = p.corners->start.data();
+  const std::int32_t* const item = p.corners->item.data();
+  parallel_for(0, p.vertices, kVertexGrain, [=](std::int64_t lo, std::int64_t hi) {
     for (std::int64_t v = lo; v < hi; ++v) {
-      T s[3] = {0, 0, 0};
-      for (std::int64_t e = c.start[v]; e < c.start[v + 1]; ++e) {
-        const T* n = face + 3 * p.face_of(c.item[e]);
-        for (int d = 0; d < 3; ++d) s[d] += n[d];
-      }
+      Lanes s = {};
+      for (std::int64_t e = start[v]; e < start[v + 1]; ++e) s += corner[item[e]];
       for (int d = 0; d < 3; ++d) out[3 * v + d] = s[d];
     }
   });
@@ -122,42 +123,43 @@ void normal_sums_forward(const NormalSumParams& p, const T* positions, T* out) {
 // gets G_f = g_0 + g_1 + g_2 (its corners' g); with u = p1 - p0, v = p2 - p0
 // and g . (u x v) = u . (v x g) = v . (g x u), dL/dp1 = v x G, dL/dp2 = G x u
 // and dL/dp0 = -(both). Each vertex sums its corners' terms in double, in
-// ascending j (thread-count independent), rounded once.
+// ascending j (thread-count independent), rounded once. The face pass writes
+// every corner's term at its j, so the vertex pass only adds (issue 31: the
+// corner's kind, found per corner in the vertex pass, cost twice the adds);
+// terms and sums are four-lane vectors, lane d doing component d's operations.
 template <class T>
 void normal_sums_backward(const NormalSumParams& p, const T* positions, const T* g, T* grad) {
+  using Lanes = detail::Lanes4<double>;  // a corner's term padded to four lanes (ops/mesh/lanes.h)
   const std::int64_t F = p.faces;
-  // Per face dL/dp1 and dL/dp2 (six doubles), from the storage cache; every row written.
-  Tensor face_terms = Tensor::empty({F, 6}, DType::Float64);
-  double* const term = face_terms.data<double>();
-  parallel_for(0, F, kFaceGrain, [&](std::int64_t lo, std::int64_t hi) {
+  // dL/dp of corner j = kF + f, from the storage cache; every row written.
+  Tensor corner_terms = Tensor::empty({3 * F, 4}, DType::Float64);
+  Lanes* const term = reinterpret_cast<Lanes*>(corner_terms.data<double>());
+  const std::int32_t* const tris = p.tris;
+  parallel_for(0, F, kFaceGrain, [=](std::int64_t lo, std::int64_t hi) {
     for (std::int64_t f = lo; f < hi; ++f) {
-      const std::int32_t* t = p.tris + 3 * f;
-      const T *p0 = positions + 3 * t[0], *p1 = positions + 3 * t[1], *p2 = positions + 3 * t[2];
+      const T *g0 = g + 3 * std::int64_t(tris[3 * f]), *g1 = g + 3 * std::int64_t(tris[3 * f + 1]),
+              *g2 = g + 3 * std::int64_t(tris[3 * f + 2]);
+      const T *p0 = positions + 3 * std::int64_t(tris[3 * f]), *p1 = positions + 3 * std::int64_t(tris[3 * f + 1]),
+              *p2 = positions + 3 * std::int64_t(tris[3 * f + 2]);
       double u[3], v[3], G[3];
       for (int d = 0; d < 3; ++d) {
         u[d] = p1[d] - p0[d];  // in T, as the forward
         v[d] = p2[d] - p0[d];
-        G[d] = (static_cast<double>(g[3 * t[0] + d]) + g[3 * t[1] + d]) + g[3 * t[2] + d];
+        G[d] = (static_cast<double>(g0[d]) + g1[d]) + g2[d];
       }
-      double* d12 = term + 6 * f;
-      d12[0] = v[1] * G[2] - v[2] * G[1], d12[1] = v[2] * G[0] - v[0] * G[2], d12[2] = v[0] * G[1] - v[1] * G[0];
-      d12[3] = G[1] * u[2] - G[2] * u[1], d12[4] = G[2] * u[0] - G[0] * u[2], d12[5] = G[0] * u[1] - G[1] * u[0];
+      const Lanes d1 = {v[1] * G[2] - v[2] * G[1], v[2] * G[0] - v[0] * G[2], v[0] * G[1] - v[1] * G[0], 0.0};
+      const Lanes d2 = {G[1] * u[2] - G[2] * u[1], G[2] * u[0] - G[0] * u[2], G[0] * u[1] - G[1] * u[0], 0.0};
+      term[f] = -(d1 + d2);
+      term[F + f] = d1;
+      term[2 * F + f] = d2;
     }
   });
-  const raster::detail::Buckets& c = *p.corners;
-  parallel_for(0, p.vertices, kVertexGrain, [&](std::int64_t lo, std::int64_t hi) {
+  const std::int64_t* const start = p.corners->start.data();
+  const std::int32_t* const item = p.corners->item.data();
+  parallel_for(0, p.vertices, kVertexGrain, [=](std::int64_t lo, std::int64_t hi) {
     for (std::int64_t v = lo; v < hi; ++v) {
-      double s[3] = {0, 0, 0};
-      for (std::int64_t e = c.start[v]; e < c.start[v + 1]; ++e) {
-        const std::int64_t j = c.item[e], f = p.face_of(j);
-        const double* d12 = term + 6 * f;
-        if (j >= 2 * F)  // corner 2: dL/dp2
-          for (int d = 0; d < 3; ++d) s[d] += d12[3 + d];
-        else if (j >= F)  // corner 1: dL/dp1
-          for (int d = 0; d < 3; ++d) s[d] += d12[d];
-        else  // corner 0: -(both)
-          for (int d = 0; d < 3; ++d) s[d] += -(d12[d] + d12[3 + d]);
-      }
+      Lanes s = {};
+      for (std::int64_t e = start[v]; e < start[v + 1]; ++e) s += term[item[e]];
       for (int d = 0; d < 3; ++d) grad[3 * v + d] = static_cast<T>(s[d]);
     }
   });

@@ -4,6 +4,8 @@
 // order); float32 inputs are accumulated in double.
 #pragma once
 
+#include <vector>
+
 #include "autodiff/base/tensor.h"
 
 namespace gr {
@@ -15,6 +17,14 @@ Tensor sum(const Tensor& a, int axis, bool keepdim = false);
 // Mean of all elements. dL/da = g / numel.
 Tensor mean(const Tensor& a);
 Tensor mean(const Tensor& a, int axis, bool keepdim = false);
+
+// sum over k of sum(values[k] * weights[k]) (a rank-0 tensor of values'
+// dtype; each pair same shape and dtype, at least one pair), accumulated in
+// double: a linear form with constant weights. dL/dvalues[k] = g weights[k]
+// (weights[k] itself for g = 1, the bits of the sum-of-products composite's
+// gradient, without its products and broadcasts). The weights get no
+// gradient: one that requires one while recording is refused (detach() it).
+Tensor sum_of_products(const std::vector<Tensor>& values, const std::vector<Tensor>& weights);
 
 // Sums `a` over broadcast axes so that it has `shape` (the adjoint of
 // broadcasting); `shape` must broadcast to a's shape. Differentiable.

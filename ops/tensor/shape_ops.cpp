@@ -225,6 +225,19 @@ void gather_rows(const T* src, const std::int32_t* idx, T* out, std::int64_t n, 
   });
 }
 
+// f(length) with the row length as a compile-time constant for 1..4 (the
+// per-vertex values of meshes: their rows' adds unrolled), else as is.
+template <class F>
+void with_row_length(std::int64_t inner, F f) {
+  switch (inner) {
+    case 1: return f(std::integral_constant<std::int64_t, 1>());
+    case 2: return f(std::integral_constant<std::int64_t, 2>());
+    case 3: return f(std::integral_constant<std::int64_t, 3>());
+    case 4: return f(std::integral_constant<std::int64_t, 4>());
+    default: return f(inner);
+  }
+}
+
 // out[r, :] = sum of src[i, :] over i with idx[i] == r, in ascending i, for
 // `rows` rows of `inner` elements (out is overwritten).
 template <class T>
@@ -232,12 +245,13 @@ void scatter_rows(const T* src, const std::int32_t* idx, T* out, std::int64_t n,
   std::fill(out, out + rows * inner, T(0));
   if (n * inner <= kElementwiseGrain) {
     // Small: one serial pass in ascending source order.
-    for (std::int64_t i = 0; i < n; ++i) {
-      T* o = out + idx[i] * inner;
-      const T* s = src + i * inner;
-      for (std::int64_t j = 0; j < inner; ++j) o[j] += s[j];
-    }
-    return;
+    return with_row_length(inner, [=](auto length) {
+      for (std::int64_t i = 0; i < n; ++i) {
+        T* o = out + idx[i] * length;
+        const T* s = src + i * length;
+        for (std::int64_t j = 0; j < length; ++j) o[j] += s[j];
+      }
+    });
   }
   // CSR of target row -> source rows, each list in ascending source order.
   std::vector<std::int64_t> start(static_cast<std::size_t>(rows + 1), 0);
@@ -249,13 +263,15 @@ void scatter_rows(const T* src, const std::int32_t* idx, T* out, std::int64_t n,
   // Each target row sums its sources in list order: same result for any thread count.
   const std::int64_t per_row = (n + rows - 1) / std::max<std::int64_t>(1, rows) + 1;
   parallel_for(0, rows, copy_grain(per_row * inner), [&](std::int64_t lo, std::int64_t hi) {
-    for (std::int64_t r = lo; r < hi; ++r) {
-      T* o = out + r * inner;
-      for (std::int64_t e = start[r]; e < start[r + 1]; ++e) {
-        const T* s = src + order[static_cast<std::size_t>(e)] * inner;
-        for (std::int64_t j = 0; j < inner; ++j) o[j] += s[j];
+    with_row_length(inner, [&](auto length) {
+      for (std::int64_t r = lo; r < hi; ++r) {
+        T* o = out + r * length;
+        for (std::int64_t e = start[r]; e < start[r + 1]; ++e) {
+          const T* s = src + order[static_cast<std::size_t>(e)] * length;
+          for (std::int64_t j = 0; j < length; ++j) o[j] += s[j];
+        }
       }
-    }
+    });
   });
 }
 

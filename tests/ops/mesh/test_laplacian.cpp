@@ -3,7 +3,8 @@
 // passes), the cotangent operators match a loop over their definitions with
 // cotangents taken as cos / sin of the corner angles, gradients match float64
 // finite differences on random and hard meshes, results are bit-identical for
-// 1, 2 and 8 threads, and bad input is refused naming the argument.
+// 1, 2 and 8 threads, and bad input is refused naming the argument; and the
+// same for smooth, which has the bits of its passes as a composite.
 #include <catch2/catch.hpp>
 
 #include <cmath>
@@ -234,6 +235,100 @@ TEST_CASE("MeshLaplacian: values and gradients are bit-identical for 1, 2 and 8 
     }
 }
 
+// x <- x + step * apply(x), `passes` times, and the gradient of a fixed
+// weighting of the result (through smooth or the composite).
+std::pair<Tensor, Tensor> smoothed_and_gradient(const std::function<Tensor(const Tensor&)>& smooth, const Tensor& p) {
+  const Tensor x0 = p.detach().copy().set_requires_grad();
+  const Tensor y = smooth(x0);
+  backward(sum(y * y) + sum(y * Tensor::uniform(y.shape(), -1, 1, 78, y.dtype())));
+  return {y.detach(), x0.grad()};
+}
+
+TEST_CASE("MeshLaplacian::smooth has the bits of its passes of x + step * apply(x), value and gradient, for every "
+          "method in float32 and float64",
+          "[ops][mesh][laplacian]") {
+  const raster::Mesh mesh = raster::make_icosphere(3);  // 642 points
+  for (DType dtype : {DType::Float32, DType::Float64})
+    for (LaplacianMethod method : kMethods) {
+      const Tensor p = bumpy_icosphere_positions(mesh, 0.1, 3, dtype);
+      const MeshLaplacian op(p, mesh.triangles, method);
+      for (std::int64_t channels : {3, 5})  // fixed-length accumulators and the general path
+        for (int passes : {1, 2, 4})
+          for (double step : {0.5, 0.3}) {  // 0.3: rounded to the dtype
+            INFO(laplacian_method_name(method) << ", " << dtype_name(dtype) << ", " << channels << " channels, "
+                                               << passes << " passes, step " << step);
+            const Tensor x = Tensor::uniform({p.size(0), channels}, -1, 1, 11, dtype);
+            const auto [value, gradient] =
+                smoothed_and_gradient([&](const Tensor& in) { return op.smooth(in, passes, step); }, x);
+            const auto [value_ref, gradient_ref] = smoothed_and_gradient(
+                [&](const Tensor& in) {
+                  Tensor y = in;
+                  for (int k = 0; k < passes; ++k) y = y + step * op.apply(y);
+                  return y;
+                },
+                x);
+            CHECK(same_bits(value, value_ref));
+            CHECK(same_bits(gradient, gradient_ref));
+          }
+    }
+  // No pass: x itself.
+  const MeshLaplacian op(mesh.triangles, mesh.num_vertices());
+  const Tensor x = Tensor::uniform({mesh.num_vertices(), 3}, -1, 1, 12);
+  CHECK(same_bits(op.smooth(x, 0, 0.5), x));
+}
+
+TEST_CASE("MeshLaplacian::smooth: gradients match float64 finite differences for every method, on random meshes and "
+          "on one with a hole, an isolated vertex, a degenerate face, a sliver and a fin",
+          "[ops][mesh][laplacian][gradcheck]") {
+  const raster::Mesh mesh = raster::make_icosphere(1);
+  const auto& hard = reference_mesh("hard");
+  for (LaplacianMethod method : kMethods) {
+    const Tensor p = bumpy_icosphere_positions(mesh, 0.1, 5);
+    const MeshLaplacian op(p, mesh.triangles, method);
+    for (int passes : {1, 3})
+      require_gradcheck(std::string("MeshLaplacian::smooth ") + laplacian_method_name(method),
+                        [&](const std::vector<Tensor>& in) { return op.smooth(in[0], passes, 0.4); },
+                        {gr::testing::random_input({p.size(0), 3}, -1, 1, 13)});
+    // Linear in x: a large step has no truncation error; small steps keep the
+    // weights near 1e6 of the sliver and the degenerate face from blowing up.
+    const MeshLaplacian hard_op(hard.positions, hard.triangles, method);
+    GradcheckOptions options;
+    options.eps = 1e-2;
+    const double step = method == LaplacianMethod::Uniform ? 0.5 : 1e-6;
+    for (std::int64_t channels : {1, 5})
+      require_gradcheck(std::string("MeshLaplacian::smooth hard ") + laplacian_method_name(method),
+                        [&](const std::vector<Tensor>& in) { return hard_op.smooth(in[0], 2, step); },
+                        {gr::testing::random_input({hard.positions.size(0), channels}, -1, 1, 14)}, options);
+  }
+  const MeshLaplacian hard_uniform(hard_triangles(), 6);
+  require_gradcheck("MeshLaplacian::smooth uniform, one-neighbour and isolated vertices",
+                    [&](const std::vector<Tensor>& in) { return hard_uniform.smooth(in[0], 3, -0.7); },
+                    {gr::testing::random_input({6, 2}, -1, 1, 15)});
+}
+
+TEST_CASE("MeshLaplacian::smooth: values and gradients are bit-identical for 1, 2 and 8 threads",
+          "[ops][mesh][laplacian][determinism]") {
+  const raster::Mesh mesh = raster::make_icosphere(5);  // 10242 points: several chunks
+  for (LaplacianMethod method : kMethods) {
+    INFO(laplacian_method_name(method));
+    const Tensor p = bumpy_icosphere_positions(mesh, 0.002, 8);
+    auto run = [&](int threads) {
+      set_num_threads(threads);
+      const MeshLaplacian op(p, mesh.triangles, method);
+      auto result = smoothed_and_gradient([&](const Tensor& x) { return op.smooth(x, 3, 0.5); }, p);
+      set_num_threads(0);
+      return result;
+    };
+    const auto [value, gradient] = run(1);
+    for (int threads : {2, 8}) {
+      INFO(threads << " threads");
+      const auto [v, g] = run(threads);
+      CHECK(same_bits(value, v));
+      CHECK(same_bits(gradient, g));
+    }
+  }
+}
+
 TEST_CASE("MeshLaplacian: rejects values of the wrong shape or dtype and bad meshes, naming the argument",
           "[ops][mesh][laplacian][errors]") {
   const MeshLaplacian op(hard_triangles(), 6);
@@ -241,6 +336,11 @@ TEST_CASE("MeshLaplacian: rejects values of the wrong shape or dtype and bad mes
   CHECK_THROWS_AS(op.apply(Tensor::zeros({18})), ShapeError);
   CHECK_THROWS_AS(op.apply(Tensor::zeros({6, 3}, DType::Int32)), DTypeError);
   CHECK_THROWS_AS(op.apply(Tensor()), Error);
+  CHECK_THROWS_WITH(op.smooth(Tensor::zeros({5, 3}), 1, 0.5),
+                    Catch::Contains("MeshLaplacian::smooth: argument 'x' must have shape [V, C] with V = 6"));
+  CHECK_THROWS_AS(op.smooth(Tensor::zeros({6, 3}, DType::Int32), 1, 0.5), DTypeError);
+  CHECK_THROWS_WITH(op.smooth(Tensor::zeros({6, 3}), -1, 0.5), Catch::Contains("argument 'passes' must be >= 0"));
+  CHECK_THROWS_WITH(op.smooth(Tensor::zeros({6, 3}), 1, std::nan("")), Catch::Contains("argument 'step' must be finite"));
   CHECK_THROWS_AS(MeshLaplacian(hard_triangles(), 4), IndexError);  // index 4
   CHECK_THROWS_AS(MeshLaplacian(Tensor::zeros({2, 3}), 6), DTypeError);
   CHECK_THROWS_WITH(MeshLaplacian(hard_triangles(), -1), Catch::Contains("'num_vertices' must be >= 0"));
