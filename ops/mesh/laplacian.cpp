@@ -19,6 +19,7 @@
 #include "ops/mesh/lanes.h"
 #include "ops/mesh/row_sums.h"
 #include "ops/mesh/topology.h"
+#include "ops/tensor/small_count.h"
 
 namespace gr {
 
@@ -198,7 +199,7 @@ void laplacian_transpose(const Operator& op, const T* g, T* out, std::int64_t C)
   const std::int64_t V = op.rows.rows();
   Tensor scaled = Tensor::empty({V, C}, dtype_of<T>::value);  // scratch, every entry written
   T* const q = scaled.data<T>();
-  detail::with_channels(C, [&](auto channels) { scale_rows(k.scale.data(), T(1), g, q, V, channels); });
+  detail::with_small_count(C, [&](auto channels) { scale_rows(k.scale.data(), T(1), g, q, V, channels); });
   if (op.method == LaplacianMethod::CotCurv) {
     const T* d = k.diag.data();
     return weighted_rows<T>(op, q, C, [=](std::int64_t i, std::int64_t c, T sum) {
@@ -465,7 +466,7 @@ Tensor MeshLaplacian::smooth(const Tensor& x, int passes, double step) const {
         // The passes in reverse; the last one writes grad.
         T* dst[2] = {(passes % 2 ? grad : other).data<T>(), (passes % 2 ? other : grad).data<T>()};
         const T* src = g.data<T>();
-        detail::with_channels(channels, [&](auto C) {  // C constant: the row's loop unrolled
+        detail::with_small_count(channels, [&](auto C) {  // C constant: the row's loop unrolled
           scale_rows(op->coefficients<T>().scale.data(), a, src, q[0].data<T>(), op->rows.rows(), C);
         });
         for (int k = 0; k < passes; ++k) {

@@ -23,20 +23,6 @@ inline std::int64_t row_sum_grain(const VertexRows& r, std::int64_t channels) {
   return std::max<std::int64_t>(1, 4 * kElementwiseGrain / reads);
 }
 
-// f(C) with the channel count as a compile-time constant for 1..4 (for an
-// elementwise loop over a row's channels: unrolled), else as is. (In row_sums
-// terms it measured slower: 881 -> 942 K instructions per 4 passes.)
-template <class F>
-void with_channels(std::int64_t channels, F f) {
-  switch (channels) {
-    case 1: return f(std::integral_constant<std::int64_t, 1>());
-    case 2: return f(std::integral_constant<std::int64_t, 2>());
-    case 3: return f(std::integral_constant<std::int64_t, 3>());
-    case 4: return f(std::integral_constant<std::int64_t, 4>());
-    default: return f(channels);
-  }
-}
-
 // For every row i (in parallel over rows) and channel c < C:
 //   emit(i, c, sum over entries e of row i of term(e, column[e], c)),
 // each sum from 0 in the row's entry order. C = 1..4 get accumulators of

@@ -16,6 +16,7 @@
 
 #include "autodiff/base/parallel.h"
 #include "autodiff/tape.h"
+#include "ops/tensor/small_count.h"
 
 namespace gr {
 namespace {
@@ -225,19 +226,6 @@ void gather_rows(const T* src, const std::int32_t* idx, T* out, std::int64_t n, 
   });
 }
 
-// f(length) with the row length as a compile-time constant for 1..4 (the
-// per-vertex values of meshes: their rows' adds unrolled), else as is.
-template <class F>
-void with_row_length(std::int64_t inner, F f) {
-  switch (inner) {
-    case 1: return f(std::integral_constant<std::int64_t, 1>());
-    case 2: return f(std::integral_constant<std::int64_t, 2>());
-    case 3: return f(std::integral_constant<std::int64_t, 3>());
-    case 4: return f(std::integral_constant<std::int64_t, 4>());
-    default: return f(inner);
-  }
-}
-
 // out[r, :] = sum of src[i, :] over i with idx[i] == r, in ascending i, for
 // `rows` rows of `inner` elements (out is overwritten).
 template <class T>
@@ -245,7 +233,7 @@ void scatter_rows(const T* src, const std::int32_t* idx, T* out, std::int64_t n,
   std::fill(out, out + rows * inner, T(0));
   if (n * inner <= kElementwiseGrain) {
     // Small: one serial pass in ascending source order.
-    return with_row_length(inner, [=](auto length) {
+    return detail::with_small_count(inner, [=](auto length) {
       for (std::int64_t i = 0; i < n; ++i) {
         T* o = out + idx[i] * length;
         const T* s = src + i * length;
@@ -263,7 +251,7 @@ void scatter_rows(const T* src, const std::int32_t* idx, T* out, std::int64_t n,
   // Each target row sums its sources in list order: same result for any thread count.
   const std::int64_t per_row = (n + rows - 1) / std::max<std::int64_t>(1, rows) + 1;
   parallel_for(0, rows, copy_grain(per_row * inner), [&](std::int64_t lo, std::int64_t hi) {
-    with_row_length(inner, [&](auto length) {
+    detail::with_small_count(inner, [&](auto length) {
       for (std::int64_t r = lo; r < hi; ++r) {
         T* o = out + r * length;
         for (std::int64_t e = start[r]; e < start[r + 1]; ++e) {
