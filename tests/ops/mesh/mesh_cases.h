@@ -11,9 +11,11 @@
 #include <string>
 #include <vector>
 
+#include "autodiff/base/parallel.h"
 #include "autodiff/tape.h"
 #include "ops/ops.h"
 #include "raster/procedural.h"
+#include "test_support.h"
 
 namespace gr::testing {
 
@@ -90,5 +92,24 @@ inline Tensor bumpy_icosphere_positions(const raster::Mesh& mesh, double amount,
 
 // positions with requires_grad set on a copy (a gradcheck input).
 inline Tensor grad_input(const Tensor& positions) { return positions.detach().copy().set_requires_grad(); }
+
+// run() gives a value and a gradient (a pair of tensors): the same bits with
+// 2 and 8 threads as with 1.
+template <class Run>
+void check_same_bits_for_any_thread_count(const Run& run) {
+  auto with_threads = [&](int threads) {
+    set_num_threads(threads);
+    auto result = run();
+    set_num_threads(0);
+    return result;
+  };
+  const auto reference = with_threads(1);
+  for (int threads : {2, 8}) {
+    INFO(threads << " threads");
+    const auto result = with_threads(threads);
+    CHECK(same_bits(reference.first, result.first));
+    CHECK(same_bits(reference.second, result.second));
+  }
+}
 
 }  // namespace gr::testing

@@ -21,6 +21,7 @@
 
 using namespace gr;
 using gr::testing::bumpy_icosphere_positions;
+using gr::testing::check_same_bits_for_any_thread_count;
 using gr::testing::grad_input;
 using gr::testing::reference_mesh;
 using gr::testing::require_gradcheck;
@@ -218,20 +219,10 @@ TEST_CASE("MeshLaplacian: values and gradients are bit-identical for 1, 2 and 8 
     for (LaplacianMethod method : kMethods) {
       INFO(laplacian_method_name(method) << ", " << dtype_name(dtype));
       const Tensor p = bumpy_icosphere_positions(mesh, 0.002, 8, dtype);
-      auto run = [&](int threads) {
-        set_num_threads(threads);
+      check_same_bits_for_any_thread_count([&] {
         const MeshLaplacian op(p, mesh.triangles, method);
-        auto result = value_and_gradient([&](const Tensor& x) { return op.apply(x); }, p);
-        set_num_threads(0);
-        return result;
-      };
-      const auto [value, gradient] = run(1);
-      for (int threads : {2, 8}) {
-        INFO(threads << " threads");
-        const auto [v, g] = run(threads);
-        CHECK(same_bits(value, v));
-        CHECK(same_bits(gradient, g));
-      }
+        return value_and_gradient([&](const Tensor& x) { return op.apply(x); }, p);
+      });
     }
 }
 
@@ -312,20 +303,10 @@ TEST_CASE("MeshLaplacian::smooth: values and gradients are bit-identical for 1, 
   for (LaplacianMethod method : kMethods) {
     INFO(laplacian_method_name(method));
     const Tensor p = bumpy_icosphere_positions(mesh, 0.002, 8);
-    auto run = [&](int threads) {
-      set_num_threads(threads);
+    check_same_bits_for_any_thread_count([&] {
       const MeshLaplacian op(p, mesh.triangles, method);
-      auto result = smoothed_and_gradient([&](const Tensor& x) { return op.smooth(x, 3, 0.5); }, p);
-      set_num_threads(0);
-      return result;
-    };
-    const auto [value, gradient] = run(1);
-    for (int threads : {2, 8}) {
-      INFO(threads << " threads");
-      const auto [v, g] = run(threads);
-      CHECK(same_bits(value, v));
-      CHECK(same_bits(gradient, g));
-    }
+      return smoothed_and_gradient([&](const Tensor& x) { return op.smooth(x, 3, 0.5); }, p);
+    });
   }
 }
 

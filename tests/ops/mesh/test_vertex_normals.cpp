@@ -18,6 +18,7 @@
 
 using namespace gr;
 using gr::testing::bumpy_icosphere_positions;
+using gr::testing::check_same_bits_for_any_thread_count;
 using gr::testing::grad_input;
 using gr::testing::reference_mesh;
 using gr::testing::require_gradcheck;
@@ -97,19 +98,7 @@ TEST_CASE("vertex_normals: values and gradients are bit-identical for 1, 2 and 8
   for (DType dtype : {DType::Float32, DType::Float64}) {
     INFO(dtype_name(dtype));
     const Tensor p = bumpy_icosphere_positions(mesh, 0.002, 9, dtype);
-    auto run = [&](int threads) {
-      set_num_threads(threads);
-      auto result = value_and_gradient(default_normals, p, mesh.triangles);
-      set_num_threads(0);
-      return result;
-    };
-    const auto [value, gradient] = run(1);
-    for (int threads : {2, 8}) {
-      INFO(threads << " threads");
-      const auto [v, g] = run(threads);
-      CHECK(same_bits(value, v));
-      CHECK(same_bits(gradient, g));
-    }
+    check_same_bits_for_any_thread_count([&] { return value_and_gradient(default_normals, p, mesh.triangles); });
   }
 }
 
