@@ -53,15 +53,16 @@ class DeviceTexture {
   virtual ~DeviceTexture() = default;
 };
 
-// An antialias forward's pairs kept on a backend's device (antialias_forward
-// with a handle): opaque to the caller, who hands it to that call's adjoint
-// only, with the forward's inputs unchanged. The adjoint then reads the pairs
-// instead of recomputing them, while the device still holds them (another
-// antialias or G-buffer on the same copy lets them go; the adjoint then
-// recomputes, with the same results).
-class DeviceAntialias {
+// What a forward call left on a backend's device for its adjoint (antialias's
+// pairs and image, interpolate's attributes), from antialias_forward or
+// interpolate_forward with a handle: opaque to the caller, who hands it to
+// that call's adjoint only, with the forward's inputs unchanged. The adjoint
+// then reads it instead of running the forward again, while the device still
+// holds it (another call of the same op or a new G-buffer on the same copy
+// lets it go; the adjoint then reruns the forward, with the same results).
+class DeviceForward {
  public:
-  virtual ~DeviceAntialias() = default;
+  virtual ~DeviceForward() = default;
 };
 
 class RasterBackend {
@@ -150,14 +151,18 @@ class RasterBackend {
   // device's copy where it still holds it, else uploads p's arrays.
   // barycentric_interpolate_forward / _backward (p.tri_id and p.rast with
   // its stride given; p.groups is the CPU's and ignored):
+  // kept (forward, may be null) and forward (adjoint, may be null): as
+  // antialias's below.
   virtual bool interpolate_forward(const DeviceGBuffer* /*resident*/, const BarycentricInterpolateParams<float>& /*p*/,
-                                   int /*width*/, int /*height*/, float* /*out*/, float* /*out_da*/) const {
+                                   int /*width*/, int /*height*/, float* /*out*/, float* /*out_da*/,
+                                   std::shared_ptr<const DeviceForward>* kept) const {
+    if (kept) *kept = nullptr;
     return false;
   }
   virtual bool interpolate_backward(const DeviceGBuffer* /*resident*/, const BarycentricInterpolateParams<float>& /*p*/,
                                     int /*width*/, int /*height*/, const float* /*grad_out*/,
-                                    const float* /*grad_da*/,
-                                    const BarycentricInterpolateGrads<float>& /*grads*/) const {
+                                    const float* /*grad_da*/, const BarycentricInterpolateGrads<float>& /*grads*/,
+                                    const DeviceForward* /*forward*/) const {
     return false;
   }
   // antialias_forward / antialias_backward (raster/antialias.h), or with
@@ -169,18 +174,18 @@ class RasterBackend {
   // mode image's copy, drawn from rows resident_first.. of p.tris, numbers
   // its ids from 1 in its range: the device adds resident_first; 0 for a
   // copy of the whole list or none). kept (forward, may be null): receives
-  // the handle of the pairs the device keeps, or null; the adjoint of that
-  // very call may pass it as `forward` (else null).
+  // the handle of what the device keeps for the adjoint, or null; the
+  // adjoint of that very call may pass it as `forward` (else null).
   virtual bool antialias_forward(const DeviceGBuffer* /*resident*/, std::int64_t /*resident_first*/,
                                  const AntialiasParams<float>& /*p*/, float* /*out*/,
-                                 std::shared_ptr<const DeviceAntialias>* kept) const {
+                                 std::shared_ptr<const DeviceForward>* kept) const {
     if (kept) *kept = nullptr;
     return false;
   }
   virtual bool antialias_backward(const DeviceGBuffer* /*resident*/, std::int64_t /*resident_first*/,
                                   const AntialiasParams<float>& /*p*/, const float* /*grad_out*/,
                                   const AntialiasGrads<float>& /*grads*/,
-                                  const DeviceAntialias* /*forward*/) const {
+                                  const DeviceForward* /*forward*/) const {
     return false;
   }
   // barycentric_gbuffer_backward (raster/barycentric_gbuffer.h) for

@@ -56,7 +56,7 @@ void boost_gradient(Tensor& g_clip, double boost) {
 void record_on_backend(const char* name, bool visibility, const Tensor& image, const GBuffer& gbuffer,
                        const Tensor& clip, const Tensor& triangles, const AntialiasTopology& topology,
                        const std::shared_ptr<const raster::RasterBackend>& backend,
-                       std::shared_ptr<const raster::DeviceAntialias> pairs, double boost, Tensor* out) {
+                       std::shared_ptr<const raster::DeviceForward> pairs, double boost, Tensor* out) {
   // The G-buffer, to find the device's copy of it at the adjoint.
   const std::shared_ptr<const GBuffer> made = gbuffer.resident ? std::make_shared<const GBuffer>(gbuffer) : nullptr;
   record(name, {image, clip}, {out},
@@ -155,7 +155,7 @@ Tensor antialias(const Tensor& image, const GBuffer& gbuffer, const Tensor& clip
   const std::shared_ptr<const raster::RasterBackend> backend =
       gbuffer.backend && !counted && clip.dtype() == DType::Float32 ? gbuffer.backend : nullptr;
   bool on_backend = false;
-  std::shared_ptr<const raster::DeviceAntialias> kept_pairs;  // on the backend, for the adjoint
+  std::shared_ptr<const raster::DeviceForward> kept_pairs;  // on the backend, for the adjoint
   dispatch_float(clip.dtype(), op, [&](auto tag) {
     using T = decltype(tag);
     // Default topology: weld vertices with equal clip rows (kept for the next

@@ -267,6 +267,8 @@ Tensor interpolate_batch(const Tensor& attributes, const GBuffer& gbuffer, const
   const std::shared_ptr<const GBuffer> made = backend && gbuffer.resident ? std::make_shared<const GBuffer>(gbuffer)
                                                                           : nullptr;
   Tensor out = Tensor::empty({B, h, w, C}, attributes.dtype());
+  // On the backend: what each image's forward left on the device, for its adjoint.
+  auto kept = std::make_shared<std::vector<std::shared_ptr<const raster::DeviceForward>>>(B);
   dispatch_float(attributes.dtype(), op, [&](auto tag) {
     using T = decltype(tag);
     std::vector<char> on_backend(static_cast<std::size_t>(B), 0);
@@ -276,7 +278,7 @@ Tensor interpolate_batch(const Tensor& attributes, const GBuffer& gbuffer, const
           on_backend[b] = on_device(backend, made.get(), b, params(tag, attr, b), triangles, [&](const auto& on,
                                                                                                 const auto& p) {
             float* o = out.data<float>() + b * P * C;
-            return backend->interpolate_forward(on.device, p, int(w), int(h), o, nullptr);
+            return backend->interpolate_forward(on.device, p, int(w), int(h), o, nullptr, &(*kept)[b]);
           });
     for_each_image(B, [&](std::int64_t b) {
       T* o = out.data<T>() + b * P * C;
@@ -290,7 +292,7 @@ Tensor interpolate_batch(const Tensor& attributes, const GBuffer& gbuffer, const
   if (should_record({attributes, uv})) {
     // triangles and tri_id: no gradient, checked for in-place writes (autodiff/tape.h).
     record("interpolate_batch", {attributes, uv, triangles, tri_id}, {&out},
-           [attributes, attr, params, B, P, w, h, backend, made, triangles](AdjointContext& ctx) {
+           [attributes, attr, params, B, P, w, h, backend, made, triangles, kept](AdjointContext& ctx) {
              PerImage a = attr;
              a.t = &attributes;
              dispatch_float(attributes.dtype(), "interpolate_batch", [&](auto tag) {
@@ -311,7 +313,8 @@ Tensor interpolate_batch(const Tensor& attributes, const GBuffer& gbuffer, const
                                                [&](const auto& on, const auto& p) {
                                                  const float* go = ctx.grad_output().data<float>() + b * P * a.cols;
                                                  return backend->interpolate_backward(on.device, p, int(w), int(h),
-                                                                                      go, nullptr, grads(b));
+                                                                                      go, nullptr, grads(b),
+                                                                                      (*kept)[b].get());
                                                });
                for_each_image(B, [&](std::int64_t b) {
                  if (on_backend[b]) return;
@@ -390,7 +393,7 @@ Tensor antialias_batch(const Tensor& image, const GBuffer& gbuffer, const Tensor
   };
   bool on_backend = false;
   // On the backend: each image's pairs kept on the device, for its adjoint.
-  auto kept_pairs = std::make_shared<std::vector<std::shared_ptr<const raster::DeviceAntialias>>>(B);
+  auto kept_pairs = std::make_shared<std::vector<std::shared_ptr<const raster::DeviceForward>>>(B);
   dispatch_float(clip.dtype(), op, [&](auto tag) {
     using T = decltype(tag);
     for_each_image(topologies, [&](std::int64_t b) {

@@ -174,6 +174,9 @@ std::vector<Tensor> interpolate_items(const Tensor& attributes, const Tensor& tr
     out.push_back(Tensor::empty(with_channels(items.shape, K), attributes.dtype()));
     out.push_back(Tensor::empty(with_channels(items.shape, K), attributes.dtype()));
   }
+  const Tensor uv = items.uv, db = K > 0 ? items.db : Tensor();
+  const bool rec = should_record({attributes, uv, db});
+  std::shared_ptr<const raster::DeviceForward> kept;  // on the backend, for the adjoint
   dispatch_float(attributes.dtype(), kOp, [&](auto tag) {
     using T = decltype(tag);
     Tensor da = K > 0 ? Tensor::empty({n * 2 * K}, attributes.dtype()) : Tensor();
@@ -183,7 +186,7 @@ std::vector<Tensor> interpolate_items(const Tensor& attributes, const Tensor& tr
         T* o = out[0].data<T>();
         T* d = K > 0 ? da.data<T>() : nullptr;
         on_backend = items.backend->interpolate_forward(resident(items.resident_source), params(tag), items.width,
-                                                        items.height, o, d);
+                                                        items.height, o, d, rec ? &kept : nullptr);
       }
     if (!on_backend)
       raster::barycentric_interpolate_forward(params(tag), out[0].data<T>(), K > 0 ? da.data<T>() : nullptr);
@@ -208,15 +211,14 @@ std::vector<Tensor> interpolate_items(const Tensor& attributes, const Tensor& tr
       });
     }
   });
-  const Tensor uv = items.uv, db = K > 0 ? items.db : Tensor();
-  if (!should_record({attributes, uv, db})) return out;
+  if (!rec) return out;
   std::vector<Tensor*> outputs;
   for (Tensor& t : out) outputs.push_back(&t);
   // The index tensors get no gradient; listed so that backward() refuses them written in place.
   record(items.pixel_index.defined() ? "interpolate_fragments" : "interpolate",
          {attributes, uv, db, triangles, items.tri_id, items.pixel_index}, outputs,
          [params, n, C, K, dtype = attributes.dtype(), backend = items.backend, w = items.width,
-          h = items.height, source = items.resident_source](AdjointContext& ctx) {
+          h = items.height, source = items.resident_source, kept](AdjointContext& ctx) {
            // The kernel adds (+=) into the gradients summed so far.
            Tensor g_attr = ctx.accumulation_buffer(0);
            Tensor g_uv = ctx.accumulation_buffer(1);
@@ -247,7 +249,7 @@ std::vector<Tensor> interpolate_items(const Tensor& attributes, const Tensor& tr
              if constexpr (std::is_same_v<T, float>)
                if (backend) {
                  const T* gd = K > 0 ? gda.data<T>() : nullptr;
-                 if (backend->interpolate_backward(resident(source), p, w, h, go.data<T>(), gd, grads))
+                 if (backend->interpolate_backward(resident(source), p, w, h, go.data<T>(), gd, grads, kept.get()))
                    return;
                }
              raster::barycentric_interpolate_backward(p, go.data<T>(), K > 0 ? gda.data<T>() : nullptr, grads);

@@ -37,7 +37,7 @@ struct AntialiasState {
   std::shared_ptr<const raster::RasterBackend> backend;
   std::vector<char> on_backend;  // per image
   // Per image on the backend: the pairs its device kept, which the adjoint reads (the forward's inputs).
-  std::vector<std::shared_ptr<const raster::DeviceAntialias>> device_pairs;
+  std::vector<std::shared_ptr<const raster::DeviceForward>> device_pairs;
   std::shared_ptr<const DeviceGBuffers> kept;  // the forward's (the adjoint's inputs are the forward's)
   std::int64_t height = 0, width = 0, channels = 0, vertices = 0, triangles = 0;
   bool visibility = false;

@@ -81,10 +81,11 @@ InterpolateArgs::InterpolateArgs(const pybind11::object& attr_, const pybind11::
   if (!diff.empty()) rast_db.required("'diff_attrs' needs it (the second output of rasterize)");
 }
 
-void interpolate_forward(Context* ctx, const pybind11::object& attr, const pybind11::object& rast,
-                         const pybind11::object& tri, const pybind11::object& rast_db, std::vector<std::int32_t> diff,
-                         const pybind11::object& out_, const pybind11::object& out_da_, int threads,
-                         const DeviceGBuffers* kept) {
+std::shared_ptr<InterpolateKept> interpolate_forward(Context* ctx, const pybind11::object& attr,
+                                                     const pybind11::object& rast, const pybind11::object& tri,
+                                                     const pybind11::object& rast_db, std::vector<std::int32_t> diff,
+                                                     const pybind11::object& out_, const pybind11::object& out_da_,
+                                                     int threads, const DeviceGBuffers* kept) {
   const char* op = "interpolate";
   const InterpolateArgs a(attr, rast, tri, rast_db, std::move(diff), op);
   const std::int64_t K = static_cast<std::int64_t>(a.diff.size());
@@ -97,11 +98,16 @@ void interpolate_forward(Context* ctx, const pybind11::object& attr, const pybin
   check_kept(kept, a.images, op);
   KernelCall call(threads);
   const std::int64_t pixels = a.height * a.width;
+  std::shared_ptr<InterpolateKept> left;  // what the device kept for the adjoint
   dispatch(a.rast.elem() == Elem::F64, [&](auto tag) {
     using T = decltype(tag);
     check_values<T>(a, op);
     const raster::RasterBackend* backend = backend_for<T>(ctx);
-    if (backend) ctx->reserve(a.images);
+    if (backend) {
+      ctx->reserve(a.images);
+      left = std::make_shared<InterpolateKept>();
+      left->images.resize(static_cast<std::size_t>(a.images));
+    }
     for_each_image_on(backend, a.images, [&](std::int64_t b) {
       raster::BarycentricInterpolateParams<T> p = image_params<T>(a, b);
       T* o = out.out<T>() + b * pixels * a.channels;
@@ -110,20 +116,22 @@ void interpolate_forward(Context* ctx, const pybind11::object& attr, const pybin
         if (backend) {
           const int w = int(a.width), h = int(a.height);
           const bool ran = on_backend(kept, b, p, ctx->image(b), [&](const raster::DeviceGBuffer* on, const auto& q) {
-            return backend->interpolate_forward(on, q, w, h, o, o_da);
+            return backend->interpolate_forward(on, q, w, h, o, o_da, &left->images[b]);
           });
           if (counted(*ctx, ran)) return;
         }
       raster::barycentric_interpolate_forward(p, o, o_da);
     });
   });
+  return left;
 }
 
 void interpolate_backward(Context* ctx, const pybind11::object& attr, const pybind11::object& rast,
                           const pybind11::object& tri, const pybind11::object& rast_db, std::vector<std::int32_t> diff,
                           const pybind11::object& grad_out_, const pybind11::object& grad_da_,
                           const pybind11::object& grad_attr_, const pybind11::object& grad_rast_,
-                          const pybind11::object& grad_db_, int threads, const DeviceGBuffers* kept) {
+                          const pybind11::object& grad_db_, int threads, const DeviceGBuffers* kept,
+                          const InterpolateKept* forward) {
   const char* op = "interpolate backward";
   const InterpolateArgs a(attr, rast, tri, rast_db, std::move(diff), op);
   const std::int64_t K = static_cast<std::int64_t>(a.diff.size());
@@ -139,6 +147,12 @@ void interpolate_backward(Context* ctx, const pybind11::object& attr, const pybi
   grad_db.same_elem(a.rast).shape(a.rast.shape());
   check_disjoint(op, {&grad_attr, &grad_rast, &grad_db}, {&a.attr, &a.rast, &a.tri, &a.rast_db, &grad_out, &grad_da});
   check_kept(kept, a.images, op);
+  if (forward && static_cast<std::int64_t>(forward->images.size()) != a.images)
+    throw ValueError(std::string(op) + ": 'forward' is of a call with " + std::to_string(forward->images.size()) +
+                     " images; these inputs have " + std::to_string(a.images));
+  auto from_forward = [forward](std::int64_t b) {
+    return forward ? forward->images[static_cast<std::size_t>(b)].get() : nullptr;
+  };
   KernelCall call(threads);
   const std::int64_t pixels = a.height * a.width;
   dispatch(a.rast.elem() == Elem::F64, [&](auto tag) {
@@ -167,7 +181,7 @@ void interpolate_backward(Context* ctx, const pybind11::object& attr, const pybi
         if (backend) {
           const int w = int(a.width), h = int(a.height);
           const bool ran = on_backend(kept, b, p, ctx->image(b), [&](const raster::DeviceGBuffer* on, const auto& q) {
-            return backend->interpolate_backward(on, q, w, h, g_out, g_da, g);
+            return backend->interpolate_backward(on, q, w, h, g_out, g_da, g, from_forward(b));
           });
           if (counted(*ctx, ran)) return;
         }

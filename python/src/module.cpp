@@ -105,14 +105,15 @@ PYBIND11_MODULE(_core, m) {
       .def_property_readonly("residency", [](const Context& ctx) {
         py::dict out;
         std::int64_t gbuffers = 0, resident_calls = 0, uploads = 0, frames = 0, topology_uploads = 0,
-                     topology_bytes = 0, triangle_uploads = 0, triangle_bytes = 0, antialias_reused = 0;
+                     topology_bytes = 0, triangle_uploads = 0, triangle_bytes = 0, antialias_reused = 0,
+                     interpolate_reused = 0;
 #ifdef GRADRASTER_HAS_VULKAN
         if (ctx.gpu) {
           const gr::vulkan::ResidencyStats s = gr::vulkan::residency_stats(*ctx.backend);
           gbuffers = s.gbuffers, resident_calls = s.resident_calls, uploads = s.uploads, frames = s.frames;
           topology_uploads = s.topology_uploads, topology_bytes = s.topology_bytes;
           triangle_uploads = s.triangle_uploads, triangle_bytes = s.triangle_bytes;
-          antialias_reused = s.antialias_reused;
+          antialias_reused = s.antialias_reused, interpolate_reused = s.interpolate_reused;
         }
 #endif
         out["gbuffers"] = gbuffers;
@@ -124,6 +125,7 @@ PYBIND11_MODULE(_core, m) {
         out["triangle_uploads"] = triangle_uploads;
         out["triangle_bytes"] = triangle_bytes;
         out["antialias_reused"] = antialias_reused;
+        out["interpolate_reused"] = interpolate_reused;
         return out;
       })
       // What its device did with the textures' texels (vulkan::texture_residency;
@@ -167,13 +169,16 @@ PYBIND11_MODULE(_core, m) {
         py::arg("threads"), py::arg("kept") = py::none());
 
   // ctx: None, or the context whose device runs the call (python/src/backend.h).
+  // interpolate_forward returns what the device kept for the adjoint (None: a CPU call), which
+  // interpolate_backward takes as `forward` for the very same inputs.
+  py::class_<InterpolateKept, std::shared_ptr<InterpolateKept>>(m, "InterpolateKept");
   m.def("interpolate_forward", &interpolate_forward, py::arg("ctx"), py::arg("attr"), py::arg("rast"),
         py::arg("tri"), py::arg("rast_db"), py::arg("diff"), py::arg("out"), py::arg("out_da"), py::arg("threads"),
         py::arg("kept") = py::none());
   m.def("interpolate_backward", &interpolate_backward, py::arg("ctx"), py::arg("attr"), py::arg("rast"),
         py::arg("tri"), py::arg("rast_db"), py::arg("diff"), py::arg("grad_out"), py::arg("grad_da"),
         py::arg("grad_attr"), py::arg("grad_rast"), py::arg("grad_db"), py::arg("threads"),
-        py::arg("kept") = py::none());
+        py::arg("kept") = py::none(), py::arg("forward") = py::none());
 
   py::class_<Topology, std::shared_ptr<Topology>>(m, "Topology")
       .def_readonly("triangles", &Topology::triangles)

@@ -51,9 +51,10 @@ void check_pixels(const raster::BarycentricInterpolateParams<float>& p, int widt
                      " pixels, but the parameters hold " + std::to_string(p.pixels));
 }
 
-// An antialias forward's pairs, kept in its frame (Frame::antialias_serial).
-struct VulkanAntialias final : raster::DeviceAntialias {
-  explicit VulkanAntialias(std::uint64_t serial) : serial(serial) {}
+// What a forward left in its frame for its adjoint (Frame::antialias_serial,
+// Frame::interpolate_serial).
+struct VulkanForward final : raster::DeviceForward {
+  explicit VulkanForward(std::uint64_t serial) : serial(serial) {}
   std::uint64_t serial;
 };
 
@@ -157,22 +158,31 @@ class VulkanBackend : public raster::RasterBackend {
   }
 
   bool interpolate_forward(const raster::DeviceGBuffer* resident, const raster::BarycentricInterpolateParams<float>& p,
-                           int width, int height, float* out, float* out_da) const override {
+                           int width, int height, float* out, float* out_da,
+                           std::shared_ptr<const raster::DeviceForward>* kept) const override {
     if (!p.tri_id) return false;
     check_pixels(p, width, height);
     std::lock_guard<std::mutex> lock(mutex_);
     Frame& f = for_interpolate(resident, p, width, height);
     f.interpolate(p.attr, p.channels, out, p.diff, p.num_diff, out_da);
+    if (kept) *kept = std::make_shared<VulkanForward>(f.interpolate_serial());
     return true;
   }
   bool interpolate_backward(const raster::DeviceGBuffer* resident, const raster::BarycentricInterpolateParams<float>& p,
                             int width, int height, const float* grad_out, const float* grad_da,
-                            const raster::BarycentricInterpolateGrads<float>& grads) const override {
+                            const raster::BarycentricInterpolateGrads<float>& grads,
+                            const raster::DeviceForward* forward) const override {
     if (!p.tri_id) return false;
     check_pixels(p, width, height);
     std::lock_guard<std::mutex> lock(mutex_);
     Frame& f = for_interpolate(resident, p, width, height);
-    f.interpolate(p.attr, p.channels, nullptr, p.diff, p.num_diff, nullptr);  // the frame's "last interpolate"
+    // The adjoint reads the frame's last interpolate: the forward's while its
+    // frame still holds it (the caller vouches that p is that forward's), else this one again.
+    const auto* mine = dynamic_cast<const VulkanForward*>(forward);
+    if (mine && mine->serial == f.interpolate_serial())
+      ++stats_.interpolate_reused;
+    else
+      f.interpolate(p.attr, p.channels, nullptr, p.diff, p.num_diff, nullptr);
     // The G-buffer's gradient comes back as rast (H x W x 4) and rast_db;
     // its u, v go to grads.rast at the caller's stride, as the CPU adds them.
     const std::size_t plane = static_cast<std::size_t>(p.pixels) * 4;
@@ -187,26 +197,26 @@ class VulkanBackend : public raster::RasterBackend {
   }
   bool antialias_forward(const raster::DeviceGBuffer* resident, std::int64_t resident_first,
                          const raster::AntialiasParams<float>& p, float* out,
-                         std::shared_ptr<const raster::DeviceAntialias>* kept) const override {
+                         std::shared_ptr<const raster::DeviceForward>* kept) const override {
     std::lock_guard<std::mutex> lock(mutex_);
     WholeTriangles whole;
     Frame& f = for_antialias(resident, resident_first, p, &whole);
     const Uploads before = f.topology_uploads();
     f.antialias(p.image, p.channels, out, p.topology, p.visibility, &whole);
     count_topology_uploads(f, before);
-    if (kept) *kept = std::make_shared<VulkanAntialias>(f.antialias_serial());
+    if (kept) *kept = std::make_shared<VulkanForward>(f.antialias_serial());
     return true;
   }
   bool antialias_backward(const raster::DeviceGBuffer* resident, std::int64_t resident_first,
                           const raster::AntialiasParams<float>& p, const float* grad_out,
                           const raster::AntialiasGrads<float>& grads,
-                          const raster::DeviceAntialias* forward) const override {
+                          const raster::DeviceForward* forward) const override {
     std::lock_guard<std::mutex> lock(mutex_);
     WholeTriangles whole;
     Frame& f = for_antialias(resident, resident_first, p, &whole);
     // The forward's pairs while its frame still holds them (the caller vouches
     // that p is that forward's), else the pairs again, on the device.
-    const auto* mine = dynamic_cast<const VulkanAntialias*>(forward);
+    const auto* mine = dynamic_cast<const VulkanForward*>(forward);
     if (mine && mine->serial == f.antialias_serial()) {
       ++stats_.antialias_reused;
     } else {

@@ -47,9 +47,11 @@ struct ResidencyStats {
   // whole lists antialias read on a range mode image's frame (kept likewise, apart from the range's).
   std::int64_t triangle_uploads = 0;
   std::int64_t triangle_bytes = 0;
-  // antialias adjoints that read their forward's pairs, still on the device (DeviceAntialias), instead of
-  // recomputing them (an image upload and the pair pass fewer).
+  // antialias adjoints that read their forward's pairs, still on the device (DeviceForward), instead of
+  // recomputing them (an image upload and the pair pass fewer); interpolate adjoints likewise their
+  // forward's attributes (an attribute upload and the interpolate pass fewer).
   std::int64_t antialias_reused = 0;
+  std::int64_t interpolate_reused = 0;
 };
 // ValueError if `backend` is not one of raster_backend's.
 ResidencyStats residency_stats(const raster::RasterBackend& backend);

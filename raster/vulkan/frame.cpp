@@ -18,8 +18,8 @@
 namespace gr::vulkan {
 namespace {
 
-// Frame::antialias_serial's source: unique in the process, never 0.
-std::atomic<std::uint64_t> g_antialias_serial{0};
+// Frame::antialias_serial's and interpolate_serial's source: unique in the process, never 0.
+std::atomic<std::uint64_t> g_call_serial{0};
 
 // Bytes of one antialias pair slot (struct Pair, antialias_common.glsl): t, a, b.
 constexpr std::size_t kPairBytes = 16;
@@ -87,6 +87,7 @@ struct Frame::State {
   std::int64_t num_vertices = 0, num_tris = 0;
   bool y_up = false, rasterized = false, derivatives = false;
   std::int64_t channels = -1, num_diff = 0;
+  std::uint64_t ip_serial = 0;  // of the last interpolate (0: none)
   // The device's G-buffer gradient (kGradGBuffer) holds values (rast, db)
   // since the last rasterize or rasterize_backward; else it is stale.
   bool grad_rast = false, grad_db = false;
@@ -133,6 +134,7 @@ struct Frame::State {
     y_up = y_up_option || p.settings.y_up;
     derivatives = with_derivatives;
     channels = -1;
+    ip_serial = 0;
     aa_channels = -1;
     aa_serial = 0;
     aa_whole = false;
@@ -514,6 +516,7 @@ GpuTimes Frame::interpolate(const float* attr, std::int64_t channels, float* out
   std::lock_guard<std::mutex> lock(s.dev.mutex);
   s.channels = channels;
   s.num_diff = num_diff;
+  s.ip_serial = 0;
   const std::size_t attr_bytes = static_cast<std::size_t>(s.num_vertices * channels) * sizeof(float);
   const std::size_t diff_bytes = static_cast<std::size_t>(num_diff) * sizeof(std::int32_t);
   const std::size_t out_bytes = static_cast<std::size_t>(s.pixels() * channels) * sizeof(float);
@@ -550,6 +553,7 @@ GpuTimes Frame::interpolate(const float* attr, std::int64_t channels, float* out
     barrier(cb);
     s.timestamps.stamp(cb, 3);
   });
+  s.ip_serial = ++g_call_serial;
   const char* got = static_cast<const char*>(s.download.mapped());
   if (down[0]) std::memcpy(out, got, down[0]);
   if (down[1]) std::memcpy(out_da, got + down[0], down[1]);
@@ -732,7 +736,7 @@ GpuTimes Frame::antialias(const float* image, int channels, float* out, const ra
     s.triangle_uploads.bytes += static_cast<std::int64_t>(whole_bytes);
   }
   s.aa_channels = channels;
-  s.aa_serial = ++g_antialias_serial;
+  s.aa_serial = ++g_call_serial;
   s.aa_visibility = visibility;
   s.aa_whole = whole != nullptr;
   s.aa_first = first;
@@ -782,6 +786,11 @@ GpuTimes Frame::antialias_backward(const float* grad_out, float* grad_image, flo
   add_to(grad_image, got, px * C);
   add_to(grad_clip, got + px * C, N * 4);
   return s.timestamps.read();
+}
+
+std::uint64_t Frame::interpolate_serial() const {
+  std::lock_guard<std::mutex> lock(state_->dev.mutex);
+  return state_->ip_serial;
 }
 
 std::uint64_t Frame::antialias_serial() const {

@@ -108,6 +108,12 @@ class Frame {
   GpuTimes interpolate(const float* attr, std::int64_t channels, float* out = nullptr,
                        const std::int32_t* diff = nullptr, std::int64_t num_diff = 0, float* out_da = nullptr);
 
+  // The last interpolate's serial (unique in the process, shared with
+  // antialias_serial's): its attributes stay on the device for
+  // interpolate_backward until another interpolate or a new G-buffer
+  // replaces them (0 then, and before any interpolate).
+  std::uint64_t interpolate_serial() const;
+
   // The adjoint of the last interpolate (raster::barycentric_interpolate_backward)
   // for grad_out (H x W x channels) and grad_da (H x W x 2 num_diff, or null:
   // the derivatives get no gradient), ACCUMULATED (+=) into grad_attr

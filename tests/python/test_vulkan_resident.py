@@ -14,6 +14,7 @@ import pytest
 import torch
 
 import gradraster.torch as dr
+from gradraster import _core
 
 from test_vulkan_context import (assert_grads_close, assert_values_close, grid_mesh, leaf, shared_vulkan_context,
                                  vulkan_context)
@@ -63,11 +64,12 @@ def scene(images):
 def kept(tri, gbuffers, resident_calls, frames):
     """ctx.residency when every call read a kept G-buffer and each frame ran antialias on tri and its adjoint:
     the edge topology (built once, _topologies.py) went up once per frame, 4 bytes per edge, and so did the
-    triangle list (each frame keeps the last one it uploaded), 12 bytes per triangle; each adjoint read the pairs
-    its forward kept (no second pair pass)."""
+    triangle list (each frame keeps the last one it uploaded), 12 bytes per triangle; each antialias and
+    interpolate adjoint read what its forward left on the device (no second pair pass or interpolation)."""
     return {'gbuffers': gbuffers, 'resident_calls': resident_calls, 'uploads': 0, 'frames': frames,
             'topology_uploads': frames, 'topology_bytes': frames * 12 * tri.shape[0],
-            'triangle_uploads': frames, 'triangle_bytes': frames * 12 * tri.shape[0], 'antialias_reused': gbuffers}
+            'triangle_uploads': frames, 'triangle_bytes': frames * 12 * tri.shape[0], 'antialias_reused': gbuffers,
+            'interpolate_reused': gbuffers}
 
 
 def test_the_chain_reads_the_kept_gbuffers_with_no_upload_and_gives_the_cpu_contexts_values_and_gradients():
@@ -515,7 +517,6 @@ def test_an_unchanged_texture_is_uploaded_once_over_many_calls_however_often_its
 
 
 def test_the_fingerprint_is_the_same_for_any_thread_count_and_changes_with_any_one_bit():
-    from gradraster import _core
     from gradraster.torch.ops import _fingerprint
     g = torch.Generator().manual_seed(8)
     # Sizes around the 8-byte words, the 4 lanes and the 64 KiB chunks; float32, float64 and int32.
@@ -594,7 +595,6 @@ def test_textures_must_be_a_non_negative_integer():
 
 
 def test_lookups_without_a_pyramid_are_refused_where_no_device_builds_the_levels():
-    from gradraster import _core
     mode = _core.TextureMode()
     mode.levels, mode.filter, mode.device_levels = 3, 2, True
     tex, uv = torch.rand(1, 8, 8, 3), torch.rand(1, 4, 4, 2)
@@ -658,3 +658,18 @@ def test_an_inference_tensor_written_after_rasterize_is_uploaded_with_the_cpu_co
     # interpolate reads rast and tri (uploaded once rast or tri changed), antialias rast, pos and tri.
     uploads = {'rast': 2, 'pos': 1, 'tri': 2}[write]
     assert glctx.residency['uploads'] == uploads and glctx.residency['resident_calls'] == 2 - uploads
+
+
+def test_an_interpolate_backward_given_another_calls_forward_state_is_refused_naming_it():
+    pos, tri, attr = scene(2)
+    glctx = vulkan_context()
+    rast, _ = dr.rasterize(glctx, pos, tri, RESOLUTION)
+    out = torch.empty(2, *RESOLUTION, 3)
+    left = _core.interpolate_forward(glctx.cpp_wrapper, attr, rast, tri, None, [], out, None, 1)
+    assert left is not None  # the device kept the attributes of both images
+    one = rast[:1].contiguous()
+    with pytest.raises(ValueError, match="'forward' is of a call with 2 images; these inputs have 1"):
+        _core.interpolate_backward(glctx.cpp_wrapper, attr, one, tri, None, [], torch.ones(1, *RESOLUTION, 3), None,
+                                   torch.zeros_like(attr), None, None, 1, None, left)
+    # A CPU call keeps nothing.
+    assert _core.interpolate_forward(None, attr, rast, tri, None, [], out, None, 1) is None

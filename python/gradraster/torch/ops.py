@@ -225,8 +225,10 @@ class RasterizeVulkanContext(RasterizeCpuContext):
         one), 'topology_bytes', 'triangle_uploads' (rasterize calls, per image, that uploaded tri, and G-buffer
         uploads that did: each frame keeps the last triangle list it uploaded, so an unchanged tri goes up once per
         frame; in range mode antialias on a range of some of tri also uploads the whole tri once per frame),
-        'triangle_bytes' and 'antialias_reused' (antialias backward calls, per image, that read the pairs their
-        forward kept on the device instead of recomputing them) (docs/python.md, "Vulkan")."""
+        'triangle_bytes', 'antialias_reused' (antialias backward calls, per image, that read the pairs their
+        forward kept on the device instead of recomputing them) and 'interpolate_reused' (interpolate backward
+        calls, per image, that read their forward's attributes there instead of interpolating again)
+        (docs/python.md, "Vulkan")."""
         return dict(self.cpp_wrapper.residency)
 
     @property
@@ -448,9 +450,9 @@ class _InterpolateFunc(torch.autograd.Function):
         images, h, w = rast.shape[:3]
         out = attr.new_empty((images, h, w, attr.shape[-1]))
         out_da = attr.new_empty((images, h, w, 2 * len(diff)))
-        _core.interpolate_forward(device, *args, out, out_da if diff else None, _threads(), kept)
+        left = _core.interpolate_forward(device, *args, out, out_da if diff else None, _threads(), kept)
         ctx.save_for_backward(attr, rast, tri, rast_db)
-        ctx.diff, ctx.device, ctx.kept = diff, device, kept
+        ctx.diff, ctx.device, ctx.kept, ctx.left = diff, device, kept, left  # left: what the device kept
         return out, out_da
 
     @staticmethod
@@ -463,7 +465,7 @@ class _InterpolateFunc(torch.autograd.Function):
         g_rast = torch.zeros_like(rast) if need_rast else None
         g_db = torch.zeros_like(rast_db) if need_db and rast_db is not None else None
         _core.interpolate_backward(ctx.device, *args, _d(dy.contiguous()), _d(dda.contiguous()) if ctx.diff else None,
-                                   g_attr, g_rast, g_db, _threads(), ctx.kept)
+                                   g_attr, g_rast, g_db, _threads(), ctx.kept, ctx.left)
         return g_attr, g_rast, None, g_db, None, None, None
 
 

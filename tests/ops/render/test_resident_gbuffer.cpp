@@ -44,16 +44,16 @@ class CountingBackend : public raster::RasterBackend {
     return false;
   }
   bool interpolate_forward(const raster::DeviceGBuffer* resident, const raster::BarycentricInterpolateParams<float>&,
-                           int, int, float*, float*) const override {
+                           int, int, float*, float*, std::shared_ptr<const raster::DeviceForward>*) const override {
     return count(resident);
   }
   bool interpolate_backward(const raster::DeviceGBuffer* resident, const raster::BarycentricInterpolateParams<float>&,
-                            int, int, const float*, const float*,
-                            const raster::BarycentricInterpolateGrads<float>&) const override {
+                            int, int, const float*, const float*, const raster::BarycentricInterpolateGrads<float>&,
+                            const raster::DeviceForward*) const override {
     return count(resident);
   }
   bool antialias_forward(const raster::DeviceGBuffer* resident, std::int64_t, const raster::AntialiasParams<float>&,
-                         float*, std::shared_ptr<const raster::DeviceAntialias>*) const override {
+                         float*, std::shared_ptr<const raster::DeviceForward>*) const override {
     return count(resident);
   }
   bool gbuffer_backward(const raster::DeviceGBuffer* resident, const raster::BarycentricGBufferParams<float>&,

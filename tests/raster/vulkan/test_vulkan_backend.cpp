@@ -209,7 +209,7 @@ std::vector<float> interpolate_kept(const raster::RasterBackend* backend, const 
   std::vector<float> out(static_cast<std::size_t>(9 * p.pixels));
   float* out_da = out.data() + 3 * p.pixels;
   if (backend)
-    REQUIRE(backend->interpolate_forward(k.handle.get(), p, W, H, out.data(), out_da));
+    REQUIRE(backend->interpolate_forward(k.handle.get(), p, W, H, out.data(), out_da, nullptr));
   else
     raster::barycentric_interpolate_forward(p, out.data(), out_da);
   return out;

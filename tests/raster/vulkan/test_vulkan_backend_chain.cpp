@@ -114,6 +114,9 @@ void check_chain(const Scene& s, int W, int H, const Chain& c) {
   CHECK(stats.gbuffers == 1);
   CHECK(stats.uploads == 0);
   CHECK(stats.resident_calls == 5);
+  // The adjoints read what their forwards left there (no second pair pass or interpolation).
+  CHECK(stats.antialias_reused == 1);
+  CHECK(stats.interpolate_reused == 1);
   const Run again = run_chain(s, W, H, c, backend);
   // The coverage and G-buffer as downloaded: the CPU's bit for bit.
   REQUIRE(gpu.tri_id == cpu.tri_id);
@@ -330,6 +333,8 @@ TEST_CASE("two interpolates on one G-buffer read the device's copy and give the 
   const vulkan::ResidencyStats stats = vulkan::residency_stats(*backend);
   CHECK(stats.uploads == 0);
   CHECK(stats.resident_calls == 7);
+  // The later interpolate's adjoint (run first) reads its forward's attributes; the earlier one's interpolates again.
+  CHECK(stats.interpolate_reused == 1);
   const Run again = run_two_interpolates(s, 48, 40, backend);
   CHECK(same_bits(again.grad_clip, gpu.grad_clip));
   CHECK(same_bits(again.grad_attr, gpu.grad_attr));
