@@ -95,9 +95,15 @@ std::shared_ptr<Vertices> pooled_vertices() {
 
 namespace {
 
-// Clips a convex polygon (clip coords, 4 doubles each) against dist(v) >= 0.
-template <class Dist>
-int clip_polygon(const double (*in)[4], int n, double (*out)[4], Dist dist) {
+// Clips a convex polygon (clip coords, 4 doubles each; n <= N of them)
+// against dist(v) >= 0. In exact arithmetic that adds at most one vertex,
+// but a crossing computed in floating point may land on the wrong side of
+// the next plane (a near-plane crossing rounding to w = 0), so the signs of
+// the next clip can alternate: k kept vertices and at most 2 min(k, n - k)
+// crossings, at most 3n/2 in all (a quadrilateral: 2 kept + 4 crossings).
+template <int N, int M, class Dist>
+int clip_polygon(const double (&in)[N][4], int n, double (&out)[M][4], Dist dist) {
+  static_assert(M >= 3 * N / 2, "clip_polygon: the output must hold 3/2 of the input's vertices");
   int m = 0;
   for (int i = 0; i < n; ++i) {
     const double* a = in[i];
@@ -240,7 +246,7 @@ TriClass classify_triangle(const Vertices& v, const std::int32_t* tri, int width
     miny = std::min({p[0][1], p[1][1], p[2][1]});
     maxy = std::max({p[0][1], p[1][1], p[2][1]});
   } else {
-    double poly[3][4], near[4][4], pos[5][4];
+    double poly[3][4], near[4][4], pos[6][4];  // clip_polygon's bound: 3/2 of the input
     for (int k = 0; k < 3; ++k) {
       const double* c = &v.clip[4 * static_cast<std::size_t>(tri[k])];
       std::copy(c, c + 4, poly[k]);

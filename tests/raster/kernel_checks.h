@@ -5,11 +5,41 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <functional>
+#include <limits>
 #include <random>
 #include <vector>
 
 namespace gr::testing {
+
+// Clip positions (4 per vertex) of every magnitude T holds: random signs and
+// exponents, zeros, ones, denormals and the largest finite values, so that
+// near-plane crossings round anywhere (even to w = 0), and random triangles
+// over them (3 indices each).
+template <class T>
+std::vector<T> extreme_clip(int vertices, unsigned seed) {
+  std::mt19937 rng(seed);
+  const int max_exp = std::numeric_limits<T>::max_exponent10 - 1;
+  std::uniform_real_distribution<double> exponent(-max_exp, max_exp);
+  std::uniform_int_distribution<int> pick(0, 7);
+  const T specials[] = {T(0), T(1), std::numeric_limits<T>::denorm_min(), std::numeric_limits<T>::max()};
+  std::vector<T> clip;
+  for (int i = 0; i < 4 * vertices; ++i) {
+    const int k = pick(rng);
+    const T magnitude = k < 4 ? specials[k] : static_cast<T>(std::pow(10.0, exponent(rng)));
+    clip.push_back(pick(rng) % 2 ? -magnitude : magnitude);
+  }
+  return clip;
+}
+
+inline std::vector<std::int32_t> random_triangles(int triangles, int vertices, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_int_distribution<std::int32_t> vertex(0, vertices - 1);
+  std::vector<std::int32_t> tris;
+  for (int t = 0; t < 3 * triangles; ++t) tris.push_back(vertex(rng));
+  return tris;
+}
 
 inline std::vector<double> random_vector(std::size_t n, double lo, double hi, unsigned seed) {
   std::mt19937 rng(seed);

@@ -440,6 +440,45 @@ TEST_CASE("rasterize: triangles behind the camera or outside the frustum contrib
   CHECK(g.stats.culled_outside == 3);
 }
 
+// Every id is a triangle of the list or 0, and every G-buffer value finite.
+template <class T>
+void check_gbuffer_of_extreme_clip(int triangles, unsigned seed) {
+  const int W = 16, H = 16, vertices = 300;
+  const std::vector<T> clip = extreme_clip<T>(vertices, seed);
+  const std::vector<std::int32_t> tris = random_triangles(triangles, vertices, seed + 1);
+  std::vector<std::int32_t> id(W * H, -1);
+  std::vector<T> uv(2 * W * H), depth(W * H);
+  rasterize_forward(params(clip, tris, W, H), id.data(), uv.data(), depth.data());
+  for (std::int32_t t : id) REQUIRE((t >= 0 && t <= triangles));
+  for (T x : uv) REQUIRE(std::isfinite(x));
+  for (T x : depth) REQUIRE(std::isfinite(x));
+}
+
+TEST_CASE("rasterize: near-plane crossings that round to w = 0 stay within the clipper's buffers",
+          "[raster][rasterize][near]") {
+  // Clipping a triangle at z >= -w can give a crossing whose w rounds to 0 or
+  // below; the clip at w >= eps then sees alternating signs and returns up to
+  // 6 vertices (a held-out probe's finding: it wrote past a 5-vertex buffer,
+  // which the sanitizer job reports, and crashed Python's rasterize).
+  SECTION("the probe's triangles") {
+    const std::vector<double> crossing = {-0.4, 0.1, -1e300, 1, 1, 0.1, 0.5, 1e-300, 1, 0.1, 0.5, 0};
+    const GBuffer g = render(crossing, {0, 1, 2}, 16, 16);
+    CHECK(std::count(g.id.begin(), g.id.end(), 0) + std::count(g.id.begin(), g.id.end(), 1) == 256);
+    const std::vector<float> crossing_f = {0.0f, 0.0f, 1.0f, 8.450318e-30f, 0.0f, 0.0f, -6e21f, 3.1452960e16f,
+                                           -1.4666089e-06f, 0.13414650f, 0.0f, 1.0f};
+    std::vector<std::int32_t> id(256, -1);
+    std::vector<float> uv(512), depth(256);
+    rasterize_forward(params(crossing_f, {0, 1, 2}, 16, 16), id.data(), uv.data(), depth.data());
+    CHECK(std::count(id.begin(), id.end(), 0) + std::count(id.begin(), id.end(), 1) == 256);
+  }
+  SECTION("random triangles over every magnitude, float32 and float64") {
+    for (unsigned seed = 0; seed < 4; ++seed) {
+      check_gbuffer_of_extreme_clip<float>(2000, seed);
+      check_gbuffer_of_extreme_clip<double>(2000, seed);
+    }
+  }
+}
+
 TEST_CASE("rasterize: degenerate triangles, slivers and vertices on pixel centres stay finite",
           "[raster][rasterize][degenerate]") {
   const int W = 32, H = 32;

@@ -141,12 +141,15 @@ ivec2 pixel_range(double a, double b, int n) {
 }
 
 // Sutherland-Hodgman clip of a convex polygon against dist(v) >= 0, where
-// dist is z + w (plane 0) or w - eps (plane 1).
+// dist is z + w (plane 0) or w - eps (plane 1). A rounded crossing of the
+// first clip can make the signs of the second alternate: up to 3/2 of the
+// input's vertices come out (a quadrilateral: 6; rasterize_setup.cpp's
+// clip_polygon), so the arrays hold 6.
 double plane_dist(dvec4 v, int plane, double eps) {
   precise double d = plane == 0 ? v.z + v.w : v.w - eps;
   return d;
 }
-int clip_polygon(dvec4 src[5], int n, out dvec4 dst[5], int plane, double eps) {
+int clip_polygon(dvec4 src[6], int n, out dvec4 dst[6], int plane, double eps) {
   int m = 0;
   for (int i = 0; i < n; ++i) {
     dvec4 a = src[i];
@@ -193,11 +196,11 @@ int classify_triangle(ivec3 t, out ivec4 box) {
     miny = min(min(p0.y, p1.y), p2.y);
     maxy = max(max(p0.y, p1.y), p2.y);
   } else {
-    dvec4 poly[5], near_poly[5], pos[5];
+    dvec4 poly[6], near_poly[6], pos[6];
     poly[0] = clip_of(t.x);
     poly[1] = clip_of(t.y);
     poly[2] = clip_of(t.z);
-    poly[3] = poly[4] = dvec4(0.0);
+    poly[3] = poly[4] = poly[5] = dvec4(0.0);
     int n1 = clip_polygon(poly, 3, near_poly, 0, 0.0);
     double wmax = 0.0;
     for (int k = 0; k < n1; ++k) wmax = max(wmax, abs(near_poly[k].w));

@@ -18,6 +18,7 @@
 #include "raster/procedural.h"
 #include "raster/rasterize.h"
 #include "raster/vulkan/rasterize.h"
+#include "raster/kernel_checks.h"
 #include "raster/vulkan/scenes.h"
 
 using namespace gr;
@@ -122,6 +123,17 @@ TEST_CASE("the GPU G-buffer of real meshes, also crossing the near plane, is the
     INFO("distance " << distance);
     require_same(on_gpu(perspective(sphere, 1.0, distance), 96, 80), on_cpu(perspective(sphere, 1.0, distance), 96, 80));
     require_same(on_gpu(perspective(torus, 1.0, distance), 80, 96), on_cpu(perspective(torus, 1.0, distance), 80, 96));
+  }
+}
+
+TEST_CASE("the GPU clips near-plane crossings that round to w = 0 as the CPU", "[vulkan]") {
+  if (!gpu()) return;
+  // Positions of every float magnitude: the near clip's crossings round
+  // anywhere, and the w >= eps clip then returns up to 6 vertices.
+  for (unsigned seed = 0; seed < 3; ++seed) {
+    INFO("seed " << seed);
+    const Scene s{extreme_clip<float>(300, seed), random_triangles(2000, 300, seed + 1)};
+    require_same(on_gpu(s, 16, 16), on_cpu(s, 16, 16));
   }
 }
 
