@@ -14,9 +14,19 @@
 //                          it is welded, built and uploaded again, as before
 //                          the op kept it. Counter topology_uploads: per
 //                          iteration (ResidencyStats), on the Vulkan backend.
+//   BM_BatchChain/deferred/images: the same chain through the batch ops
+//                          (rasterize_batch, interpolate_batch,
+//                          antialias_batch) on the Vulkan backend, an
+//                          instanced batch of `images` views of the torus
+//                          at 128 x 128; deferred 1 = the batch's calls
+//                          submitted without waiting and finished together
+//                          (raster::DeferredCalls, the default), 0 = each
+//                          call waited for (raster_backend's deferred_calls).
 #include <benchmark/benchmark.h>
 
+#include <cmath>
 #include <memory>
+#include <vector>
 
 #include "mesh_framing.h"
 #include "ops/ops.h"
@@ -79,7 +89,53 @@ void BM_OpChain(benchmark::State& state) {
         double(gr::vulkan::residency_stats(*backend).topology_uploads - uploads_before), benchmark::Counter::kAvgIterations);
 }
 
+// `images` copies of the framed torus, each turned a little about the view axis.
+gr::Tensor instanced_clip(const gr::Tensor& clip, int images) {
+  const std::int64_t n = clip.size(0);
+  std::vector<float> out;
+  for (int b = 0; b < images; ++b) {
+    const float c = std::cos(0.1f * b), s = std::sin(0.1f * b);
+    const float* v = clip.data<float>();
+    for (std::int64_t i = 0; i < n; ++i, v += 4) out.insert(out.end(), {c * v[0] - s * v[1], s * v[0] + c * v[1], v[2], v[3]});
+  }
+  return gr::Tensor::from_vector<float>(out, {images, n, 4});
+}
+
+void BM_BatchChain(benchmark::State& state) {
+  static const std::shared_ptr<gr::vulkan::Device> device = gr::vulkan::Device::open();
+  if (!device) {
+    state.SkipWithError("no Vulkan device");
+    return;
+  }
+  const bool deferred = state.range(0) != 0;
+  const int images = static_cast<int>(state.range(1)), size = 128;
+  const auto backend = gr::vulkan::raster_backend(device, images, deferred);
+  state.SetLabel(backend->name());
+  ChainScene& s = chain_scene(size);
+  const gr::Tensor clip0 = instanced_clip(s.clip, images);
+  const gr::Tensor colours0 = gr::Tensor::uniform({images, s.colours.size(0), 3}, 0, 1, 6);
+  const gr::Tensor weights = gr::Tensor::uniform({images, size, size, 3}, -1, 1, 7);
+  for (auto _ : state) {
+    gr::Tensor clip = clip0.detach().set_requires_grad();
+    gr::Tensor colours = colours0.detach().set_requires_grad();
+    gr::RasterizeOptions ro{size, size};
+    ro.backend = backend;
+    const gr::GBuffer gb = gr::rasterize_batch(clip, s.tris, ro);
+    const gr::Tensor shaded = gr::interpolate_batch(colours, gb, s.tris);
+    const gr::Tensor image = gr::antialias_batch(shaded, gb, clip, s.tris);
+    gr::backward(gr::sum(image * weights));
+    benchmark::DoNotOptimize(clip.grad().data<float>());
+  }
+  state.counters["deferred_calls"] = benchmark::Counter(
+      double(gr::vulkan::residency_stats(*backend).deferred_calls), benchmark::Counter::kAvgIterations);
+}
+
 }  // namespace
+
+BENCHMARK(BM_BatchChain)
+    ->ArgNames({"deferred", "images"})
+    ->ArgsProduct({{1, 0}, {8}})
+    ->Unit(benchmark::kMillisecond);
 
 BENCHMARK(BM_OpChain)
     ->ArgNames({"backend", "size", "kept"})

@@ -68,6 +68,16 @@ class DeviceForward {
 class RasterBackend {
  public:
   virtual ~RasterBackend() = default;
+  // Deferred calls (DeferredCalls below holds them open): between
+  // begin_deferred and end_deferred, the G-buffer chain's calls made on
+  // this thread (rasterize_gbuffer, interpolate_*, antialias_*,
+  // gbuffer_backward) may return before they have written their outputs; the
+  // backend writes them, in call order, by the end (end_deferred(true)), or
+  // drops them (false: the caller is unwinding). Inputs are read during the
+  // call; handles are valid at once. Other threads' calls wait for the end.
+  // The defaults defer nothing.
+  virtual void begin_deferred() const {}
+  virtual void end_deferred(bool /*write_outputs*/) const {}
   // e.g. "vulkan: NVIDIA H200".
   virtual std::string name() const = 0;
   // rasterize_forward(p, tri_id, uv, depth, nullptr, key_depth) (depth
@@ -195,6 +205,35 @@ class RasterBackend {
                                 const float* /*grad_rast*/, const float* /*grad_db*/, float* /*grad_clip*/) const {
     return false;
   }
+};
+
+// Holds a backend's deferred calls open (RasterBackend::begin_deferred) from
+// construction to finish(), after which their outputs are written; e.g. a
+// batch's images, so that a device runs one image while the host prepares
+// the next. Destroyed without finish() (an exception), it waits for the
+// device and writes nothing. backend may be null (nothing deferred).
+class DeferredCalls {
+ public:
+  explicit DeferredCalls(const RasterBackend* backend) : backend_(backend) {
+    if (backend_) backend_->begin_deferred();
+  }
+  ~DeferredCalls() {
+    if (backend_) try {
+        backend_->end_deferred(false);
+      } catch (...) {
+      }
+  }
+  DeferredCalls(const DeferredCalls&) = delete;
+  DeferredCalls& operator=(const DeferredCalls&) = delete;
+  // Writes every deferred call's outputs; the calls after it run at once.
+  void finish() {
+    const RasterBackend* b = backend_;
+    backend_ = nullptr;
+    if (b) b->end_deferred(true);
+  }
+
+ private:
+  const RasterBackend* backend_;
 };
 
 // rasterize_forward (raster/rasterize.h) on `backend` where it covers p

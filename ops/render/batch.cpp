@@ -107,12 +107,15 @@ namespace {
 // rasterize_images on the backend: each image's whole G-buffer made there
 // (RasterBackend::rasterize_gbuffer), in image order, downloaded into gb's
 // slices and kept (gb.resident, one handle per image). False, gb's arrays
-// partly written, when the backend makes no G-buffers.
+// partly written, when the backend makes no G-buffers. The images' calls are
+// deferred (raster::DeferredCalls): the device runs one while the host
+// prepares the next, and the arrays are read once all are written.
 bool gbuffers_on_device(const Tensor& clip, const Tensor& triangles, const raster::ImageBatch& batch,
                         const RasterizeOptions& o, raster::DepthPeelState* peel, GBuffer& gb) {
   const std::int64_t P = std::int64_t(o.height) * o.width;
   const raster::RasterSettings settings{o.width, o.height, o.cull, o.front_to_back};
   std::vector<ResidentGBuffer::Image> images;
+  raster::DeferredCalls deferred(o.backend.get());
   for (std::int64_t b = 0; b < batch.images; ++b) {
     const auto [first, count] = batch.range(b);
     raster::RasterParams<float> p{clip.data<float>() + batch.pos_offset(b), batch.vertices,
@@ -123,11 +126,16 @@ bool gbuffers_on_device(const Tensor& clip, const Tensor& triangles, const raste
         p, id, gb.uv.data<float>() + 2 * b * P, gb.depth.data<float>() + b * P,
         gb.db.defined() ? gb.db.data<float>() + 4 * b * P : nullptr, peel ? peel->key_z(b) : nullptr);
     if (!kept) return false;
+    images.push_back({std::move(kept), first, count});
+  }
+  deferred.finish();
+  for (std::int64_t b = 0; b < batch.images; ++b) {
+    std::int32_t* id = gb.tri_id.data<std::int32_t>() + b * P;
     if (peel) peel->keep_ids(b, id);
     // Ids index the whole triangle list (the device's copy keeps the range's).
+    const std::int64_t first = batch.range(b).first;
     if (first != 0)
       for (std::int64_t q = 0; q < P; ++q) id[q] += id[q] ? static_cast<std::int32_t>(first) : 0;
-    images.push_back({std::move(kept), first, count});
   }
   gb.resident = keep_resident(std::move(images), gb);
   return true;
@@ -273,13 +281,16 @@ Tensor interpolate_batch(const Tensor& attributes, const GBuffer& gbuffer, const
     using T = decltype(tag);
     std::vector<char> on_backend(static_cast<std::size_t>(B), 0);
     if constexpr (std::is_same_v<T, float>)
-      if (backend)
+      if (backend) {
+        raster::DeferredCalls deferred(backend.get());
         for (std::int64_t b = 0; b < B; ++b)
           on_backend[b] = on_device(backend, made.get(), b, params(tag, attr, b), triangles, [&](const auto& on,
                                                                                                 const auto& p) {
             float* o = out.data<float>() + b * P * C;
             return backend->interpolate_forward(on.device, p, int(w), int(h), o, nullptr, &(*kept)[b]);
           });
+        deferred.finish();
+      }
     for_each_image(B, [&](std::int64_t b) {
       T* o = out.data<T>() + b * P * C;
       if (!on_backend[b]) raster::barycentric_interpolate_forward(params(tag, attr, b), o, static_cast<T*>(nullptr));
@@ -307,7 +318,8 @@ Tensor interpolate_batch(const Tensor& attributes, const GBuffer& gbuffer, const
                };
                std::vector<char> on_backend(static_cast<std::size_t>(B), 0);
                if constexpr (std::is_same_v<T, float>)
-                 if (backend)
+                 if (backend) {
+                   raster::DeferredCalls deferred(backend.get());
                    for (std::int64_t b = 0; b < B; ++b)
                      on_backend[b] = on_device(backend, made.get(), b, params(tag, a, b), triangles,
                                                [&](const auto& on, const auto& p) {
@@ -316,6 +328,8 @@ Tensor interpolate_batch(const Tensor& attributes, const GBuffer& gbuffer, const
                                                                                       go, nullptr, grads(b),
                                                                                       (*kept)[b].get());
                                                });
+                   deferred.finish();
+                 }
                for_each_image(B, [&](std::int64_t b) {
                  if (on_backend[b]) return;
                  raster::barycentric_interpolate_backward(params(tag, a, b),
@@ -402,6 +416,7 @@ Tensor antialias_batch(const Tensor& image, const GBuffer& gbuffer, const Tensor
     if constexpr (std::is_same_v<T, float>)
       if (backend) {
         on_backend = true;
+        raster::DeferredCalls deferred(backend.get());
         for (std::int64_t b = 0; b < B && on_backend; ++b) {
           raster::AntialiasParams<float> p = image_params(tag, image, pos, b);
           gbuffer_params(p, b, topology, pos.shared);
@@ -409,6 +424,7 @@ Tensor antialias_batch(const Tensor& image, const GBuffer& gbuffer, const Tensor
           float* o = out.data<float>() + b * P * C;
           on_backend = backend->antialias_forward(on.device, on.first, p, o, &(*kept_pairs)[b]);
         }
+        deferred.finish();
         if (on_backend) return;
       }
     for_each_image(B, [&](std::int64_t b) {
@@ -427,6 +443,7 @@ Tensor antialias_batch(const Tensor& image, const GBuffer& gbuffer, const Tensor
              c.t = &clip;
              Tensor g_image = ctx.needs_grad(0) ? Tensor::zeros(image.shape(), image.dtype()) : Tensor();
              GradOf g_clip(c, ctx.needs_grad(1) ? B : 0);
+             raster::DeferredCalls deferred(backend.get());
              for (std::int64_t b = 0; b < B; ++b) {  // image order: a shared clip's parts, then their sum
                raster::AntialiasParams<float> p = image_params(float{}, image, c, b);
                gbuffer_params(p, b, *built, c.shared);
@@ -437,9 +454,13 @@ Tensor antialias_batch(const Tensor& image, const GBuffer& gbuffer, const Tensor
                const float* go = ctx.grad_output().data<float>() + b * P * C;
                if (!backend->antialias_backward(on.device, on.first, p, go, g, (*kept_pairs)[b].get()))
                  throw Error("antialias_batch: the backend ran the forward but refused the adjoint");
-               if (g.clip && boost != 1.0)
-                 for (std::int64_t i = 0; i < 4 * N; ++i) g.clip[i] = static_cast<float>(boost * g.clip[i]);
              }
+             deferred.finish();
+             if (ctx.needs_grad(1) && boost != 1.0)
+               for (std::int64_t b = 0; b < B; ++b) {
+                 float* g = g_clip.at<float>(c, b);
+                 for (std::int64_t i = 0; i < 4 * N; ++i) g[i] = static_cast<float>(boost * g[i]);
+               }
              if (g_image.defined()) ctx.accumulate(0, g_image);
              if (ctx.needs_grad(1)) ctx.accumulate(1, g_clip.finish<float>());
            });

@@ -167,7 +167,9 @@ void record_gbuffer_adjoint(GBuffer& gb, const char* op) {
       const std::int64_t n = clip.size(clip.rank() - 2);
       // The coverage from tri_id (int32: exact for any triangle count, unlike float32 ids);
       // the gradients read from the uv and depth planes as they are.
-      std::vector<float> gr;  // a backend's H x W x 4 gradient, reused image by image
+      std::vector<float> gr;  // a backend's H x W x 4 gradient, reused image by image (read at each call)
+      // The backend's calls deferred: the device runs one image while the host prepares the next.
+      raster::DeferredCalls deferred(std::is_same_v<T, float> ? backend.get() : nullptr);
       for (std::int64_t b = 0; b < images; ++b) {
         raster::BarycentricGBufferParams<T> p = image_params<T>(clip, triangles, b, w, h);
         p.tri_id = tri_id.data<std::int32_t>() + b * P;
@@ -195,10 +197,12 @@ void record_gbuffer_adjoint(GBuffer& gb, const char* op) {
             if (backend->gbuffer_backward(on.device, pb, grast, gdb, gc))
               continue;
           }
+        deferred.finish();  // a shared clip's parts are added in image order
         raster::barycentric_gbuffer_backward_planes(p, gu ? gu + 2 * P * b : nullptr, gd ? gd + P * b : nullptr,
                                                     g_db.defined() ? g_db.data<T>() + 4 * P * b : nullptr,
                                                     g.data<T>() + (clip.rank() == 3 ? b * n * 4 : 0));
       }
+      deferred.finish();
     });
     ctx.accumulate(0, g);
   };

@@ -226,7 +226,9 @@ void antialias_backward(Context& ctx, const pybind11::object& pos, const pybind1
                                                             state.device_pairs[b].get())))
           throw Error(std::string(op) + ": the device ran the forward but refused the adjoint");
       }
-      if (!grad_pos) return;
+    }, [&](std::int64_t b) {  // once the device's calls have written their gradients
+      if (!grad_pos || bad_ids) return;
+      std::vector<T>& grad = ctx.image(b).buffer<T>(ImageScratch::kGrad);
       for (T& v : grad) v = static_cast<T>(pos_gradient_boost * v);
       const T* part = grad.data();
       if (mesh.instanced) raster::sum_in_image_order(&part, 1, 4 * mesh.vertices, grad_pos.out<T>() + mesh.pos_offset(b));

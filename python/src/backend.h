@@ -75,13 +75,28 @@ void rast_ids(const T* rast, std::int64_t pixels, std::vector<std::int32_t>* ids
   for (std::int64_t q = 0; q < pixels; ++q) (*ids)[q] = static_cast<std::int32_t>(rast[4 * q + 3]);
 }
 
-// body(b) for every image: in parallel on the CPU; in image order with a
-// backend, which runs one call at a time and is parallel inside (its lock
-// is never awaited inside a parallel region).
-template <class F>
-void for_each_image_on(const raster::RasterBackend* backend, std::int64_t images, F&& body) {
-  if (!backend) return raster::for_each_image(images, body);
+// body(b) for every image, and after(b), which reads what image b's calls
+// wrote: in parallel on the CPU; with a backend, which runs one call at a
+// time and is parallel inside (its lock is never awaited inside a parallel
+// region), every body in image order with the backend's calls deferred
+// (raster::DeferredCalls: the device runs an image while the host prepares
+// the next), then every after in image order.
+template <class Body, class After>
+void for_each_image_on(const raster::RasterBackend* backend, std::int64_t images, Body&& body, After&& after) {
+  if (!backend)
+    return raster::for_each_image(images, [&](std::int64_t b) {
+      body(b);
+      after(b);
+    });
+  raster::DeferredCalls deferred(backend);
   for (std::int64_t b = 0; b < images; ++b) body(b);
+  deferred.finish();
+  for (std::int64_t b = 0; b < images; ++b) after(b);
+}
+
+template <class Body>
+void for_each_image_on(const raster::RasterBackend* backend, std::int64_t images, Body&& body) {
+  for_each_image_on(backend, images, body, [](std::int64_t) {});
 }
 
 }  // namespace gr::python

@@ -101,12 +101,14 @@ PYBIND11_MODULE(_core, m) {
       // What its backend did with the G-buffers (vulkan::residency_stats;
       // all 0 for a CPU context): made and kept, calls that read a kept one,
       // calls that uploaded one, frames made; antialias calls that uploaded
-      // the edge topology, and its bytes; triangle lists uploaded, and their bytes.
+      // the edge topology, and its bytes; triangle lists uploaded, and their bytes;
+      // adjoints that read their forward's pairs or attributes; calls submitted
+      // without waiting (a minibatch's, finished together).
       .def_property_readonly("residency", [](const Context& ctx) {
         py::dict out;
         std::int64_t gbuffers = 0, resident_calls = 0, uploads = 0, frames = 0, topology_uploads = 0,
                      topology_bytes = 0, triangle_uploads = 0, triangle_bytes = 0, antialias_reused = 0,
-                     interpolate_reused = 0;
+                     interpolate_reused = 0, deferred_calls = 0;
 #ifdef GRADRASTER_HAS_VULKAN
         if (ctx.gpu) {
           const gr::vulkan::ResidencyStats s = gr::vulkan::residency_stats(*ctx.backend);
@@ -114,6 +116,7 @@ PYBIND11_MODULE(_core, m) {
           topology_uploads = s.topology_uploads, topology_bytes = s.topology_bytes;
           triangle_uploads = s.triangle_uploads, triangle_bytes = s.triangle_bytes;
           antialias_reused = s.antialias_reused, interpolate_reused = s.interpolate_reused;
+          deferred_calls = s.deferred_calls;
         }
 #endif
         out["gbuffers"] = gbuffers;
@@ -126,6 +129,7 @@ PYBIND11_MODULE(_core, m) {
         out["triangle_bytes"] = triangle_bytes;
         out["antialias_reused"] = antialias_reused;
         out["interpolate_reused"] = interpolate_reused;
+        out["deferred_calls"] = deferred_calls;
         return out;
       })
       // What its device did with the textures' texels (vulkan::texture_residency;

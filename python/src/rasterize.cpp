@@ -23,21 +23,25 @@ std::vector<double>& ImageScratch::buffer<double>(Buffer b) {
 namespace {
 
 // One image's G-buffer made on `backend` (rasterize_gbuffer: the CPU
-// kernels' bits) into rast (H*W*4) and db (H*W*4 or null) as
-// barycentric_gbuffer_forward writes them (ids offset by `first`, zeros on
-// the background); returns its handle, or null when the backend makes none
-// (the caller then runs the CPU kernels).
+// kernels' bits) into s's ids and planes and db (H*W*4 or null); returns its
+// handle, or null when the backend makes none (the caller then runs the CPU
+// kernels). Its outputs are written once the backend's deferred calls are.
 std::shared_ptr<const raster::DeviceGBuffer> device_gbuffer(const raster::RasterBackend& backend,
-                                                            const raster::RasterParams<float>& p, std::int64_t first,
-                                                            ImageScratch& s, float* rast, float* db,
-                                                            double* key_depth) {
+                                                            const raster::RasterParams<float>& p, ImageScratch& s,
+                                                            float* db, double* key_depth) {
   const std::int64_t pixels = static_cast<std::int64_t>(p.settings.width) * p.settings.height;
   std::vector<float>& uv = s.buffer<float>(ImageScratch::kUv);
   std::vector<float>& depth = s.buffer<float>(ImageScratch::kDepth);
   uv.resize(static_cast<std::size_t>(2 * pixels));
   depth.resize(static_cast<std::size_t>(pixels));
-  auto kept = backend.rasterize_gbuffer(p, s.tri_id.data(), uv.data(), depth.data(), db, key_depth);
-  if (!kept) return nullptr;
+  return backend.rasterize_gbuffer(p, s.tri_id.data(), uv.data(), depth.data(), db, key_depth);
+}
+
+// device_gbuffer's ids and planes in s as barycentric_gbuffer_forward writes
+// rast (H*W*4: ids offset by `first`, zeros on the background).
+void rast_from_planes(ImageScratch& s, std::int64_t first, std::int64_t pixels, float* rast) {
+  const std::vector<float>& uv = s.buffer<float>(ImageScratch::kUv);
+  const std::vector<float>& depth = s.buffer<float>(ImageScratch::kDepth);
   for (std::int64_t q = 0; q < pixels; ++q) {
     const std::int32_t id = s.tri_id[static_cast<std::size_t>(q)];
     float* r = rast + 4 * q;
@@ -46,7 +50,6 @@ std::shared_ptr<const raster::DeviceGBuffer> device_gbuffer(const raster::Raster
     r[2] = id ? depth[q] : 0.0f;
     r[3] = id ? static_cast<float>(first + id) : 0.0f;
   }
-  return kept;
 }
 
 }  // namespace
@@ -79,6 +82,7 @@ std::shared_ptr<DeviceGBuffers> rasterize_forward(Context& ctx, const pybind11::
       kept = std::make_shared<DeviceGBuffers>();
       kept->images.resize(static_cast<std::size_t>(mesh.images));
     }
+    std::vector<char> on_device(static_cast<std::size_t>(mesh.images), 0);  // image b's G-buffer made there
     for_each_image_on(backend, mesh.images, [&](std::int64_t b) {
       ImageScratch& s = ctx.image(b);
       s.tri_id.resize(static_cast<std::size_t>(pixels));
@@ -100,22 +104,25 @@ std::shared_ptr<DeviceGBuffers> rasterize_forward(Context& ctx, const pybind11::
       }
       T* image_rast = rast.out<T>() + 4 * pixels * b;
       T* image_db = db ? db.out<T>() + 4 * pixels * b : nullptr;
-      bool done = false;
       if constexpr (std::is_same_v<T, float>)
         if (backend) {
-          auto handle = device_gbuffer(*backend, p, first, s, image_rast, image_db, key_depth);
-          done = counted(ctx, handle != nullptr);
+          auto handle = device_gbuffer(*backend, p, s, image_db, key_depth);
+          on_device[static_cast<std::size_t>(b)] = counted(ctx, handle != nullptr);
           // The copy drew the range's triangles, its ids numbered from 1 in it.
           kept->images[static_cast<std::size_t>(b)] = {std::move(handle), first, count};
+          if (on_device[static_cast<std::size_t>(b)]) return;
         }
-      if (!done) {
-        // The coverage, then the values (barycentric_gbuffer_forward).
-        T* const no_values = nullptr;
-        raster::rasterize_forward(p, s.tri_id.data(), no_values, no_values, nullptr, key_depth);
-        const raster::BarycentricGBufferParams<T> g{p.clip, mesh.vertices, mesh.tris(), mesh.triangles, width, height,
-                                                    true};
-        raster::barycentric_gbuffer_forward(g, s.tri_id.data(), first, image_rast, image_db);
-      }
+      // The coverage, then the values (barycentric_gbuffer_forward).
+      T* const no_values = nullptr;
+      raster::rasterize_forward(p, s.tri_id.data(), no_values, no_values, nullptr, key_depth);
+      const raster::BarycentricGBufferParams<T> g{p.clip, mesh.vertices, mesh.tris(), mesh.triangles, width, height,
+                                                  true};
+      raster::barycentric_gbuffer_forward(g, s.tri_id.data(), first, image_rast, image_db);
+    }, [&](std::int64_t b) {  // once the device's calls have written their outputs
+      ImageScratch& s = ctx.image(b);
+      if constexpr (std::is_same_v<T, float>)
+        if (on_device[static_cast<std::size_t>(b)])
+          rast_from_planes(s, mesh.range(b).first, pixels, rast.out<T>() + 4 * pixels * b);
       if (peel) peel->keep_ids(b, s.tri_id.data());
     });
   });

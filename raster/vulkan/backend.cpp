@@ -9,6 +9,7 @@
 #include "raster/vulkan/backend.h"
 
 #include <atomic>
+#include <functional>
 #include <mutex>
 #include <string>
 #include <vector>
@@ -17,6 +18,7 @@
 #include "raster/vulkan/cube_texture.h"
 #include "raster/vulkan/frame.h"
 #include "raster/vulkan/frame_pool.h"
+#include "raster/vulkan/internal/context.h"
 #include "raster/vulkan/rasterize.h"
 #include "raster/vulkan/texture.h"
 
@@ -79,7 +81,8 @@ void with_kept(std::shared_ptr<const raster::DeviceTexture>& kept, Call call) {
 
 class VulkanBackend : public raster::RasterBackend {
  public:
-  VulkanBackend(std::shared_ptr<Device> device, int frames) : device_(device), pool_(device, frames) {}
+  VulkanBackend(std::shared_ptr<Device> device, int frames, bool deferred_calls)
+      : device_(device), pool_(device, frames), deferred_calls_(deferred_calls) {}
   std::string name() const override { return "vulkan: " + device_->info().name; }
   bool rasterize_forward(const raster::RasterParams<float>& p, std::int32_t* tri_id, float* uv, float* depth,
                          double* key_depth) const override {
@@ -89,20 +92,23 @@ class VulkanBackend : public raster::RasterBackend {
   std::shared_ptr<const raster::DeviceGBuffer> rasterize_gbuffer(const raster::RasterParams<float>& p,
                                                                  std::int32_t* tri_id, float* uv, float* depth,
                                                                  float* db, double* key_depth) const override {
-    std::lock_guard<std::mutex> lock(mutex_);
+    std::lock_guard<std::recursive_mutex> lock(mutex_);
     GpuRasterOptions options;
     options.derivatives = db != nullptr;
     const std::int64_t px = std::int64_t(p.settings.width) * p.settings.height;
-    rast_.resize(static_cast<std::size_t>(4 * px));
+    auto rast = std::make_shared<std::vector<float>>(static_cast<std::size_t>(4 * px));
     Frame& f = pool_.take();
-    f.rasterize(p, options, tri_id, rast_.data(), db, key_depth);
+    f.rasterize(p, options, tri_id, rast->data(), db, key_depth);
     // rast (u, v, z/w, id) as the op's planes, the background's depth the far
-    // plane (barycentric_gbuffer_forward_planes).
-    const float background = static_cast<float>(raster::kBackgroundDepth);
-    for (std::int64_t q = 0; q < px; ++q) {
-      if (uv) uv[2 * q] = rast_[4 * q], uv[2 * q + 1] = rast_[4 * q + 1];
-      if (depth) depth[q] = tri_id[q] != 0 ? rast_[4 * q + 2] : background;
-    }
+    // plane (barycentric_gbuffer_forward_planes), once the call has written it.
+    after_calls([rast, px, tri_id, uv, depth] {
+      const float background = static_cast<float>(raster::kBackgroundDepth);
+      const float* r = rast->data();
+      for (std::int64_t q = 0; q < px; ++q) {
+        if (uv) uv[2 * q] = r[4 * q], uv[2 * q + 1] = r[4 * q + 1];
+        if (depth) depth[q] = tri_id[q] != 0 ? r[4 * q + 2] : background;
+      }
+    });
     auto kept = std::make_shared<VulkanGBuffer>();
     kept->serial = ++g_serial;
     kept->width = p.settings.width;
@@ -162,7 +168,7 @@ class VulkanBackend : public raster::RasterBackend {
                            std::shared_ptr<const raster::DeviceForward>* kept) const override {
     if (!p.tri_id) return false;
     check_pixels(p, width, height);
-    std::lock_guard<std::mutex> lock(mutex_);
+    std::lock_guard<std::recursive_mutex> lock(mutex_);
     Frame& f = for_interpolate(resident, p, width, height);
     f.interpolate(p.attr, p.channels, out, p.diff, p.num_diff, out_da);
     if (kept) *kept = std::make_shared<VulkanForward>(f.interpolate_serial());
@@ -174,7 +180,7 @@ class VulkanBackend : public raster::RasterBackend {
                             const raster::DeviceForward* forward) const override {
     if (!p.tri_id) return false;
     check_pixels(p, width, height);
-    std::lock_guard<std::mutex> lock(mutex_);
+    std::lock_guard<std::recursive_mutex> lock(mutex_);
     Frame& f = for_interpolate(resident, p, width, height);
     // The adjoint reads the frame's last interpolate: the forward's while its
     // frame still holds it (the caller vouches that p is that forward's), else this one again.
@@ -186,19 +192,21 @@ class VulkanBackend : public raster::RasterBackend {
     // The G-buffer's gradient comes back as rast (H x W x 4) and rast_db;
     // its u, v go to grads.rast at the caller's stride, as the CPU adds them.
     const std::size_t plane = static_cast<std::size_t>(p.pixels) * 4;
-    std::vector<float> g_rast(grads.rast ? plane : 0, 0.0f);
-    f.interpolate_backward(grad_out, grad_da, grads.attr, grads.rast ? g_rast.data() : nullptr, grads.rast_db);
+    auto g_rast = std::make_shared<std::vector<float>>(grads.rast ? plane : 0, 0.0f);
+    f.interpolate_backward(grad_out, grad_da, grads.attr, grads.rast ? g_rast->data() : nullptr, grads.rast_db);
     if (grads.rast)
-      for (std::int64_t q = 0; q < p.pixels; ++q) {
-        grads.rast[p.rast_stride * q] += g_rast[4 * q];
-        grads.rast[p.rast_stride * q + 1] += g_rast[4 * q + 1];
-      }
+      after_calls([g_rast, to = grads.rast, stride = p.rast_stride, pixels = p.pixels] {
+        for (std::int64_t q = 0; q < pixels; ++q) {
+          to[stride * q] += (*g_rast)[4 * q];
+          to[stride * q + 1] += (*g_rast)[4 * q + 1];
+        }
+      });
     return true;
   }
   bool antialias_forward(const raster::DeviceGBuffer* resident, std::int64_t resident_first,
                          const raster::AntialiasParams<float>& p, float* out,
                          std::shared_ptr<const raster::DeviceForward>* kept) const override {
-    std::lock_guard<std::mutex> lock(mutex_);
+    std::lock_guard<std::recursive_mutex> lock(mutex_);
     WholeTriangles whole;
     Frame& f = for_antialias(resident, resident_first, p, &whole);
     const Uploads before = f.topology_uploads();
@@ -211,7 +219,7 @@ class VulkanBackend : public raster::RasterBackend {
                           const raster::AntialiasParams<float>& p, const float* grad_out,
                           const raster::AntialiasGrads<float>& grads,
                           const raster::DeviceForward* forward) const override {
-    std::lock_guard<std::mutex> lock(mutex_);
+    std::lock_guard<std::recursive_mutex> lock(mutex_);
     WholeTriangles whole;
     Frame& f = for_antialias(resident, resident_first, p, &whole);
     // The forward's pairs while its frame still holds them (the caller vouches
@@ -230,7 +238,7 @@ class VulkanBackend : public raster::RasterBackend {
   bool gbuffer_backward(const raster::DeviceGBuffer* resident, const raster::BarycentricGBufferParams<float>& p,
                         const float* grad_rast, const float* grad_db, float* grad_clip) const override {
     if (!p.tri_id) return false;
-    std::lock_guard<std::mutex> lock(mutex_);
+    std::lock_guard<std::recursive_mutex> lock(mutex_);
     Frame* f =
         kept_frame(resident, {p.width, p.height, p.num_vertices, p.num_tris, true, p.y_up, grad_db != nullptr});
     if (!f) {
@@ -248,8 +256,33 @@ class VulkanBackend : public raster::RasterBackend {
     return true;
   }
 
+  void begin_deferred() const override {
+    if (!deferred_calls_) return;
+    mutex_.lock();  // held until end_deferred: other threads' calls wait
+    try {
+      std::lock_guard<std::mutex> lock(device_->impl().mutex);
+      device_->impl().begin_deferring();
+      if (++deferring_ == 1) deferred_before_ = device_->impl().deferred_submissions();
+    } catch (...) {
+      mutex_.unlock();
+      throw;
+    }
+  }
+  void end_deferred(bool write_outputs) const override {
+    if (!deferred_calls_) return;
+    struct Unlock {
+      std::recursive_mutex& m;
+      ~Unlock() { m.unlock(); }
+    } unlock{mutex_};
+    Device::Impl& dev = device_->impl();
+    std::lock_guard<std::mutex> lock(dev.mutex);
+    dev.end_deferring();
+    if (--deferring_ == 0) stats_.deferred_calls += dev.deferred_submissions() - deferred_before_;
+    dev.complete(write_outputs);
+  }
+
   ResidencyStats stats() const {
-    std::lock_guard<std::mutex> lock(mutex_);
+    std::lock_guard<std::recursive_mutex> lock(mutex_);
     ResidencyStats s = stats_;
     s.frames = pool_.frames();
     Uploads tris = pool_.triangle_uploads();
@@ -263,7 +296,7 @@ class VulkanBackend : public raster::RasterBackend {
     return s;
   }
   void reserve_frames(int frames) const {
-    std::lock_guard<std::mutex> lock(mutex_);
+    std::lock_guard<std::recursive_mutex> lock(mutex_);
     pool_.reserve(frames);
   }
 
@@ -315,6 +348,12 @@ class VulkanBackend : public raster::RasterBackend {
     f.load_gbuffer(rp, options, p.tri_id, nullptr, 2, p.depth, nullptr);
     return f;
   }
+  // Runs `finish` after the calls before it have written their outputs (at
+  // once, unless they are deferred).
+  void after_calls(std::function<void()> finish) const {
+    std::lock_guard<std::mutex> lock(device_->impl().mutex);
+    device_->impl().then(std::move(finish));
+  }
   // Adds what f's antialias uploaded of the edge topology since `before`.
   void count_topology_uploads(const Frame& f, const Uploads& before) const {
     const Uploads now = f.topology_uploads();
@@ -329,20 +368,25 @@ class VulkanBackend : public raster::RasterBackend {
   }
 
   std::shared_ptr<Device> device_;
-  // The G-buffer chain's frames and what they did; one call at a time.
-  mutable std::mutex mutex_;
+  // The G-buffer chain's frames and what they did; one call at a time (and
+  // one thread from begin_deferred to end_deferred).
+  mutable std::recursive_mutex mutex_;
   mutable FramePool pool_;
   mutable std::unique_ptr<Frame> scratch_;  // made at the first upload
   mutable ResidencyStats stats_;
-  mutable std::vector<float> zero_clip_, rast_;
+  mutable std::vector<float> zero_clip_;
+  const bool deferred_calls_;
+  mutable int deferring_ = 0;  // begin_deferred calls not yet ended
+  mutable std::int64_t deferred_before_ = 0;  // the device's deferred submissions at the first
 };
 
 }  // namespace
 
-std::shared_ptr<const raster::RasterBackend> raster_backend(std::shared_ptr<Device> device, int frames) {
+std::shared_ptr<const raster::RasterBackend> raster_backend(std::shared_ptr<Device> device, int frames,
+                                                            bool deferred_calls) {
   if (!device) throw ValueError("vulkan raster_backend: no device");
   if (frames < 1) throw ValueError("vulkan raster_backend: frames must be at least 1, got " + std::to_string(frames));
-  return std::make_shared<VulkanBackend>(std::move(device), frames);
+  return std::make_shared<VulkanBackend>(std::move(device), frames, deferred_calls);
 }
 
 ResidencyStats residency_stats(const raster::RasterBackend& backend) {

@@ -29,8 +29,14 @@ namespace gr::vulkan {
 constexpr int kResidentGBuffers = 4;
 
 // frames: the G-buffers kept on the device at once (at least 1).
+// deferred_calls: the batch ops' calls between begin_deferred and
+// end_deferred (raster::DeferredCalls) are submitted without waiting and
+// finished together (one wait per batch; the device runs an image while the
+// host prepares the next); false waits for each call (the same results, bit
+// for bit; for comparison).
 std::shared_ptr<const raster::RasterBackend> raster_backend(std::shared_ptr<Device> device,
-                                                            int frames = kResidentGBuffers);
+                                                            int frames = kResidentGBuffers,
+                                                            bool deferred_calls = true);
 
 // What a backend from raster_backend did so far, for tests and profiling.
 struct ResidencyStats {
@@ -52,6 +58,9 @@ struct ResidencyStats {
   // forward's attributes (an attribute upload and the interpolate pass fewer).
   std::int64_t antialias_reused = 0;
   std::int64_t interpolate_reused = 0;
+  // Device submissions made without waiting, between begin_deferred and end_deferred (raster::DeferredCalls),
+  // whose outputs were written at the end.
+  std::int64_t deferred_calls = 0;
 };
 // ValueError if `backend` is not one of raster_backend's.
 ResidencyStats residency_stats(const raster::RasterBackend& backend);

@@ -17,6 +17,10 @@ void check(VkResult r, const char* what) {
 
 Device::Impl::~Impl() {
   if (device) {
+    try {
+      complete(false);  // deferred calls nobody finished
+    } catch (...) {
+    }
     vkDeviceWaitIdle(device);
     default_frame.reset();
     texture_buffers.reset();
@@ -48,7 +52,7 @@ VkCommandBuffer Device::Impl::begin() {
   return cb;
 }
 
-void Device::Impl::submit_and_wait(VkCommandBuffer cb) {
+VkFence Device::Impl::submit(VkCommandBuffer cb) {
   VkFence fence = VK_NULL_HANDLE;
   VkResult r = vkEndCommandBuffer(cb);
   if (r == VK_SUCCESS) {
@@ -60,11 +64,64 @@ void Device::Impl::submit_and_wait(VkCommandBuffer cb) {
     si.commandBufferCount = 1;
     si.pCommandBuffers = &cb;
     r = vkQueueSubmit(queue, 1, &si, fence);
-    if (r == VK_SUCCESS) r = vkWaitForFences(device, 1, &fence, VK_TRUE, UINT64_MAX);
   }
-  if (fence) vkDestroyFence(device, fence, nullptr);
+  if (r != VK_SUCCESS) {
+    if (fence) vkDestroyFence(device, fence, nullptr);
+    vkFreeCommandBuffers(device, command_pool, 1, &cb);
+    check(r, "submitting to the queue");
+  }
+  return fence;
+}
+
+void Device::Impl::submit_and_wait(VkCommandBuffer cb) {
+  VkFence fence = submit(cb);
+  const VkResult r = vkWaitForFences(device, 1, &fence, VK_TRUE, UINT64_MAX);
+  vkDestroyFence(device, fence, nullptr);
   vkFreeCommandBuffers(device, command_pool, 1, &cb);
-  check(r, "submitting to the queue");
+  check(r, "waiting for the queue");
+}
+
+void Device::Impl::submit_deferred(VkCommandBuffer cb, std::function<void()> finish) {
+  pending_.reserve(pending_.size() + 1);  // no throw once submitted
+  pending_.push_back({cb, submit(cb), std::move(finish)});
+  ++deferred_total_;
+}
+
+void Device::Impl::then(std::function<void()> finish) {
+  if (deferring())
+    pending_.push_back({VK_NULL_HANDLE, VK_NULL_HANDLE, std::move(finish)});
+  else
+    finish();
+}
+
+void Device::Impl::begin_deferring() {
+  if (deferring_depth_ > 0 && deferring_thread_ != std::this_thread::get_id())
+    throw Error("vulkan: another thread is deferring calls on this device");
+  deferring_thread_ = std::this_thread::get_id();
+  ++deferring_depth_;
+}
+
+void Device::Impl::end_deferring() {
+  if (deferring_depth_ > 0 && --deferring_depth_ == 0) deferring_thread_ = std::thread::id();
+}
+
+void Device::Impl::complete(bool write_outputs) {
+  // Every submission is waited for (its buffers are in use until then) even
+  // after one fails; the finishes stop at the first failure.
+  VkResult failed = VK_SUCCESS;
+  std::vector<Pending> pending;
+  pending.swap(pending_);
+  for (Pending& p : pending) {
+    if (p.fence) {
+      const VkResult r = vkWaitForFences(device, 1, &p.fence, VK_TRUE, UINT64_MAX);
+      if (r != VK_SUCCESS && failed == VK_SUCCESS) failed = r;
+      vkDestroyFence(device, p.fence, nullptr);
+      vkFreeCommandBuffers(device, command_pool, 1, &p.cb);
+    }
+    if (write_outputs && failed == VK_SUCCESS) p.finish();
+  }
+  completed_ = issued_;
+  check(failed, "waiting for a deferred submission");
 }
 
 namespace {

@@ -2,6 +2,7 @@
 // command buffer with timestamps between them, submits it and waits.
 #include "raster/vulkan/frame.h"
 
+#include <array>
 #include <atomic>
 #include <cmath>
 #include <cstring>
@@ -114,6 +115,18 @@ struct Frame::State {
   // they go up once, issue 33).
   bool tris_on_device = false;
   Uploads triangle_uploads;
+
+  // The frame's last call, if the device deferred it (Device::Impl::run):
+  // its buffers are in use until it completes.
+  std::uint64_t ticket = 0;
+
+  // Completes the frame's deferred call, if any, before a call reuses its
+  // buffers (the caller holds dev.mutex).
+  void settle() {
+    if (dev.pending(ticket)) dev.complete();
+  }
+  // The call's times once it has run; none while it is deferred.
+  GpuTimes times() const { return dev.pending(ticket) ? GpuTimes{} : timestamps.read(); }
 
   Buffer& operator[](Role r) { return buffers[r]; }
   std::int64_t pixels() const { return static_cast<std::int64_t>(width) * height; }
@@ -291,6 +304,10 @@ Frame::Frame(std::shared_ptr<Device> device) : device_(std::move(device)) {
 Frame::~Frame() {
   if (!state_) return;
   std::lock_guard<std::mutex> lock(state_->dev.mutex);
+  try {
+    state_->settle();
+  } catch (...) {
+  }
   state_.reset();
 }
 
@@ -321,6 +338,7 @@ GpuTimes Frame::rasterize_into(const raster::RasterParams<float>& p, const GpuRa
   check_raster_params(p);
   State& s = *state_;
   std::lock_guard<std::mutex> lock(s.dev.mutex);
+  s.settle();
   s.begin_gbuffer(p, options.y_up, !coverage && options.derivatives);
   const std::size_t px = static_cast<std::size_t>(s.pixels());
   const std::size_t clip_bytes = static_cast<std::size_t>(p.num_vertices) * 4 * sizeof(float);
@@ -370,7 +388,7 @@ GpuTimes Frame::rasterize_into(const raster::RasterParams<float>& p, const GpuRa
   const GBufferPush gpush{s.width, s.height, static_cast<std::int32_t>(p.num_vertices),
                           static_cast<std::int32_t>(p.num_tris), 0, s.y_up ? 1 : 0, s.derivatives ? 1 : 0, 0};
   const std::uint32_t last = coverage ? 7 : 8;
-  s.dev.run([&](VkCommandBuffer cb) {
+  auto record = [&](VkCommandBuffer cb) {
     s.timestamps.begin(cb, last + 1);
     copy(cb, s.upload.handle(), 0, s[kClip].handle(), 0, clip_bytes);
     copy(cb, s.upload.handle(), clip_bytes, s[kTris].handle(), 0, tri_bytes);
@@ -411,19 +429,23 @@ GpuTimes Frame::rasterize_into(const raster::RasterParams<float>& p, const GpuRa
     copy(cb, s[kKeys].handle(), 0, s.download.handle(), key_at, key_bytes);
     barrier(cb);
     s.timestamps.stamp(cb, last);
+  };
+  const std::array<void*, 3> to{outs[0], outs[1], outs[2]};
+  const std::array<std::size_t, 3> sizes{out_bytes[0], out_bytes[1], out_bytes[2]};
+  s.ticket = s.dev.run(record, [&s, to, sizes, key_depth, key_at, px] {
+    const char* from = static_cast<const char*>(s.download.mapped());
+    for (int i = 0; i < 3; ++i) {
+      if (sizes[i]) std::memcpy(to[i], from, sizes[i]);
+      from += sizes[i];
+    }
+    if (key_depth) {
+      const std::uint64_t* keys = reinterpret_cast<const std::uint64_t*>(static_cast<const char*>(s.download.mapped()) + key_at);
+      for (std::size_t i = 0; i < px; ++i) key_depth[i] = depth_of_key(keys[i]);
+    }
   });
   s.finish_triangles(tri_bytes);
-  const char* from = static_cast<const char*>(s.download.mapped());
-  for (int i = 0; i < 3; ++i) {
-    if (out_bytes[i]) std::memcpy(outs[i], from, out_bytes[i]);
-    from += out_bytes[i];
-  }
-  if (key_depth) {
-    const std::uint64_t* keys = reinterpret_cast<const std::uint64_t*>(static_cast<const char*>(s.download.mapped()) + key_at);
-    for (std::size_t i = 0; i < px; ++i) key_depth[i] = depth_of_key(keys[i]);
-  }
   s.rasterized = !coverage;
-  return s.timestamps.read();
+  return s.times();
 }
 
 GpuTimes Frame::load_gbuffer(const raster::RasterParams<float>& p, const GpuRasterOptions& options,
@@ -441,6 +463,7 @@ GpuTimes Frame::load_gbuffer(const raster::RasterParams<float>& p, const GpuRast
                        std::to_string(tri_id[q]) + ", outside [0, " + std::to_string(p.num_tris) + "]");
   State& s = *state_;
   std::lock_guard<std::mutex> lock(s.dev.mutex);
+  s.settle();
   s.begin_gbuffer(p, options.y_up, options.derivatives);
   s.topology_ready = false;  // the caller's triangles may come with another topology
   const std::size_t clip_bytes = static_cast<std::size_t>(p.num_vertices) * 4 * sizeof(float);
@@ -474,7 +497,7 @@ GpuTimes Frame::load_gbuffer(const raster::RasterParams<float>& p, const GpuRast
                                                     {5, kLarge}, {6, kTriId}, {7, kRast}, {8, kDb}});
   const RasterPush push{s.width, s.height, static_cast<std::int32_t>(p.num_vertices),
                         static_cast<std::int32_t>(p.num_tris), 0, 0, s.y_up ? 1 : 0, 0};
-  s.dev.run([&](VkCommandBuffer cb) {
+  auto record = [&](VkCommandBuffer cb) {
     s.timestamps.begin(cb, 3);
     std::size_t offset = 0;
     const std::pair<Role, std::size_t> parts[5] = {
@@ -490,10 +513,11 @@ GpuTimes Frame::load_gbuffer(const raster::RasterParams<float>& p, const GpuRast
     dispatch(cb, s.k, s.k.project, &push, p.num_vertices, 256);
     barrier(cb);
     s.timestamps.stamp(cb, 2);
-  });
+  };
+  s.ticket = s.dev.run(record, [] {});
   s.finish_triangles(tri_bytes);
   s.rasterized = true;
-  return s.timestamps.read();
+  return s.times();
 }
 
 GpuTimes Frame::interpolate(const float* attr, std::int64_t channels, float* out, const std::int32_t* diff,
@@ -514,6 +538,7 @@ GpuTimes Frame::interpolate(const float* attr, std::int64_t channels, float* out
       throw IndexError(std::string(op) + ": diff[" + std::to_string(j) + "] = " + std::to_string(diff[j]) +
                        " is not a channel in [0, " + std::to_string(channels) + ")");
   std::lock_guard<std::mutex> lock(s.dev.mutex);
+  s.settle();
   s.channels = channels;
   s.num_diff = num_diff;
   s.ip_serial = 0;
@@ -538,7 +563,7 @@ GpuTimes Frame::interpolate(const float* attr, std::int64_t channels, float* out
   const InterpolatePush push{s.width, s.height, static_cast<std::int32_t>(s.num_vertices),
                              static_cast<std::int32_t>(s.num_tris), static_cast<std::int32_t>(channels),
                              0, static_cast<std::int32_t>(num_diff), 0};
-  s.dev.run([&](VkCommandBuffer cb) {
+  auto record = [&](VkCommandBuffer cb) {
     s.timestamps.begin(cb, 4);
     copy(cb, s.upload.handle(), 0, s[kAttr].handle(), 0, attr_bytes);
     copy(cb, s.upload.handle(), attr_bytes, s[kDiff].handle(), 0, diff_bytes);
@@ -552,12 +577,15 @@ GpuTimes Frame::interpolate(const float* attr, std::int64_t channels, float* out
     copy(cb, s[kDa].handle(), 0, s.download.handle(), down[0], down[1]);
     barrier(cb);
     s.timestamps.stamp(cb, 3);
+  };
+  const std::size_t out_size = down[0], da_size = down[1];
+  s.ticket = s.dev.run(record, [&s, out, out_da, out_size, da_size] {
+    const char* got = static_cast<const char*>(s.download.mapped());
+    if (out_size) std::memcpy(out, got, out_size);
+    if (da_size) std::memcpy(out_da, got + out_size, da_size);
   });
   s.ip_serial = ++g_call_serial;
-  const char* got = static_cast<const char*>(s.download.mapped());
-  if (down[0]) std::memcpy(out, got, down[0]);
-  if (down[1]) std::memcpy(out_da, got + down[0], down[1]);
-  return s.timestamps.read();
+  return s.times();
 }
 
 GpuTimes Frame::interpolate_backward(const float* grad_out, const float* grad_da, float* grad_attr,
@@ -567,6 +595,7 @@ GpuTimes Frame::interpolate_backward(const float* grad_out, const float* grad_da
   if (!grad_out && s.pixels() * s.channels > 0)  // no channels: an empty grad_out (its data may be null)
     throw ValueError("vulkan interpolate_backward: grad_out is missing");
   std::lock_guard<std::mutex> lock(s.dev.mutex);
+  s.settle();
   // Without grad_da the derivatives get no gradient (nor does rast_db), as on the CPU.
   const std::int64_t N = s.num_vertices, C = s.channels, K = grad_da ? s.num_diff : 0, px = s.pixels();
   const std::size_t out_bytes = static_cast<std::size_t>(px * C) * sizeof(float);
@@ -607,7 +636,7 @@ GpuTimes Frame::interpolate_backward(const float* grad_out, const float* grad_da
                              static_cast<std::int32_t>(count)};
   const FinishPush finish{static_cast<std::int32_t>(sums), static_cast<std::int32_t>(sums), push.count, {}};
   const bool zero_rast = to_host || !s.grad_rast, zero_db = K > 0 && (to_host || !s.grad_db);
-  s.dev.run([&](VkCommandBuffer cb) {
+  auto record = [&](VkCommandBuffer cb) {
     s.timestamps.begin(cb, 6);
     copy(cb, s.upload.handle(), 0, s[kGradIn].handle(), 0, out_bytes + da_bytes);
     if (zero_rast) vkCmdFillBuffer(cb, s[gbuffer_grad].handle(), 0, plane, 0u);
@@ -621,16 +650,21 @@ GpuTimes Frame::interpolate_backward(const float* grad_out, const float* grad_da
     copy(cb, s[gbuffer_grad].handle(), plane, s.download.handle(), down[0] + down[1], down[2]);
     barrier(cb);
     s.timestamps.stamp(cb, 5);
+  };
+  // Values per host gradient: attr, rast, db.
+  const std::array<std::int64_t, 3> n{N * C, static_cast<std::int64_t>(down[1] / sizeof(float)),
+                                      static_cast<std::int64_t>(down[2] / sizeof(float))};
+  s.ticket = s.dev.run(record, [&s, n, grad_attr, grad_rast, grad_db] {
+    const float* got = static_cast<const float*>(s.download.mapped());
+    add_to(grad_attr, got, n[0]);
+    add_to(grad_rast, got + (grad_attr ? n[0] : 0), n[1]);
+    add_to(grad_db, got + (grad_attr ? n[0] : 0) + n[1], n[2]);
   });
   if (!to_host) {
     s.grad_rast = true;
     s.grad_db = s.grad_db || K > 0;
   }
-  const float* got = static_cast<const float*>(s.download.mapped());
-  add_to(grad_attr, got, N * C);
-  add_to(grad_rast, got + down[0] / sizeof(float), static_cast<std::int64_t>(down[1] / sizeof(float)));
-  add_to(grad_db, got + (down[0] + down[1]) / sizeof(float), static_cast<std::int64_t>(down[2] / sizeof(float)));
-  return s.timestamps.read();
+  return s.times();
 }
 
 GpuTimes Frame::antialias(const float* image, int channels, float* out, const raster::EdgeTopology* topology,
@@ -647,6 +681,7 @@ GpuTimes Frame::antialias(const float* image, int channels, float* out, const ra
   if (whole && whole->first == 0 && whole->num_tris == s.num_tris) whole = nullptr;  // the frame's own list
   if (whole) check_whole_triangles(*whole, s.tris, topology);
   std::lock_guard<std::mutex> lock(s.dev.mutex);
+  s.settle();
   s.aa_channels = -1;
   s.aa_serial = 0;
   const std::size_t px = static_cast<std::size_t>(s.pixels());
@@ -701,7 +736,7 @@ GpuTimes Frame::antialias(const float* image, int channels, float* out, const ra
   const std::int32_t first = whole ? static_cast<std::int32_t>(whole->first) : 0;
   const AntialiasPush push{s.width, s.height, static_cast<std::int32_t>(s.num_vertices), first, channels, 0,
                            s.y_up ? 1 : 0, visibility ? 1 : 0};
-  s.dev.run([&](VkCommandBuffer cb) {
+  auto record = [&](VkCommandBuffer cb) {
     s.timestamps.begin(cb, 5);
     if (image)
       copy(cb, s.upload.handle(), 0, s[kAaImage].handle(), 0, image_bytes);
@@ -721,6 +756,9 @@ GpuTimes Frame::antialias(const float* image, int channels, float* out, const ra
     if (out) copy(cb, s[kAaOut].handle(), 0, s.download.handle(), 0, image_bytes);
     barrier(cb);
     s.timestamps.stamp(cb, 4);
+  };
+  s.ticket = s.dev.run(record, [&s, out, image_bytes] {
+    if (out) std::memcpy(out, s.download.mapped(), image_bytes);
   });
   if (upload_topology) {
     if (topology)
@@ -740,8 +778,7 @@ GpuTimes Frame::antialias(const float* image, int channels, float* out, const ra
   s.aa_visibility = visibility;
   s.aa_whole = whole != nullptr;
   s.aa_first = first;
-  if (out) std::memcpy(out, s.download.mapped(), image_bytes);
-  return s.timestamps.read();
+  return s.times();
 }
 
 GpuTimes Frame::antialias_backward(const float* grad_out, float* grad_image, float* grad_clip) {
@@ -749,6 +786,7 @@ GpuTimes Frame::antialias_backward(const float* grad_out, float* grad_image, flo
   if (s.aa_channels < 0) throw ValueError("vulkan antialias_backward: the frame has no antialias to differentiate");
   if (!grad_out) throw ValueError("vulkan antialias_backward: grad_out is missing");
   std::lock_guard<std::mutex> lock(s.dev.mutex);
+  s.settle();
   const std::int64_t N = s.num_vertices, C = s.aa_channels, px = s.pixels();
   const std::size_t image_bytes = static_cast<std::size_t>(px * C) * sizeof(float);
   const std::size_t clip_bytes = static_cast<std::size_t>(N) * 4 * sizeof(float);
@@ -770,7 +808,7 @@ GpuTimes Frame::antialias_backward(const float* grad_out, float* grad_image, flo
                                  {9, kFinished}});
   AntialiasPush push{s.width, s.height, static_cast<std::int32_t>(N), s.aa_first, static_cast<std::int32_t>(C), 0,
                      s.y_up ? 1 : 0, s.aa_visibility ? 1 : 0};
-  s.dev.run([&](VkCommandBuffer cb) {
+  auto record = [&](VkCommandBuffer cb) {
     s.timestamps.begin(cb, 6);
     copy(cb, s.upload.handle(), 0, s[kAaGradOut].handle(), 0, image_bytes);
     barrier(cb);
@@ -781,11 +819,13 @@ GpuTimes Frame::antialias_backward(const float* grad_out, float* grad_image, flo
     copy(cb, s[kFinished].handle(), 0, s.download.handle(), image_bytes, clip_bytes);
     barrier(cb);
     s.timestamps.stamp(cb, 5);
+  };
+  s.ticket = s.dev.run(record, [&s, grad_image, grad_clip, px, C, N] {
+    const float* got = static_cast<const float*>(s.download.mapped());
+    add_to(grad_image, got, px * C);
+    add_to(grad_clip, got + px * C, N * 4);
   });
-  const float* got = static_cast<const float*>(s.download.mapped());
-  add_to(grad_image, got, px * C);
-  add_to(grad_clip, got + px * C, N * 4);
-  return s.timestamps.read();
+  return s.times();
 }
 
 std::uint64_t Frame::interpolate_serial() const {
@@ -820,6 +860,7 @@ GpuTimes Frame::rasterize_backward(const float* grad_rast, const float* grad_db,
   if (grad_db && !s.derivatives)
     throw ValueError("vulkan rasterize_backward: grad_db given, but the G-buffer was made without derivatives");
   std::lock_guard<std::mutex> lock(s.dev.mutex);
+  s.settle();
   const std::int64_t N = s.num_vertices, px = s.pixels();
   const std::size_t plane = static_cast<std::size_t>(px) * 4 * sizeof(float);
   const std::size_t host_bytes[2] = {grad_rast ? plane : 0, grad_db ? plane : 0};
@@ -846,7 +887,7 @@ GpuTimes Frame::rasterize_backward(const float* grad_rast, const float* grad_db,
   const GBufferPush push{s.width, s.height, static_cast<std::int32_t>(N), static_cast<std::int32_t>(s.num_tris),
                          0, s.y_up ? 1 : 0, flags, count};
   const FinishPush finish{static_cast<std::int32_t>(sums), static_cast<std::int32_t>(sums), count, {}};
-  s.dev.run([&](VkCommandBuffer cb) {
+  auto record = [&](VkCommandBuffer cb) {
     s.timestamps.begin(cb, 6);
     copy(cb, s.upload.handle(), 0, s[kHostGradGBuffer].handle(), 0, host_bytes[0]);
     copy(cb, s.upload.handle(), host_bytes[0], s[kHostGradGBuffer].handle(), plane, host_bytes[1]);
@@ -857,10 +898,12 @@ GpuTimes Frame::rasterize_backward(const float* grad_rast, const float* grad_db,
     copy(cb, s[kFinished].handle(), 0, s.download.handle(), 0, sums * sizeof(float));
     barrier(cb);
     s.timestamps.stamp(cb, 5);
+  };
+  s.ticket = s.dev.run(record, [&s, grad_clip, N] {
+    add_to(grad_clip, static_cast<const float*>(s.download.mapped()), 4 * N);
   });
   s.grad_rast = s.grad_db = false;  // consumed
-  add_to(grad_clip, static_cast<const float*>(s.download.mapped()), 4 * N);
-  return s.timestamps.read();
+  return s.times();
 }
 
 }  // namespace gr::vulkan

@@ -226,9 +226,11 @@ class RasterizeVulkanContext(RasterizeCpuContext):
         uploads that did: each frame keeps the last triangle list it uploaded, so an unchanged tri goes up once per
         frame; in range mode antialias on a range of some of tri also uploads the whole tri once per frame),
         'triangle_bytes', 'antialias_reused' (antialias backward calls, per image, that read the pairs their
-        forward kept on the device instead of recomputing them) and 'interpolate_reused' (interpolate backward
-        calls, per image, that read their forward's attributes there instead of interpolating again)
-        (docs/python.md, "Vulkan")."""
+        forward kept on the device instead of recomputing them), 'interpolate_reused' (interpolate backward
+        calls, per image, that read their forward's attributes there instead of interpolating again) and
+        'deferred_calls' (per-image calls of rasterize, interpolate and antialias, forward or backward, submitted to
+        the device without waiting: a minibatch's images run there while the host prepares the next, and the
+        call returns once all are done) (docs/python.md, "Vulkan")."""
         return dict(self.cpp_wrapper.residency)
 
     @property

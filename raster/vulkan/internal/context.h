@@ -4,9 +4,13 @@
 
 #include <vulkan/vulkan.h>
 
+#include <cstdint>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <string>
+#include <thread>
+#include <vector>
 
 #include "raster/vulkan/device.h"
 
@@ -39,13 +43,57 @@ struct Device::Impl {
   template <class Record>
   void run(Record&& record);
 
+  // Deferred calls (raster::DeferredCalls; the caller holds `mutex` for all
+  // of these). While the thread that called begin_deferring defers,
+  // run(record, finish) submits without waiting and keeps `finish` (what the
+  // call does with its results on the host) for complete(); elsewhere, and on
+  // other threads, it waits and runs finish at once. The device runs the
+  // deferred submissions while the host records the next.
+  template <class Record, class Finish>
+  std::uint64_t run(Record&& record, Finish&& finish);
+  // After the calls before it: at once unless this thread defers, else in
+  // call order at complete().
+  void then(std::function<void()> finish);
+  void begin_deferring();
+  // Ends one begin_deferring (the thread defers until every one has ended).
+  void end_deferring();
+  // Waits for every deferred submission, in call order, and runs their
+  // finishes (only the waits with write_outputs false: the caller is
+  // unwinding and the outputs may be gone). Rethrows the first failure
+  // after waiting for them all.
+  void complete(bool write_outputs = true);
+  // True while calls up to `ticket` (run's return) may still be pending: a
+  // Frame completes them before touching the buffers they use.
+  bool pending(std::uint64_t ticket) const { return ticket > completed_; }
+  // Submissions made without waiting so far (deferred).
+  std::int64_t deferred_submissions() const { return deferred_total_; }
+
  private:
   VkCommandBuffer begin();
+  // A command buffer begun and recorded by `record` (freed if it throws).
+  template <class Record>
+  VkCommandBuffer recorded(Record&& record);
+  // Ends cb and submits it with a new fence, which it returns; frees cb and throws on failure.
+  VkFence submit(VkCommandBuffer cb);
   void submit_and_wait(VkCommandBuffer cb);
+  bool deferring() const { return deferring_depth_ > 0 && deferring_thread_ == std::this_thread::get_id(); }
+  // Submits cb with a fence of its own, kept in pending_ with finish.
+  void submit_deferred(VkCommandBuffer cb, std::function<void()> finish);
+
+  struct Pending {
+    VkCommandBuffer cb = VK_NULL_HANDLE;  // null: a `then` step
+    VkFence fence = VK_NULL_HANDLE;
+    std::function<void()> finish;
+  };
+  std::vector<Pending> pending_;
+  std::thread::id deferring_thread_;
+  int deferring_depth_ = 0;
+  std::uint64_t issued_ = 0, completed_ = 0;  // tickets of run(record, finish)
+  std::int64_t deferred_total_ = 0;
 };
 
 template <class Record>
-void Device::Impl::run(Record&& record) {
+VkCommandBuffer Device::Impl::recorded(Record&& record) {
   VkCommandBuffer cb = begin();
   try {
     record(cb);
@@ -53,7 +101,23 @@ void Device::Impl::run(Record&& record) {
     vkFreeCommandBuffers(device, command_pool, 1, &cb);
     throw;
   }
-  submit_and_wait(cb);
+  return cb;
+}
+
+template <class Record>
+void Device::Impl::run(Record&& record) {
+  submit_and_wait(recorded(std::forward<Record>(record)));
+}
+
+template <class Record, class Finish>
+std::uint64_t Device::Impl::run(Record&& record, Finish&& finish) {
+  if (!deferring()) {
+    run(std::forward<Record>(record));
+    finish();
+    return 0;  // never pending
+  }
+  submit_deferred(recorded(std::forward<Record>(record)), std::function<void()>(std::forward<Finish>(finish)));
+  return ++issued_;
 }
 
 }  // namespace gr::vulkan

@@ -8,11 +8,14 @@
 // device's copies (no upload; range mode's antialias too, reading the whole
 // triangle list, which its topology indexes, with the copy's ids offset by
 // the range's first row); with more they upload the host's, with the same
-// results.
+// results. The batch ops defer their calls (raster::DeferredCalls): the same
+// bits as calls waited for one by one.
 #include <catch2/catch.hpp>
 
 #include <cstring>
+#include <limits>
 #include <memory>
+#include <thread>
 #include <vector>
 
 #include "ops/ops.h"
@@ -240,4 +243,72 @@ TEST_CASE("a batch G-buffer written in place is uploaded by the batch ops with t
   const Tensor after = interpolate_batch(in.attr, gb, in.tris);
   CHECK(vulkan::residency_stats(*backend).uploads == uploads + kImages);
   CHECK(same_bits(values_of(after), values_of(before)));
+}
+
+namespace {
+
+bool same_run(const Run& a, const Run& b) {
+  return a.tri_id == b.tri_id && same_bits(a.uv, b.uv) && same_bits(a.depth, b.depth) && same_bits(a.db, b.db) &&
+         same_bits(a.shaded, b.shaded) && same_bits(a.image, b.image) && same_bits(a.grad_clip, b.grad_clip) &&
+         same_bits(a.grad_attr, b.grad_attr);
+}
+
+}  // namespace
+
+TEST_CASE("a batch's calls on a Vulkan backend are deferred and give the bits of calls waited for one by one",
+          "[vulkan][batch]") {
+  if (!shared_gpu()) return;
+  struct Case {
+    const char* name;
+    Batch in;
+    bool visibility;
+  };
+  const Case cases[] = {{"instanced", instanced_batch(), false},
+                        {"instanced, visibility", instanced_batch(), true},
+                        {"range mode", range_batch(), false}};
+  for (const Case& c : cases)
+    for (int frames : {4, 2, 1}) {  // 2 and 1: frames reused within a batch, so calls wait for earlier ones
+      INFO(c.name << ", " << frames << " frames");
+      const auto deferring = vulkan::raster_backend(shared_gpu(), frames, true);
+      const auto waiting = vulkan::raster_backend(shared_gpu(), frames, false);
+      const Run deferred = run_batch(c.in, 40, 32, deferring, c.visibility);
+      const Run waited = run_batch(c.in, 40, 32, waiting, c.visibility);
+      CHECK(same_run(deferred, waited));
+      CHECK(vulkan::residency_stats(*waiting).deferred_calls == 0);
+      if (frames == 4)  // each image's six calls (rasterize, interpolate, antialias, their adjoints)
+        CHECK(vulkan::residency_stats(*deferring).deferred_calls == 6 * kImages);
+      else
+        CHECK(vulkan::residency_stats(*deferring).deferred_calls > 0);
+    }
+}
+
+TEST_CASE("a call that fails among deferred calls leaves the backend giving the CPU's results", "[vulkan][batch]") {
+  if (!shared_gpu()) return;
+  const auto backend = vulkan::raster_backend(shared_gpu(), 4);
+  const Scene good = random_soup(30, 5);
+  Scene bad = good;
+  bad.clip[5] = std::numeric_limits<float>::quiet_NaN();
+  std::vector<std::int32_t> ids(24 * 16);
+  std::vector<float> uv(2 * 24 * 16), depth(24 * 16);
+  {
+    raster::DeferredCalls deferred(backend.get());
+    CHECK(backend->rasterize_gbuffer(good.params(24, 16), ids.data(), uv.data(), depth.data(), nullptr, nullptr));
+    CHECK_THROWS_AS(
+        backend->rasterize_gbuffer(bad.params(24, 16), ids.data(), uv.data(), depth.data(), nullptr, nullptr),
+        ValueError);
+  }  // unwound without finish(): the device finishes, nothing is written
+  expect_cpu_results(instanced_batch(), 40, 32, backend);
+}
+
+TEST_CASE("two threads running batches on one deferring backend get the single-threaded bits", "[vulkan][batch]") {
+  if (!shared_gpu()) return;
+  const auto backend = vulkan::raster_backend(shared_gpu(), 4);
+  const Batch a = instanced_batch(), b = range_batch();
+  const Run alone_a = run_batch(a, 40, 32, backend), alone_b = run_batch(b, 40, 32, backend, false);
+  Run together_a, together_b;
+  std::thread other([&] { together_b = run_batch(b, 40, 32, backend); });
+  together_a = run_batch(a, 40, 32, backend);
+  other.join();
+  CHECK(same_run(together_a, alone_a));
+  CHECK(same_run(together_b, alone_b));
 }
