@@ -127,3 +127,45 @@ def test_arguments_that_are_not_tensors_are_type_errors_naming_them(glctx, scene
         dr.rasterize(glctx, pos.numpy(), tri, (8, 8))
     with pytest.raises(TypeError, match="'tex' must be a torch.Tensor"):
         dr.texture(None, torch.zeros(1, 2, 2, 2))
+
+
+def test_a_resolution_of_integer_tensors_is_taken_as_nvdiffrast_takes_it(glctx, scene):
+    pos, tri, rast, db = scene
+    for resolution in (torch.tensor([8, 8]), (torch.tensor(8), 8), torch.tensor([8, 8], dtype=torch.int32)):
+        got, got_db = dr.rasterize(glctx, pos, tri, resolution)
+        assert torch.equal(got, rast) and torch.equal(got_db, db)
+    with pytest.raises(TypeError, match="'resolution' height must be an integer, got tensor"):
+        dr.rasterize(glctx, pos, tri, torch.tensor([8.0, 8.0]))
+    with pytest.raises(TypeError, match="'resolution' width must be an integer"):
+        dr.rasterize(glctx, pos, tri, (8, torch.tensor(True)))
+    with pytest.raises(ValueError, match="'resolution' height = -8 is outside"):
+        dr.rasterize(glctx, pos, tri, torch.tensor([-8, 8]))
+
+
+def test_a_0_dim_tensor_is_taken_for_a_number_argument(glctx, scene):
+    pos, tri, rast, _ = scene
+    color = torch.rand(1, 8, 8, 2, dtype=torch.float64)
+    boost = dr.antialias(color, rast, pos, tri, pos_gradient_boost=torch.tensor(2.0))
+    assert torch.equal(boost, dr.antialias(color, rast, pos, tri, pos_gradient_boost=2.0))
+    with pytest.raises(ValueError, match="'pos_gradient_boost' must be a finite number"):
+        dr.antialias(color, rast, pos, tri, pos_gradient_boost=torch.tensor([2.0]))
+    tex = torch.rand(1, 8, 8, 2, dtype=torch.float64)
+    uv = torch.rand(1, 3, 3, 2, dtype=torch.float64)
+    bias = torch.full((1, 3, 3), 2.0, dtype=torch.float64)
+    assert torch.equal(dr.texture(tex, uv, mip_level_bias=bias, max_mip_level=torch.tensor(1)),
+                       dr.texture(tex, uv, mip_level_bias=bias, max_mip_level=1))
+    with pytest.raises(ValueError, match="'max_mip_level' must be None or an integer >= 0"):
+        dr.texture(tex, uv, mip_level_bias=bias, max_mip_level=torch.tensor(1.0))
+
+
+def test_arguments_of_the_wrong_kind_are_type_errors_naming_them_not_torch_or_python_internals(scene):
+    pos, tri, rast, db = scene
+    with pytest.raises(TypeError, match="'diff_attrs' must be 'all' or a list of attribute indices, got 1"):
+        dr.interpolate(pos[0], rast, tri, db, diff_attrs=1)
+    with pytest.raises(TypeError, match="'diff_attrs' must be 'all' or a list of attribute indices"):
+        dr.interpolate(pos[0], rast, tri, db, diff_attrs=torch.tensor(1))
+    tex, uv = torch.rand(1, 4, 4, 1, dtype=torch.float64), torch.rand(1, 2, 2, 2, dtype=torch.float64)
+    with pytest.raises(ValueError, match="'filter_mode' must be one of"):
+        dr.texture(tex, uv, filter_mode=['linear'])
+    with pytest.raises(ValueError, match="'boundary_mode' must be one of"):
+        dr.texture(tex, uv, boundary_mode={'wrap': 0})

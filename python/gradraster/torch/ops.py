@@ -101,17 +101,38 @@ def _rast(name, rast, like=None):
     return rast
 
 
+def _integer(v):
+    """v as an int if it is an integer (a Python or numpy integer, or a 0-dim integer tensor on the CPU, which
+    nvdiffrast's C++ arguments take too), else None; True and False are not integers here."""
+    if isinstance(v, torch.Tensor):
+        integral = v.dtype != torch.bool and not v.is_floating_point() and not v.is_complex()
+        return int(v.item()) if v.dim() == 0 and integral and v.device.type == 'cpu' else None
+    return None if isinstance(v, bool) or not isinstance(v, numbers.Integral) else int(v)
+
+
+def _real(v):
+    """v as a float if it is a real number (a Python or numpy number, or a 0-dim real tensor on the CPU), else
+    None; True and False are not numbers here."""
+    if isinstance(v, torch.Tensor):
+        real = v.dtype != torch.bool and not v.is_complex()
+        return float(v.item()) if v.dim() == 0 and real and v.device.type == 'cpu' else None
+    return None if isinstance(v, bool) or not isinstance(v, numbers.Real) else float(v)
+
+
 def _resolution(resolution):
     try:
         h, w = resolution
     except (TypeError, ValueError):
         raise ValueError(f"'resolution' must be (height, width), got {resolution!r}") from None
+    sides = []
     for name, v in (('height', h), ('width', w)):
-        if isinstance(v, bool) or not isinstance(v, numbers.Integral):
+        side = _integer(v)
+        if side is None:
             raise TypeError(f"'resolution' {name} must be an integer, got {v!r}")
-        if not 1 <= v <= _MAX_SIDE:
-            raise ValueError(f"'resolution' {name} = {v} is outside 1..{_MAX_SIDE}")
-    return int(h), int(w)
+        if not 1 <= side <= _MAX_SIDE:
+            raise ValueError(f"'resolution' {name} = {side} is outside 1..{_MAX_SIDE}")
+        sides.append(side)
+    return tuple(sides)
 
 
 def _mesh(pos, tri, ranges, op):
@@ -421,8 +442,13 @@ def _diff_list(diff_attrs, channels):
         if diff_attrs != 'all':
             raise ValueError(f"'diff_attrs' must be 'all' or a list of attribute indices, got {diff_attrs!r}")
         return list(range(channels))
+    indices = diff_attrs.tolist() if isinstance(diff_attrs, torch.Tensor) else diff_attrs
+    try:
+        indices = iter(indices)
+    except TypeError:
+        raise TypeError(f"'diff_attrs' must be 'all' or a list of attribute indices, got {diff_attrs!r}") from None
     out = []
-    for d in (diff_attrs.tolist() if isinstance(diff_attrs, torch.Tensor) else diff_attrs):
+    for d in indices:
         if isinstance(d, bool) or not isinstance(d, numbers.Integral):
             raise TypeError(f"'diff_attrs' must hold integers, got {d!r}")
         if not 0 <= d < channels:
@@ -582,15 +608,15 @@ class _AntialiasFunc(torch.autograd.Function):
 
 
 def _apply_antialias(color, rast, pos, tri, topology_hash, pos_gradient_boost, visibility):
-    if isinstance(pos_gradient_boost, bool) or not isinstance(pos_gradient_boost, numbers.Real) \
-            or not (abs(float(pos_gradient_boost)) < float('inf')):
+    boost = _real(pos_gradient_boost)
+    if boost is None or not abs(boost) < float('inf'):
         raise ValueError(f"'pos_gradient_boost' must be a finite number, got {pos_gradient_boost!r}")
     _check_antialias(color, rast, pos, tri)
     if topology_hash is None:
         topology_hash = _own_topology(tri, pos.shape[-2], 'visibility_antialias' if visibility else 'antialias')
     elif not isinstance(topology_hash, _core.Topology):
         raise TypeError("'topology_hash' must come from antialias_construct_topology_hash(tri)")
-    return _AntialiasFunc.apply(color, rast, pos, tri, topology_hash, float(pos_gradient_boost), visibility,
+    return _AntialiasFunc.apply(color, rast, pos, tri, topology_hash, boost, visibility,
                                 _device(origin(rast)), _kept(rast, pos=pos, tri=tri))
 
 
@@ -765,10 +791,11 @@ def _texture_tensor(tex, cube=False):
 def _max_mip_level(max_mip_level):
     if max_mip_level is None:
         return -1
-    if isinstance(max_mip_level, bool) or not isinstance(max_mip_level, numbers.Integral) or max_mip_level < 0:
+    level = _integer(max_mip_level)
+    if level is None or level < 0:
         raise ValueError(f"'max_mip_level' must be None or an integer >= 0, got {max_mip_level!r}")
     # A limit past the chain's last level (at most 15 for 32768 texels) is the whole chain, however large.
-    return min(int(max_mip_level), _MAX_MIP_LEVEL)
+    return min(level, _MAX_MIP_LEVEL)
 
 
 def texture_construct_mip(tex, max_mip_level=None, cube_mode=False):
@@ -800,10 +827,10 @@ def texture(tex, uv, uv_da=None, mip_level_bias=None, mip=None, filter_mode='aut
     """
     if filter_mode == 'auto':
         filter_mode = 'linear-mipmap-linear' if (uv_da is not None or mip_level_bias is not None) else 'linear'
-    if filter_mode not in _FILTERS:
+    if not isinstance(filter_mode, str) or filter_mode not in _FILTERS:
         raise ValueError(f"'filter_mode' must be one of 'auto', 'nearest', 'linear', 'linear-mipmap-nearest', "
                          f"'linear-mipmap-linear', got {filter_mode!r}")
-    if boundary_mode not in _BOUNDARIES:
+    if not isinstance(boundary_mode, str) or boundary_mode not in _BOUNDARIES:
         raise ValueError(f"'boundary_mode' must be one of 'wrap', 'clamp', 'zero', 'cube', got {boundary_mode!r}")
     max_level = _max_mip_level(max_mip_level)
     cube = boundary_mode == 'cube'
