@@ -99,3 +99,17 @@ def test_grad_db_false_stops_the_gradient_of_rast_db(glctx):
     _, db = dr.rasterize(glctx, pos, tri, (12, 10), grad_db=False)
     db.sum().backward()
     assert torch.count_nonzero(pos.grad) == 0
+
+
+@pytest.mark.parametrize('pos, dtype', [
+    # A held-out probe's triangles: the near clip's crossing rounds to w = 0, and the clip at w >= eps then
+    # returned 6 vertices into a buffer of 5 (a crash).
+    ([[0.0, 0.0, 1.0, 8.450317805236423e-30], [0.0, 0.0, -6e21, 3.145296033664205e16],
+      [-1.4666088645753916e-06, 0.13414649665355682, 0.0, 1.0]], torch.float32),
+    ([[-0.4, 0.1, -1e300, 1.0], [1.0, 0.1, 0.5, 1e-300], [1.0, 0.1, 0.5, 0.0]], torch.float64),
+])
+def test_a_near_clip_crossing_that_rounds_to_w_zero_gives_a_valid_gbuffer(glctx, pos, dtype):
+    rast, db = dr.rasterize(glctx, torch.tensor([pos], dtype=dtype), torch.tensor([[0, 1, 2]], dtype=torch.int32),
+                            (16, 16))
+    assert set(rast[..., 3].flatten().tolist()) <= {0.0, 1.0}
+    assert torch.isfinite(rast).all() and torch.isfinite(db).all()
