@@ -276,8 +276,8 @@ class VulkanBackend : public raster::RasterBackend {
     } unlock{mutex_};
     Device::Impl& dev = device_->impl();
     std::lock_guard<std::mutex> lock(dev.mutex);
-    dev.end_deferring();
     if (--deferring_ == 0) stats_.deferred_calls += dev.deferred_submissions() - deferred_before_;
+    dev.end_deferring();
     dev.complete(write_outputs);
   }
 

@@ -17,10 +17,7 @@ void check(VkResult r, const char* what) {
 
 Device::Impl::~Impl() {
   if (device) {
-    try {
-      complete(false);  // deferred calls nobody finished
-    } catch (...) {
-    }
+    settle_pending([](const Pending&) { return false; });  // calls nobody finished: their outputs may be gone
     vkDeviceWaitIdle(device);
     default_frame.reset();
     texture_buffers.reset();
@@ -83,29 +80,48 @@ void Device::Impl::submit_and_wait(VkCommandBuffer cb) {
 
 void Device::Impl::submit_deferred(VkCommandBuffer cb, std::function<void()> finish) {
   pending_.reserve(pending_.size() + 1);  // no throw once submitted
-  pending_.push_back({cb, submit(cb), std::move(finish)});
-  ++deferred_total_;
+  pending_.push_back({cb, submit(cb), std::move(finish), std::this_thread::get_id()});
+  ++deferring_entry()->submissions;
+}
+
+const Device::Impl::Deferring* Device::Impl::deferring_entry() const {
+  for (const Deferring& d : deferring_)
+    if (d.thread == std::this_thread::get_id()) return &d;
+  return nullptr;
+}
+
+Device::Impl::Deferring* Device::Impl::deferring_entry() {
+  return const_cast<Deferring*>(static_cast<const Impl*>(this)->deferring_entry());
+}
+
+bool Device::Impl::deferring() const { return deferring_entry() != nullptr; }
+
+std::int64_t Device::Impl::deferred_submissions() const {
+  const Deferring* d = deferring_entry();
+  return d ? d->submissions : 0;
 }
 
 void Device::Impl::then(std::function<void()> finish) {
   if (deferring())
-    pending_.push_back({VK_NULL_HANDLE, VK_NULL_HANDLE, std::move(finish)});
+    pending_.push_back({VK_NULL_HANDLE, VK_NULL_HANDLE, std::move(finish), std::this_thread::get_id()});
   else
     finish();
 }
 
 void Device::Impl::begin_deferring() {
-  if (deferring_depth_ > 0 && deferring_thread_ != std::this_thread::get_id())
-    throw Error("vulkan: another thread is deferring calls on this device");
-  deferring_thread_ = std::this_thread::get_id();
-  ++deferring_depth_;
+  if (Deferring* d = deferring_entry())
+    ++d->begins;
+  else
+    deferring_.push_back({std::this_thread::get_id(), 1, 0});
 }
 
 void Device::Impl::end_deferring() {
-  if (deferring_depth_ > 0 && --deferring_depth_ == 0) deferring_thread_ = std::thread::id();
+  Deferring* d = deferring_entry();
+  if (d && --d->begins == 0) deferring_.erase(deferring_.begin() + (d - deferring_.data()));
 }
 
-void Device::Impl::complete(bool write_outputs) {
+template <class Run>
+VkResult Device::Impl::settle_pending(Run run) {
   // Every submission is waited for (its buffers are in use until then) even
   // after one fails; the finishes stop at the first failure.
   VkResult failed = VK_SUCCESS;
@@ -118,10 +134,16 @@ void Device::Impl::complete(bool write_outputs) {
       vkDestroyFence(device, p.fence, nullptr);
       vkFreeCommandBuffers(device, command_pool, 1, &p.cb);
     }
-    if (write_outputs && failed == VK_SUCCESS) p.finish();
+    if (failed == VK_SUCCESS && run(p)) p.finish();
   }
   completed_ = issued_;
-  check(failed, "waiting for a deferred submission");
+  return failed;
+}
+
+void Device::Impl::complete(bool write_own_outputs) {
+  const std::thread::id me = std::this_thread::get_id();
+  check(settle_pending([&](const Pending& p) { return write_own_outputs || p.thread != me; }),
+        "waiting for a deferred submission");
 }
 
 namespace {

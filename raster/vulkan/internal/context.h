@@ -44,11 +44,12 @@ struct Device::Impl {
   void run(Record&& record);
 
   // Deferred calls (raster::DeferredCalls; the caller holds `mutex` for all
-  // of these). While the thread that called begin_deferring defers,
+  // of these). On a thread between begin_deferring and end_deferring,
   // run(record, finish) submits without waiting and keeps `finish` (what the
-  // call does with its results on the host) for complete(); elsewhere, and on
-  // other threads, it waits and runs finish at once. The device runs the
-  // deferred submissions while the host records the next.
+  // call does with its results on the host) for complete(); on other threads
+  // it waits and runs finish at once. The device runs the deferred
+  // submissions while the host records the next. Several threads may defer
+  // at once (each on its own frames).
   template <class Record, class Finish>
   std::uint64_t run(Record&& record, Finish&& finish);
   // After the calls before it: at once unless this thread defers, else in
@@ -57,16 +58,17 @@ struct Device::Impl {
   void begin_deferring();
   // Ends one begin_deferring (the thread defers until every one has ended).
   void end_deferring();
-  // Waits for every deferred submission, in call order, and runs their
-  // finishes (only the waits with write_outputs false: the caller is
-  // unwinding and the outputs may be gone). Rethrows the first failure
-  // after waiting for them all.
-  void complete(bool write_outputs = true);
+  // Waits for every deferred submission (every thread's), in call order,
+  // and runs their finishes; with write_own_outputs false, not those of the
+  // calling thread's calls (it is unwinding and their outputs may be gone).
+  // Rethrows the first failure after waiting for them all.
+  void complete(bool write_own_outputs = true);
   // True while calls up to `ticket` (run's return) may still be pending: a
   // Frame completes them before touching the buffers they use.
   bool pending(std::uint64_t ticket) const { return ticket > completed_; }
-  // Submissions made without waiting so far (deferred).
-  std::int64_t deferred_submissions() const { return deferred_total_; }
+  // The submissions this thread has made without waiting since its first
+  // begin_deferring (0 when it is not deferring).
+  std::int64_t deferred_submissions() const;
 
  private:
   VkCommandBuffer begin();
@@ -76,7 +78,7 @@ struct Device::Impl {
   // Ends cb and submits it with a new fence, which it returns; frees cb and throws on failure.
   VkFence submit(VkCommandBuffer cb);
   void submit_and_wait(VkCommandBuffer cb);
-  bool deferring() const { return deferring_depth_ > 0 && deferring_thread_ == std::this_thread::get_id(); }
+  bool deferring() const;
   // Submits cb with a fence of its own, kept in pending_ with finish.
   void submit_deferred(VkCommandBuffer cb, std::function<void()> finish);
 
@@ -84,12 +86,21 @@ struct Device::Impl {
     VkCommandBuffer cb = VK_NULL_HANDLE;  // null: a `then` step
     VkFence fence = VK_NULL_HANDLE;
     std::function<void()> finish;
+    std::thread::id thread;  // that made the call
   };
   std::vector<Pending> pending_;
-  std::thread::id deferring_thread_;
-  int deferring_depth_ = 0;
+  struct Deferring {
+    std::thread::id thread;
+    int begins;                // not yet ended
+    std::int64_t submissions;  // made without waiting
+  };
+  std::vector<Deferring> deferring_;
+  const Deferring* deferring_entry() const;  // this thread's, or null
+  Deferring* deferring_entry();
+  // Waits for every pending submission and frees it; runs the finishes `run` accepts.
+  template <class Run>
+  VkResult settle_pending(Run run);
   std::uint64_t issued_ = 0, completed_ = 0;  // tickets of run(record, finish)
-  std::int64_t deferred_total_ = 0;
 };
 
 template <class Record>

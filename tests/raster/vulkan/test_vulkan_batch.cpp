@@ -312,3 +312,21 @@ TEST_CASE("two threads running batches on one deferring backend get the single-t
   CHECK(same_run(together_a, alone_a));
   CHECK(same_run(together_b, alone_b));
 }
+
+TEST_CASE("two threads running batches on two backends of one device defer at once and get the single-threaded bits",
+          "[vulkan][batch]") {
+  if (!shared_gpu()) return;
+  const auto first = vulkan::raster_backend(shared_gpu(), 4), second = vulkan::raster_backend(shared_gpu(), 4);
+  const Batch a = instanced_batch(), b = range_batch();
+  const Run alone_a = run_batch(a, 40, 32, first), alone_b = run_batch(b, 40, 32, second);
+  for (int round = 0; round < 3; ++round) {
+    Run together_a, together_b;
+    std::thread other([&] { together_b = run_batch(b, 40, 32, second); });
+    together_a = run_batch(a, 40, 32, first);
+    other.join();
+    CHECK(same_run(together_a, alone_a));
+    CHECK(same_run(together_b, alone_b));
+  }
+  CHECK(vulkan::residency_stats(*first).deferred_calls == 4 * 6 * kImages);
+  CHECK(vulkan::residency_stats(*second).deferred_calls == 4 * 6 * kImages);
+}
