@@ -1,5 +1,7 @@
 // The Frame's calls: each records its uploads, passes and downloads into one
-// command buffer with timestamps between them, submits it and waits.
+// command buffer with timestamps between them, submits it and waits, then
+// copies the downloads into the caller's arrays; on a thread that defers
+// (Device::Impl::run), the waiting and copying happen at the deferral's end.
 #include "raster/vulkan/frame.h"
 
 #include <array>

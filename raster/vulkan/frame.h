@@ -21,7 +21,10 @@
 // summed in fixed point).
 //
 // A Frame is used by one thread at a time; Frames on one device share its
-// queue (calls are serialized).
+// queue (calls are serialized). Between a backend's begin_deferred and
+// end_deferred (raster::DeferredCalls) a call may return before its outputs
+// are written (at the end, in call order) and its GpuTimes are then empty;
+// inputs are read during the call.
 #pragma once
 
 #include <cstdint>
