@@ -2,7 +2,8 @@
 # Runs on a lent GPU machine over the files scripts/device_pack.sh put in
 # .devcarry/ (docs/gpu.md, "Measuring on a GPU"): the machine, the [vulkan]
 # tests on its GPU, bench_gpu_rasterize (GPU against CPU, tri_id compared), bench_gpu_texture,
-# and the fit example's thread scaling (bench/fit_threads.sh). Writes logs to
+# bench_gpu_op_chain (the ops' chain, and a batch's calls deferred against waited for), and the
+# fit example's thread scaling (bench/fit_threads.sh). Writes logs to
 # $OUT (or ./device-out). Usage: scripts/device_check.sh [fit rounds]
 set -uo pipefail
 cd "$(dirname "$0")/.."
@@ -41,4 +42,7 @@ nvidia-smi --query-gpu=clocks.sm,clocks.max.sm --format=csv,noheader 2>&1 | sed 
 timeout 120 "$bin/bench_gpu_texture" --benchmark_min_time=0.1 --benchmark_repetitions=5 \
   --benchmark_report_aggregates_only=true --benchmark_out="$out/gpu_texture.json" 2>&1 | tee "$out/gpu_texture.txt" |
   grep -E 'median|Benchmark|rror'
+timeout 180 "$bin/bench_gpu_op_chain" --benchmark_filter='BatchChain|OpChain/backend:1' --benchmark_min_time=0.1 \
+  --benchmark_repetitions=5 --benchmark_enable_random_interleaving=true --benchmark_report_aggregates_only=true \
+  --benchmark_out="$out/gpu_op_chain.json" 2>&1 | tee "$out/gpu_op_chain.txt" | grep -E 'median|Benchmark|rror'
 bench/fit_threads.sh .devcarry/build 512 12 "$rounds" 1 4 8 16 2>&1 | tee "$out/fit_threads.txt"

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Packs what scripts/device_check.sh runs on a lent GPU machine (docs/gpu.md,
 # "Measuring on a GPU") into .devcarry/ (git-ignored): a portable x86-64-v3
-# build of gradraster-fit, bench_gpu_rasterize, bench_gpu_texture and the [vulkan] tests, the
+# build of gradraster-fit, bench_gpu_rasterize, bench_gpu_texture, bench_gpu_op_chain and the [vulkan] tests, the
 # shared libraries they load (TBB, Google Benchmark, tinyobjloader, stb, the
 # Vulkan loader) and the glmark2 bunny; and into .gl/ Debian's Vulkan loader
 # and glvnd packages (both git-ignored). Run it with `carry: [".devcarry", ".gl"]`. Usage: scripts/device_pack.sh [build dir]
@@ -13,11 +13,12 @@ cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release -DGRADRASTER_NATIVE=OFF -DCMAK
 # gradraster_vulkan_tests: the [vulkan] Catch2 cases alone (tests/CMakeLists.txt;
 # the full test binary is not needed there), linked as the test binary is.
 cmake --build "$build" -j "$(nproc)" --target gradraster-fit bench_gpu_rasterize bench_gpu_texture \
-  gradraster_vulkan_tests
+  bench_gpu_op_chain gradraster_vulkan_tests
 rm -rf .devcarry
 mkdir -p .devcarry/build/examples/fit .devcarry/build/bench .devcarry/lib
 cp "$build/examples/fit/gradraster-fit" .devcarry/build/examples/fit/
-cp "$build/bench/bench_gpu_rasterize" "$build/bench/bench_gpu_texture" .devcarry/build/bench/
+cp "$build/bench/bench_gpu_rasterize" "$build/bench/bench_gpu_texture" "$build/bench/bench_gpu_op_chain" \
+  .devcarry/build/bench/
 cp "$build/tests/gradraster_vulkan_tests" .devcarry/build/bench/vulkan_tests
 for lib in libtbb.so.12 libbenchmark.so.1debian libtinyobjloader.so.2rc10 libstb.so.0 libvulkan.so.1; do
   cp -L "/lib/x86_64-linux-gnu/$lib" .devcarry/lib/
