@@ -80,6 +80,12 @@ SsrHit trace_view_space(const SsrDepth& d, const Mat4& m, const SsrRay& ray, int
     return depth_behind(d, i, j, q[2]);
   };
 
+  {
+    // The origin projects into its pixel; off the screen, no tracer marches (screen_line).
+    double xs, ys;
+    int i, j;
+    if (!pixel_of(ray.origin, xs, ys, i, j)) return no_hit(0);
+  }
   const int steps = o.max_steps;
   double prev = 0;
   for (int n = 1; n <= steps; ++n) {
@@ -156,6 +162,11 @@ ScreenLine screen_line(const Mat4& m, int W, int H, const SsrRay& ray) {
   double P0[2] = {0.5 * W * (1 + h0.x * k0), 0.5 * H * (1 - h0.y * k0)};
   double P1[2] = {0.5 * W * (1 + h1.x * k1), 0.5 * H * (1 - h1.y * k1)};
   if (!(std::isfinite(P0[0]) && std::isfinite(P0[1]) && std::isfinite(P1[0]) && std::isfinite(P1[1]))) return L;
+  // A pixel's point projects into that pixel. An origin off the screen (a
+  // position that does not belong to its pixel, or another projection) has no
+  // line to march: it could lie 2^31 pixels away (no int holds its pixel) and
+  // the reference would take s_end / reference_step steps to reach the screen.
+  if (!(P0[0] >= 0 && P0[0] < W && P0[1] >= 0 && P0[1] < H)) return L;
   // Clip the end to the screen rectangle (everything is affine in screen space, so
   // Q and k are cut at the same fraction): rays leaving the screen stop at its edge.
   const double lim[2] = {W - 1e-6, H - 1e-6};
