@@ -30,6 +30,12 @@ Clip to_clip(const Mat4& m, const Vec3& p) {
 
 bool finite3(const Vec3& v) { return std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]); }
 
+// Finite once stored as T (false for NaN, Inf and doubles beyond FLT_MAX for float).
+template <class T>
+bool fits(double x) {
+  return std::abs(x) <= static_cast<double>(std::numeric_limits<T>::max());
+}
+
 // Scene depth test at pixel (i, j) for a ray depth interval [zlo, zhi].
 bool depth_hit(const SsrDepth& d, int i, int j, double zlo, double zhi) {
   if (i < 0 || j < 0 || i >= d.width || j >= d.height) return false;
@@ -211,7 +217,8 @@ SsrHit hit_on_line(const ScreenLine& L, const SsrRay& ray, double s, std::int64_
   h.point = L.point(s);
   L.screen(s, h.x, h.y);
   const double dx = h.point[0] - ray.origin[0], dy = h.point[1] - ray.origin[1], dz = h.point[2] - ray.origin[2];
-  h.distance = std::sqrt(dx * dx + dy * dy + dz * dz);
+  const double d2 = dx * dx + dy * dy + dz * dz;
+  h.distance = std::isfinite(d2) ? std::sqrt(d2) : std::hypot(dx, dy, dz);  // points beyond 1e154: no Inf square
   h.samples = samples;
   return h;
 }
@@ -441,8 +448,10 @@ SsrStats ssr_trace(const SsrParams<T>& p, const SsrOptions& o) {
           h = ssr_trace_ray(depth, p.projection, ray, i, static_cast<int>(j), o, nullptr);
           row_samples[j] += h.samples;
         }
-        // Misses write neutral, finite values.
-        const bool hit = h.hit && std::isfinite(h.x) && std::isfinite(h.y) && finite3(h.point);
+        // Misses write neutral, finite values. A hit whose point or distance
+        // does not fit T (max_distance 1e300 on a float32 G-buffer) is none.
+        const bool hit = h.hit && fits<T>(h.x) && fits<T>(h.y) && fits<T>(h.point[0]) && fits<T>(h.point[1]) &&
+                         fits<T>(h.point[2]) && fits<T>(h.distance);
         row_hits[j] += hit;
         if (p.hit) p.hit[k] = T(hit ? 1 : 0);
         if (p.hit_xy) {
