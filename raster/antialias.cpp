@@ -11,8 +11,10 @@
 #include <cmath>
 #include <limits>
 #include <optional>
+#include <string>
 #include <utility>
 
+#include "autodiff/base/error.h"
 #include "autodiff/base/parallel.h"
 #include "raster/detail/guarded_math.h"
 #include "raster/project.h"
@@ -44,8 +46,27 @@ namespace {
 std::atomic<std::uint64_t> g_topology_serial{0};  // the last serial given (0: none yet)
 }  // namespace
 
+namespace {
+// The walks index triangles by neighbour entries (tris[n], tris + 3 (n / 3)):
+// one beyond the triangles would read outside them, so a hand-made table is
+// checked once here and every kernel can trust it.
+void check_neighbours(std::int64_t num_tris, const std::vector<std::int64_t>& neighbour) {
+  if (num_tris < 0 || neighbour.size() != 3 * static_cast<std::size_t>(num_tris))
+    throw ValueError("EdgeTopology: neighbour has " + std::to_string(neighbour.size()) +
+                     " entries, expected 3 per triangle for " + std::to_string(num_tris) + " triangles");
+  for (std::size_t i = 0; i < neighbour.size(); ++i)
+    if (neighbour[i] < kNonManifoldEdge || neighbour[i] >= 3 * num_tris)
+      throw IndexError("EdgeTopology: neighbour[" + std::to_string(i) + "] = " + std::to_string(neighbour[i]) +
+                       " is neither an edge slot in [0, " + std::to_string(3 * num_tris) +
+                       ") nor kBoundaryEdge / kNonManifoldEdge");
+}
+}  // namespace
+
 EdgeTopology::EdgeTopology(std::int64_t num_tris, std::vector<std::int64_t> neighbour)
-    : num_tris_(num_tris), neighbour_(std::move(neighbour)), serial_(++g_topology_serial) {}
+    : num_tris_(num_tris), neighbour_(std::move(neighbour)) {
+  check_neighbours(num_tris_, neighbour_);
+  serial_ = ++g_topology_serial;
+}
 
 EdgeTopology::EdgeTopology(EdgeTopology&& other) noexcept
     : num_tris_(std::exchange(other.num_tris_, 0)),

@@ -48,7 +48,10 @@ constexpr std::int64_t kNonManifoldEdge = -2;  // three or more triangles (or a 
 class EdgeTopology {
  public:
   EdgeTopology() = default;
-  // Takes neighbour (3 num_tris entries, as above; not checked) and gives it a new serial.
+  // Takes neighbour (3 num_tris entries, as above) and gives it a new serial.
+  // Throws ValueError for another entry count and IndexError for an entry
+  // that is neither a slot in [0, 3 num_tris) nor kBoundaryEdge /
+  // kNonManifoldEdge (the kernels index triangles with them).
   EdgeTopology(std::int64_t num_tris, std::vector<std::int64_t> neighbour);
   EdgeTopology(const EdgeTopology&) = default;
   EdgeTopology& operator=(const EdgeTopology&) = default;

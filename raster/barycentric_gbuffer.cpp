@@ -238,9 +238,22 @@ template <bool kDerivatives>
   v->zw = std::clamp(zw / t.D, -1.0, 1.0);
   if (!kDerivatives) return;
   const double S2 = S * S;
+  if (S2 != 0.0 && std::isfinite(S2)) {
+    for (int k = 0; k < 2; ++k) {
+      v->db[2 * k] = (t.c[k].x * S - a[k] * t.Cx) / S2;
+      v->db[2 * k + 1] = (t.c[k].y * S - a[k] * t.Cy) / S2;
+    }
+    return;
+  }
+  // S^2 under- or overflows (|S| ~ |clip|^2 below 2^-511 or above 2^511:
+  // float64 clip far from 1, or float32 denormals, beyond any device's float
+  // arithmetic): the same quotient as (c_k - b_k C) / S, which never squares
+  // S. (The form above gave 0 or +-DBL_MAX there: clip scaled by 2^-330 had
+  // no derivatives.)
   for (int k = 0; k < 2; ++k) {
-    v->db[2 * k] = (t.c[k].x * S - a[k] * t.Cx) / S2;
-    v->db[2 * k + 1] = (t.c[k].y * S - a[k] * t.Cy) / S2;
+    const double bk = a[k] / S;
+    v->db[2 * k] = (t.c[k].x - bk * t.Cx) / S;
+    v->db[2 * k + 1] = (t.c[k].y - bk * t.Cy) / S;
   }
 }
 

@@ -132,7 +132,12 @@ bool evaluate(const SoftRasterParams<T>& p, const Bins& b, std::int32_t tri, dou
   for (int k = 0; k < 3; ++k) z += c->lambda[k] * P[k][2];
   c->zs = 0.5 * (1.0 - z);
   c->u = log_sigmoid(c->s) + c->zs / p.gamma;
-  return true;
+  // Screen positions far beyond the image (|x / w| up to 1e308) overflow the
+  // edge functions' products: lambda, z and u then hold NaN, which the
+  // softmax would spread over the pixel. Such a triangle does not reach the
+  // pixel. (u = -Inf is exact: a weight of 0.)
+  return !std::isnan(c->u) && std::isfinite(c->lambda[0]) && std::isfinite(c->lambda[1]) &&
+         std::isfinite(c->lambda[2]) && std::isfinite(c->d2);
 }
 
 // The pixel's blend: its candidates (nearest first) and the weights.
@@ -250,7 +255,8 @@ void soft_rasterize_backward(const SoftRasterParams<T>& p, const T* grad_out, co
           gbar += blend.w[j] * gc[j];
         }
         const double u_b_grad = blend.w_b * (g_b - gbar);
-        pix_gamma[i] = -u_b_grad * p.eps / (p.gamma * p.gamma);
+        // (x / gamma) / gamma, never x / gamma^2: gamma^2 underflows from gamma < 1e-154 on.
+        pix_gamma[i] = -u_b_grad * (p.eps / p.gamma) / p.gamma;
         const double px = q % p.width + 0.5, py = q / p.width + 0.5;
         for (std::size_t j = 0; j < F; ++j) {
           const Candidate& f = blend.faces[j];
@@ -260,9 +266,10 @@ void soft_rasterize_backward(const SoftRasterParams<T>& p, const T* grad_out, co
           r.tri = f.tri;
           const double gu = blend.w[j] * (gc[j] - gbar);
           const double gzs = gu / p.gamma;
-          pix_gamma[i] -= gu * f.zs / (p.gamma * p.gamma);
+          pix_gamma[i] -= gu * (f.zs / p.gamma) / p.gamma;
           const double gs = gu * (1.0 - f.D);
-          pix_sigma[i] -= gs * f.s / p.sigma;
+          // s = +-Inf (d^2 / sigma overflows) only where the sigmoid is flat: gs = 0 there.
+          if (gs != 0.0) pix_sigma[i] -= gs * f.s / p.sigma;
           const double gd2 = (f.inside ? gs : -gs) / p.sigma;
           // dL/dlambda_k: from the colour (w_j g . A_k) and from zs = (1 - sum lambda z) / 2.
           double glam[3];

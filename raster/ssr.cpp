@@ -30,6 +30,12 @@ Clip to_clip(const Mat4& m, const Vec3& p) {
 
 bool finite3(const Vec3& v) { return std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]); }
 
+// Finite once stored as T (false for NaN, Inf and doubles beyond FLT_MAX for float).
+template <class T>
+bool fits(double x) {
+  return std::abs(x) <= static_cast<double>(std::numeric_limits<T>::max());
+}
+
 // Scene depth test at pixel (i, j) for a ray depth interval [zlo, zhi].
 bool depth_hit(const SsrDepth& d, int i, int j, double zlo, double zhi) {
   if (i < 0 || j < 0 || i >= d.width || j >= d.height) return false;
@@ -80,6 +86,12 @@ SsrHit trace_view_space(const SsrDepth& d, const Mat4& m, const SsrRay& ray, int
     return depth_behind(d, i, j, q[2]);
   };
 
+  {
+    // The origin projects into its pixel; off the screen, no tracer marches (screen_line).
+    double xs, ys;
+    int i, j;
+    if (!pixel_of(ray.origin, xs, ys, i, j)) return no_hit(0);
+  }
   const int steps = o.max_steps;
   double prev = 0;
   for (int n = 1; n <= steps; ++n) {
@@ -156,6 +168,11 @@ ScreenLine screen_line(const Mat4& m, int W, int H, const SsrRay& ray) {
   double P0[2] = {0.5 * W * (1 + h0.x * k0), 0.5 * H * (1 - h0.y * k0)};
   double P1[2] = {0.5 * W * (1 + h1.x * k1), 0.5 * H * (1 - h1.y * k1)};
   if (!(std::isfinite(P0[0]) && std::isfinite(P0[1]) && std::isfinite(P1[0]) && std::isfinite(P1[1]))) return L;
+  // A pixel's point projects into that pixel. An origin off the screen (a
+  // position that does not belong to its pixel, or another projection) has no
+  // line to march: it could lie 2^31 pixels away (no int holds its pixel) and
+  // the reference would take s_end / reference_step steps to reach the screen.
+  if (!(P0[0] >= 0 && P0[0] < W && P0[1] >= 0 && P0[1] < H)) return L;
   // Clip the end to the screen rectangle (everything is affine in screen space, so
   // Q and k are cut at the same fraction): rays leaving the screen stop at its edge.
   const double lim[2] = {W - 1e-6, H - 1e-6};
@@ -200,7 +217,8 @@ SsrHit hit_on_line(const ScreenLine& L, const SsrRay& ray, double s, std::int64_
   h.point = L.point(s);
   L.screen(s, h.x, h.y);
   const double dx = h.point[0] - ray.origin[0], dy = h.point[1] - ray.origin[1], dz = h.point[2] - ray.origin[2];
-  h.distance = std::sqrt(dx * dx + dy * dy + dz * dz);
+  const double d2 = dx * dx + dy * dy + dz * dz;
+  h.distance = std::isfinite(d2) ? std::sqrt(d2) : std::hypot(dx, dy, dz);  // points beyond 1e154: no Inf square
   h.samples = samples;
   return h;
 }
@@ -430,8 +448,10 @@ SsrStats ssr_trace(const SsrParams<T>& p, const SsrOptions& o) {
           h = ssr_trace_ray(depth, p.projection, ray, i, static_cast<int>(j), o, nullptr);
           row_samples[j] += h.samples;
         }
-        // Misses write neutral, finite values.
-        const bool hit = h.hit && std::isfinite(h.x) && std::isfinite(h.y) && finite3(h.point);
+        // Misses write neutral, finite values. A hit whose point or distance
+        // does not fit T (max_distance 1e300 on a float32 G-buffer) is none.
+        const bool hit = h.hit && fits<T>(h.x) && fits<T>(h.y) && fits<T>(h.point[0]) && fits<T>(h.point[1]) &&
+                         fits<T>(h.point[2]) && fits<T>(h.distance);
         row_hits[j] += hit;
         if (p.hit) p.hit[k] = T(hit ? 1 : 0);
         if (p.hit_xy) {

@@ -31,7 +31,8 @@
 //
 // Outputs are per pixel, all plain values; a pixel without a hit (background
 // pixel, ray leaving the screen, ray toward the camera with nothing in front,
-// ray that hits nothing) has hit = 0, hit_xy = the screen centre, distance 0,
+// ray that hits nothing, a point whose projection is off the screen, i.e. not
+// its pixel's) has hit = 0, hit_xy = the screen centre, distance 0,
 // fades 0, hit_position 0, so nothing is NaN.
 // Fades (article 1.4, 1.5), with (a, b) = hit_xy / (W, H) in [0, 1]:
 //   edge, circular: saturate(1 - (2 |(a, b) - 1/2|)^edge_exponent)

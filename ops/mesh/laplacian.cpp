@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <string>
 #include <type_traits>
 #include <utility>
@@ -13,6 +14,7 @@
 #include "autodiff/base/dtype.h"
 #include "autodiff/base/parallel.h"
 #include "autodiff/base/error.h"
+#include "autodiff/base/memory.h"
 #include "autodiff/tape.h"
 #include "ops/check.h"
 #include "ops/tensor/elementwise.h"
@@ -384,6 +386,13 @@ MeshLaplacian::MeshLaplacian(const Tensor& triangles, std::int64_t num_vertices)
   if (num_vertices < 0)
     throw ValueError("MeshLaplacian: argument 'num_vertices' must be >= 0, got " + std::to_string(num_vertices));
   detail::check_triangles(triangles, num_vertices, "MeshLaplacian");
+  // The rows and coefficients take about 64 bytes a vertex, used or not (no
+  // tensor of num_vertices rows exists yet to have been counted): a bare count
+  // such as 2^31 must be a MemoryError, not 16 GB of zeros and an OOM kill.
+  constexpr std::size_t kBytesPerVertex = 64;
+  const std::size_t n = static_cast<std::size_t>(num_vertices);
+  check_memory_request(n > SIZE_MAX / kBytesPerVertex ? SIZE_MAX : n * kBytesPerVertex,
+                       "MeshLaplacian: the tables of " + std::to_string(num_vertices) + " vertices");
   op_ = build(Tensor(), triangles, num_vertices, method_);
 }
 

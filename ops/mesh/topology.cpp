@@ -3,6 +3,7 @@
 #include "ops/mesh/topology.h"
 
 #include <algorithm>
+#include <cstdint>
 #include <numeric>
 #include <utility>
 
@@ -25,11 +26,14 @@ MeshEdges mesh_edges(const Tensor& triangles, std::int64_t num_vertices) {
     const std::int32_t* t = triangles.data<std::int32_t>();
     const std::int64_t sides = 3 * triangles.size(0);
     // Each side's key lo * V + hi; sides sorted by key (ties by side index).
+    // Indices are int32, so V beyond 2^31 orders the keys no differently and
+    // would only overflow lo * V.
+    const std::int64_t stride = std::min(num_vertices, std::int64_t(1) << 31);
     std::vector<std::int64_t> key(static_cast<std::size_t>(sides));
     for (std::int64_t s = 0; s < sides; ++s) {
       const std::int64_t f = s / 3, k = s % 3;
       const std::int32_t a = t[3 * f + (k + 1) % 3], b = t[3 * f + (k + 2) % 3];
-      key[s] = std::int64_t(std::min(a, b)) * num_vertices + std::max(a, b);
+      key[s] = std::int64_t(std::min(a, b)) * stride + std::max(a, b);
     }
     std::vector<std::int64_t> order(static_cast<std::size_t>(sides));
     std::iota(order.begin(), order.end(), std::int64_t(0));
@@ -39,8 +43,8 @@ MeshEdges mesh_edges(const Tensor& triangles, std::int64_t num_vertices) {
     for (std::size_t n = 0; n < order.size(); ++n) {
       const std::int64_t k = key[order[n]];
       if (n == 0 || k != key[order[n - 1]]) {
-        e.lo.push_back(std::int32_t(k / num_vertices));
-        e.hi.push_back(std::int32_t(k % num_vertices));
+        e.lo.push_back(std::int32_t(k / stride));
+        e.hi.push_back(std::int32_t(k % stride));
       }
       e.side_edge[order[n]] = e.size() - 1;
     }

@@ -2,6 +2,7 @@
 #include "ops/render/soft_rasterize.h"
 
 #include <cmath>
+#include <cstdio>
 #include <string>
 
 #include "autodiff/base/dtype.h"
@@ -65,6 +66,14 @@ Tensor soft_rasterize(const Tensor& clip, const Tensor& triangles, const Tensor&
   if (options.max_faces < 1 || options.max_faces > 1024)
     throw ValueError(op + ": option 'max_faces' must be in 1..1024, got " + std::to_string(options.max_faces));
   if (!std::isfinite(options.eps)) throw ValueError(op + ": option 'eps' must be finite");
+  // The depth scores zs / gamma (zs <= 1) and eps / gamma enter a softmax:
+  // an infinite one makes every weight Inf - Inf = NaN.
+  if (!std::isfinite(1.0 / g) || !std::isfinite(options.eps / g)) {
+    char text[160];
+    std::snprintf(text, sizeof text, "%.17g is too small: 1 / gamma and eps / gamma must be finite (eps = %.17g)", g,
+                  options.eps);
+    throw ValueError(op + ": argument 'gamma' = " + text);
+  }
 
   Tensor out = Tensor::empty({options.height, options.width, C}, clip.dtype());
   dispatch_float(clip.dtype(), op, [&](auto tag) {

@@ -21,7 +21,8 @@ struct SoftRasterizeOptions {
 // rank-0 tensors (pixels^2 and depth-score units, both > 0) -> [H, W, C].
 // Differentiable w.r.t. clip, attributes, background, sigma and gamma.
 // Throws ShapeError / DTypeError naming the argument for bad shapes or
-// dtypes, ValueError for NaN/Inf inputs, sigma or gamma <= 0, max_faces < 1.
+// dtypes, ValueError for NaN/Inf inputs, sigma or gamma <= 0, max_faces < 1,
+// a gamma so small that 1 / gamma or eps / gamma is infinite.
 Tensor soft_rasterize(const Tensor& clip, const Tensor& triangles, const Tensor& attributes, const Tensor& sigma,
                       const Tensor& gamma, const SoftRasterizeOptions& options, const Tensor& background = {});
 

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <string>
 
 #include "autodiff/base/error.h"
@@ -67,7 +68,11 @@ template <bool kDerivatives>
 [[gnu::always_inline]] inline void bilinear_taps(const MipLevel& lv, double u, double v, bool v_down, double scale,
                                                  Wrap wrap, Taps& t, double lod_sign = 0.0) {
   // Continuous texel coordinates: x = u W - 0.5, y = (1 - v) H - 0.5 (v_down: v H - 0.5).
-  const double x = u * lv.width - 0.5, y = (v_down ? v : 1.0 - v) * lv.height - 0.5;
+  // float64 uv near DBL_MAX overflows them to +-Inf, whose fraction x - floor(x)
+  // is NaN: held at +-DBL_MAX (a whole number, fraction 0) like any huge finite uv.
+  constexpr double kMax = std::numeric_limits<double>::max();
+  const double x = std::clamp(u * lv.width - 0.5, -kMax, kMax);
+  const double y = std::clamp((v_down ? v : 1.0 - v) * lv.height - 0.5, -kMax, kMax);
   const double x0 = std::floor(x), y0 = std::floor(y);
   const double fx = x - x0, fy = y - y0;
   const std::int64_t ix[2] = {address(x0, lv.width, wrap), address(x0 + 1.0, lv.width, wrap)};

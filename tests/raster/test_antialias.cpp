@@ -193,6 +193,21 @@ TEST_CASE("antialias topology: each one made has its own serial, copies keep it 
   CHECK(copy.serial() == b.serial());
 }
 
+TEST_CASE("antialias topology: a hand-made table with a slot beyond its triangles or a wrong size is refused when made",
+          "[raster][antialias]") {
+  // An audit's finding: the table is public and was not checked, and the
+  // antialias op checked only its size, so a slot of 10^6 for one triangle
+  // made the silhouette prefilter and the walks read outside the triangles
+  // (a segmentation fault).
+  CHECK_THROWS_AS(EdgeTopology(1, {1000000, kBoundaryEdge, kBoundaryEdge}), IndexError);
+  CHECK_THROWS_AS(EdgeTopology(1, {kBoundaryEdge, 3, kBoundaryEdge}), IndexError);
+  CHECK_THROWS_AS(EdgeTopology(1, {kBoundaryEdge, kBoundaryEdge, -3}), IndexError);
+  CHECK_THROWS_WITH(EdgeTopology(2, {0, 1, 2}), Catch::Contains("3 per triangle"));
+  CHECK_THROWS_AS(EdgeTopology(-1, {}), ValueError);
+  const EdgeTopology ok(2, {kBoundaryEdge, kNonManifoldEdge, 3, 2, kBoundaryEdge, kBoundaryEdge});
+  CHECK(ok.num_tris() == 2);
+}
+
 TEST_CASE("antialias kernel: a vertical silhouette blends like a box filter of the covered fraction",
           "[raster][antialias]") {
   const int W = 8, H = 4;

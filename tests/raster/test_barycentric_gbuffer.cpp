@@ -112,6 +112,28 @@ TEST_CASE("barycentric gbuffer: b0, b1, z/w and their pixel derivatives solve ea
   }
 }
 
+TEST_CASE("barycentric gbuffer: clip positions scaled by 2^-330 or 2^330 give the same values and derivatives",
+          "[rasterize]") {
+  // The same points in homogeneous coordinates. An audit's finding: db
+  // divided by S^2, which under- or overflows at these scales (S ~ scale^2),
+  // so every derivative came out 0 (or saturated) instead of the unscaled one.
+  for (const Scene& s : {two_triangles(), near_plane()}) {
+    std::vector<double> rast(4 * W * H), db(4 * W * H);
+    raster::barycentric_gbuffer_forward(s.params(), s.tri_id.data(), 0, rast.data(), db.data());
+    for (const double scale : {0x1p-330, 0x1p330}) {
+      Scene scaled = s;
+      for (double& x : scaled.clip) x *= scale;
+      std::vector<double> rast_s(4 * W * H), db_s(4 * W * H);
+      raster::barycentric_gbuffer_forward(scaled.params(), s.tri_id.data(), 0, rast_s.data(), db_s.data());
+      CHECK(rast_s == rast);  // powers of two: the same roundings
+      for (int i = 0; i < 4 * W * H; ++i) {
+        INFO("db[" << i << "] = " << db[i] << ", scaled " << db_s[i] << ", scale " << scale);
+        REQUIRE(db_s[i] == Approx(db[i]).epsilon(1e-12).margin(1e-14));
+      }
+    }
+  }
+}
+
 TEST_CASE("barycentric gbuffer: the adjoint equals central differences, also across the near plane",
           "[rasterize]") {
   for (Scene s : {two_triangles(), near_plane()}) {

@@ -402,6 +402,78 @@ TEST_CASE("ssr: degenerate G-buffer entries give no hit and every output stays f
   }
 }
 
+TEST_CASE("ssr: a point that projects off the screen gives no hit, without marching from where it projects",
+          "[ssr][raster]") {
+  // An audit's finding: such an origin (a G-buffer whose position does not
+  // belong to its pixel) made the DDA convert a pixel column of 7e12 to int
+  // (undefined behaviour, the sanitizer job reports it) and the reference
+  // march 1e8 pixels back to the screen in 0.05-pixel steps (a hang).
+  const int W = 8, H = 6;
+  std::vector<double> pos(3 * W * H, 0.0), nrm(3 * W * H, 0.0);
+  std::vector<std::int32_t> mask(W * H, 0);
+  const Vec3 far_points[] = {{1e12, 0, -1}, {-1e8, 0, -1}, {0, 1e12, -1}, {0.1, -1e8, -1}};
+  for (int k = 0; k < 4; ++k) {
+    for (int a = 0; a < 3; ++a) pos[3 * k + a] = far_points[k][a];
+    // Normals that reflect each ray towards the screen along its long axis.
+    nrm[3 * k + (k % 2 == 0 ? 0 : 1)] = k < 2 ? (k == 0 ? -1.0 : 1.0) : (k == 2 ? -1.0 : 1.0);
+    mask[k] = 1;
+  }
+  // A covered floor to hit, everywhere else.
+  for (int k = 4; k < W * H; ++k) pos[3 * k + 2] = -2, nrm[3 * k + 2] = 1, mask[k] = 1;
+  SsrParams<double> p;
+  p.width = W, p.height = H;
+  const std::vector<double> m = perspective(1.0, double(W) / H, 0.1, 100.0, ClipSpace::OpenGL, DType::Float64).to_vector();
+  std::copy(m.begin(), m.end(), p.projection.begin());
+  p.position = pos.data(), p.normal = nrm.data(), p.mask = mask.data();
+  std::vector<double> hit(W * H), xy(2 * W * H);
+  p.hit = hit.data(), p.hit_xy = xy.data();
+  for (SsrTracer t : {SsrTracer::ViewSpace, SsrTracer::Dda, SsrTracer::Reference}) {
+    SsrOptions o = tracer_options(t);
+    o.max_distance = 1e9;
+    INFO(name_of(t));
+    const SsrStats s = ssr_trace(p, o);
+    CHECK(s.rays == W * H);
+    for (int k = 0; k < 4; ++k) CHECK(hit[k] == 0);
+    for (double x : xy) REQUIRE(std::isfinite(x));
+  }
+}
+
+TEST_CASE("ssr: a float32 trace whose hit lies beyond the float range reports no hit and stays finite",
+          "[ssr][raster]") {
+  // An audit's finding: with max_distance 1e300 and a thick band, the ray
+  // from the centre pixel hits its neighbour ~1e298 units away, and that hit
+  // point and distance became Inf once stored as float.
+  const int W = 3, H = 3;
+  const double f = 1 / std::tan(0.5);
+  const Vec3 R = {2.0 / 3.0 / f, 0, -1};  // vanishing point at the centre of pixel (2, 1)
+  const double r = std::sqrt(R[0] * R[0] + R[2] * R[2]);
+  // N = normalize(R / |R| - I) with I = (0, 0, -1) reflects I into R.
+  const Vec3 n = {R[0] / r, 0, R[2] / r + 1};
+  std::vector<float> pos(3 * W * H), nrm(3 * W * H);
+  std::vector<std::int32_t> mask(W * H, 1);
+  for (int k = 0; k < W * H; ++k) pos[3 * k + 2] = -1, nrm[3 * k + 2] = 1;
+  for (int a = 0; a < 3; ++a) nrm[3 * 4 + a] = float(n[a]);  // pixel (1, 1): its point (0, 0, -1) is the centre
+  SsrParams<float> p;
+  p.width = W, p.height = H;
+  const std::vector<double> m = perspective(1.0, 1.0, 0.1, 100.0, ClipSpace::OpenGL, DType::Float64).to_vector();
+  std::copy(m.begin(), m.end(), p.projection.begin());
+  p.position = pos.data(), p.normal = nrm.data(), p.mask = mask.data();
+  std::vector<float> hit(W * H), xy(2 * W * H), dist(W * H), point(3 * W * H), edge(W * H), fade(W * H);
+  p.hit = hit.data(), p.hit_xy = xy.data(), p.hit_distance = dist.data(), p.hit_position = point.data();
+  p.edge_fade = edge.data(), p.distance_fade = fade.data();
+  for (SsrTracer t : {SsrTracer::ViewSpace, SsrTracer::Dda, SsrTracer::Reference}) {
+    SsrOptions o = tracer_options(t);
+    o.max_distance = 1e300;
+    o.thickness = 1e300;
+    INFO(name_of(t));
+    ssr_trace(p, o);
+    for (const auto* v : {&hit, &xy, &dist, &point, &edge, &fade})
+      for (float x : *v) REQUIRE(std::isfinite(x));
+    // The view-space march's first sample there is ~1e298 away: no hit in float32.
+    if (t == SsrTracer::ViewSpace) CHECK(hit[4] == 0);
+  }
+}
+
 TEST_CASE("ssr: a back-face depth buffer removes the hits a thick band invents behind the spheres", "[ssr][raster]") {
   const Rendered r = render(160, 120, true, /*back_faces=*/true);
   auto false_hits = [&](bool use_back) {

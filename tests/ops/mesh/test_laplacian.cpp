@@ -7,7 +7,9 @@
 // same for smooth, which has the bits of its passes as a composite.
 #include <catch2/catch.hpp>
 
+#include <climits>
 #include <cmath>
+#include <cstdint>
 #include <functional>
 #include <set>
 #include <utility>
@@ -334,4 +336,16 @@ TEST_CASE("MeshLaplacian: rejects values of the wrong shape or dtype and bad mes
   Tensor nan = p.copy();
   nan.data<float>()[4] = std::nanf("");
   CHECK_THROWS_AS(MeshLaplacian(nan, hard_triangles(), LaplacianMethod::CotCurv), ValueError);
+}
+
+TEST_CASE("MeshLaplacian: a bare vertex count beyond the memory budget is a MemoryError before any table is sized",
+          "[ops][mesh][laplacian][errors]") {
+  // An audit's finding: the count sized zero-filled tables (2^31: 16 GB for
+  // the row starts alone, then an OOM kill), and INT64_MAX overflowed the
+  // edge keys lo * V + hi (undefined behaviour, reported by the sanitizer job).
+  const Tensor one = Tensor::from_vector<std::int32_t>({1, 2, 3}, {1, 3});
+  CHECK_THROWS_AS(MeshLaplacian(one, std::int64_t(1) << 31), MemoryError);
+  CHECK_THROWS_WITH(MeshLaplacian(one, INT64_MAX), Catch::Contains("MeshLaplacian") && Catch::Contains("vertices"));
+  const MeshLaplacian small(one, 1000);  // unused vertices are fine within the budget
+  CHECK(small.num_vertices() == 1000);
 }

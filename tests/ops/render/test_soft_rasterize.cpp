@@ -158,3 +158,45 @@ TEST_CASE("soft rasterize: bad arguments are errors naming them", "[soft_rasteri
   CHECK_THROWS_WITH(soft_rasterize(bad, t, attr, scalar(1.0), scalar(0.1), options()), Catch::Contains("clip[4]"));
   CHECK_THROWS_AS(soft_rasterize(clip, tris({0, 1, 3}), attr, scalar(1.0), scalar(0.1), options()), IndexError);
 }
+
+TEST_CASE("soft rasterize: a gamma so small that 1 / gamma or eps / gamma overflows is refused naming it",
+          "[soft_rasterize]") {
+  // An audit's finding: gamma = 1e-320 or eps / gamma = Inf passed as "finite
+  // and > 0", and the depth softmax then gave NaN everywhere (Inf - Inf).
+  const Tensor clip = left_triangle(0.0), t = tris({0, 1, 2}), attr = f64({1, 1, 1}, {3, 1});
+  CHECK_THROWS_WITH(soft_rasterize(clip, t, attr, scalar(1.0), scalar(1e-320), options()),
+                    Catch::Contains("'gamma' = 9.99988867") && Catch::Contains("is too small"));
+  SoftRasterizeOptions o = options();
+  o.eps = 1e300;
+  CHECK_THROWS_WITH(soft_rasterize(clip, t, attr, scalar(1.0), scalar(1e-10), o), Catch::Contains("eps / gamma"));
+}
+
+TEST_CASE("soft rasterize: screen positions near the float64 range and extreme sigma and gamma stay finite",
+          "[soft_rasterize]") {
+  // An audit's findings: a vertex with x / w or z / w near 1e308 made the edge
+  // functions overflow (NaN barycentrics, spread by the softmax over whole
+  // pixels), and the gradients of sigma and gamma were NaN for sigma = 1e-320
+  // (0 * Inf where the sigmoid is flat) and gamma = 1e-300 (gamma^2 = 0).
+  const Tensor t = tris({0, 1, 2, 3, 4, 5, 6, 7, 8});
+  Tensor clip = f64({0, -1.3e-129, -1.8e-44, 1,  // x / w = 3e170, z / w = Inf
+                           1.34e132, 3.6e27, 1.7976931348623157e308, 4.77e-39,
+                           -7.4e293, 2.2e-24, -4.2e-235, 1.04e-219,
+                           3.4e-203, 1, 3.3e190, 4.4e254,  // finite screen positions up to 1e292
+                           -2.8e177, -1.7976931348623157e308, -1, 4.2e152,
+                           1.78e291, -4.9e-324, -0.0, 1,
+                           -0.5, -0.5, 0.2, 1, 0.5, -0.5, 0.2, 1, 0, 0.5, 0.2, 1},  // an ordinary triangle
+                          {9, 4})
+                          .set_requires_grad();
+  Tensor attr = random_input({9, 2}, -1, 1, 3).set_requires_grad();
+  for (const auto& [s, g] : std::vector<std::pair<double, double>>{{1e-4, 1e4}, {1e30, 1e-4}, {1e-320, 1.0},
+                                                                    {1.0, 1e-300}, {1e308, 1.0}}) {
+    INFO("sigma " << s << ", gamma " << g);
+    Tensor sigma = scalar(s).set_requires_grad(), gamma = scalar(g).set_requires_grad();
+    const Tensor out = soft_rasterize(clip, t, attr, sigma, gamma, options());
+    backward(sum(out));
+    for (const Tensor& x : {out, clip.grad(), attr.grad(), sigma.grad(), gamma.grad()})
+      for (double v : x.to_vector()) REQUIRE(std::isfinite(v));
+    clip.zero_grad();
+    attr.zero_grad();
+  }
+}

@@ -18,6 +18,7 @@
 #include "ops/render/resample.h"
 #include "ops/tensor/reduce.h"
 #include "ops/render/texture.h"
+#include "ops/tensor/elementwise.h"
 #include "raster/mipmap.h"
 #include "test_support.h"
 
@@ -874,4 +875,30 @@ TEST_CASE("texture: per-image textures whose batch size disagrees with uv's are 
   Tensor bad = Tensor::ones({2, 4, 4, 3});
   bad.data<float>()[53] = std::nanf("");
   CHECK_THROWS_WITH(texture(bad, uv), Catch::Contains("tex[53]"));
+}
+
+TEST_CASE("texture: float64 uv at the ends of the double range samples finite values and gradients", "[ops][texture]") {
+  // An audit's finding: u W - 0.5 overflowed to Inf for u near DBL_MAX, and
+  // its fraction x - floor(x) = NaN made the bilinear sample and the texel and
+  // uv gradients NaN (huge uv below the overflow were finite already).
+  const double big = std::numeric_limits<double>::max();
+  Tensor tex = Tensor::uniform({3, 5, 2}, 0, 1, 7, DType::Float64).set_requires_grad();
+  Tensor uv = Tensor::from_values({big, 0.5, -big, 0.5, 0.5, big, 0.5, -big, big, -big, 0.25, 0.75}, {6, 2},
+                                  DType::Float64)
+                  .set_requires_grad();
+  const Tensor d = Tensor::from_values(std::vector<double>(12, 0.01), {6, 2}, DType::Float64);
+  for (Filter f : {Filter::Nearest, Filter::Bilinear, Filter::Trilinear, Filter::LinearMipmapNearest})
+    for (Wrap w : {Wrap::Repeat, Wrap::Clamp, Wrap::Mirror, Wrap::Zero}) {
+      TextureOptions o;
+      o.filter = f;
+      o.wrap = w;
+      const bool mipmapped = f == Filter::Trilinear || f == Filter::LinearMipmapNearest;
+      const Tensor out = mipmapped ? texture(tex, uv, o, d, d) : texture(tex, uv, o);
+      backward(sum(out * out));
+      INFO("filter " << int(f) << ", wrap " << int(w));
+      for (const Tensor& x : {out, tex.grad(), uv.grad()})
+        for (double v : x.to_vector()) REQUIRE(std::isfinite(v));
+      tex.zero_grad();
+      uv.zero_grad();
+    }
 }
