@@ -32,8 +32,9 @@
 // Outputs are per pixel, all plain values; a pixel without a hit (background
 // pixel, ray leaving the screen, ray toward the camera with nothing in front,
 // ray that hits nothing, a point whose projection is off the screen, i.e. not
-// its pixel's) has hit = 0, hit_xy = the screen centre, distance 0,
-// fades 0, hit_position 0, so nothing is NaN.
+// its pixel's, a hit whose point or distance does not fit T) has hit = 0,
+// hit_xy = the screen centre, distance 0, fades 0, hit_position 0, so every
+// output is finite.
 // Fades (article 1.4, 1.5), with (a, b) = hit_xy / (W, H) in [0, 1]:
 //   edge, circular: saturate(1 - (2 |(a, b) - 1/2|)^edge_exponent)
 //   edge, vignette: saturate((edge_distance a (1 - a) b (1 - b))^edge_exponent)
