@@ -300,26 +300,15 @@ TEST_CASE("a call that fails among deferred calls leaves the backend giving the 
   expect_cpu_results(instanced_batch(), 40, 32, backend);
 }
 
-TEST_CASE("two threads running batches on one deferring backend get the single-threaded bits", "[vulkan][batch]") {
-  if (!shared_gpu()) return;
-  const auto backend = vulkan::raster_backend(shared_gpu(), 4);
-  const Batch a = instanced_batch(), b = range_batch();
-  const Run alone_a = run_batch(a, 40, 32, backend), alone_b = run_batch(b, 40, 32, backend, false);
-  Run together_a, together_b;
-  std::thread other([&] { together_b = run_batch(b, 40, 32, backend); });
-  together_a = run_batch(a, 40, 32, backend);
-  other.join();
-  CHECK(same_run(together_a, alone_a));
-  CHECK(same_run(together_b, alone_b));
-}
+namespace {
 
-TEST_CASE("two threads running batches on two backends of one device defer at once and get the single-threaded bits",
-          "[vulkan][batch]") {
-  if (!shared_gpu()) return;
-  const auto first = vulkan::raster_backend(shared_gpu(), 4), second = vulkan::raster_backend(shared_gpu(), 4);
+// An instanced batch on `first` and a range mode batch on `second`, run at
+// once on two threads `rounds` times: each gives the bits it gives alone.
+void check_batches_on_two_threads(const std::shared_ptr<const raster::RasterBackend>& first,
+                                  const std::shared_ptr<const raster::RasterBackend>& second, int rounds) {
   const Batch a = instanced_batch(), b = range_batch();
   const Run alone_a = run_batch(a, 40, 32, first), alone_b = run_batch(b, 40, 32, second);
-  for (int round = 0; round < 3; ++round) {
+  for (int round = 0; round < rounds; ++round) {
     Run together_a, together_b;
     std::thread other([&] { together_b = run_batch(b, 40, 32, second); });
     together_a = run_batch(a, 40, 32, first);
@@ -327,6 +316,21 @@ TEST_CASE("two threads running batches on two backends of one device defer at on
     CHECK(same_run(together_a, alone_a));
     CHECK(same_run(together_b, alone_b));
   }
+}
+
+}  // namespace
+
+TEST_CASE("two threads running batches on one deferring backend get the single-threaded bits", "[vulkan][batch]") {
+  if (!shared_gpu()) return;
+  const auto backend = vulkan::raster_backend(shared_gpu(), 4);
+  check_batches_on_two_threads(backend, backend, 1);
+}
+
+TEST_CASE("two threads running batches on two backends of one device defer at once and get the single-threaded bits",
+          "[vulkan][batch]") {
+  if (!shared_gpu()) return;
+  const auto first = vulkan::raster_backend(shared_gpu(), 4), second = vulkan::raster_backend(shared_gpu(), 4);
+  check_batches_on_two_threads(first, second, 3);
   CHECK(vulkan::residency_stats(*first).deferred_calls == 4 * 6 * kImages);
   CHECK(vulkan::residency_stats(*second).deferred_calls == 4 * 6 * kImages);
 }
