@@ -89,6 +89,19 @@ Rendered render(int W, int H, bool objects = true, bool back_faces = false) {
   return r;
 }
 
+// Parameters over hand-made G-buffer arrays (W x H) and the outputs hit and hit_xy.
+SsrParams<double> params_of(int W, int H, const std::vector<double>& projection, const std::vector<double>& pos,
+                            const std::vector<double>& nrm, const std::vector<std::int32_t>& mask,
+                            std::vector<double>& hit, std::vector<double>& xy) {
+  SsrParams<double> p;
+  p.width = W, p.height = H;
+  std::copy(projection.begin(), projection.end(), p.projection.begin());
+  p.position = pos.data(), p.normal = nrm.data(), p.mask = mask.data();
+  hit.assign(std::size_t(W) * H, 0.0), xy.assign(2 * std::size_t(W) * H, 0.0);
+  p.hit = hit.data(), p.hit_xy = xy.data();
+  return p;
+}
+
 SsrParams<double> params_of(const Rendered& r) {
   SsrParams<double> p;
   p.width = r.W, p.height = r.H;
@@ -356,12 +369,8 @@ TEST_CASE("ssr: rays reflected toward the camera are clipped at the near plane a
       const double t = (n0[2] * -4) / (n0[0] * d[0] + n0[1] * d[1] + n0[2] * d[2]);
       for (int a = 0; a < 3; ++a) pos[3 * (j * W + i) + a] = t * d[a], nrm[3 * (j * W + i) + a] = n0[a] / ln;
     }
-  SsrParams<double> p;
-  p.width = W, p.height = H;
-  std::copy(pm.begin(), pm.end(), p.projection.begin());
-  p.position = pos.data(), p.normal = nrm.data(), p.mask = mask.data();
-  std::vector<double> hit(W * H), xy(2 * W * H);
-  p.hit = hit.data(), p.hit_xy = xy.data();
+  std::vector<double> hit, xy;
+  const SsrParams<double> p = params_of(W, H, pm, pos, nrm, mask, hit, xy);
   for (SsrTracer t : {SsrTracer::ViewSpace, SsrTracer::Dda, SsrTracer::Reference}) {
     SsrOptions o = tracer_options(t);
     o.thickness = 100;  // even an absurd band must not make the wall hit itself
@@ -420,13 +429,9 @@ TEST_CASE("ssr: a point that projects off the screen gives no hit, without march
   }
   // A covered floor to hit, everywhere else.
   for (int k = 4; k < W * H; ++k) pos[3 * k + 2] = -2, nrm[3 * k + 2] = 1, mask[k] = 1;
-  SsrParams<double> p;
-  p.width = W, p.height = H;
   const std::vector<double> m = perspective(1.0, double(W) / H, 0.1, 100.0, ClipSpace::OpenGL, DType::Float64).to_vector();
-  std::copy(m.begin(), m.end(), p.projection.begin());
-  p.position = pos.data(), p.normal = nrm.data(), p.mask = mask.data();
-  std::vector<double> hit(W * H), xy(2 * W * H);
-  p.hit = hit.data(), p.hit_xy = xy.data();
+  std::vector<double> hit, xy;
+  const SsrParams<double> p = params_of(W, H, m, pos, nrm, mask, hit, xy);
   for (SsrTracer t : {SsrTracer::ViewSpace, SsrTracer::Dda, SsrTracer::Reference}) {
     SsrOptions o = tracer_options(t);
     o.max_distance = 1e9;
